@@ -1,0 +1,141 @@
+use super::*;
+
+const AXIS_X: &str = r#"
+[[axis]]
+name = "X"
+kind = "linear"
+max_vel = 100.0
+max_acc = 1000.0
+max_jerk = 10000.0
+min = -10.0
+max = 10.0
+"#;
+
+fn parse(text: &str) -> Result<Config, ConfigError> {
+    Config::from_toml_str(text, "m.toml")
+}
+
+fn err_text(text: &str) -> String {
+    parse(text).expect_err("configuration must be rejected").to_string()
+}
+
+#[test]
+fn embedded_machines_are_valid() {
+    let c = Config::default_machine();
+    assert_eq!(c.axis_names(), ["X", "Y", "Z"]);
+    assert_eq!(c.machine.cycle_ms, 4.0);
+    let c5 = Config::five_axis_machine();
+    assert_eq!(c5.axis_names(), ["X", "Y", "Z", "A", "B"]);
+    assert_eq!(c5.axes[3].kind, AxisKind::Rotary);
+}
+
+#[test]
+fn cycle_defaults_to_4_ms() {
+    let c = parse(&format!("[machine]\n{AXIS_X}")).unwrap();
+    assert_eq!(c.machine.cycle_ms, 4.0);
+    assert_eq!(c.planner, PlannerConfig::default());
+}
+
+#[test]
+fn unknown_key_is_named_with_position() {
+    let e = err_text(&format!("[machine]\ncycle_ms = 4.0\nspeed = 3\n{AXIS_X}"));
+    assert!(e.starts_with("m.toml:3:1:"), "{e}");
+    assert!(e.contains("unknown field `speed`"), "{e}");
+    assert!(e.contains("[machine]"), "{e}");
+}
+
+#[test]
+fn unknown_key_in_axis_names_the_axis() {
+    let e = err_text(&format!("[machine]\n{AXIS_X}\n[[axis]]\nname = \"Y\"\nvelocity = 3\n"));
+    assert!(e.contains("unknown field `velocity`"), "{e}");
+    assert!(e.contains("axis[1]"), "{e}");
+}
+
+#[test]
+fn missing_key_is_named() {
+    let text = AXIS_X.replace("max_jerk = 10000.0\n", "");
+    let e = err_text(&format!("[machine]\n{text}"));
+    assert!(e.contains("missing field `max_jerk`"), "{e}");
+    assert!(e.starts_with("m.toml:"), "{e}");
+}
+
+#[test]
+fn missing_machine_section() {
+    let e = err_text(AXIS_X);
+    assert!(e.contains("missing field `machine`"), "{e}");
+}
+
+#[test]
+fn non_positive_and_non_finite_limits() {
+    for (from, to, key) in [
+        ("max_vel = 100.0", "max_vel = 0.0", "axis[0].max_vel (X)"),
+        ("max_acc = 1000.0", "max_acc = -5.0", "axis[0].max_acc (X)"),
+        ("max_jerk = 10000.0", "max_jerk = nan", "axis[0].max_jerk (X)"),
+        ("max_vel = 100.0", "max_vel = inf", "axis[0].max_vel (X)"),
+        ("min = -10.0", "min = -inf", "axis[0].min (X)"),
+    ] {
+        let e = err_text(&format!("[machine]\n{}", AXIS_X.replace(from, to)));
+        assert_eq!(e.split(": ").nth(1), Some(key), "{e}");
+    }
+}
+
+#[test]
+fn duplicate_axis_names() {
+    let e = err_text(&format!("[machine]\n{AXIS_X}{AXIS_X}"));
+    assert!(e.contains("axis[1].name"), "{e}");
+    assert!(e.contains("duplicate axis name X"), "{e}");
+}
+
+#[test]
+fn min_not_below_max() {
+    let e = err_text(&format!("[machine]\n{}", AXIS_X.replace("min = -10.0", "min = 10.0")));
+    assert!(e.contains("axis[0].min (X): min (10) must be less than max (10)"), "{e}");
+}
+
+#[test]
+fn bad_axis_letter_and_kind() {
+    let e = err_text(&format!("[machine]\n{}", AXIS_X.replace("\"X\"", "\"Q\"")));
+    assert!(e.contains("unknown variant `Q`"), "{e}");
+    let e = err_text(&format!("[machine]\n{}", AXIS_X.replace("\"linear\"", "\"swivel\"")));
+    assert!(e.contains("unknown variant `swivel`"), "{e}");
+}
+
+#[test]
+fn cycle_out_of_range() {
+    let e = err_text(&format!("[machine]\ncycle_ms = 0\n{AXIS_X}"));
+    assert!(e.contains("machine.cycle_ms"), "{e}");
+}
+
+#[test]
+fn planner_section_validated() {
+    let e = err_text(&format!("[machine]\n[planner]\nlimit_fraction = 1.5\n{AXIS_X}"));
+    assert!(e.contains("planner.limit_fraction"), "{e}");
+    let e = err_text(&format!("[machine]\n[planner]\nlookahead = 3\n{AXIS_X}"));
+    assert!(e.contains("unknown field `lookahead`"), "{e}");
+}
+
+#[test]
+fn io_error_names_file() {
+    let e = Config::load(std::path::Path::new("/nonexistent/m.toml")).unwrap_err().to_string();
+    assert!(e.starts_with("/nonexistent/m.toml: cannot read configuration"), "{e}");
+}
+
+proptest::proptest! {
+    /// Arbitrary text never panics the loader.
+    #[test]
+    fn arbitrary_text_never_panics(text in "\\PC{0,300}") {
+        let _ = parse(&text);
+    }
+
+    /// Valid limits round-trip; invalid ones are rejected with the key named.
+    #[test]
+    fn limit_validation(vel in proptest::num::f64::ANY) {
+        let r = parse(&format!("[machine]\n{}", AXIS_X.replace("max_vel = 100.0", &format!("max_vel = {vel:?}"))));
+        if vel.is_finite() && vel > 0.0 {
+            proptest::prop_assert!(r.is_ok());
+        } else {
+            let e = r.unwrap_err().to_string();
+            proptest::prop_assert!(e.contains("max_vel"), "{}", e);
+        }
+    }
+}

@@ -1,0 +1,81 @@
+//! Subcommands of `interpd`.
+
+mod check;
+
+use clap::{Parser, Subcommand};
+use std::fmt;
+use std::path::PathBuf;
+
+#[derive(Debug, Parser)]
+#[command(name = "interpd", version, about = "Real-time interpolator daemon: part program in, jerk-limited axis setpoints out")]
+pub struct Cli {
+    /// More log output on stderr (-v debug, -vv trace). RUST_LOG overrides.
+    #[arg(short, long, action = clap::ArgAction::Count, global = true)]
+    pub verbose: u8,
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Parse and validate a program against the machine; errors as FILE:LINE:COL: message.
+    Check {
+        /// Program file (G-code, or a path table .csv).
+        program: PathBuf,
+        /// Machine configuration (TOML); default: the embedded 3-axis machine.
+        #[arg(long)]
+        machine: Option<PathBuf>,
+    },
+}
+
+/// A failed command: bad input (exit 2) or anything else (exit 1).
+#[derive(Debug)]
+pub enum CliError {
+    BadInput(String),
+    Failure(String),
+}
+
+impl CliError {
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            CliError::BadInput(_) => 2,
+            CliError::Failure(_) => 1,
+        }
+    }
+}
+
+impl fmt::Display for CliError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            CliError::BadInput(m) | CliError::Failure(m) => write!(f, "{m}"),
+        }
+    }
+}
+
+impl From<interpd::config::ConfigError> for CliError {
+    fn from(e: interpd::config::ConfigError) -> Self {
+        CliError::BadInput(e.to_string())
+    }
+}
+
+impl From<interpd::program::ProgramErrors> for CliError {
+    fn from(e: interpd::program::ProgramErrors) -> Self {
+        CliError::BadInput(e.to_string())
+    }
+}
+
+pub fn init_logging(verbose: u8) {
+    let default = match verbose {
+        0 => "warn",
+        1 => "debug",
+        _ => "trace",
+    };
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
+    let _ = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).with_target(false).try_init();
+}
+
+pub fn run(cli: Cli) -> Result<(), CliError> {
+    match cli.command {
+        Command::Check { program, machine } => check::run(&program, machine.as_deref()),
+    }
+}

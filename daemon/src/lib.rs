@@ -1,0 +1,11 @@
+//! interpd: a real-time interpolator daemon.
+//!
+//! Data flow (see DESIGN.md): part program → [`program`] (parse) → [`path`] (geometry A(s) …
+//! A‴(s)) → prep (tolerance smoothing) → planner (look-ahead feedrate profile) → interp (fine
+//! interpolation every cycle) → sinks (shared memory, CAN) → drives / sim-plant.
+
+pub mod path;
+pub mod program;
+
+pub use interpd_config as config;
+pub use interpd_otg as otg;

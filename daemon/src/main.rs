@@ -1,0 +1,19 @@
+//! The `interpd` command line (contract in DESIGN.md). Exit codes: 0 success, 2 bad input,
+//! 1 any other failure. Messages go to stderr, data to stdout.
+
+mod cli;
+
+use clap::Parser;
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    let args = cli::Cli::parse();
+    cli::init_logging(args.verbose);
+    match cli::run(args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("{e}");
+            ExitCode::from(e.exit_code())
+        }
+    }
+}

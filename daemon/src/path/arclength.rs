@@ -1,0 +1,150 @@
+//! Arc length of parametric curves by Gauss–Legendre quadrature, and the inversion s ↦ u.
+//!
+//! A span P(u), u ∈ [0, 1], is split into pieces until 8-point Gauss–Legendre on a piece
+//! agrees with the sum over its halves to `QUADRATURE_REL_TOL`; the cumulative lengths at the
+//! piece ends form a table. s(u) adds one quadrature over the partial piece; u(s) runs a
+//! safeguarded Newton iteration on s(u) − s inside the bracketing piece.
+
+/// Relative agreement required between a piece's quadrature and the sum over its halves.
+pub const QUADRATURE_REL_TOL: f64 = 1e-14;
+/// Inversion accuracy: |s(u) − s| below this fraction of the span length.
+pub const INVERSION_REL_TOL: f64 = 1e-12;
+/// Deepest bisection of a piece when building the table.
+const MAX_DEPTH: u32 = 24;
+/// Newton steps before falling back to bisection alone.
+const MAX_NEWTON: usize = 50;
+
+// 8-point Gauss–Legendre nodes and weights on [−1, 1].
+const GL_X: [f64; 4] = [0.183_434_642_495_649_8, 0.525_532_409_916_329, 0.796_666_477_413_626_7, 0.960_289_856_497_536_2];
+const GL_W: [f64; 4] = [0.362_683_783_378_362, 0.313_706_645_877_887_3, 0.222_381_034_453_374_5, 0.101_228_536_290_376_3];
+
+/// ∫ₐᵇ f(u) du by 8-point Gauss–Legendre.
+pub fn gauss_legendre_8(f: &impl Fn(f64) -> f64, a: f64, b: f64) -> f64 {
+    let half = 0.5 * (b - a);
+    let mid = 0.5 * (a + b);
+    let mut sum = 0.0;
+    for i in 0..4 {
+        let dx = half * GL_X[i];
+        sum += GL_W[i] * (f(mid - dx) + f(mid + dx));
+    }
+    sum * half
+}
+
+/// Cumulative arc-length table of one span.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ArcLengthTable {
+    /// Piece boundaries in u, from 0 to 1.
+    u: Vec<f64>,
+    /// Arc length from u = 0 to each boundary.
+    s: Vec<f64>,
+}
+
+impl ArcLengthTable {
+    /// Builds the table for the speed |P′(u)| given by `speed`.
+    pub fn build(speed: &impl Fn(f64) -> f64) -> Self {
+        let mut u = vec![0.0];
+        let mut s = vec![0.0];
+        // Start from 8 pieces so that features narrower than the span are not missed.
+        for i in 0..8 {
+            let (a, b) = (i as f64 / 8.0, (i + 1) as f64 / 8.0);
+            let whole = gauss_legendre_8(speed, a, b);
+            refine(speed, a, b, whole, 0, &mut u, &mut s);
+        }
+        Self { u, s }
+    }
+
+    pub fn length(&self) -> f64 {
+        *self.s.last().expect("table has at least two entries")
+    }
+
+    /// Arc length from 0 to `u`.
+    pub fn s_of_u(&self, speed: &impl Fn(f64) -> f64, u: f64) -> f64 {
+        let u = u.clamp(0.0, 1.0);
+        let i = self.u.partition_point(|&x| x <= u).saturating_sub(1).min(self.u.len() - 2);
+        self.s[i] + gauss_legendre_8(speed, self.u[i], u)
+    }
+
+    /// Parameter u at arc length `s` (clamped to the span).
+    pub fn u_of_s(&self, speed: &impl Fn(f64) -> f64, s: f64) -> f64 {
+        let len = self.length();
+        if s <= 0.0 {
+            return 0.0;
+        }
+        if s >= len {
+            return 1.0;
+        }
+        let i = self.s.partition_point(|&x| x <= s).saturating_sub(1).min(self.s.len() - 2);
+        let (mut lo, mut hi) = (self.u[i], self.u[i + 1]);
+        let (s_lo, s_hi) = (self.s[i], self.s[i + 1]);
+        // Linear start inside the piece, then Newton with the bracket as safeguard.
+        let mut u = lo + (hi - lo) * (s - s_lo) / (s_hi - s_lo).max(f64::MIN_POSITIVE);
+        let tol = INVERSION_REL_TOL * len.max(f64::MIN_POSITIVE);
+        for _ in 0..MAX_NEWTON {
+            let f = self.s[i] + gauss_legendre_8(speed, self.u[i], u) - s;
+            if f.abs() <= tol {
+                return u;
+            }
+            if f > 0.0 {
+                hi = u;
+            } else {
+                lo = u;
+            }
+            let d = speed(u);
+            let newton = u - f / d;
+            u = if d > 0.0 && newton > lo && newton < hi { newton } else { 0.5 * (lo + hi) };
+            if hi - lo <= f64::EPSILON * 4.0 {
+                return u;
+            }
+        }
+        u
+    }
+}
+
+fn refine(
+    speed: &impl Fn(f64) -> f64,
+    a: f64,
+    b: f64,
+    whole: f64,
+    depth: u32,
+    u: &mut Vec<f64>,
+    s: &mut Vec<f64>,
+) {
+    let m = 0.5 * (a + b);
+    let left = gauss_legendre_8(speed, a, m);
+    let right = gauss_legendre_8(speed, m, b);
+    if depth >= MAX_DEPTH || (left + right - whole).abs() <= QUADRATURE_REL_TOL * (left + right).abs().max(1e-300) {
+        let base = *s.last().expect("non-empty");
+        u.push(b);
+        s.push(base + left + right);
+        return;
+    }
+    refine(speed, a, m, left, depth + 1, u, s);
+    refine(speed, m, b, right, depth + 1, u, s);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parabola_length_matches_closed_form() {
+        // P(u) = (u, u²)·10: |P′| = 10·√(1 + 4u²)
+        let speed = |u: f64| 10.0 * (1.0 + 4.0 * u * u).sqrt();
+        let t = ArcLengthTable::build(&speed);
+        let exact = 10.0 * (2.0 * 5f64.sqrt() + (2.0 + 5f64.sqrt()).ln()) / 4.0;
+        assert!((t.length() - exact).abs() < 1e-12, "{} vs {exact}", t.length());
+    }
+
+    #[test]
+    fn inversion_round_trips() {
+        let speed = |u: f64| 1.0 + 30.0 * (u - 0.3).powi(2);
+        let t = ArcLengthTable::build(&speed);
+        let len = t.length();
+        for i in 0..=1000 {
+            let s = len * i as f64 / 1000.0;
+            let u = t.u_of_s(&speed, s);
+            let back = t.s_of_u(&speed, u);
+            assert!((back - s).abs() <= 1e-9 * len, "s={s} u={u} back={back}");
+        }
+    }
+}

@@ -1,0 +1,226 @@
+use super::arclength::ArcLengthTable;
+use super::{AxisDerivs, AxisVec, MAX_AXES};
+
+/// Cubic Hermite span between support points A and B with tangents T_a, T_b (seed 002 eq. 1–2,
+/// with the misprint in R₃ corrected),
+/// re-parameterised by arc length: u ∈ [0, 1] is the span parameter, s the arc length over the
+/// linear axes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CubicSpan {
+    /// P(u) = r[3]u³ + r[2]u² + r[1]u + r[0]
+    r: [AxisVec; 4],
+    linear: [bool; MAX_AXES],
+    table: ArcLengthTable,
+}
+
+/// Why a span cannot be used.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SpanError {
+    /// P′(u) vanishes somewhere: the curve has a cusp or does not move.
+    ZeroTangent,
+}
+
+/// Samples per span when looking for a vanishing tangent.
+const CUSP_SAMPLES: usize = 256;
+/// A span whose speed |P′| drops below this fraction of its mean is degenerate.
+const CUSP_REL_TOL: f64 = 1e-6;
+
+impl CubicSpan {
+    /// The span from `a` to `b` with tangents `ta`, `tb` (per unit u). Axes flagged in
+    /// `linear` define the arc length.
+    pub fn hermite(a: &AxisVec, b: &AxisVec, ta: &AxisVec, tb: &AxisVec, linear: &[bool]) -> Result<Self, SpanError> {
+        let mut r = [[0.0; MAX_AXES]; 4];
+        for k in 0..MAX_AXES {
+            r[0][k] = a[k]; // seed 002 eq. 2: R₀ = A
+            r[1][k] = ta[k]; // R₁ = T_a
+            r[2][k] = 3.0 * (b[k] - a[k]) - 2.0 * ta[k] - tb[k]; // R₂ = 3(B − A) − 2T_a − T_b
+            // R₃ = 2(A − B) + T_a + T_b. Seed 002 eq. 2 prints 3(A − B), a misprint: with it
+            // P(1) = A instead of B.
+            r[3][k] = 2.0 * (a[k] - b[k]) + ta[k] + tb[k];
+        }
+        let mut mask = [false; MAX_AXES];
+        for (k, m) in mask.iter_mut().enumerate() {
+            *m = linear.get(k).copied().unwrap_or(false);
+        }
+        let speed = |u: f64| speed_of(&r, &mask, u);
+        let table = ArcLengthTable::build(&speed);
+        let mean = table.length();
+        if !(mean > 0.0) || min_speed(&r, &mask) < CUSP_REL_TOL * mean {
+            return Err(SpanError::ZeroTangent);
+        }
+        Ok(Self { r, linear: mask, table })
+    }
+
+    pub fn length_mm(&self) -> f64 {
+        self.table.length()
+    }
+
+    /// P(u) in the span parameter (for tests and plots).
+    pub fn point_at_u(&self, u: f64) -> AxisVec {
+        let mut p = [0.0; MAX_AXES];
+        for (k, pk) in p.iter_mut().enumerate() {
+            *pk = ((self.r[3][k] * u + self.r[2][k]) * u + self.r[1][k]) * u + self.r[0][k];
+        }
+        p
+    }
+
+    /// Span parameter at arc length `s`.
+    pub fn u_at(&self, s: f64) -> f64 {
+        self.table.u_of_s(&|u| speed_of(&self.r, &self.linear, u), s)
+    }
+
+    pub fn eval(&self, s: f64, out: &mut AxisDerivs) {
+        let u = self.u_at(s);
+        let (mut p1, mut p2, mut p3) = ([0.0; MAX_AXES], [0.0; MAX_AXES], [0.0; MAX_AXES]);
+        for k in 0..MAX_AXES {
+            let r = &self.r;
+            out.pos[k] = ((r[3][k] * u + r[2][k]) * u + r[1][k]) * u + r[0][k];
+            p1[k] = (3.0 * r[3][k] * u + 2.0 * r[2][k]) * u + r[1][k];
+            p2[k] = 6.0 * r[3][k] * u + 2.0 * r[2][k];
+            p3[k] = 6.0 * r[3][k];
+        }
+        // σ = |P′|, σ_u = P′·P″/σ, σ_uu = (|P″|² + P′·P‴)/σ − σ_u²/σ over the linear axes.
+        let (mut p1p1, mut p1p2, mut p2p2, mut p1p3) = (0.0, 0.0, 0.0, 0.0);
+        for k in 0..MAX_AXES {
+            if self.linear[k] {
+                p1p1 += p1[k] * p1[k];
+                p1p2 += p1[k] * p2[k];
+                p2p2 += p2[k] * p2[k];
+                p1p3 += p1[k] * p3[k];
+            }
+        }
+        let sigma = p1p1.sqrt();
+        let sigma_u = p1p2 / sigma;
+        let sigma_uu = (p2p2 + p1p3) / sigma - sigma_u * sigma_u / sigma;
+        // Chain rule for u(s): u′ = 1/σ, u″ = −σ_u/σ³, u‴ = −σ_uu/σ⁴ + 3σ_u²/σ⁵.
+        let u1 = 1.0 / sigma;
+        let u2 = -sigma_u * u1 * u1 * u1;
+        let u3 = -sigma_uu * u1.powi(4) + 3.0 * sigma_u * sigma_u * u1.powi(5);
+        for k in 0..MAX_AXES {
+            out.d1[k] = p1[k] * u1;
+            out.d2[k] = p2[k] * u1 * u1 + p1[k] * u2;
+            out.d3[k] = p3[k] * u1 * u1 * u1 + 3.0 * p2[k] * u1 * u2 + p1[k] * u3;
+        }
+    }
+}
+
+/// Smallest |P′(u)| on [0, 1]: at the ends or where d|P′|²/du = 2P′·P″ changes sign.
+fn min_speed(r: &[AxisVec; 4], linear: &[bool; MAX_AXES]) -> f64 {
+    let dot = |u: f64| {
+        let mut d = 0.0;
+        for k in 0..MAX_AXES {
+            if linear[k] {
+                let p1 = (3.0 * r[3][k] * u + 2.0 * r[2][k]) * u + r[1][k];
+                let p2 = 6.0 * r[3][k] * u + 2.0 * r[2][k];
+                d += p1 * p2;
+            }
+        }
+        d
+    };
+    let mut best = speed_of(r, linear, 0.0).min(speed_of(r, linear, 1.0));
+    for i in 0..CUSP_SAMPLES {
+        let (mut a, mut b) = (i as f64 / CUSP_SAMPLES as f64, (i + 1) as f64 / CUSP_SAMPLES as f64);
+        let (fa, fb) = (dot(a), dot(b));
+        // A minimum of |P′|² is where P′·P″ goes from negative to positive.
+        if !(fa < 0.0 && fb >= 0.0) {
+            continue;
+        }
+        for _ in 0..60 {
+            let m = 0.5 * (a + b);
+            if dot(m) < 0.0 {
+                a = m;
+            } else {
+                b = m;
+            }
+        }
+        best = best.min(speed_of(r, linear, 0.5 * (a + b)));
+    }
+    best
+}
+
+fn speed_of(r: &[AxisVec; 4], linear: &[bool; MAX_AXES], u: f64) -> f64 {
+    let mut sq = 0.0;
+    for k in 0..MAX_AXES {
+        if linear[k] {
+            let d = (3.0 * r[3][k] * u + 2.0 * r[2][k]) * u + r[1][k];
+            sq += d * d;
+        }
+    }
+    sq.sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::path::{testutil::max_fd_error, Geometry};
+
+    fn v(x: f64, y: f64, z: f64) -> AxisVec {
+        let mut a = [0.0; MAX_AXES];
+        a[0] = x;
+        a[1] = y;
+        a[2] = z;
+        a
+    }
+
+    const LIN: [bool; 3] = [true, true, true];
+
+    #[test]
+    fn reproduces_seed_002_eq_1_2() {
+        let (a, b, ta, tb) = (v(0.0, 0.0, 0.0), v(10.0, 5.0, 1.0), v(8.0, 0.0, 0.0), v(0.0, 9.0, 1.0));
+        let c = CubicSpan::hermite(&a, &b, &ta, &tb, &LIN).unwrap();
+        // P(0) = A, P(1) = B, P′(0) = T_a, P′(1) = T_b, and P at u = 0.5 from eq. 1 directly.
+        let p0 = c.point_at_u(0.0);
+        let p1 = c.point_at_u(1.0);
+        for k in 0..3 {
+            assert!((p0[k] - a[k]).abs() < 1e-12 && (p1[k] - b[k]).abs() < 1e-12);
+        }
+        let h = 1e-6;
+        let d0 = c.point_at_u(h);
+        let d1 = c.point_at_u(1.0 - h);
+        for k in 0..3 {
+            assert!(((d0[k] - p0[k]) / h - ta[k]).abs() < 1e-4);
+            assert!(((p1[k] - d1[k]) / h - tb[k]).abs() < 1e-4);
+        }
+        let u: f64 = 0.5;
+        let pm = c.point_at_u(u);
+        for k in 0..3 {
+            let r2 = 3.0 * (b[k] - a[k]) - 2.0 * ta[k] - tb[k];
+            let r3 = 2.0 * (a[k] - b[k]) + ta[k] + tb[k];
+            let expect = r3 * u.powi(3) + r2 * u * u + ta[k] * u + a[k];
+            assert!((pm[k] - expect).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn arc_length_parameterisation() {
+        let c = CubicSpan::hermite(&v(0.0, 0.0, 0.0), &v(10.0, 5.0, 0.0), &v(15.0, -5.0, 0.0), &v(0.0, 12.0, 0.0), &LIN).unwrap();
+        let mut d = AxisDerivs::default();
+        for i in 0..=20 {
+            c.eval(c.length_mm() * i as f64 / 20.0, &mut d);
+            let speed = (d.d1[0].powi(2) + d.d1[1].powi(2)).sqrt();
+            assert!((speed - 1.0).abs() < 1e-12, "|A′| = {speed}");
+        }
+        c.eval(c.length_mm(), &mut d);
+        assert!((d.pos[0] - 10.0).abs() < 1e-9 && (d.pos[1] - 5.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn derivatives_match_finite_differences() {
+        let c = CubicSpan::hermite(&v(0.0, 0.0, 0.0), &v(10.0, 5.0, 2.0), &v(15.0, -5.0, 0.0), &v(0.0, 12.0, 3.0), &LIN).unwrap();
+        let e = max_fd_error(&Geometry::Cubic(c), 3, 40);
+        assert!(e < 1e-6, "relative FD error {e}");
+    }
+
+    #[test]
+    fn straight_span_has_exact_length() {
+        let c = CubicSpan::hermite(&v(0.0, 0.0, 0.0), &v(3.0, 4.0, 0.0), &v(3.0, 4.0, 0.0), &v(3.0, 4.0, 0.0), &LIN).unwrap();
+        assert!((c.length_mm() - 5.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn cusp_is_rejected() {
+        // Tangents pointing backwards so that P′ vanishes inside the span.
+        let r = CubicSpan::hermite(&v(0.0, 0.0, 0.0), &v(1.0, 0.0, 0.0), &v(-3.0, 0.0, 0.0), &v(-3.0, 0.0, 0.0), &LIN);
+        assert_eq!(r.unwrap_err(), SpanError::ZeroTangent);
+    }
+}

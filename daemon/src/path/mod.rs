@@ -1,0 +1,271 @@
+//! The path: geometry elements over path length s, and for every axis k the position A_k(s)
+//! and its derivatives A′_k(s), A″_k(s), A‴_k(s) (′ = d/ds).
+//!
+//! s is arc length in mm over the linear axes (the programmed feed applies to it), or, for a
+//! move of rotary axes alone, the angle in degrees; a path table brings its own s.
+
+mod arc;
+pub mod arclength;
+mod cubic;
+mod line;
+mod septic;
+pub mod spline;
+
+pub use arc::Helix;
+pub use cubic::CubicSpan;
+pub use line::Line;
+pub use septic::SepticSpan;
+
+pub use interpd_config::MAX_AXES;
+
+/// One value per axis; only the first `n_axes` entries of a path are meaningful.
+pub type AxisVec = [f64; MAX_AXES];
+
+/// Position and its first three derivatives with respect to s, per axis.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct AxisDerivs {
+    pub pos: AxisVec,
+    pub d1: AxisVec,
+    pub d2: AxisVec,
+    pub d3: AxisVec,
+}
+
+/// A geometry element parameterised by its own path length s ∈ [0, length_mm].
+#[derive(Debug, Clone, PartialEq)]
+pub enum Geometry {
+    Line(Line),
+    Helix(Helix),
+    Cubic(CubicSpan),
+    Septic(SepticSpan),
+}
+
+impl Geometry {
+    /// Path length of the element (mm, or the table's s units).
+    pub fn length_mm(&self) -> f64 {
+        match self {
+            Geometry::Line(g) => g.length_mm(),
+            Geometry::Helix(g) => g.length_mm(),
+            Geometry::Cubic(g) => g.length_mm(),
+            Geometry::Septic(g) => g.length_mm(),
+        }
+    }
+
+    /// A(s) … A‴(s) at local path position `s_mm` (clamped to the element).
+    pub fn eval(&self, s_mm: f64, out: &mut AxisDerivs) {
+        let s = s_mm.clamp(0.0, self.length_mm());
+        match self {
+            Geometry::Line(g) => g.eval(s, out),
+            Geometry::Helix(g) => g.eval(s, out),
+            Geometry::Cubic(g) => g.eval(s, out),
+            Geometry::Septic(g) => g.eval(s, out),
+        }
+    }
+
+    /// Short name for summaries.
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            Geometry::Line(_) => "line",
+            Geometry::Helix(_) => "arc",
+            Geometry::Cubic(_) => "spline",
+            Geometry::Septic(_) => "table",
+        }
+    }
+}
+
+/// Feed of an element.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Feed {
+    /// Programmed path feed, mm/s (F / 60).
+    Programmed { mm_per_s: f64 },
+    /// G0: as fast as the axes allow (and `planner.rapid_feed_mm_s`).
+    Rapid,
+}
+
+/// How an element joins the one before it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum JointKind {
+    /// First element of the path.
+    Start,
+    /// Tangent and curvature continuous (G²): no constraint beyond the limits.
+    Smooth,
+    /// Tangent continuous, curvature jumps (G¹ but not G²): the axis acceleration steps by
+    /// ΔA″·v², so the planner caps the speed there.
+    CurvatureJump,
+    /// Tangent jumps (G⁰ only, a G¹ break): passed with v = a = 0 unless smoothed.
+    Corner,
+}
+
+/// Where an element came from in the program.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Source {
+    /// 1-based line number.
+    pub line: u32,
+    /// Programmed block number (N word), 0 if none.
+    pub block: u32,
+}
+
+/// How the path may be prepared at a joint (G61 exact path / G64 tolerance band).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Blend {
+    Exact,
+    Tolerance { tol_mm: f64 },
+}
+
+/// One element of a path with its place and attributes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Element {
+    pub geometry: Geometry,
+    /// Path position where the element starts.
+    pub s_start_mm: f64,
+    pub feed: Feed,
+    pub source: Source,
+    /// Joint with the previous element.
+    pub joint: JointKind,
+    /// Dwell before this element starts (G4), s. A dwell forces a stop.
+    pub dwell_before_s: f64,
+    pub blend: Blend,
+}
+
+impl Element {
+    pub fn s_end_mm(&self) -> f64 {
+        self.s_start_mm + self.geometry.length_mm()
+    }
+
+    /// Whether the motion must come to rest (v = a = 0) where this element starts.
+    pub fn stops_before(&self) -> bool {
+        matches!(self.joint, JointKind::Start | JointKind::Corner) || self.dwell_before_s > 0.0
+    }
+}
+
+/// Tangent angles below this count as continuous: a velocity direction step of 1e-9 rad at
+/// 1 m/s is 1e-6 mm/s, far below any measurable acceleration.
+pub const TANGENT_ANGLE_TOL_RAD: f64 = 1e-9;
+/// Relative curvature difference below which a joint counts as G².
+pub const CURVATURE_REL_TOL: f64 = 1e-9;
+
+/// A continuous path through the axes: elements back to back in s.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Path {
+    pub n_axes: usize,
+    /// Axis names in machine order.
+    pub axis_names: Vec<String>,
+    /// Start position of the path (the machine position before the first element).
+    pub start: AxisVec,
+    pub elements: Vec<Element>,
+    /// Dwell after the last element, s.
+    pub final_dwell_s: f64,
+}
+
+impl Path {
+    pub fn new(axis_names: Vec<String>, start: AxisVec) -> Self {
+        Self { n_axes: axis_names.len(), axis_names, start, elements: Vec::new(), final_dwell_s: 0.0 }
+    }
+
+    pub fn length_mm(&self) -> f64 {
+        self.elements.last().map_or(0.0, Element::s_end_mm)
+    }
+
+    /// Appends an element after the last one, classifying the joint between them.
+    pub fn push(&mut self, geometry: Geometry, feed: Feed, source: Source, dwell_before_s: f64, blend: Blend) {
+        let s_start_mm = self.length_mm();
+        let joint = match self.elements.last() {
+            None => JointKind::Start,
+            Some(prev) => classify_joint(&prev.geometry, &geometry, self.n_axes),
+        };
+        self.elements.push(Element { geometry, s_start_mm, feed, source, joint, dwell_before_s, blend });
+    }
+
+    /// Index of the element containing path position `s_mm` (the later one at a joint).
+    pub fn element_index_at(&self, s_mm: f64) -> usize {
+        let i = self.elements.partition_point(|e| e.s_start_mm <= s_mm);
+        i.saturating_sub(1).min(self.elements.len().saturating_sub(1))
+    }
+
+    /// A(s) … A‴(s) at global path position `s_mm`.
+    pub fn eval(&self, s_mm: f64, out: &mut AxisDerivs) {
+        match self.elements.get(self.element_index_at(s_mm)) {
+            Some(e) => e.geometry.eval(s_mm - e.s_start_mm, out),
+            None => {
+                *out = AxisDerivs { pos: self.start, ..AxisDerivs::default() };
+            }
+        }
+    }
+
+    /// End position of the path.
+    pub fn end_position(&self) -> AxisVec {
+        match self.elements.last() {
+            Some(e) => {
+                let mut d = AxisDerivs::default();
+                e.geometry.eval(e.geometry.length_mm(), &mut d);
+                d.pos
+            }
+            None => self.start,
+        }
+    }
+}
+
+/// Compares the end of `prev` with the start of `next`.
+pub fn classify_joint(prev: &Geometry, next: &Geometry, n_axes: usize) -> JointKind {
+    let mut a = AxisDerivs::default();
+    let mut b = AxisDerivs::default();
+    prev.eval(prev.length_mm(), &mut a);
+    next.eval(0.0, &mut b);
+    let dot: f64 = (0..n_axes).map(|k| a.d1[k] * b.d1[k]).sum();
+    let na: f64 = (0..n_axes).map(|k| a.d1[k] * a.d1[k]).sum::<f64>().sqrt();
+    let nb: f64 = (0..n_axes).map(|k| b.d1[k] * b.d1[k]).sum::<f64>().sqrt();
+    let cross2: f64 = (0..n_axes)
+        .flat_map(|i| (0..n_axes).map(move |j| (i, j)))
+        .map(|(i, j)| {
+            let c = a.d1[i] * b.d1[j] - a.d1[j] * b.d1[i];
+            c * c
+        })
+        .sum::<f64>()
+        / 2.0;
+    let angle = cross2.sqrt().atan2(dot);
+    // Different s-metrics (a rotary-only move after a linear one) also break the tangent.
+    let scale_jump = (na - nb).abs() > 1e-9 * na.max(nb);
+    if angle > TANGENT_ANGLE_TOL_RAD || scale_jump {
+        return JointKind::Corner;
+    }
+    let curvature = (0..n_axes).map(|k| a.d2[k].abs().max(b.d2[k].abs())).fold(0.0, f64::max);
+    let jump = (0..n_axes).map(|k| (a.d2[k] - b.d2[k]).abs()).fold(0.0, f64::max);
+    if jump > CURVATURE_REL_TOL * curvature.max(1e-12) && jump > 1e-12 {
+        JointKind::CurvatureJump
+    } else {
+        JointKind::Smooth
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod testutil {
+    use super::*;
+
+    /// Checks A′, A″, A‴ of `g` against central differences of the next-lower derivative at
+    /// interior points; returns the largest relative error.
+    pub fn max_fd_error(g: &Geometry, n_axes: usize, points: usize) -> f64 {
+        let len = g.length_mm();
+        let h = len * 1e-5;
+        let mut worst: f64 = 0.0;
+        for i in 1..points {
+            let s = len * i as f64 / points as f64;
+            if s - h < 0.0 || s + h > len {
+                continue;
+            }
+            let (mut m, mut c, mut p) = (AxisDerivs::default(), AxisDerivs::default(), AxisDerivs::default());
+            g.eval(s - h, &mut m);
+            g.eval(s, &mut c);
+            g.eval(s + h, &mut p);
+            for k in 0..n_axes {
+                let pairs = [
+                    ((p.pos[k] - m.pos[k]) / (2.0 * h), c.d1[k], c.d1[k].abs().max(1.0)),
+                    ((p.d1[k] - m.d1[k]) / (2.0 * h), c.d2[k], c.d2[k].abs().max(c.d1[k].abs() / len).max(1e-3)),
+                    ((p.d2[k] - m.d2[k]) / (2.0 * h), c.d3[k], c.d3[k].abs().max(c.d2[k].abs() / len).max(1e-3)),
+                ];
+                for (fd, exact, scale) in pairs {
+                    worst = worst.max((fd - exact).abs() / scale);
+                }
+            }
+        }
+        worst
+    }
+}

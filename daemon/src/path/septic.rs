@@ -1,0 +1,126 @@
+use super::{AxisDerivs, MAX_AXES};
+
+/// One interval of a path table: per axis the degree-7 Hermite polynomial that matches
+/// A, A′, A″ and A‴ at both rows, so the path reproduces the table's derivatives exactly at
+/// every row and is C³ across rows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SepticSpan {
+    /// Coefficients in the normalised variable t = (s − s₀)/h ∈ [0, 1].
+    b: [[f64; 8]; MAX_AXES],
+    h: f64,
+}
+
+/// Inverse of the end-condition matrix of the degree-7 Hermite problem: rows of
+/// [[1,1,1,1],[4,5,6,7],[12,20,30,42],[24,60,120,210]]⁻¹ (exact fractions).
+const END_INV: [[f64; 4]; 4] = [
+    [35.0, -15.0, 2.5, -1.0 / 6.0],
+    [-84.0, 39.0, -7.0, 0.5],
+    [70.0, -34.0, 6.5, -0.5],
+    [-20.0, 10.0, -2.0, 1.0 / 6.0],
+];
+
+impl SepticSpan {
+    /// Interval of length `h` (> 0) between table rows `a` and `b` (A, A′, A″, A‴ each).
+    pub fn new(a: &AxisDerivs, b: &AxisDerivs, h: f64) -> Self {
+        let mut coef = [[0.0; 8]; MAX_AXES];
+        let (h2, h3) = (h * h, h * h * h);
+        for k in 0..MAX_AXES {
+            let c = &mut coef[k];
+            c[0] = a.pos[k];
+            c[1] = h * a.d1[k];
+            c[2] = h2 * a.d2[k] / 2.0;
+            c[3] = h3 * a.d3[k] / 6.0;
+            let r = [
+                b.pos[k] - (c[0] + c[1] + c[2] + c[3]),
+                h * b.d1[k] - (c[1] + 2.0 * c[2] + 3.0 * c[3]),
+                h2 * b.d2[k] - (2.0 * c[2] + 6.0 * c[3]),
+                h3 * b.d3[k] - 6.0 * c[3],
+            ];
+            for (i, row) in END_INV.iter().enumerate() {
+                c[4 + i] = row.iter().zip(r.iter()).map(|(m, r)| m * r).sum();
+            }
+        }
+        Self { b: coef, h }
+    }
+
+    pub fn length_mm(&self) -> f64 {
+        self.h
+    }
+
+    pub fn eval(&self, s: f64, out: &mut AxisDerivs) {
+        let t = s / self.h;
+        let (ih, ih2, ih3) = (1.0 / self.h, 1.0 / (self.h * self.h), 1.0 / (self.h * self.h * self.h));
+        for k in 0..MAX_AXES {
+            let c = &self.b[k];
+            let (mut p, mut d1, mut d2, mut d3) = (0.0, 0.0, 0.0, 0.0);
+            for i in (0..8).rev() {
+                let fi = i as f64;
+                p = p * t + c[i];
+                if i >= 1 {
+                    d1 = d1 * t + fi * c[i];
+                }
+                if i >= 2 {
+                    d2 = d2 * t + fi * (fi - 1.0) * c[i];
+                }
+                if i >= 3 {
+                    d3 = d3 * t + fi * (fi - 1.0) * (fi - 2.0) * c[i];
+                }
+            }
+            out.pos[k] = p;
+            out.d1[k] = d1 * ih;
+            out.d2[k] = d2 * ih2;
+            out.d3[k] = d3 * ih3;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::path::{testutil::max_fd_error, Geometry};
+
+    fn sample(s: f64) -> AxisDerivs {
+        // A smooth test curve: x = sin s, y = s³/10, z = e^{s/5}
+        let mut d = AxisDerivs::default();
+        d.pos[0] = s.sin();
+        d.d1[0] = s.cos();
+        d.d2[0] = -s.sin();
+        d.d3[0] = -s.cos();
+        d.pos[1] = s.powi(3) / 10.0;
+        d.d1[1] = 0.3 * s * s;
+        d.d2[1] = 0.6 * s;
+        d.d3[1] = 0.6;
+        d.pos[2] = (s / 5.0).exp();
+        d.d1[2] = (s / 5.0).exp() / 5.0;
+        d.d2[2] = (s / 5.0).exp() / 25.0;
+        d.d3[2] = (s / 5.0).exp() / 125.0;
+        d
+    }
+
+    #[test]
+    fn matches_rows_at_both_ends() {
+        let (a, b) = (sample(1.0), sample(1.7));
+        let sp = SepticSpan::new(&a, &b, 0.7);
+        let mut d = AxisDerivs::default();
+        sp.eval(0.0, &mut d);
+        for k in 0..3 {
+            assert!((d.pos[k] - a.pos[k]).abs() < 1e-12 && (d.d1[k] - a.d1[k]).abs() < 1e-12);
+            assert!((d.d2[k] - a.d2[k]).abs() < 1e-10 && (d.d3[k] - a.d3[k]).abs() < 1e-9);
+        }
+        sp.eval(0.7, &mut d);
+        for k in 0..3 {
+            assert!((d.pos[k] - b.pos[k]).abs() < 1e-12 && (d.d1[k] - b.d1[k]).abs() < 1e-11);
+            assert!((d.d2[k] - b.d2[k]).abs() < 1e-9 && (d.d3[k] - b.d3[k]).abs() < 1e-8);
+        }
+        // Interior error of the interpolation of a smooth function is small.
+        sp.eval(0.35, &mut d);
+        assert!((d.pos[0] - 1.35f64.sin()).abs() < 1e-8);
+    }
+
+    #[test]
+    fn derivatives_match_finite_differences() {
+        let sp = SepticSpan::new(&sample(0.2), &sample(1.4), 1.2);
+        let e = max_fd_error(&Geometry::Septic(sp), 3, 40);
+        assert!(e < 1e-6, "relative FD error {e}");
+    }
+}

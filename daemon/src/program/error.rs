@@ -1,0 +1,64 @@
+use std::fmt;
+
+/// A problem in a program, at a place a person can find: `FILE:LINE:COL: message`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ProgramError {
+    pub file: String,
+    /// 1-based line.
+    pub line: u32,
+    /// 1-based column in characters.
+    pub col: u32,
+    pub message: String,
+}
+
+impl fmt::Display for ProgramError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}:{}: {}", self.file, self.line, self.col, self.message)
+    }
+}
+
+impl std::error::Error for ProgramError {}
+
+/// All errors found in one program, in source order.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ProgramErrors(pub Vec<ProgramError>);
+
+impl fmt::Display for ProgramErrors {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, e) in self.0.iter().enumerate() {
+            if i > 0 {
+                writeln!(f)?;
+            }
+            write!(f, "{e}")?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for ProgramErrors {}
+
+/// Most errors reported for one program; after that the parser stops reading.
+pub const MAX_ERRORS: usize = 100;
+
+/// Collects errors with the file name filled in.
+#[derive(Debug)]
+pub(crate) struct Diagnostics {
+    file: String,
+    pub errors: Vec<ProgramError>,
+}
+
+impl Diagnostics {
+    pub fn new(file: &str) -> Self {
+        Self { file: file.to_string(), errors: Vec::new() }
+    }
+
+    pub fn error(&mut self, line: u32, col: u32, message: impl Into<String>) {
+        if self.errors.len() < MAX_ERRORS {
+            self.errors.push(ProgramError { file: self.file.clone(), line, col, message: message.into() });
+        }
+    }
+
+    pub fn full(&self) -> bool {
+        self.errors.len() >= MAX_ERRORS
+    }
+}

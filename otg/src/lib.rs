@@ -1,0 +1,1 @@
+//! Online trajectory generation (OTG): time-optimal, jerk-limited state-to-state motion.

@@ -1,0 +1,1 @@
+//! Simulated axis plant: elastic multi-mass axes with a cascade drive controller.

@@ -1,0 +1,30 @@
+//! Helpers for the end-to-end tests in `tests/tests/`: locating the real binaries and the
+//! repository's example programs.
+
+use std::path::PathBuf;
+
+/// Root of the repository (the workspace directory).
+pub fn repo_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).parent().expect("tests/ has a parent").to_path_buf()
+}
+
+/// Path of a workspace binary built next to the running test executable
+/// (`target/<profile>/<name>`). `cargo test --workspace` builds every package's binaries
+/// because each binary's package has integration tests.
+pub fn binary(name: &str) -> PathBuf {
+    let exe = std::env::current_exe().expect("test executable path");
+    // target/<profile>/deps/<test> -> target/<profile>/<name>
+    let dir = exe.parent().and_then(|d| d.parent()).expect("target/<profile> directory");
+    let path = dir.join(name);
+    assert!(
+        path.exists(),
+        "binary {} not found; build it with `cargo build --workspace` (cargo test --workspace does)",
+        path.display()
+    );
+    path
+}
+
+/// Path of a file under examples/.
+pub fn example(name: &str) -> PathBuf {
+    repo_root().join("examples").join(name)
+}

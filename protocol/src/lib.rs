@@ -1,3 +1,8 @@
 //! Wire and file formats shared by the daemon, the simulated plant and tools.
 //!
 //! Only data layouts, encoders and decoders live here: no threads, no I/O policy.
+
+pub mod shm;
+
+/// Most axes in any payload (one per G-code axis letter X Y Z A B C U V W).
+pub const MAX_AXES: usize = 9;

@@ -1,0 +1,213 @@
+//! Shared-memory payloads (iceoryx2 publish-subscribe).
+//!
+//! Both payloads are fixed-size `#[repr(C)]` structs without padding, so a client in another
+//! language can read them from the sample bytes: little-endian on x86-64, fields in the order
+//! written here. Times are CLOCK_MONOTONIC nanoseconds; positions in the axis unit (mm or deg),
+//! velocities per second, accelerations per second squared. Only the first `n_axes` entries of
+//! the per-axis arrays are meaningful; axis order is the order of `[[axis]]` in the machine
+//! file.
+
+use crate::MAX_AXES;
+use iceoryx2_bb_derive_macros::ZeroCopySend;
+use iceoryx2_bb_elementary_traits::zero_copy_send::ZeroCopySend;
+
+/// Service the daemon publishes setpoints on.
+pub const SETPOINTS_SERVICE: &str = "interpd/setpoints";
+/// Service the plant publishes feedback on.
+pub const FEEDBACK_SERVICE: &str = "interpd/feedback";
+/// Layout version carried in every payload; bumped on any change of the structs below.
+pub const PAYLOAD_VERSION: u32 = 1;
+
+/// Bits of [`Setpoints::flags`].
+pub mod flags {
+    /// Motion is running (program or jog).
+    pub const RUNNING: u32 = 1 << 0;
+    /// A feed hold is active or being approached.
+    pub const HOLDING: u32 = 1 << 1;
+    /// A stop is being executed.
+    pub const STOPPING: u32 = 1 << 2;
+    /// The program has ended; the setpoint is the end point.
+    pub const FINISHED: u32 = 1 << 3;
+    /// The daemon is in an error state.
+    pub const ERROR: u32 = 1 << 4;
+    /// The profile queue ran dry; the path velocity is being brought to zero.
+    pub const UNDERRUN: u32 = 1 << 5;
+    /// This cycle was computed after its deadline (caught up); its values are for its own time.
+    pub const LATE: u32 = 1 << 6;
+    /// No motion: the machine stands at the setpoint.
+    pub const IDLE: u32 = 1 << 7;
+}
+
+/// One setpoint per interpolation cycle (service `interpd/setpoints`). 288 bytes.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("interpd::Setpoints")]
+pub struct Setpoints {
+    /// [`PAYLOAD_VERSION`].
+    pub version: u32,
+    /// Number of valid axis entries.
+    pub n_axes: u32,
+    /// Cycle number, 0 when motion starts, +1 per cycle without gaps.
+    pub cycle: u64,
+    /// The time this setpoint is for (the cycle's deadline), ns.
+    pub time_ns: u64,
+    /// When the daemon published it, ns (for latency measurements).
+    pub publish_ns: u64,
+    /// [`flags`] bits.
+    pub flags: u32,
+    /// Program line being executed (1-based, 0 if none).
+    pub line: u32,
+    /// Path position, mm.
+    pub s_mm: f64,
+    /// Path velocity, mm/s.
+    pub v_mm_s: f64,
+    /// Path acceleration, mm/s².
+    pub a_mm_s2: f64,
+    /// Feed override in effect (1.0 = 100 %).
+    pub feed_override: f64,
+    /// Axis positions.
+    pub pos: [f64; MAX_AXES],
+    /// Axis velocities.
+    pub vel: [f64; MAX_AXES],
+    /// Axis accelerations.
+    pub acc: [f64; MAX_AXES],
+}
+
+impl Default for Setpoints {
+    fn default() -> Self {
+        Self {
+            version: PAYLOAD_VERSION,
+            n_axes: 0,
+            cycle: 0,
+            time_ns: 0,
+            publish_ns: 0,
+            flags: flags::IDLE,
+            line: 0,
+            s_mm: 0.0,
+            v_mm_s: 0.0,
+            a_mm_s2: 0.0,
+            feed_override: 1.0,
+            pos: [0.0; MAX_AXES],
+            vel: [0.0; MAX_AXES],
+            acc: [0.0; MAX_AXES],
+        }
+    }
+}
+
+/// Plant feedback per plant cycle (service `interpd/feedback`). 400 bytes.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("interpd::Feedback")]
+pub struct Feedback {
+    /// [`PAYLOAD_VERSION`].
+    pub version: u32,
+    /// Number of valid axis entries.
+    pub n_axes: u32,
+    /// Cycle number of the setpoint this feedback answers.
+    pub cycle: u64,
+    /// Time of the plant state, ns.
+    pub time_ns: u64,
+    /// `publish_ns` of the setpoint this feedback answers (round-trip measurements).
+    pub setpoint_publish_ns: u64,
+    /// Plant status bits (reserved, 0).
+    pub flags: u32,
+    /// Reserved, 0.
+    pub reserved: u32,
+    /// Motor-side position (encoder, quantised), axis unit.
+    pub motor_pos: [f64; MAX_AXES],
+    /// Load-side position, axis unit.
+    pub load_pos: [f64; MAX_AXES],
+    /// Setpoint minus motor position, axis unit.
+    pub following_error: [f64; MAX_AXES],
+    /// Setpoint minus load position, axis unit.
+    pub load_error: [f64; MAX_AXES],
+    /// Motor force (N) or torque (N·m).
+    pub motor_force: [f64; MAX_AXES],
+}
+
+impl Default for Feedback {
+    fn default() -> Self {
+        Self {
+            version: PAYLOAD_VERSION,
+            n_axes: 0,
+            cycle: 0,
+            time_ns: 0,
+            setpoint_publish_ns: 0,
+            flags: 0,
+            reserved: 0,
+            motor_pos: [0.0; MAX_AXES],
+            load_pos: [0.0; MAX_AXES],
+            following_error: [0.0; MAX_AXES],
+            load_error: [0.0; MAX_AXES],
+            motor_force: [0.0; MAX_AXES],
+        }
+    }
+}
+
+impl Setpoints {
+    /// The payload as bytes (for recording).
+    pub fn as_bytes(&self) -> &[u8] {
+        // SAFETY: repr(C), no padding (checked by `layout_has_no_padding`), plain old data.
+        unsafe { std::slice::from_raw_parts((self as *const Self).cast::<u8>(), std::mem::size_of::<Self>()) }
+    }
+
+    /// Reads a payload from bytes; `None` if the length or version is wrong.
+    pub fn from_bytes(bytes: &[u8]) -> Option<Self> {
+        if bytes.len() != std::mem::size_of::<Self>() {
+            return None;
+        }
+        // SAFETY: length checked; every bit pattern is a valid value of every field.
+        let v: Self = unsafe { std::ptr::read_unaligned(bytes.as_ptr().cast::<Self>()) };
+        (v.version == PAYLOAD_VERSION && v.n_axes as usize <= MAX_AXES).then_some(v)
+    }
+}
+
+impl Feedback {
+    /// The payload as bytes (for recording).
+    pub fn as_bytes(&self) -> &[u8] {
+        // SAFETY: repr(C), no padding (checked by `layout_has_no_padding`), plain old data.
+        unsafe { std::slice::from_raw_parts((self as *const Self).cast::<u8>(), std::mem::size_of::<Self>()) }
+    }
+
+    /// Reads a payload from bytes; `None` if the length or version is wrong.
+    pub fn from_bytes(bytes: &[u8]) -> Option<Self> {
+        if bytes.len() != std::mem::size_of::<Self>() {
+            return None;
+        }
+        // SAFETY: length checked; every bit pattern is a valid value of every field.
+        let v: Self = unsafe { std::ptr::read_unaligned(bytes.as_ptr().cast::<Self>()) };
+        (v.version == PAYLOAD_VERSION && v.n_axes as usize <= MAX_AXES).then_some(v)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::mem::{offset_of, size_of};
+
+    #[test]
+    fn layout_has_no_padding() {
+        assert_eq!(size_of::<Setpoints>(), 288);
+        assert_eq!(offset_of!(Setpoints, s_mm), 40);
+        assert_eq!(offset_of!(Setpoints, pos), 72);
+        assert_eq!(offset_of!(Setpoints, acc), 72 + 2 * 72);
+        assert_eq!(size_of::<Feedback>(), 400);
+        assert_eq!(offset_of!(Feedback, motor_pos), 40);
+    }
+
+    #[test]
+    fn bytes_round_trip() {
+        let mut s = Setpoints { n_axes: 3, cycle: 42, ..Setpoints::default() };
+        s.pos[1] = -1.25;
+        assert_eq!(Setpoints::from_bytes(s.as_bytes()), Some(s));
+        assert_eq!(Setpoints::from_bytes(&s.as_bytes()[1..]), None);
+        let f = Feedback { n_axes: 2, ..Feedback::default() };
+        assert_eq!(Feedback::from_bytes(f.as_bytes()), Some(f));
+    }
+
+    #[test]
+    fn type_names_are_stable() {
+        assert_eq!(unsafe { <Setpoints as ZeroCopySend>::type_name() }, "interpd::Setpoints");
+        assert_eq!(unsafe { <Feedback as ZeroCopySend>::type_name() }, "interpd::Feedback");
+    }
+}

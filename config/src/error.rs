@@ -24,8 +24,14 @@ impl ConfigError {
         // toml's message already names the key ("unknown field `foo`, expected ...",
         // "missing field `max_vel`"); add the enclosing table so "axis" errors say which axis.
         let mut message = e.message().trim().to_string();
-        if let Some(table) = enclosing_table(text, e.span().map_or(0, |s| s.start)) {
+        let offset = e.span().map_or(0, |s| s.start);
+        if let Some(table) = enclosing_table(text, offset) {
             message = format!("in [{table}]: {message}");
+        }
+        if let Some(key) = key_on_line(text, offset) {
+            if !message.contains(&format!("`{key}`")) {
+                message = format!("{message} (key `{key}`)");
+            }
         }
         ConfigError::Parse { file: file.to_string(), line, column, message }
     }
@@ -39,6 +45,17 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
     let line_start = before.rfind('\n').map_or(0, |i| i + 1);
     let column = text[line_start..offset].chars().count() + 1;
     (line, column)
+}
+
+/// The key of a `key = value` line containing `offset`, if any.
+fn key_on_line(text: &str, offset: usize) -> Option<&str> {
+    let offset = offset.min(text.len());
+    let start = text[..offset].rfind('\n').map_or(0, |i| i + 1);
+    let end = text[offset..].find('\n').map_or(text.len(), |i| offset + i);
+    let line = &text[start..end];
+    let (key, _) = line.split_once('=')?;
+    let key = key.trim();
+    (!key.is_empty() && key.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')).then_some(key)
 }
 
 /// The header of the table that contains `offset`, with the index for arrays of tables

@@ -27,7 +27,7 @@ mod sections;
 pub mod sinks;
 
 pub use error::ConfigError;
-pub use machine::{AxisConfig, AxisKind, AxisLetter, MachineSection, MAX_AXES};
+pub use machine::{AxisConfig, AxisKind, AxisLetter, MAX_AXES, MachineSection};
 pub use sections::{ControlConfig, PlannerConfig, PrepConfig, PrepMode, RtConfig};
 
 use serde::Deserialize;
@@ -62,8 +62,7 @@ pub struct Config {
 impl Config {
     /// Parses and validates TOML text; `origin` names the file in error messages.
     pub fn from_toml_str(text: &str, origin: &str) -> Result<Self, ConfigError> {
-        let config: Config =
-            toml::from_str(text).map_err(|e| ConfigError::from_toml(origin, text, &e))?;
+        let config: Config = toml::from_str(text).map_err(|e| ConfigError::from_toml(origin, text, &e))?;
         config.validate(origin)?;
         Ok(config)
     }
@@ -71,10 +70,8 @@ impl Config {
     /// Reads, parses and validates a configuration file.
     pub fn load(path: &Path) -> Result<Self, ConfigError> {
         let origin = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| ConfigError::Io {
-            file: origin.clone(),
-            message: e.to_string(),
-        })?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| ConfigError::Io { file: origin.clone(), message: e.to_string() })?;
         Self::from_toml_str(&text, &origin)
     }
 
@@ -120,18 +117,14 @@ impl Config {
             return Err(v.err("axis", "at least one [[axis]] table is required"));
         }
         if self.axes.len() > MAX_AXES {
-            return Err(v.err(
-                "axis",
-                &format!("at most {MAX_AXES} axes are supported, got {}", self.axes.len()),
-            ));
+            return Err(v.err("axis", &format!("at most {MAX_AXES} axes are supported, got {}", self.axes.len())));
         }
         for (i, axis) in self.axes.iter().enumerate() {
             axis.validate(&v, i)?;
             if let Some(j) = self.axes[..i].iter().position(|a| a.name == axis.name) {
-                return Err(v.err(
-                    &format!("axis[{i}].name"),
-                    &format!("duplicate axis name {} (also axis[{j}])", axis.name),
-                ));
+                return Err(
+                    v.err(&format!("axis[{i}].name"), &format!("duplicate axis name {} (also axis[{j}])", axis.name))
+                );
             }
         }
         self.planner.validate(&v)?;

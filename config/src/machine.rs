@@ -134,10 +134,7 @@ impl AxisConfig {
             return Err(v.err(&key("max"), &format!("must be finite, got {}", self.max_pos)));
         }
         if self.min_pos >= self.max_pos {
-            return Err(v.err(
-                &key("min"),
-                &format!("min ({}) must be less than max ({})", self.min_pos, self.max_pos),
-            ));
+            return Err(v.err(&key("min"), &format!("min ({}) must be less than max ({})", self.min_pos, self.max_pos)));
         }
         Ok(())
     }

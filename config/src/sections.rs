@@ -98,19 +98,13 @@ impl PrepConfig {
 }
 
 /// `[control]`: the JSON-RPC control socket.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Deserialize, PartialEq, Default)]
 #[serde(deny_unknown_fields, default)]
 pub struct ControlConfig {
     /// Path of the Unix socket. Unset: `$XDG_RUNTIME_DIR/interpd.sock`, else `/tmp/interpd.sock`.
     pub socket: Option<String>,
     /// Stop the motion when the client that started it disconnects.
     pub stop_on_disconnect: bool,
-}
-
-impl Default for ControlConfig {
-    fn default() -> Self {
-        Self { socket: None, stop_on_disconnect: false }
-    }
 }
 
 impl ControlConfig {

@@ -115,6 +115,13 @@ fn planner_section_validated() {
 }
 
 #[test]
+fn syntax_error_names_the_key() {
+    let e = err_text(&format!("[machine]\n{}", AXIS_X.replace("max_vel = 100.0", "max_vel = NaN")));
+    assert!(e.starts_with("m.toml:6:11:"), "{e}");
+    assert!(e.contains("key `max_vel`"), "{e}");
+}
+
+#[test]
 fn io_error_names_file() {
     let e = Config::load(std::path::Path::new("/nonexistent/m.toml")).unwrap_err().to_string();
     assert!(e.starts_with("/nonexistent/m.toml: cannot read configuration"), "{e}");
@@ -130,7 +137,8 @@ proptest::proptest! {
     /// Valid limits round-trip; invalid ones are rejected with the key named.
     #[test]
     fn limit_validation(vel in proptest::num::f64::ANY) {
-        let r = parse(&format!("[machine]\n{}", AXIS_X.replace("max_vel = 100.0", &format!("max_vel = {vel:?}"))));
+        let toml_value = if vel.is_nan() { "nan".to_string() } else if vel.is_infinite() { (if vel > 0.0 { "inf" } else { "-inf" }).to_string() } else { format!("{vel:?}") };
+        let r = parse(&format!("[machine]\n{}", AXIS_X.replace("max_vel = 100.0", &format!("max_vel = {toml_value}"))));
         if vel.is_finite() && vel > 0.0 {
             proptest::prop_assert!(r.is_ok());
         } else {

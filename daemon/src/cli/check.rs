@@ -13,7 +13,8 @@ pub fn run(program_path: &Path, machine: Option<&Path>) -> Result<(), CliError> 
     let program = program::load(program_path, &config)?;
     let elapsed = t0.elapsed();
     let s = &program.summary;
-    let kinds: Vec<String> = s.kinds.iter().map(|(k, n)| format!("{n} {k}{}", if *n == 1 { "" } else { "s" })).collect();
+    let kinds: Vec<String> =
+        s.kinds.iter().map(|(k, n)| format!("{n} {k}{}", if *n == 1 { "" } else { "s" })).collect();
     let elements: usize = s.kinds.values().sum();
     let corners = program.path.elements.iter().filter(|e| e.joint == interpd::path::JointKind::Corner).count();
     let mut extra = String::new();

@@ -7,7 +7,11 @@ use std::fmt;
 use std::path::PathBuf;
 
 #[derive(Debug, Parser)]
-#[command(name = "interpd", version, about = "Real-time interpolator daemon: part program in, jerk-limited axis setpoints out")]
+#[command(
+    name = "interpd",
+    version,
+    about = "Real-time interpolator daemon: part program in, jerk-limited axis setpoints out"
+)]
 pub struct Cli {
     /// More log output on stderr (-v debug, -vv trace). RUST_LOG overrides.
     #[arg(short, long, action = clap::ArgAction::Count, global = true)]
@@ -70,8 +74,10 @@ pub fn init_logging(verbose: u8) {
         1 => "debug",
         _ => "trace",
     };
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
-    let _ = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).with_target(false).try_init();
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
+    let _ =
+        tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).with_target(false).try_init();
 }
 
 pub fn run(cli: Cli) -> Result<(), CliError> {

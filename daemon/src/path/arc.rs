@@ -95,7 +95,7 @@ impl Helix {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::path::{testutil::max_fd_error, Geometry};
+    use crate::path::{Geometry, testutil::max_fd_error};
     use std::f64::consts::PI;
 
     fn helix(sweep: f64, dz: f64) -> Helix {

@@ -15,8 +15,10 @@ const MAX_DEPTH: u32 = 24;
 const MAX_NEWTON: usize = 50;
 
 // 8-point Gauss–Legendre nodes and weights on [−1, 1].
-const GL_X: [f64; 4] = [0.183_434_642_495_649_8, 0.525_532_409_916_329, 0.796_666_477_413_626_7, 0.960_289_856_497_536_2];
-const GL_W: [f64; 4] = [0.362_683_783_378_362, 0.313_706_645_877_887_3, 0.222_381_034_453_374_5, 0.101_228_536_290_376_3];
+const GL_X: [f64; 4] =
+    [0.183_434_642_495_649_8, 0.525_532_409_916_329, 0.796_666_477_413_626_7, 0.960_289_856_497_536_2];
+const GL_W: [f64; 4] =
+    [0.362_683_783_378_362, 0.313_706_645_877_887_3, 0.222_381_034_453_374_5, 0.101_228_536_290_376_3];
 
 /// ∫ₐᵇ f(u) du by 8-point Gauss–Legendre.
 pub fn gauss_legendre_8(f: &impl Fn(f64) -> f64, a: f64, b: f64) -> f64 {
@@ -100,15 +102,7 @@ impl ArcLengthTable {
     }
 }
 
-fn refine(
-    speed: &impl Fn(f64) -> f64,
-    a: f64,
-    b: f64,
-    whole: f64,
-    depth: u32,
-    u: &mut Vec<f64>,
-    s: &mut Vec<f64>,
-) {
+fn refine(speed: &impl Fn(f64) -> f64, a: f64, b: f64, whole: f64, depth: u32, u: &mut Vec<f64>, s: &mut Vec<f64>) {
     let m = 0.5 * (a + b);
     let left = gauss_legendre_8(speed, a, m);
     let right = gauss_legendre_8(speed, m, b);

@@ -35,8 +35,8 @@ pub struct AxisDerivs {
 pub enum Geometry {
     Line(Line),
     Helix(Helix),
-    Cubic(CubicSpan),
-    Septic(SepticSpan),
+    Cubic(Box<CubicSpan>),
+    Septic(Box<SepticSpan>),
 }
 
 impl Geometry {

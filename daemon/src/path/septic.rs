@@ -24,8 +24,7 @@ impl SepticSpan {
     pub fn new(a: &AxisDerivs, b: &AxisDerivs, h: f64) -> Self {
         let mut coef = [[0.0; 8]; MAX_AXES];
         let (h2, h3) = (h * h, h * h * h);
-        for k in 0..MAX_AXES {
-            let c = &mut coef[k];
+        for (k, c) in coef.iter_mut().enumerate() {
             c[0] = a.pos[k];
             c[1] = h * a.d1[k];
             c[2] = h2 * a.d2[k] / 2.0;
@@ -77,7 +76,7 @@ impl SepticSpan {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::path::{testutil::max_fd_error, Geometry};
+    use crate::path::{Geometry, testutil::max_fd_error};
 
     fn sample(s: f64) -> AxisDerivs {
         // A smooth test curve: x = sin s, y = s³/10, z = e^{s/5}
@@ -120,7 +119,7 @@ mod tests {
     #[test]
     fn derivatives_match_finite_differences() {
         let sp = SepticSpan::new(&sample(0.2), &sample(1.4), 1.2);
-        let e = max_fd_error(&Geometry::Septic(sp), 3, 40);
+        let e = max_fd_error(&Geometry::Septic(Box::new(sp)), 3, 40);
         assert!(e < 1e-6, "relative FD error {e}");
     }
 }

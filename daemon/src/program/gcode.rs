@@ -5,10 +5,10 @@
 //! ignored, since interpd interpolates motion only.
 
 use super::error::Diagnostics;
-use super::lexer::{lex_line, Line, Word};
-use super::{Summary, G06_END_MARKER};
-use crate::path::{spline::natural_tangents, AxisVec, Blend, CubicSpan, Feed, Geometry, Helix, Path, Source, MAX_AXES};
+use super::lexer::{Line, Word, lex_line};
+use super::{G06_END_MARKER, Summary};
 use crate::path::Line as LineGeom;
+use crate::path::{AxisVec, Blend, CubicSpan, Feed, Geometry, Helix, MAX_AXES, Path, Source, spline::natural_tangents};
 use interpd_config::{AxisKind, AxisLetter, Config};
 use std::f64::consts::PI;
 
@@ -236,7 +236,7 @@ impl<'a> Interpreter<'a> {
             self.modal.plane = p;
         }
         if let Some(f) = block.get('F') {
-            if !(f.value > 0.0) {
+            if f.value <= 0.0 {
                 d.error(line_no, f.col, format!("feed F must be positive, got {}", f.value));
                 return;
             }
@@ -248,7 +248,7 @@ impl<'a> Interpreter<'a> {
                 BlendWord::Exact => self.modal.blend = Blend::Exact,
                 BlendWord::Smooth => {
                     let tol = match block.get('P') {
-                        Some(p) if !(p.value > 0.0) => {
+                        Some(p) if p.value <= 0.0 => {
                             d.error(line_no, p.col, format!("G64 tolerance P must be positive, got {}", p.value));
                             return;
                         }
@@ -265,7 +265,7 @@ impl<'a> Interpreter<'a> {
                     d.error(line_no, line.end_col, "G4 dwell needs P (seconds)");
                     return;
                 }
-                Some(p) if !(p.value >= 0.0) => {
+                Some(p) if p.value < 0.0 => {
                     d.error(line_no, p.col, format!("dwell time P must not be negative, got {}", p.value));
                     return;
                 }
@@ -320,7 +320,11 @@ impl<'a> Interpreter<'a> {
                     match self.modal.feed_mm_s {
                         Some(f) => Feed::Programmed { mm_per_s: f },
                         None => {
-                            d.error(line_no, block.words[0].col, "G1 without feed: program F (mm/min) before or in this block");
+                            d.error(
+                                line_no,
+                                block.words[0].col,
+                                "G1 without feed: program F (mm/min) before or in this block",
+                            );
                             return;
                         }
                     }
@@ -329,7 +333,11 @@ impl<'a> Interpreter<'a> {
             }
             Motion::ArcCw | Motion::ArcCcw => {
                 let Some(f) = self.modal.feed_mm_s else {
-                    d.error(line_no, block.words[0].col, "arc without feed: program F (mm/min) before or in this block");
+                    d.error(
+                        line_no,
+                        block.words[0].col,
+                        "arc without feed: program F (mm/min) before or in this block",
+                    );
                     return;
                 };
                 self.arc_move(&block, target, motion == Motion::ArcCcw, Feed::Programmed { mm_per_s: f }, source, d);
@@ -416,7 +424,10 @@ impl<'a> Interpreter<'a> {
                 d.error(
                     block.line,
                     w.col,
-                    format!("{label} conflicts with G{} in the same block (same modal group)", fmt_code(prev as f64 / 10.0)),
+                    format!(
+                        "{label} conflicts with G{} in the same block (same modal group)",
+                        fmt_code(prev as f64 / 10.0)
+                    ),
                 );
                 return None;
             }
@@ -431,7 +442,11 @@ impl<'a> Interpreter<'a> {
                 2 | 30 if w.value.fract() == 0.0 => self.ended = true,
                 3..=9 if w.value.fract() == 0.0 => self.summary.ignored_words += 1,
                 _ => {
-                    d.error(block.line, w.col, format!("unsupported M-code M{} (interpd interpolates motion only)", fmt_code(w.value)));
+                    d.error(
+                        block.line,
+                        w.col,
+                        format!("unsupported M-code M{} (interpd interpolates motion only)", fmt_code(w.value)),
+                    );
                     return false;
                 }
             }
@@ -446,7 +461,11 @@ impl<'a> Interpreter<'a> {
         for w in block.words {
             let Some(letter) = AxisLetter::from_char(w.letter) else { continue };
             let Some(k) = self.config.axis_index(letter) else {
-                d.error(block.line, w.col, format!("axis {letter} is not on this machine (axes: {})", self.config.axis_names().join(" ")));
+                d.error(
+                    block.line,
+                    w.col,
+                    format!("axis {letter} is not on this machine (axes: {})", self.config.axis_names().join(" ")),
+                );
                 ok = false;
                 continue;
             };
@@ -486,7 +505,8 @@ impl<'a> Interpreter<'a> {
     /// they move.
     fn move_length(&self, a: &AxisVec, b: &AxisVec) -> f64 {
         let n = self.config.axes.len();
-        let sq = |lin: bool| (0..n).filter(|&k| self.linear[k] == lin).map(|k| (b[k] - a[k]).powi(2)).sum::<f64>().sqrt();
+        let sq =
+            |lin: bool| (0..n).filter(|&k| self.linear[k] == lin).map(|k| (b[k] - a[k]).powi(2)).sum::<f64>().sqrt();
         let l = sq(true);
         if l > MIN_MOVE_MM { l } else { sq(false) }
     }
@@ -514,7 +534,11 @@ impl<'a> Interpreter<'a> {
         let plane = self.modal.plane;
         let ((pl, pc), (ql, qc)) = plane.axes();
         let (Some(p), Some(q)) = (self.config.axis_index(pl), self.config.axis_index(ql)) else {
-            d.error(line, block.words[0].col, format!("arc in {} needs axes {pl} and {ql} on this machine", plane.name()));
+            d.error(
+                line,
+                block.words[0].col,
+                format!("arc in {} needs axes {pl} and {ql} on this machine", plane.name()),
+            );
             return;
         };
         // Offsets not belonging to the plane are errors, not silently ignored.
@@ -551,7 +575,11 @@ impl<'a> Interpreter<'a> {
                 d.error(
                     line,
                     rw.col,
-                    format!("arc radius R {} mm is smaller than half the chord ({} mm)", fmt_num(r.abs()), fmt_num(half)),
+                    format!(
+                        "arc radius R {} mm is smaller than half the chord ({} mm)",
+                        fmt_num(r.abs()),
+                        fmt_num(half)
+                    ),
                 );
                 return;
             }
@@ -624,8 +652,16 @@ impl<'a> Interpreter<'a> {
             if rel > 0.0 && rel < sweep.abs() {
                 let (pp, qq) = (c[0] + r * ang.cos(), c[1] + r * ang.sin());
                 for (k, v) in [(p, pp), (q, qq)] {
-                    if let Some(msg) = self.travel_violation(k, v) {
-                        return Some(format!("arc leaves the travel range: {msg}"));
+                    let a = &self.config.axes[k];
+                    if v < a.min_pos - ARC_RADIUS_ABS_TOL_MM || v > a.max_pos + ARC_RADIUS_ABS_TOL_MM {
+                        return Some(format!(
+                            "arc leaves the travel range of {}: it reaches {} {}, limits [{}, {}]",
+                            a.name,
+                            fmt_num(v),
+                            a.kind.unit(),
+                            a.min_pos,
+                            a.max_pos
+                        ));
                     }
                 }
             }
@@ -637,7 +673,11 @@ impl<'a> Interpreter<'a> {
         let _ = block_no;
         for w in block.words {
             if AxisLetter::from_char(w.letter).is_some() || w.letter == 'R' || w.letter == 'P' || w.letter == 'Q' {
-                d.error(block.line, w.col, "the G06 block takes only the start tangent I J K; the support points follow on the next lines");
+                d.error(
+                    block.line,
+                    w.col,
+                    "the G06 block takes only the start tangent I J K; the support points follow on the next lines",
+                );
                 return;
             }
         }
@@ -676,7 +716,8 @@ impl<'a> Interpreter<'a> {
     fn g06_span(&mut self, line: &Line, line_no: u32, d: &mut Diagnostics) {
         let unit = self.modal.unit_mm;
         let absolute = self.modal.absolute;
-        let xyz = [AxisLetter::X, AxisLetter::Y, AxisLetter::Z].map(|l| self.config.axis_index(l).expect("checked at G06"));
+        let xyz =
+            [AxisLetter::X, AxisLetter::Y, AxisLetter::Z].map(|l| self.config.axis_index(l).expect("checked at G06"));
         let block = self.g06.as_mut().expect("in G06 block");
         let words = Block { words: &line.words, line: line_no };
         let block_no = words.get('N').map_or(0, |w| w.value as u32);
@@ -703,7 +744,11 @@ impl<'a> Interpreter<'a> {
         }
         if block.start_tangent.is_none() && has_tangent {
             let w = pqr.iter().flatten().next().expect("has tangent");
-            d.error(line_no, w.col, "tangent P Q R given but the G06 block has no start tangent I J K: give both or neither");
+            d.error(
+                line_no,
+                w.col,
+                "tangent P Q R given but the G06 block has no start tangent I J K: give both or neither",
+            );
             return;
         }
         let mut target = block.point;
@@ -721,13 +766,25 @@ impl<'a> Interpreter<'a> {
                 d.error(
                     line_no,
                     col,
-                    format!("{} target {} mm is outside the travel range [{}, {}]", a.name, fmt_num(target[k]), a.min_pos, a.max_pos),
+                    format!(
+                        "{} target {} mm is outside the travel range [{}, {}]",
+                        a.name,
+                        fmt_num(target[k]),
+                        a.min_pos,
+                        a.max_pos
+                    ),
                 );
                 return;
             }
         }
         let tangent = has_tangent.then(|| pqr.map(|w| w.map_or(0.0, |w| w.value * unit)));
-        block.spans.push(SpanRecord { target, tangent, line: line_no, col: line.words.first().map_or(1, |w| w.col), block: block_no });
+        block.spans.push(SpanRecord {
+            target,
+            tangent,
+            line: line_no,
+            col: line.words.first().map_or(1, |w| w.col),
+            block: block_no,
+        });
         block.point = target;
     }
 
@@ -737,7 +794,11 @@ impl<'a> Interpreter<'a> {
             return; // already reported at the span
         }
         if block.spans.is_empty() {
-            d.error(block.line, block.col, "unterminated G06 block: no spline spans ('X.. Y.. Z.. P.. Q.. R..;') follow");
+            d.error(
+                block.line,
+                block.col,
+                "unterminated G06 block: no spline spans ('X.. Y.. Z.. P.. Q.. R..;') follow",
+            );
             return;
         }
         let xyz = [AxisLetter::X, AxisLetter::Y, AxisLetter::Z].map(|l| self.config.axis_index(l).expect("checked"));
@@ -776,9 +837,13 @@ impl<'a> Interpreter<'a> {
             match CubicSpan::hermite(a, b, &tangents[j], &tangents[j + 1], &self.linear[..nax]) {
                 Ok(c) => {
                     let source = Source { line: span.line, block: span.block };
-                    self.push(Geometry::Cubic(c), block.feed, source);
+                    self.push(Geometry::Cubic(Box::new(c)), block.feed, source);
                 }
-                Err(_) => d.error(span.line, span.col, "degenerate G06 span: the curve stops or turns back (its tangent vanishes)"),
+                Err(_) => d.error(
+                    span.line,
+                    span.col,
+                    "degenerate G06 span: the curve stops or turns back (its tangent vanishes)",
+                ),
             }
         }
         self.modal.pos = *points.last().expect("n ≥ 2");

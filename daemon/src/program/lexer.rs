@@ -55,7 +55,9 @@ pub fn lex_line(text: &str) -> Result<Line, LexError> {
         match c {
             '(' => match chars[i..].iter().position(|&c| c == ')') {
                 Some(off) => i += off + 1,
-                None => return Err(LexError { col, message: "comment '(' is not closed with ')' on this line".into() }),
+                None => {
+                    return Err(LexError { col, message: "comment '(' is not closed with ')' on this line".into() });
+                }
             },
             ';' => {
                 line.semicolon_col = Some(col);

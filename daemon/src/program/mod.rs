@@ -6,9 +6,9 @@ mod gcode;
 mod lexer;
 mod table;
 
-pub use error::{ProgramError, ProgramErrors, MAX_ERRORS};
+pub use error::{MAX_ERRORS, ProgramError, ProgramErrors};
 pub(crate) use gcode::fmt_num;
-pub use lexer::{lex_line, Word};
+pub use lexer::{Word, lex_line};
 
 use crate::path::Path;
 use error::Diagnostics;
@@ -90,7 +90,12 @@ pub fn load(path: &std::path::Path, config: &Config) -> Result<Program, ProgramE
                 }]))
             }
         },
-        Err(e) => Err(ProgramErrors(vec![ProgramError { file: origin, line: 0, col: 0, message: format!("cannot read: {e}") }])),
+        Err(e) => Err(ProgramErrors(vec![ProgramError {
+            file: origin,
+            line: 0,
+            col: 0,
+            message: format!("cannot read: {e}"),
+        }])),
     }
 }
 

@@ -10,8 +10,8 @@
 //! derivatives mark a corner. Lines starting with `#` are comments.
 
 use super::error::Diagnostics;
-use super::{fmt_num, Program, Summary};
-use crate::path::{AxisDerivs, Blend, Feed, Geometry, Path, SepticSpan, Source, MAX_AXES};
+use super::{Program, Summary, fmt_num};
+use crate::path::{AxisDerivs, Blend, Feed, Geometry, MAX_AXES, Path, SepticSpan, Source};
 use interpd_config::{AxisLetter, Config};
 
 /// Rows closer in s than this are the same sample (a corner if their derivatives differ).
@@ -84,7 +84,14 @@ pub(crate) fn parse_table(text: &str, config: &Config, d: &mut Diagnostics) -> P
                 d.error(
                     line_no,
                     fields[1 + 4 * j].1,
-                    format!("{} position {} {} is outside the travel range [{}, {}]", a.name, fmt_num(row.pos[k]), a.kind.unit(), a.min_pos, a.max_pos),
+                    format!(
+                        "{} position {} {} is outside the travel range [{}, {}]",
+                        a.name,
+                        fmt_num(row.pos[k]),
+                        a.kind.unit(),
+                        a.min_pos,
+                        a.max_pos
+                    ),
                 );
                 bad = true;
             }
@@ -105,13 +112,23 @@ pub(crate) fn parse_table(text: &str, config: &Config, d: &mut Diagnostics) -> P
                 if h <= SAME_S_TOL {
                     let jump = axes.iter().map(|&k| (row.pos[k] - prow.pos[k]).abs()).fold(0.0, f64::max);
                     if jump > CORNER_POS_TOL {
-                        d.error(line_no, fields[0].1, "two rows at the same s must have the same position (a corner repeats the point)");
+                        d.error(
+                            line_no,
+                            fields[0].1,
+                            "two rows at the same s must have the same position (a corner repeats the point)",
+                        );
                         continue;
                     }
                 } else {
                     let span = SepticSpan::new(&prow, &row, h);
                     *summary.kinds.entry("table").or_insert(0) += 1;
-                    path.push(Geometry::Septic(span), feed, Source { line: line_no, block: 0 }, 0.0, Blend::Exact);
+                    path.push(
+                        Geometry::Septic(Box::new(span)),
+                        feed,
+                        Source { line: line_no, block: 0 },
+                        0.0,
+                        Blend::Exact,
+                    );
                 }
             }
         }
@@ -156,7 +173,11 @@ fn parse_header(fields: &[(&str, u32)], config: &Config, line_no: u32, d: &mut D
             return None;
         };
         let Some(k) = config.axis_index(letter) else {
-            d.error(line_no, chunk[0].1, format!("axis {letter} is not on this machine (axes: {})", config.axis_names().join(" ")));
+            d.error(
+                line_no,
+                chunk[0].1,
+                format!("axis {letter} is not on this machine (axes: {})", config.axis_names().join(" ")),
+            );
             return None;
         };
         if axes.contains(&k) {

@@ -142,7 +142,8 @@ fn error_positions() {
 
 #[test]
 fn path_table_rows_and_corner() {
-    let text = "s,X,X',X'',X''',Y,Y',Y'',Y'''\n0,0,1,0,0,0,0,0,0\n1,1,1,0,0,0,0,0,0\n1,1,0,0,0,0,1,0,0\n2,1,0,0,0,1,1,0,0\n";
+    let text =
+        "s,X,X',X'',X''',Y,Y',Y'',Y'''\n0,0,1,0,0,0,0,0,0\n1,1,1,0,0,0,0,0,0\n1,1,0,0,0,0,1,0,0\n2,1,0,0,0,1,1,0,0\n";
     let p = parse(text, "t.csv", &xyz()).unwrap();
     assert_eq!(p.path.elements.len(), 2);
     assert_eq!(p.path.elements[1].joint, JointKind::Corner);

@@ -25,6 +25,11 @@ pub struct PlannerConfig {
     pub limit_fraction: f64,
     /// Feed for G0 rapid moves, mm/s; the axis limits cap it. Unset: the axis limits alone.
     pub rapid_feed_mm_s: Option<f64>,
+    /// At a curvature jump (G¹ joint without G², e.g. line into arc) the axis acceleration
+    /// steps by ΔA″·v². The speed there is capped so the step is what the jerk limit moves in
+    /// this time, ms. The default keeps sampled jerk within the limit down to 0.1 ms sampling;
+    /// smoothing (G64) removes the jump instead.
+    pub curvature_jump_ms: f64,
 }
 
 impl Default for PlannerConfig {
@@ -35,9 +40,10 @@ impl Default for PlannerConfig {
             max_step_mm: 2.0,
             min_step_mm: 1e-4,
             max_turn_deg: 2.0,
-            max_interval_ms: 4.0,
+            max_interval_ms: 2.0,
             limit_fraction: 0.995,
             rapid_feed_mm_s: None,
+            curvature_jump_ms: 0.002,
         }
     }
 }
@@ -58,6 +64,7 @@ impl PlannerConfig {
         v.in_range("planner.max_turn_deg", self.max_turn_deg, 0.01, 30.0)?;
         v.in_range("planner.max_interval_ms", self.max_interval_ms, 0.1, 1000.0)?;
         v.in_range("planner.limit_fraction", self.limit_fraction, 0.5, 1.0)?;
+        v.in_range("planner.curvature_jump_ms", self.curvature_jump_ms, 0.0, 100.0)?;
         if let Some(f) = self.rapid_feed_mm_s {
             v.positive("planner.rapid_feed_mm_s", f)?;
         }

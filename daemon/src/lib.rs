@@ -5,6 +5,7 @@
 //! interpolation every cycle) → sinks (shared memory, CAN) → drives / sim-plant.
 
 pub mod path;
+pub mod planner;
 pub mod program;
 
 pub use interpd_config as config;

@@ -1,6 +1,7 @@
 //! Subcommands of `interpd`.
 
 mod check;
+mod plan;
 
 use clap::{Parser, Subcommand};
 use std::fmt;
@@ -30,6 +31,8 @@ pub enum Command {
         #[arg(long)]
         machine: Option<PathBuf>,
     },
+    /// Plan a program offline and sample the motion in simulated time (CSV and/or JSON).
+    Plan(plan::PlanArgs),
 }
 
 /// A failed command: bad input (exit 2) or anything else (exit 1).
@@ -83,5 +86,6 @@ pub fn init_logging(verbose: u8) {
 pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Check { program, machine } => check::run(&program, machine.as_deref()),
+        Command::Plan(args) => plan::run(&args),
     }
 }

@@ -1,0 +1,174 @@
+//! `interpd plan PROGRAM [--machine FILE] [--period-ms P] [--out FILE.csv] [--json]`:
+//! parse, plan online with the configured look-ahead, and sample the motion in simulated time
+//! along the exact geometry.
+
+use super::CliError;
+use interpd::config::Config;
+use interpd::path::{AxisDerivs, Path};
+use interpd::planner::profile::{Cursor, duration_s};
+use interpd::planner::{Planner, Segment};
+use interpd::program;
+use std::io::{BufWriter, Write};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Options of `interpd plan`.
+#[derive(Debug, clap::Args)]
+pub struct PlanArgs {
+    /// Program file (G-code, or a path table .csv).
+    pub program: PathBuf,
+    /// Machine configuration (TOML); default: the embedded 3-axis machine.
+    #[arg(long)]
+    pub machine: Option<PathBuf>,
+    /// Sampling period of the output, ms (default: the machine's cycle; ≥ 0.01).
+    #[arg(long)]
+    pub period_ms: Option<f64>,
+    /// Write the sampled motion as CSV: t,s,v,a,j,<axis positions>.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print one JSON object with the figures on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Override the configured look-ahead, mm (`inf` plans the whole program at once).
+    #[arg(long)]
+    pub lookahead_mm: Option<f64>,
+}
+
+/// Largest |value| / limit per quantity over all axes and samples.
+#[derive(Debug, Default, Clone, Copy)]
+struct Ratios {
+    vel: f64,
+    acc: f64,
+    jerk: f64,
+}
+
+pub fn run(args: &PlanArgs) -> Result<(), CliError> {
+    let mut config = Config::load_or_default(args.machine.as_deref())?;
+    if let Some(l) = args.lookahead_mm {
+        if l.is_nan() || l <= 0.0 {
+            return Err(CliError::BadInput(format!("--lookahead-mm must be positive, got {l}")));
+        }
+        config.planner.lookahead_mm = l;
+    }
+    let period_s = match args.period_ms {
+        Some(p) if p.is_finite() && p >= 0.01 => p * 1e-3,
+        Some(p) => return Err(CliError::BadInput(format!("--period-ms must be a number ≥ 0.01, got {p}"))),
+        None => config.cycle_s(),
+    };
+    let program = program::load(&args.program, &config)?;
+    let path = &program.path;
+    if path.elements.is_empty() {
+        return Err(CliError::BadInput(format!("{}: the program has no motion", args.program.display())));
+    }
+
+    let t0 = Instant::now();
+    let (segments, planner) = plan_online(&config, path)?;
+    let plan_s = t0.elapsed().as_secs_f64();
+    let stats = planner.stats;
+
+    let duration = duration_s(&segments);
+    let mut out: Option<BufWriter<std::fs::File>> = match &args.out {
+        Some(p) => Some(BufWriter::new(
+            std::fs::File::create(p).map_err(|e| CliError::Failure(format!("{}: cannot create: {e}", p.display())))?,
+        )),
+        None => None,
+    };
+    let write_err = |e: std::io::Error| CliError::Failure(format!("cannot write output: {e}"));
+    if let Some(w) = out.as_mut() {
+        write!(w, "t,s,v,a,j").map_err(write_err)?;
+        for name in &path.axis_names {
+            write!(w, ",{name}").map_err(write_err)?;
+        }
+        writeln!(w).map_err(write_err)?;
+    }
+    let lim = planner.limits();
+    let n = path.n_axes;
+    let mut ratios = Ratios::default();
+    let mut cursor = Cursor::default();
+    let mut d = AxisDerivs::default();
+    let samples = (duration / period_s).ceil() as u64 + 1;
+    for k in 0..samples {
+        let t = (k as f64 * period_s).min(duration);
+        let Some((st, _line)) = cursor.at(&segments, t) else { break };
+        path.eval(st.s_mm, &mut d);
+        for i in 0..n {
+            let vel = d.d1[i] * st.v;
+            let acc = d.d2[i] * st.v * st.v + d.d1[i] * st.a;
+            let jerk = d.d3[i] * st.v.powi(3) + 3.0 * d.d2[i] * st.v * st.a + d.d1[i] * st.j;
+            ratios.vel = ratios.vel.max(vel.abs() / lim.configured_vel[i]);
+            ratios.acc = ratios.acc.max(acc.abs() / lim.configured_acc[i]);
+            ratios.jerk = ratios.jerk.max(jerk.abs() / lim.configured_jerk[i]);
+        }
+        if let Some(w) = out.as_mut() {
+            write!(w, "{},{},{},{},{}", t, st.s_mm, st.v, st.a, st.j).map_err(write_err)?;
+            for p in &d.pos[..n] {
+                write!(w, ",{p}").map_err(write_err)?;
+            }
+            writeln!(w).map_err(write_err)?;
+        }
+    }
+    if let Some(mut w) = out {
+        w.flush().map_err(write_err)?;
+    }
+    if !ratios.vel.is_finite() || !ratios.acc.is_finite() || !ratios.jerk.is_finite() || !duration.is_finite() {
+        return Err(CliError::Failure("internal error: the planned motion is not finite".into()));
+    }
+
+    let mut stdout = std::io::stdout().lock();
+    let evals_per_node = stats.work.evals as f64 / stats.nodes.max(1) as f64;
+    if args.json {
+        let json = serde_json::json!({
+            "program": args.program.display().to_string(),
+            "duration_s": duration,
+            "plan_ms": plan_s * 1e3,
+            "samples": samples,
+            "period_ms": period_s * 1e3,
+            "axes": path.axis_names,
+            "max_ratio": { "vel": ratios.vel, "acc": ratios.acc, "jerk": ratios.jerk },
+            "length_mm": path.length_mm(),
+            "nodes": stats.nodes,
+            "segments": segments.len(),
+            "nodes_per_s": stats.nodes as f64 / plan_s.max(1e-12),
+            "evals_per_node": evals_per_node,
+            "joins": stats.work.joins,
+            "repairs": stats.work.repairs,
+            "lookahead_mm": config.planner.lookahead_mm,
+        });
+        writeln!(stdout, "{json}").map_err(write_err)?;
+    } else {
+        writeln!(
+            stdout,
+            "{}: {:.4} s motion over {:.3} mm, planned in {:.2} ms ({} nodes, {:.1} evaluations per node); \
+             max |value|/limit: vel {:.4}, acc {:.4}, jerk {:.4}{}",
+            args.program.display(),
+            duration,
+            path.length_mm(),
+            plan_s * 1e3,
+            stats.nodes,
+            evals_per_node,
+            ratios.vel,
+            ratios.acc,
+            ratios.jerk,
+            args.out.as_ref().map_or(String::new(), |p| format!("; {samples} samples in {}", p.display()))
+        )
+        .map_err(write_err)?;
+    }
+    Ok(())
+}
+
+/// Plans the path the way the daemon does: elements pushed one by one, planned online.
+fn plan_online(config: &Config, path: &Path) -> Result<(Vec<Segment>, Planner), CliError> {
+    let mut planner = Planner::new(config);
+    let mut segments = Vec::new();
+    let bad = |e: interpd::planner::PlanError| CliError::BadInput(e.to_string());
+    for e in &path.elements {
+        planner.push(e.clone());
+        segments.extend(planner.plan().map_err(bad)?);
+    }
+    planner.finish(path.final_dwell_s);
+    segments.extend(planner.plan().map_err(bad)?);
+    if !planner.done() {
+        return Err(CliError::Failure("internal error: the planner did not finish the program".into()));
+    }
+    Ok((segments, planner))
+}

@@ -1,0 +1,197 @@
+//! Branches (seed 001 §3, Fig. 3): the greedy step shared by forward and backward branches,
+//! the backward branches from the section ends, and the envelope they form.
+//!
+//! Every step picks the largest feasible next velocity (α = 1 in seed 001's terms) that is
+//! also viable (see `ramp`); when the greedy choice is not viable, a bisection between it and
+//! the braking ramp's own next state (viable whenever the current state is) finds the largest
+//! viable one. No step ever goes back, so the work per node is bounded.
+
+use super::check::{VIOLATION_TOL, violation};
+use super::envelope::{CurveStart, END_CURVE, Envelope};
+use super::interval::Interval;
+use super::limits::Limits;
+use super::node::Node;
+use super::ramp::{Ceiling, FlattenUnder, ramp, ramp_interval};
+use super::step::{Work, evaluate, max_feasible};
+use super::view::View;
+
+/// Bisection steps when the greedy choice is not viable.
+const VIABLE_SEARCH_ITERS: usize = 40;
+/// Relative bracket width at which the viable search stops.
+const VIABLE_SEARCH_REL_TOL: f64 = 1e-9;
+/// Backward branches brake with this share of the jerk the axes allow, the forward branch
+/// with all of it: where the forward branch crosses a backward branch its braking is the
+/// steeper, which leaves jerk for the exact join.
+pub const BACKWARD_JERK_FRACTION: f64 = 0.95;
+/// Start velocity factors tried when a backward branch cannot leave its section end at v̄
+/// (seed 001: "a section whose transition speed is not reached must be recomputed").
+const BACKWARD_START_FACTORS: [f64; 6] = [1.0, 0.95, 0.8, 0.5, 0.2, 0.0];
+
+/// A block could not be planned from some node on: where, and why.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Stuck {
+    /// Node index (within the block) where no step was possible.
+    pub node: usize,
+    pub reason: &'static str,
+}
+
+/// The largest feasible and viable step from (v, a) at traversal position `t`.
+#[allow(clippy::too_many_arguments)]
+pub fn greedy_step(
+    view: &View,
+    t: usize,
+    v: f64,
+    a: f64,
+    v_max: f64,
+    ceiling: &impl Ceiling,
+    lim: &Limits,
+    work: &mut Work,
+) -> Option<Interval> {
+    let g = view.interval_geom(t);
+    let Some(cand) = max_feasible(v, a, v_max, &g, lim, work) else {
+        tracing::trace!(t, v, a, v_max, "no feasible next velocity");
+        return None;
+    };
+    if ramp(view, t + 1, cand.v1(), cand.a1(), lim, ceiling, work).is_safe() {
+        return Some(cand);
+    }
+    let viable = |iv: &Interval, work: &mut Work| ramp(view, t + 1, iv.v1(), iv.a1(), lim, ceiling, work).is_safe();
+    // The braking ramp's own next state: viable whenever the current state is.
+    let anchor = ramp_interval(view, t, v, a, lim)
+        .filter(|iv| iv.v1() <= v_max * (1.0 + 1e-12) && violation(iv, &g, lim) <= VIOLATION_TOL)
+        .filter(|iv| viable(iv, work));
+    let (mut best, mut lo) = match anchor {
+        Some(iv) => (iv, iv.v1()),
+        None => {
+            // Lower velocities, down to tiny ones, before giving up.
+            let fracs = [0.999, 0.99, 0.95, 0.9, 0.7, 0.5].into_iter();
+            let halvings = std::iter::successors(Some(0.25), |f| (*f > 1e-15).then_some(f * 0.5));
+            let mut found = None;
+            for frac in fracs.chain(halvings) {
+                let x = frac * cand.v1();
+                if let Some((iv, f)) = evaluate(v, a, x, &g, lim, work) {
+                    if f <= VIOLATION_TOL && viable(&iv, work) {
+                        found = Some((iv, x));
+                        break;
+                    }
+                }
+            }
+            let Some(found) = found else {
+                tracing::trace!(t, v, a, v_max, "no viable next velocity");
+                return None;
+            };
+            found
+        }
+    };
+    let mut hi = cand.v1();
+    for _ in 0..VIABLE_SEARCH_ITERS {
+        if hi - lo <= VIABLE_SEARCH_REL_TOL * hi.max(1e-12) {
+            break;
+        }
+        let x = 0.5 * (lo + hi);
+        match evaluate(v, a, x, &g, lim, work).filter(|(iv, f)| *f <= VIOLATION_TOL && viable(iv, work)) {
+            Some((iv, _)) => {
+                best = iv;
+                lo = x;
+            }
+            None => hi = x,
+        }
+    }
+    Some(best)
+}
+
+/// One node of a backward branch: the node index, its state (forward acceleration) and the
+/// forward interval from it to the next node.
+pub type BranchNode = (usize, f64, f64, Interval);
+
+/// A backward branch from node `m` with state (`v_start`, forward acceleration `a_start`),
+/// running under v̄ capped at `cap`, leftwards until it has flattened, reaches node `stop`
+/// (exclusive), or meets a node where `lower(i, v)` says the ceiling is already lower.
+/// `None` if it gets stuck.
+#[allow(clippy::too_many_arguments)]
+pub fn backward_branch(
+    nodes: &[Node],
+    m: usize,
+    v_start: f64,
+    a_start: f64,
+    cap: f64,
+    stop: usize,
+    lower: impl Fn(usize, f64) -> bool,
+    lim: &Limits,
+    work: &mut Work,
+) -> Option<Vec<BranchNode>> {
+    let view = View::backward(nodes);
+    let ceiling = FlattenUnder { view, cap };
+    let mut lim_b = lim.clone();
+    for j in lim_b.jerk.iter_mut() {
+        *j *= BACKWARD_JERK_FRACTION;
+    }
+    let mut out = Vec::new();
+    let (mut v, mut a) = (v_start, -a_start);
+    let mut t = view.position(m);
+    while view.index(t) > stop + 1 {
+        let i_next = view.index(t + 1);
+        let v_max = nodes[i_next].vbar_mm_s.min(cap);
+        let Some(iv) = greedy_step(&view, t, v, a, v_max, &ceiling, &lim_b, work) else {
+            tracing::trace!(from = m, node = i_next, v, a, v_max, "backward branch stuck");
+            return None;
+        };
+        let (v1, a1) = (iv.v1(), iv.a1());
+        if lower(i_next, v1) {
+            break;
+        }
+        out.push((i_next, v1, -a1, iv.reversed()));
+        v = v1;
+        a = a1;
+        t += 1;
+        if a1 <= 0.0 {
+            break; // flattened under the ceiling
+        }
+    }
+    Some(out)
+}
+
+/// The backward branches of a block: from the block end (at rest) and from every local
+/// minimum of v̄ (seed 001 §3.1), right to left.
+pub fn build_envelope(nodes: &[Node], lim: &Limits, work: &mut Work) -> Result<Envelope, Stuck> {
+    let n = nodes.len();
+    let mut env = Envelope::from_vbar(nodes.iter().map(|nd| nd.vbar_mm_s));
+    env.v[n - 1] = 0.0;
+    let mut starts: Vec<usize> = (1..n.saturating_sub(1))
+        .filter(|&i| nodes[i].vbar_mm_s < nodes[i - 1].vbar_mm_s && nodes[i].vbar_mm_s <= nodes[i + 1].vbar_mm_s)
+        .collect();
+    starts.push(n - 1);
+    for &m in starts.iter().rev() {
+        if m != n - 1 && (env.on_curve(m) || env.v[m] < nodes[m].vbar_mm_s) {
+            continue; // a branch from further on already lies lower here
+        }
+        let id = env.starts.len() as u32;
+        debug_assert!(m != n - 1 || id == END_CURVE);
+        let mut built = None;
+        for factor in BACKWARD_START_FACTORS {
+            let v_start = if m == n - 1 { 0.0 } else { factor * nodes[m].vbar_mm_s };
+            let lower = |i: usize, v: f64| env.on_curve(i) || v >= env.v[i] * (1.0 - 1e-12);
+            if let Some(b) = backward_branch(nodes, m, v_start, 0.0, f64::INFINITY, 0, lower, lim, work) {
+                built = Some((v_start, b));
+                break;
+            }
+            if m == n - 1 {
+                break;
+            }
+        }
+        let Some((v_start, branch)) = built else {
+            return Err(Stuck { node: m, reason: "no backward branch leaves this section end" });
+        };
+        env.starts.push(CurveStart { node: m, v: v_start, a: 0.0 });
+        env.v[m] = v_start;
+        env.a[m] = 0.0;
+        env.curve[m] = id;
+        for (i, v, a, iv) in branch {
+            env.v[i] = v;
+            env.a[i] = a;
+            env.curve[i] = id;
+            env.iv[i] = iv;
+        }
+    }
+    Ok(env)
+}

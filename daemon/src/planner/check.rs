@@ -1,0 +1,200 @@
+//! Axis limits along an interval: seed 001 eq. 1a–1c evaluated at the nodes (with the
+//! interval's own jerk on both ends, since jerk jumps at nodes) and at interior points, so the
+//! continuous motion keeps the limits and not only the samples.
+//!
+//! Between the nodes the geometry is interpolated from the node data: A′ and A″ by cubic
+//! Hermite (their derivatives A″, A‴ are known at both ends), A‴ linearly. The sampling keeps
+//! intervals short enough that this is accurate to well inside the limit headroom.
+
+use super::interval::Interval;
+use super::limits::Limits;
+use super::node::NodeGeom;
+
+/// Violations up to this (relative to the limit) are rounding, not a breach: the limits the
+/// planner works with already keep `planner.limit_fraction` of headroom.
+pub const VIOLATION_TOL: f64 = 1e-12;
+
+/// Points inside an interval (fractions of its duration) where the limits are checked.
+pub const CHECK_FRACTIONS: [f64; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
+
+/// The geometry of one interval in traversal order. `sign` is −1 for branches computed
+/// backwards from the end: reversing the path flips A′ and A‴ and keeps A″.
+#[derive(Clone, Copy)]
+pub struct IntervalGeom<'a> {
+    pub start: &'a NodeGeom,
+    pub end: &'a NodeGeom,
+    pub ds_mm: f64,
+    pub sign: f64,
+}
+
+/// Geometry interpolated at fraction σ of the interval's length.
+#[inline]
+pub fn geom_at(g: &IntervalGeom, sigma: f64, k: usize) -> (f64, f64, f64) {
+    let (s2, s3) = (sigma * sigma, sigma * sigma * sigma);
+    let h00 = 2.0 * s3 - 3.0 * s2 + 1.0;
+    let h10 = s3 - 2.0 * s2 + sigma;
+    let h01 = -2.0 * s3 + 3.0 * s2;
+    let h11 = s3 - s2;
+    let (a, b, sg, ds) = (g.start, g.end, g.sign, g.ds_mm);
+    let d1 = sg * (h00 * a.d1[k] + h01 * b.d1[k]) + ds * (h10 * a.d2[k] + h11 * b.d2[k]);
+    let d2 = h00 * a.d2[k] + h01 * b.d2[k] + sg * ds * (h10 * a.d3[k] + h11 * b.d3[k]);
+    let d3 = sg * ((1.0 - sigma) * a.d3[k] + sigma * b.d3[k]);
+    (d1, d2, d3)
+}
+
+/// Interior points (fractions of the length) where the velocity bound is evaluated.
+pub const VBAR_FRACTIONS: [f64; 3] = [0.25, 0.5, 0.75];
+
+/// The lowest velocity bound v̄ inside an interval (seed 001 eq. 6 on the interpolated
+/// geometry): a minimum of v̄ between two nodes must lower the nodes' bounds, or a branch
+/// starting there at v̄ with a = 0 would break a limit a little further on.
+pub fn interior_vbar(g: &IntervalGeom, lim: &Limits) -> f64 {
+    let mut v = f64::INFINITY;
+    for &sigma in &VBAR_FRACTIONS {
+        let mut ng = NodeGeom::default();
+        for k in 0..lim.n_axes {
+            let (d1, d2, d3) = geom_at(g, sigma, k);
+            ng.d1[k] = d1;
+            ng.d2[k] = d2;
+            ng.d3[k] = d3;
+        }
+        v = v.min(super::node::velocity_bound(&ng, lim));
+    }
+    v
+}
+
+/// Largest normalised limit use minus one over all axes, limits and check points:
+/// ≤ 0 means the interval keeps every limit. (value / limit − 1, per limit.)
+pub fn violation(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> f64 {
+    let mut worst = f64::NEG_INFINITY;
+    for &f in &CHECK_FRACTIONS {
+        let tau = f * iv.t_s;
+        let (s, v, a) = iv.state_at(tau);
+        let sigma = if f == 0.0 {
+            0.0
+        } else if f == 1.0 {
+            1.0
+        } else {
+            (s / g.ds_mm).clamp(0.0, 1.0)
+        };
+        worst = worst.max(point_violation(g, sigma, v, a, iv.j, lim));
+    }
+    worst
+}
+
+/// Normalised limit use minus one at one point with state (v, a) and jerk j.
+#[inline]
+pub fn point_violation(g: &IntervalGeom, sigma: f64, v: f64, a: f64, j: f64, lim: &Limits) -> f64 {
+    let mut worst = f64::NEG_INFINITY;
+    let (v2, v3) = (v * v, v * v * v);
+    for k in 0..lim.n_axes {
+        let (d1, d2, d3) = if sigma == 0.0 {
+            (g.sign * g.start.d1[k], g.start.d2[k], g.sign * g.start.d3[k])
+        } else if sigma == 1.0 {
+            (g.sign * g.end.d1[k], g.end.d2[k], g.sign * g.end.d3[k])
+        } else {
+            geom_at(g, sigma, k)
+        };
+        let vel = d1 * v; // seed 001 eq. 1a
+        let acc = d2 * v2 + d1 * a; // eq. 1b
+        let jerk = d3 * v3 + 3.0 * d2 * v * a + d1 * j; // eq. 1c
+        let r_vel = vel.abs() / lim.vel[k];
+        let r_acc = if acc >= 0.0 { acc / lim.acc_max[k] } else { acc / lim.acc_min[k] };
+        let r_jerk = jerk.abs() / lim.jerk[k];
+        worst = worst.max(r_vel.max(r_acc).max(r_jerk) - 1.0);
+    }
+    worst
+}
+
+/// The path jerks j allowed at a point with geometry `g` (traversal orientation `sign`) and
+/// state (v, a): the intersection over the axes of |A‴v³ + 3A″va + A′j| ≤ J (eq. 1c).
+/// Returns (lo, hi); lo > hi means no jerk keeps every axis inside.
+pub fn jerk_range(g: &NodeGeom, sign: f64, v: f64, a: f64, lim: &Limits) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
+    for k in 0..lim.n_axes {
+        let d1 = sign * g.d1[k];
+        let c = sign * g.d3[k] * v * v * v + 3.0 * g.d2[k] * v * a;
+        let jl = lim.jerk[k];
+        if d1.abs() <= f64::MIN_POSITIVE {
+            if c.abs() > jl {
+                return (1.0, -1.0);
+            }
+            continue;
+        }
+        let (x, y) = ((-jl - c) / d1, (jl - c) / d1);
+        lo = lo.max(x.min(y));
+        hi = hi.min(x.max(y));
+    }
+    (lo, hi)
+}
+
+/// The path accelerations allowed at velocity v: A_min ≤ A″v² + A′a ≤ A_max per axis (eq. 1b).
+pub fn acc_range(g: &NodeGeom, sign: f64, v: f64, lim: &Limits) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
+    for k in 0..lim.n_axes {
+        let d1 = sign * g.d1[k];
+        let c = g.d2[k] * v * v;
+        if d1.abs() <= f64::MIN_POSITIVE {
+            if c > lim.acc_max[k] || c < lim.acc_min[k] {
+                return (1.0, -1.0);
+            }
+            continue;
+        }
+        let (x, y) = ((lim.acc_min[k] - c) / d1, (lim.acc_max[k] - c) / d1);
+        lo = lo.max(x.min(y));
+        hi = hi.min(x.max(y));
+    }
+    (lo, hi)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::path::{AxisVec, MAX_AXES};
+
+    fn lim() -> Limits {
+        let mut l = Limits {
+            n_axes: 2,
+            vel: [f64::INFINITY; MAX_AXES],
+            acc_max: [f64::INFINITY; MAX_AXES],
+            acc_min: [f64::NEG_INFINITY; MAX_AXES],
+            jerk: [f64::INFINITY; MAX_AXES],
+            configured_vel: [1.0; MAX_AXES],
+            configured_acc: [1.0; MAX_AXES],
+            configured_jerk: [1.0; MAX_AXES],
+        };
+        for k in 0..2 {
+            l.vel[k] = 100.0;
+            l.acc_max[k] = 1000.0;
+            l.acc_min[k] = -1000.0;
+            l.jerk[k] = 10000.0;
+        }
+        l
+    }
+
+    fn line_geom() -> NodeGeom {
+        let mut d1: AxisVec = [0.0; MAX_AXES];
+        d1[0] = 0.6;
+        d1[1] = 0.8;
+        NodeGeom { d1, ..NodeGeom::default() }
+    }
+
+    #[test]
+    fn line_velocity_limit() {
+        let g = line_geom();
+        let ig = IntervalGeom { start: &g, end: &g, ds_mm: 1.0, sign: 1.0 };
+        // 0.8·v ≤ 100 → v ≤ 125
+        let ok = Interval::through(124.0, 0.0, 1.0, 124.0).unwrap();
+        assert!(violation(&ok, &ig, &lim()) <= 0.0);
+        let bad = Interval::through(126.0, 0.0, 1.0, 126.0).unwrap();
+        assert!(violation(&bad, &ig, &lim()) > 0.0);
+    }
+
+    #[test]
+    fn jerk_range_on_a_line() {
+        let (lo, hi) = jerk_range(&line_geom(), 1.0, 50.0, 0.0, &lim());
+        assert!((hi - 12500.0).abs() < 1e-9 && (lo + 12500.0).abs() < 1e-9);
+        let (lo, hi) = acc_range(&line_geom(), -1.0, 50.0, &lim());
+        assert!((hi - 1250.0).abs() < 1e-9 && (lo + 1250.0).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,201 @@
+//! One interval of the path-velocity profile: constant path jerk j between two nodes
+//! (seed 001 eq. 2), parameterised by the velocity at its end (eq. 3).
+
+/// Relative tolerance when solving s(T) = Δs for T.
+const TIME_SOLVE_REL_TOL: f64 = 1e-13;
+/// Newton steps before the solve for T gives up (it converges in a handful).
+const TIME_SOLVE_MAX_ITER: usize = 100;
+
+/// A constant-jerk piece: starts with velocity `v0` and acceleration `a0`, applies jerk `j`
+/// for `t_s` seconds and covers `ds_mm` of path.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Interval {
+    pub v0: f64,
+    pub a0: f64,
+    pub j: f64,
+    pub t_s: f64,
+    pub ds_mm: f64,
+}
+
+impl Interval {
+    /// Forward branch of seed 001 eq. 3: from (v0, a0) over `ds` ending with velocity `v1`.
+    /// T uses the cancellation-free form 6Δs / [(2v₀ + v₁) + √((2v₀ + v₁)² + 6a₀Δs)], which
+    /// also covers a₀ = 0. `None` when v₁ cannot be reached (negative discriminant), the
+    /// duration is not positive and finite, or the velocity would turn negative inside.
+    pub fn through(v0: f64, a0: f64, ds: f64, v1: f64) -> Option<Interval> {
+        let q = 2.0 * v0 + v1;
+        let disc = q * q + 6.0 * a0 * ds; // seed 001 eq. 3, discriminant
+        if disc.is_nan() || disc < 0.0 {
+            return None;
+        }
+        let den = q + disc.sqrt();
+        if den.is_nan() || den <= 0.0 {
+            return None;
+        }
+        let t = 6.0 * ds / den; // seed 001 eq. 3, cancellation-free T
+        if t.is_nan() || t <= 0.0 || t.is_infinite() {
+            return None;
+        }
+        let j = 2.0 * (v1 - v0 - a0 * t) / (t * t); // seed 001 eq. 3, j_p
+        let iv = Interval { v0, a0, j, t_s: t, ds_mm: ds };
+        iv.velocity_stays_non_negative().then_some(iv)
+    }
+
+    /// The interval from (v0, a0) with constant jerk `j` over `ds`. `None` if the motion comes
+    /// to rest before covering `ds`.
+    pub fn with_jerk(v0: f64, a0: f64, ds: f64, j: f64) -> Option<Interval> {
+        // Time at which v would reach zero, if it does.
+        let t_stop = first_positive_root(0.5 * j, a0, v0);
+        let s_at = |t: f64| v0 * t + 0.5 * a0 * t * t + j * t * t * t / 6.0;
+        let mut hi = match t_stop {
+            Some(ts) => {
+                if s_at(ts) < ds {
+                    return None;
+                }
+                ts
+            }
+            None => {
+                // v stays positive: grow an upper bound.
+                let mut hi = ds / v0.clamp(1e-300, f64::MAX);
+                if !hi.is_finite() || hi <= 0.0 {
+                    hi = 1.0;
+                }
+                let mut n = 0;
+                while s_at(hi) < ds {
+                    hi *= 2.0;
+                    n += 1;
+                    if n > 2000 {
+                        return None;
+                    }
+                }
+                hi
+            }
+        };
+        let mut lo = 0.0;
+        let mut t = if v0 > 0.0 { (ds / v0).min(hi) } else { 0.5 * hi };
+        for _ in 0..TIME_SOLVE_MAX_ITER {
+            let f = s_at(t) - ds;
+            if f.abs() <= TIME_SOLVE_REL_TOL * ds {
+                break;
+            }
+            if f > 0.0 {
+                hi = t;
+            } else {
+                lo = t;
+            }
+            let v = v0 + a0 * t + 0.5 * j * t * t;
+            let newton = t - f / v;
+            t = if v > 0.0 && newton > lo && newton < hi { newton } else { 0.5 * (lo + hi) };
+            if hi - lo <= f64::EPSILON * hi {
+                break;
+            }
+        }
+        (t > 0.0 && t.is_finite()).then_some(Interval { v0, a0, j, t_s: t, ds_mm: ds })
+    }
+
+    pub fn v1(&self) -> f64 {
+        self.v0 + self.a0 * self.t_s + 0.5 * self.j * self.t_s * self.t_s
+    }
+
+    pub fn a1(&self) -> f64 {
+        self.a0 + self.j * self.t_s
+    }
+
+    /// (s − s₀, v, a) at local time τ (seed 001 eq. 2).
+    pub fn state_at(&self, tau: f64) -> (f64, f64, f64) {
+        let (v0, a0, j) = (self.v0, self.a0, self.j);
+        let s = v0 * tau + 0.5 * a0 * tau * tau + j * tau * tau * tau / 6.0;
+        let v = v0 + a0 * tau + 0.5 * j * tau * tau;
+        let a = a0 + j * tau;
+        (s, v, a)
+    }
+
+    /// The same motion seen backwards in time (for branches computed from the end): starts
+    /// at this interval's end state with the acceleration negated; jerk is unchanged.
+    pub fn reversed(&self) -> Interval {
+        Interval { v0: self.v1(), a0: -self.a1(), j: self.j, t_s: self.t_s, ds_mm: self.ds_mm }
+    }
+
+    fn velocity_stays_non_negative(&self) -> bool {
+        // v(τ) is a parabola; only an interior minimum can go below zero.
+        if self.j > 0.0 {
+            let tau = -self.a0 / self.j;
+            if tau > 0.0 && tau < self.t_s {
+                return self.v0 - self.a0 * self.a0 / (2.0 * self.j)
+                    >= -V_NEGATIVE_TOL * self.v0.abs().max(self.v1().abs());
+            }
+        }
+        self.v1() >= -V_NEGATIVE_TOL * self.v0.abs().max(1.0)
+    }
+}
+
+/// Velocities this far below zero (relative) count as rounding, not reversal.
+const V_NEGATIVE_TOL: f64 = 1e-12;
+
+/// Smallest positive root of c2 τ² + c1 τ + c0 = 0, if any.
+fn first_positive_root(c2: f64, c1: f64, c0: f64) -> Option<f64> {
+    if c2 == 0.0 {
+        if c1 < 0.0 {
+            return Some(-c0 / c1).filter(|t| *t > 0.0);
+        }
+        return None;
+    }
+    let disc = c1 * c1 - 4.0 * c2 * c0;
+    if disc < 0.0 {
+        return None;
+    }
+    let sq = disc.sqrt();
+    // Stable pair of roots.
+    let q = -0.5 * (c1 + c1.signum() * sq);
+    let (r1, r2) = if q != 0.0 { (q / c2, c0 / q) } else { (-c1 / (2.0 * c2), -c1 / (2.0 * c2)) };
+    let mut best: Option<f64> = None;
+    for r in [r1, r2] {
+        if r > 0.0 && best.is_none_or(|b| r < b) {
+            best = Some(r);
+        }
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn eq3_reaches_the_end_state() {
+        for &(v0, a0, ds, v1) in
+            &[(10.0, 0.0, 1.0, 12.0), (10.0, 50.0, 0.5, 9.0), (0.0, 0.0, 0.01, 3.0), (5.0, -20.0, 0.2, 4.0)]
+        {
+            let iv = Interval::through(v0, a0, ds, v1).expect("feasible");
+            let (s, v, _) = iv.state_at(iv.t_s);
+            assert!((s - ds).abs() < 1e-12 * ds.max(1.0), "s {s} vs {ds}");
+            assert!((v - v1).abs() < 1e-10 * v1.max(1.0), "v {v} vs {v1}");
+        }
+    }
+
+    #[test]
+    fn eq3_rejects_unreachable() {
+        // Strong deceleration cannot end at a velocity this low within the distance.
+        assert!(Interval::through(10.0, -1000.0, 1.0, 0.0).is_none());
+        // From rest with no acceleration nothing moves.
+        assert!(Interval::through(0.0, 0.0, 1.0, 0.0).is_none());
+    }
+
+    #[test]
+    fn with_jerk_matches_through() {
+        let iv = Interval::through(8.0, 30.0, 0.7, 11.0).unwrap();
+        let back = Interval::with_jerk(8.0, 30.0, 0.7, iv.j).unwrap();
+        assert!((back.t_s - iv.t_s).abs() < 1e-12);
+        assert!(Interval::with_jerk(1.0, -10.0, 5.0, 0.0).is_none(), "stops before the end");
+    }
+
+    #[test]
+    fn reversed_is_the_same_motion_backwards() {
+        let iv = Interval::through(8.0, 30.0, 0.7, 11.0).unwrap();
+        let r = iv.reversed();
+        let (s, v, a) = r.state_at(r.t_s);
+        assert!((s - 0.7).abs() < 1e-12);
+        assert!((v - 8.0).abs() < 1e-10);
+        assert!((a + 30.0).abs() < 1e-9);
+    }
+}

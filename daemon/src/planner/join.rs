@@ -1,0 +1,78 @@
+//! Exact join of a branch onto another branch's state (seed 001 §3.3): two intervals whose
+//! middle velocity is chosen so the second ends with the target's velocity and acceleration.
+
+use super::check::{VIOLATION_TOL, violation};
+use super::interval::Interval;
+use super::limits::Limits;
+use super::step::Work;
+use super::view::View;
+
+/// Samples when bracketing the join equation.
+const JOIN_SAMPLES: usize = 24;
+/// Bisection steps on the join equation.
+const JOIN_ITERS: usize = 60;
+/// The joined acceleration may miss the target by this, relative to (|a| + 1).
+const JOIN_ACC_REL_TOL: f64 = 1e-6;
+
+/// Exact join (seed 001 §3.3): from (v, a) at node t onto the backward branch's state at
+/// node t+2, through a velocity at t+1 found by bisection on the acceleration mismatch.
+pub fn join_two(
+    view: &View,
+    t: usize,
+    v: f64,
+    a: f64,
+    target: (f64, f64),
+    lim: &Limits,
+    work: &mut Work,
+) -> Option<(Interval, Interval)> {
+    let (vt, at) = target;
+    let (g1, g2) = (view.interval_geom(t), view.interval_geom(t + 1));
+    let v_hi = view.node(t + 1).vbar_mm_s;
+    let mismatch = |x: f64, work: &mut Work| -> Option<(f64, Interval, Interval)> {
+        work.evals += 2;
+        let i1 = Interval::through(v, a, g1.ds_mm, x)?;
+        let i2 = Interval::through(x, i1.a1(), g2.ds_mm, vt)?;
+        Some((i2.a1() - at, i1, i2))
+    };
+    let lo_v = 0.5 * v.min(vt);
+    let hi_v = v_hi.min(1.5 * v.max(vt) + 1e-9);
+    let mut prev: Option<(f64, f64)> = None;
+    let mut bracket = None;
+    for k in 0..=JOIN_SAMPLES {
+        let x = lo_v + (hi_v - lo_v) * k as f64 / JOIN_SAMPLES as f64;
+        if let Some((f, _, _)) = mismatch(x, work) {
+            if let Some((xp, fp)) = prev {
+                if fp.signum() != f.signum() {
+                    bracket = Some((xp, fp, x));
+                    break;
+                }
+            }
+            prev = Some((x, f));
+        }
+    }
+    let Some((mut lo, f_lo, mut hi)) = bracket else {
+        tracing::trace!(t, v, a, vt, at, lo_v, hi_v, "join: no bracket");
+        return None;
+    };
+    for _ in 0..JOIN_ITERS {
+        let x = 0.5 * (lo + hi);
+        match mismatch(x, work) {
+            Some((f, _, _)) if f.signum() == f_lo.signum() => lo = x,
+            Some(_) => hi = x,
+            None => return None,
+        }
+        if hi - lo <= 1e-14 * hi.max(1e-12) {
+            break;
+        }
+    }
+    let (f, i1, i2) = mismatch(0.5 * (lo + hi), work)?;
+    if f.abs() > JOIN_ACC_REL_TOL * (at.abs() + 1.0) {
+        return None;
+    }
+    let (f1, f2) = (violation(&i1, &g1, lim), violation(&i2, &g2, lim));
+    if f1 > VIOLATION_TOL || f2 > VIOLATION_TOL {
+        tracing::trace!(t, v, a, vt, at, x = i1.v1(), f1, f2, j1 = i1.j, j2 = i2.j, "join: violates");
+        return None;
+    }
+    Some((i1, i2))
+}

@@ -1,0 +1,362 @@
+//! The look-ahead feedrate planner (seed 001): a C¹ path-velocity profile with piecewise
+//! constant path jerk under axis velocity, acceleration and jerk limits.
+//!
+//! Data flow inside the planner:
+//! elements → [`sampling`] (nodes s_i with A′…A‴ and v̄) → blocks between stops →
+//! [`branch`] (backward branches from the section ends, the forward branch, joins) →
+//! [`profile::Segment`]s handed on.
+//!
+//! The planner works online: it takes elements one at a time, keeps a horizon of at least
+//! `planner.lookahead_mm` (or `lookahead_samples`) ahead of what it handed on, and plans the
+//! horizon as if the motion had to stop at its end. It hands on only the part of the profile
+//! that does not depend on that assumed stop, so every handed-over piece ends in a state from
+//! which the machine can still stop within the planned path, and planning element by element
+//! gives the same profile as planning the whole program.
+
+pub mod block;
+pub mod branch;
+pub mod check;
+pub mod envelope;
+pub mod forward;
+pub mod interval;
+pub mod join;
+pub mod limits;
+pub mod node;
+pub mod profile;
+pub mod ramp;
+pub mod sampling;
+pub mod step;
+pub mod view;
+
+pub use limits::Limits;
+pub use profile::{PathState, Segment};
+pub use step::Work;
+
+use crate::path::{Element, Path};
+use interpd_config::Config;
+use node::Node;
+use sampling::SamplingParams;
+use std::collections::VecDeque;
+use std::fmt;
+
+/// Why a program cannot be planned.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PlanError {
+    /// The axes cannot move along the path at some point (zero or invalid velocity bound).
+    Immovable { s_mm: f64, line: u32, reason: String },
+    /// No profile keeping the limits was found from some point on.
+    Infeasible { s_mm: f64, line: u32, reason: String },
+}
+
+impl fmt::Display for PlanError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            PlanError::Immovable { s_mm, line, reason } => {
+                write!(f, "line {line}: the axes cannot move along the path at s = {s_mm:.4} mm: {reason}")
+            }
+            PlanError::Infeasible { s_mm, line, reason } => {
+                write!(f, "line {line}: no motion within the axis limits found at s = {s_mm:.4} mm: {reason}")
+            }
+        }
+    }
+}
+
+impl std::error::Error for PlanError {}
+
+/// Totals over a planning run.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PlanStats {
+    /// Nodes sampled.
+    pub nodes: u64,
+    /// Blocks (stop to stop, or horizon pieces) planned.
+    pub blocks: u64,
+    pub work: Work,
+}
+
+/// The online planner.
+pub struct Planner {
+    lim: Limits,
+    params: SamplingParams,
+    lookahead_mm: f64,
+    lookahead_samples: usize,
+    /// Elements received but not yet sampled (the newest waits for its successor).
+    pending: VecDeque<Element>,
+    /// The last sampled element (for the joint with the next one).
+    prev: Option<Element>,
+    since_stop_mm: f64,
+    input_done: bool,
+    end_sampled: bool,
+    final_dwell_s: f64,
+    /// Nodes from the hand-over point on; `nodes[0]` has the state `start`.
+    nodes: Vec<Node>,
+    start: (f64, f64),
+    t_now_s: f64,
+    /// Node count at the last plan (replan only after the horizon grew enough).
+    planned_len: usize,
+    out: Vec<Segment>,
+    pub stats: PlanStats,
+}
+
+impl Planner {
+    pub fn new(config: &Config) -> Self {
+        Self::with_limits(config, Limits::from_config(config))
+    }
+
+    pub fn with_limits(config: &Config, lim: Limits) -> Self {
+        let p = &config.planner;
+        Self {
+            lim,
+            params: SamplingParams::from_config(config),
+            lookahead_mm: p.lookahead_mm,
+            lookahead_samples: p.lookahead_samples.unwrap_or(usize::MAX),
+            pending: VecDeque::new(),
+            prev: None,
+            since_stop_mm: 0.0,
+            input_done: false,
+            end_sampled: false,
+            final_dwell_s: 0.0,
+            nodes: Vec::new(),
+            start: (0.0, 0.0),
+            t_now_s: 0.0,
+            planned_len: 0,
+            out: Vec::new(),
+            stats: PlanStats::default(),
+        }
+    }
+
+    pub fn limits(&self) -> &Limits {
+        &self.lim
+    }
+
+    /// Adds the next element of the path.
+    pub fn push(&mut self, element: Element) {
+        self.pending.push_back(element);
+    }
+
+    /// No more elements follow; `final_dwell_s` is the dwell after the last one.
+    pub fn finish(&mut self, final_dwell_s: f64) {
+        self.input_done = true;
+        self.final_dwell_s = final_dwell_s;
+    }
+
+    /// Everything received has been planned and handed on.
+    pub fn done(&self) -> bool {
+        self.input_done && self.end_sampled && self.nodes.len() <= 1 && self.pending.is_empty()
+    }
+
+    /// Plans as far as the look-ahead allows and returns the segments that are final.
+    pub fn plan(&mut self) -> Result<Vec<Segment>, PlanError> {
+        self.sample_pending();
+        if self.nodes.len() < 2 {
+            return Ok(std::mem::take(&mut self.out));
+        }
+        let complete = self.end_sampled;
+        let ahead_mm = self.nodes[self.nodes.len() - 1].s_mm - self.nodes[0].s_mm;
+        let ahead_n = self.nodes.len();
+        let enough = ahead_mm >= self.lookahead_mm || ahead_n >= self.lookahead_samples;
+        // Replan when the program is complete, or when the horizon is full and has grown by a
+        // quarter since the last plan (so each node is planned a bounded number of times).
+        let grown = self.nodes.len() >= self.planned_len + self.planned_len / 4 + 16;
+        if complete || (enough && grown) {
+            self.plan_horizon(complete)?;
+        }
+        Ok(std::mem::take(&mut self.out))
+    }
+
+    /// Plans a whole path at once (the offline use of the same online machinery).
+    pub fn plan_path(config: &Config, path: &Path) -> Result<(Vec<Segment>, PlanStats), PlanError> {
+        let mut planner = Planner::new(config);
+        planner.lookahead_mm = f64::INFINITY;
+        for e in &path.elements {
+            planner.push(e.clone());
+        }
+        planner.finish(path.final_dwell_s);
+        let segments = planner.plan()?;
+        Ok((segments, planner.stats))
+    }
+
+    /// The nodes of a whole path as the planner samples them (for tests and tools).
+    pub fn sample_path(config: &Config, path: &Path) -> Vec<Node> {
+        let mut planner = Planner::new(config);
+        for e in &path.elements {
+            planner.push(e.clone());
+        }
+        planner.finish(path.final_dwell_s);
+        planner.sample_pending();
+        planner.nodes
+    }
+
+    /// Samples every pending element whose successor is known (or all, at the end).
+    fn sample_pending(&mut self) {
+        while let Some(e) = self.pending.front() {
+            let next_stops = match self.pending.get(1) {
+                Some(next) => next.stops_before(),
+                None if self.input_done => true,
+                None => break,
+            };
+            let count_before = self.nodes.len();
+            sampling::sample_element(
+                self.prev.as_ref(),
+                e,
+                next_stops,
+                &mut self.since_stop_mm,
+                &self.lim,
+                &self.params,
+                &mut self.nodes,
+            );
+            self.stats.nodes += (self.nodes.len() - count_before) as u64;
+            self.refine_vbar(count_before.saturating_sub(1));
+            self.prev = self.pending.pop_front();
+        }
+        if self.input_done && self.pending.is_empty() && !self.end_sampled {
+            if let Some(last) = &self.prev {
+                self.nodes.push(sampling::end_node(last, self.final_dwell_s, &self.params));
+                self.stats.nodes += 1;
+                self.refine_vbar(self.nodes.len().saturating_sub(2));
+            }
+            self.end_sampled = true;
+        }
+    }
+
+    /// Lowers the velocity bounds of nodes `from..` by the minimum of v̄ inside each interval
+    /// whose both nodes now exist.
+    fn refine_vbar(&mut self, from: usize) {
+        for i in from..self.nodes.len().saturating_sub(1) {
+            let (a, b) = (&self.nodes[i], &self.nodes[i + 1]);
+            let g = check::IntervalGeom { start: &a.right, end: &b.left, ds_mm: b.s_mm - a.s_mm, sign: 1.0 };
+            let v = check::interior_vbar(&g, &self.lim);
+            for k in [i, i + 1] {
+                let node = &mut self.nodes[k];
+                if !node.stop {
+                    node.vbar_mm_s = node.vbar_mm_s.min(v);
+                }
+            }
+        }
+    }
+
+    /// Plans the current horizon and hands on what is final.
+    fn plan_horizon(&mut self, complete: bool) -> Result<(), PlanError> {
+        self.validate_bounds()?;
+        let n = self.nodes.len();
+        let last_is_real_end = complete;
+        // Blocks end at stops; the horizon end counts as one.
+        let mut block_start = 0;
+        let mut handed = 0; // nodes[..=handed] are final
+        let mut state = self.start;
+        let mut idx = 1;
+        while idx < n {
+            let is_end = idx == n - 1;
+            if !(self.nodes[idx].stop || is_end) {
+                idx += 1;
+                continue;
+            }
+            let virtual_end = is_end && !last_is_real_end && !self.nodes[idx].stop;
+            let saved_vbar = self.nodes[idx].vbar_mm_s;
+            if virtual_end {
+                self.nodes[idx].vbar_mm_s = 0.0;
+            }
+            let result = block::plan_block(&mut self.nodes[block_start..=idx], state, &self.lim);
+            if virtual_end {
+                self.nodes[idx].vbar_mm_s = saved_vbar;
+            }
+            let plan = result.map_err(|stuck| {
+                let node = &self.nodes[block_start + stuck.node.min(idx - block_start)];
+                PlanError::Infeasible { s_mm: node.s_mm, line: node.line, reason: stuck.reason.to_string() }
+            })?;
+            self.stats.blocks += 1;
+            self.stats.work.add(&plan.work);
+            tracing::debug!(
+                s_from_mm = self.nodes[block_start].s_mm,
+                s_to_mm = self.nodes[idx].s_mm,
+                nodes = idx - block_start + 1,
+                evals = plan.work.evals,
+                evals_per_node = plan.work.evals as f64 / (idx - block_start) as f64,
+                ramps = plan.work.ramps,
+                joins = plan.work.joins,
+                repairs = plan.work.repairs,
+                "planned section block"
+            );
+            let final_count = if virtual_end { plan.final_before } else { plan.intervals.len() };
+            self.emit(block_start, &plan.intervals[..final_count]);
+            handed = block_start + final_count;
+            if final_count < plan.intervals.len() {
+                let iv = &plan.intervals[final_count];
+                state = (iv.v0, iv.a0);
+                break;
+            }
+            state = (0.0, 0.0);
+            block_start = idx;
+            idx += 1;
+        }
+        if handed > 0 {
+            self.nodes.drain(..handed);
+        }
+        self.start = state;
+        self.planned_len = self.nodes.len();
+        if complete && self.nodes.len() == 1 {
+            let end = &self.nodes[0];
+            if end.dwell_s > 0.0 {
+                self.out.push(Segment {
+                    s0_mm: end.s_mm,
+                    t0_s: self.t_now_s,
+                    dt_s: end.dwell_s,
+                    line: end.line,
+                    ..Segment::default()
+                });
+                self.t_now_s += end.dwell_s;
+                self.nodes[0].dwell_s = 0.0;
+            }
+        }
+        Ok(())
+    }
+
+    /// Appends the segments of `intervals`, which start at node `first`.
+    fn emit(&mut self, first: usize, intervals: &[interval::Interval]) {
+        for (k, iv) in intervals.iter().enumerate() {
+            let node = &self.nodes[first + k];
+            if node.dwell_s > 0.0 && node.stop {
+                self.out.push(Segment {
+                    s0_mm: node.s_mm,
+                    t0_s: self.t_now_s,
+                    dt_s: node.dwell_s,
+                    line: node.line,
+                    ..Segment::default()
+                });
+                self.t_now_s += node.dwell_s;
+            }
+            self.out.push(Segment {
+                s0_mm: node.s_mm,
+                t0_s: self.t_now_s,
+                v0: iv.v0,
+                a0: iv.a0,
+                j: iv.j,
+                dt_s: iv.t_s,
+                ds_mm: iv.ds_mm,
+                line: node.line,
+            });
+            self.t_now_s += iv.t_s;
+        }
+        // A dwell at the first node is emitted once: clear it on the handed-over nodes.
+        for node in &mut self.nodes[first..first + intervals.len()] {
+            node.dwell_s = 0.0;
+        }
+    }
+
+    fn validate_bounds(&self) -> Result<(), PlanError> {
+        for (i, node) in self.nodes.iter().enumerate() {
+            let v = node.vbar_mm_s;
+            let interior = i > 0 && i + 1 < self.nodes.len() && !node.stop;
+            if v.is_nan() || (interior && v <= 0.0) {
+                return Err(PlanError::Immovable {
+                    s_mm: node.s_mm,
+                    line: node.line,
+                    reason: format!("velocity bound {v} (an axis limit or the feed does not allow motion here)"),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests;

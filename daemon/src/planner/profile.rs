@@ -1,0 +1,81 @@
+//! The planner's output: the path-velocity profile as constant-jerk segments in time
+//! (seed 001 eq. 2), the contract between the look-ahead planner and the interpolator.
+//!
+//! Segments are back to back in time and path position; within a segment
+//! s(τ) = s₀ + v₀τ + a₀τ²/2 + jτ³/6 for τ ∈ [0, dt]. A dwell is a segment with v = a = j = 0.
+
+/// One piece of the planned motion.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Segment {
+    /// Path position at the start, mm.
+    pub s0_mm: f64,
+    /// Time at the start, s (0 at the start of the program).
+    pub t0_s: f64,
+    /// Path velocity at the start, mm/s.
+    pub v0: f64,
+    /// Path acceleration at the start, mm/s².
+    pub a0: f64,
+    /// Path jerk, mm/s³.
+    pub j: f64,
+    /// Duration, s.
+    pub dt_s: f64,
+    /// Path length covered, mm (0 for a dwell).
+    pub ds_mm: f64,
+    /// Program line the segment belongs to.
+    pub line: u32,
+}
+
+/// Path state at a time.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PathState {
+    pub s_mm: f64,
+    pub v: f64,
+    pub a: f64,
+    pub j: f64,
+}
+
+impl Segment {
+    pub fn t1_s(&self) -> f64 {
+        self.t0_s + self.dt_s
+    }
+
+    pub fn s1_mm(&self) -> f64 {
+        self.s0_mm + self.ds_mm
+    }
+
+    /// State at local time τ (clamped to the segment), seed 001 eq. 2.
+    #[inline]
+    pub fn at(&self, tau: f64) -> PathState {
+        let tau = tau.clamp(0.0, self.dt_s);
+        let (v0, a0, j) = (self.v0, self.a0, self.j);
+        let ds = v0 * tau + 0.5 * a0 * tau * tau + j * tau * tau * tau / 6.0;
+        // Never step past the segment's end through rounding.
+        let s = if self.ds_mm > 0.0 { self.s0_mm + ds.min(self.ds_mm) } else { self.s0_mm };
+        PathState { s_mm: s, v: v0 + a0 * tau + 0.5 * j * tau * tau, a: a0 + j * tau, j }
+    }
+}
+
+/// Walks a time-ordered segment list with a cursor (for sampling in increasing time).
+#[derive(Debug, Default)]
+pub struct Cursor {
+    index: usize,
+}
+
+impl Cursor {
+    /// State at absolute time `t` (clamped to the profile); the cursor only moves forward.
+    pub fn at(&mut self, segments: &[Segment], t: f64) -> Option<(PathState, u32)> {
+        if segments.is_empty() {
+            return None;
+        }
+        while self.index + 1 < segments.len() && segments[self.index].t1_s() <= t {
+            self.index += 1;
+        }
+        let seg = &segments[self.index];
+        Some((seg.at(t - seg.t0_s), seg.line))
+    }
+}
+
+/// Total duration of a profile.
+pub fn duration_s(segments: &[Segment]) -> f64 {
+    segments.last().map_or(0.0, Segment::t1_s)
+}

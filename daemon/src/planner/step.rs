@@ -1,0 +1,188 @@
+//! One step of a branch (seed 001 §3.2, eq. 7): the largest velocity at the next node for
+//! which the interval keeps every axis limit (eq. 7a–7d), found by a safeguarded root search
+//! on the largest normalised violation as a function of v₊ (regula falsi with the Illinois
+//! modification, falling back to bisection). The work per step is bounded by
+//! `MAX_SEARCH_EVALS` evaluations.
+
+use super::check::{IntervalGeom, VIOLATION_TOL, jerk_range, violation};
+use super::interval::Interval;
+use super::limits::Limits;
+
+/// Evaluations of the violation function per step, at most.
+pub const MAX_SEARCH_EVALS: u32 = 48;
+/// The search stops when the bracket is this narrow relative to the velocity.
+pub const SEARCH_REL_TOL: f64 = 1e-9;
+/// Fractions of the upper bound tried first when the jerk-free continuation is infeasible;
+/// after them the probe halves down to `MIN_PROBE_FRACTION` (near a stop the feasible end
+/// velocities can be many orders of magnitude below v̄).
+const PROBE_FRACTIONS: [f64; 5] = [0.9, 0.75, 0.5, 0.97, 0.995];
+const MIN_PROBE_FRACTION: f64 = 1e-15;
+/// Jerks tried for an anchor, as fractions of the allowed range (negative: of its lower end).
+const ANCHOR_JERK_FRACTIONS: [f64; 11] = [0.0, -0.5, 0.5, -0.9, 0.9, -0.99, 0.99, -0.25, 0.25, -0.97, 0.97];
+
+/// Counts work for the per-section iteration log.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Work {
+    /// Evaluations of the violation function.
+    pub evals: u64,
+    /// Steps (one per node advanced, per branch).
+    pub steps: u64,
+    /// Viability (ramp) simulations.
+    pub ramps: u64,
+    /// Joins of a forward branch onto a backward branch.
+    pub joins: u64,
+    /// Repairs after a branch found no viable next state.
+    pub repairs: u64,
+}
+
+impl Work {
+    pub fn add(&mut self, o: &Work) {
+        self.evals += o.evals;
+        self.steps += o.steps;
+        self.ramps += o.ramps;
+        self.joins += o.joins;
+        self.repairs += o.repairs;
+    }
+}
+
+/// Feasibility of the interval from (v0, a0) ending at `v1`: the interval and its largest
+/// normalised violation (≤ 0 is feasible), or `None` if v1 is unreachable.
+#[inline]
+pub fn evaluate(v0: f64, a0: f64, v1: f64, g: &IntervalGeom, lim: &Limits, work: &mut Work) -> Option<(Interval, f64)> {
+    work.evals += 1;
+    let iv = Interval::through(v0, a0, g.ds_mm, v1)?;
+    Some((iv, violation(&iv, g, lim)))
+}
+
+/// The feasible interval from (v0, a0) with the largest end velocity not above `v_max`, or
+/// `None` if no end velocity in [0, v_max] is feasible.
+pub fn max_feasible(v0: f64, a0: f64, v_max: f64, g: &IntervalGeom, lim: &Limits, work: &mut Work) -> Option<Interval> {
+    work.steps += 1;
+    if let Some((iv, f)) = evaluate(v0, a0, v_max, g, lim, work) {
+        if f <= VIOLATION_TOL {
+            return Some(iv);
+        }
+    }
+    let (anchor, mut f_hi) = find_anchor(v0, a0, v_max, g, lim, work)?;
+    // Bracket: lo feasible, hi infeasible (f_hi = None when unreachable).
+    let (mut lo, mut hi) = (anchor, v_max);
+    let mut best = anchor;
+    let (mut f_lo, mut side) = (best.1, 0i8);
+    let budget_end = work.evals + MAX_SEARCH_EVALS as u64;
+    while hi - lo.0.v1() > SEARCH_REL_TOL * hi.max(1e-12) && work.evals < budget_end {
+        let x_lo = lo.0.v1();
+        let x = match f_hi {
+            Some(fh) if fh > f_lo => {
+                // Regula falsi on f, with the Illinois halving to avoid one-sided stalls.
+                let (fl, fh) = (if side == 1 { f_lo * 0.5 } else { f_lo }, if side == -1 { fh * 0.5 } else { fh });
+                let t = (-fl / (fh - fl)).clamp(0.05, 0.95);
+                x_lo + t * (hi - x_lo)
+            }
+            _ => 0.5 * (x_lo + hi),
+        };
+        match evaluate(v0, a0, x, g, lim, work) {
+            Some((iv, f)) if f <= VIOLATION_TOL => {
+                lo = (iv, f);
+                f_lo = f;
+                best = lo;
+                side = 1;
+            }
+            Some((_, f)) => {
+                hi = x;
+                f_hi = Some(f);
+                side = -1;
+            }
+            None => {
+                hi = x;
+                f_hi = None;
+                side = -1;
+            }
+        }
+    }
+    Some(best.0)
+}
+
+/// A feasible end velocity to start the search from: the jerk-free continuation, else probes.
+fn find_anchor(
+    v0: f64,
+    a0: f64,
+    v_max: f64,
+    g: &IntervalGeom,
+    lim: &Limits,
+    work: &mut Work,
+) -> Option<((Interval, f64), Option<f64>)> {
+    // Constant-jerk continuations across the jerk range the axes allow at the start node:
+    // the feasible end velocities are mostly bounded by jerk, so these land inside them.
+    let (jlo, jhi) = jerk_range(g.start, g.sign, v0, a0, lim);
+    if jlo <= jhi {
+        for frac in ANCHOR_JERK_FRACTIONS {
+            let j = if frac >= 0.0 { frac * jhi.max(0.0) } else { -frac * jlo.min(0.0) };
+            let Some(cont) = Interval::with_jerk(v0, a0, g.ds_mm, j) else { continue };
+            let v1 = cont.v1();
+            if v1 <= v_max {
+                if let Some((iv, f)) = evaluate(v0, a0, v1, g, lim, work) {
+                    if f <= VIOLATION_TOL {
+                        return Some(((iv, f), None));
+                    }
+                }
+            }
+        }
+    }
+    let halvings = std::iter::successors(Some(0.25), |f| (*f > MIN_PROBE_FRACTION).then_some(f * 0.5));
+    for frac in PROBE_FRACTIONS.into_iter().chain(halvings) {
+        if let Some((iv, f)) = evaluate(v0, a0, frac * v_max, g, lim, work) {
+            if f <= VIOLATION_TOL {
+                return Some(((iv, f), None));
+            }
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::path::MAX_AXES;
+    use crate::planner::node::NodeGeom;
+
+    fn setup() -> (Limits, NodeGeom) {
+        let mut l = Limits {
+            n_axes: 1,
+            vel: [f64::INFINITY; MAX_AXES],
+            acc_max: [f64::INFINITY; MAX_AXES],
+            acc_min: [f64::NEG_INFINITY; MAX_AXES],
+            jerk: [f64::INFINITY; MAX_AXES],
+            configured_vel: [1.0; MAX_AXES],
+            configured_acc: [1.0; MAX_AXES],
+            configured_jerk: [1.0; MAX_AXES],
+        };
+        l.vel[0] = 100.0;
+        l.acc_max[0] = 1000.0;
+        l.acc_min[0] = -1000.0;
+        l.jerk[0] = 10000.0;
+        let mut g = NodeGeom::default();
+        g.d1[0] = 1.0;
+        (l, g)
+    }
+
+    #[test]
+    fn from_rest_the_jerk_limit_binds() {
+        let (l, g) = setup();
+        let ig = IntervalGeom { start: &g, end: &g, ds_mm: 0.01, sign: 1.0 };
+        let mut w = Work::default();
+        let iv = max_feasible(0.0, 0.0, 100.0, &ig, &l, &mut w).unwrap();
+        // From rest: j = 2v³/(9Δs²) ≤ J → v = (4.5 J Δs²)^(1/3)
+        let expect = (4.5 * 10000.0 * 0.01f64.powi(2)).cbrt();
+        assert!((iv.v1() - expect).abs() < 1e-6 * expect, "{} vs {expect}", iv.v1());
+        assert!(w.evals < 60, "evaluations {}", w.evals);
+    }
+
+    #[test]
+    fn cruise_at_the_velocity_limit() {
+        let (l, g) = setup();
+        let ig = IntervalGeom { start: &g, end: &g, ds_mm: 1.0, sign: 1.0 };
+        let mut w = Work::default();
+        let iv = max_feasible(99.0, 0.0, 99.0, &ig, &l, &mut w).unwrap();
+        assert!((iv.v1() - 99.0).abs() < 1e-12 && iv.j.abs() < 1e-9);
+    }
+}

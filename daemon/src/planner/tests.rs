@@ -1,0 +1,115 @@
+use super::*;
+use crate::program;
+use interpd_config::Config;
+
+fn plan_text(text: &str, cfg: &Config) -> (Vec<Segment>, PlanStats, Path) {
+    let p = program::parse(text, "t.ngc", cfg).expect("program parses");
+    let (segs, stats) = Planner::plan_path(cfg, &p.path).expect("plan");
+    (segs, stats, p.path)
+}
+
+/// Time-optimal rest-to-rest duration along one axis with symmetric limits.
+fn rest_to_rest_time(l: f64, v: f64, a: f64, j: f64) -> f64 {
+    // Full profile if L is long enough; otherwise search the peak velocity by bisection.
+    let dist = |vp: f64| {
+        let (ta, tj) = if vp * j >= a * a { (vp / a - a / j, a / j) } else { (0.0, (vp / j).sqrt()) };
+        let t_acc = ta + 2.0 * tj;
+        vp * t_acc // distance to accelerate to vp and back down to 0 (symmetric)
+    };
+    let t_of = |vp: f64| {
+        let (ta, tj) = if vp * j >= a * a { (vp / a - a / j, a / j) } else { (0.0, (vp / j).sqrt()) };
+        2.0 * (ta + 2.0 * tj)
+    };
+    if dist(v) <= l {
+        return t_of(v) + (l - dist(v)) / v;
+    }
+    let (mut lo, mut hi) = (0.0, v);
+    for _ in 0..200 {
+        let m = 0.5 * (lo + hi);
+        if dist(m) <= l { lo = m } else { hi = m }
+    }
+    t_of(lo)
+}
+
+fn check_continuity(segs: &[Segment]) {
+    for w in segs.windows(2) {
+        let (a, b) = (&w[0], &w[1]);
+        let end = a.at(a.dt_s);
+        assert!((a.t1_s() - b.t0_s).abs() < 1e-9, "time gap");
+        assert!((a.s1_mm() - b.s0_mm).abs() < 1e-9, "s gap {} vs {}", a.s1_mm(), b.s0_mm);
+        assert!((end.v - b.v0).abs() < 1e-6 * (1.0 + b.v0.abs()), "v jump {} vs {}", end.v, b.v0);
+        assert!((end.a - b.a0).abs() < 1e-5 * (1.0 + b.a0.abs()), "a jump {} vs {} at s {}", end.a, b.a0, b.s0_mm);
+    }
+}
+
+#[test]
+fn straight_line_is_near_time_optimal() {
+    let cfg = Config::default_machine();
+    let (segs, stats, _) = plan_text("G1 X100 F60000\n", &cfg);
+    check_continuity(&segs);
+    let f = cfg.planner.limit_fraction;
+    let x = &cfg.axes[0];
+    let ideal = rest_to_rest_time(100.0, x.max_vel_per_s * f, x.max_acc_per_s2 * f, x.max_jerk_per_s3 * f);
+    let t = profile::duration_s(&segs);
+    assert!(t >= ideal * 0.999, "faster than the optimum? {t} < {ideal}");
+    assert!(t <= ideal * 1.02, "duration {t} s vs optimum {ideal} s ({} nodes, {:?})", stats.nodes, stats.work);
+    let last = segs.last().unwrap();
+    assert!((last.s1_mm() - 100.0).abs() < 1e-9);
+    let end = last.at(last.dt_s);
+    assert!(end.v.abs() < 1e-9 && end.a.abs() < 1e-6);
+}
+
+#[test]
+fn short_line_and_corner() {
+    let cfg = Config::default_machine();
+    let (segs, _, _) = plan_text("G1 X0.05 F60000\nY0.05\n", &cfg);
+    check_continuity(&segs);
+    let t = profile::duration_s(&segs);
+    let f = cfg.planner.limit_fraction;
+    let x = &cfg.axes[0];
+    let ideal = 2.0 * rest_to_rest_time(0.05, x.max_vel_per_s * f, x.max_acc_per_s2 * f, x.max_jerk_per_s3 * f);
+    assert!(t <= ideal * 1.05 && t >= ideal * 0.999, "{t} vs {ideal}");
+}
+
+#[test]
+fn circle_keeps_continuity_and_ends_at_rest() {
+    let cfg = Config::default_machine();
+    let (segs, stats, path) = plan_text("G1 F30000\nG2 X0 Y0 I-10 J0\n", &cfg);
+    check_continuity(&segs);
+    assert!((segs.last().unwrap().s1_mm() - path.length_mm()).abs() < 1e-9);
+    assert!(stats.work.repairs == 0, "{:?}", stats.work);
+}
+
+#[test]
+#[ignore = "debugging aid: prints the envelope and the profile"]
+fn debug_dump() {
+    let _ = tracing_subscriber::fmt().with_max_level(tracing::Level::TRACE).with_writer(std::io::stderr).try_init();
+    let cfg = Config::default_machine();
+    let text = std::env::var("PLAN_TEXT").unwrap_or_else(|_| "G1 X100 F60000\n".into());
+    let p = program::parse(&text, "t.ngc", &cfg).unwrap();
+    let lim = Limits::from_config(&cfg);
+    let nodes = Planner::sample_path(&cfg, &p.path);
+    let mut work = Work::default();
+    let env = branch::build_envelope(&nodes, &lim, &mut work);
+    match &env {
+        Ok(env) => {
+            for (i, node) in nodes.iter().enumerate() {
+                eprintln!(
+                    "{i:4} s={:10.6} vbar={:10.4} E.v={:10.4} E.a={:10.3} curve={}",
+                    node.s_mm, node.vbar_mm_s, env.v[i], env.a[i], env.curve[i]
+                );
+            }
+            let fw = forward::forward_branch(&nodes, env, (0.0, 0.0), &lim, &mut work);
+            match fw {
+                Ok(f) => {
+                    for (i, iv) in f.intervals.iter().enumerate() {
+                        eprintln!("fw {i:4} v0={:10.4} a0={:10.2} j={:12.1} T={:.6}", iv.v0, iv.a0, iv.j, iv.t_s);
+                    }
+                }
+                Err(e) => eprintln!("forward stuck: {e:?}"),
+            }
+        }
+        Err(e) => eprintln!("envelope failed: {e:?}"),
+    }
+    eprintln!("{work:?}");
+}

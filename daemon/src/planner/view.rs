@@ -1,0 +1,78 @@
+//! A block of nodes seen in traversal order: forward (increasing s) for the forward branch,
+//! backward (decreasing s, geometry mirrored) for the backward branches, so one branch
+//! implementation serves both (seed 001 eq. 3: the ± signs flip for the backward branch).
+
+use super::check::IntervalGeom;
+use super::node::{Node, NodeGeom};
+
+#[derive(Clone, Copy)]
+pub struct View<'a> {
+    nodes: &'a [Node],
+    reverse: bool,
+}
+
+impl<'a> View<'a> {
+    pub fn forward(nodes: &'a [Node]) -> Self {
+        Self { nodes, reverse: false }
+    }
+
+    pub fn backward(nodes: &'a [Node]) -> Self {
+        Self { nodes, reverse: true }
+    }
+
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    /// Node index of traversal position `t`.
+    #[inline]
+    pub fn index(&self, t: usize) -> usize {
+        if self.reverse { self.nodes.len() - 1 - t } else { t }
+    }
+
+    /// Traversal position of node index `i`.
+    #[inline]
+    pub fn position(&self, i: usize) -> usize {
+        self.index(i)
+    }
+
+    #[inline]
+    pub fn node(&self, t: usize) -> &'a Node {
+        &self.nodes[self.index(t)]
+    }
+
+    #[inline]
+    pub fn sign(&self) -> f64 {
+        if self.reverse { -1.0 } else { 1.0 }
+    }
+
+    /// Geometry at traversal position `t` as the start of the interval t → t+1.
+    #[inline]
+    pub fn start_geom(&self, t: usize) -> &'a NodeGeom {
+        let n = self.node(t);
+        if self.reverse { &n.left } else { &n.right }
+    }
+
+    /// Geometry at traversal position `t` as the end of the interval t−1 → t.
+    #[inline]
+    pub fn end_geom(&self, t: usize) -> &'a NodeGeom {
+        let n = self.node(t);
+        if self.reverse { &n.right } else { &n.left }
+    }
+
+    /// Length of the interval t → t+1.
+    #[inline]
+    pub fn ds(&self, t: usize) -> f64 {
+        (self.node(t + 1).s_mm - self.node(t).s_mm).abs()
+    }
+
+    /// The interval t → t+1 for the limit checks.
+    #[inline]
+    pub fn interval_geom(&self, t: usize) -> IntervalGeom<'a> {
+        IntervalGeom { start: self.start_geom(t), end: self.end_geom(t + 1), ds_mm: self.ds(t), sign: self.sign() }
+    }
+}

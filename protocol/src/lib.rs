@@ -2,6 +2,8 @@
 //!
 //! Only data layouts, encoders and decoders live here: no threads, no I/O policy.
 
+pub mod candump;
+pub mod cia402;
 pub mod shm;
 
 /// Most axes in any payload (one per G-code axis letter X Y Z A B C U V W).

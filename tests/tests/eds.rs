@@ -1,0 +1,101 @@
+//! The simulated drive's EDS (sim-plant/eds/interpd-sim-drive.eds) checked by an independent
+//! CANopen implementation: the Python `canopen` package parses it and derives the PDO mapping
+//! from it as a master would (tests/python/check_eds.py). Also cross-checked against the
+//! protocol crate's COB-IDs, so the EDS cannot drift from what the code puts on the bus.
+
+use interpd_e2e::repo_root;
+use interpd_protocol::cia402::cob;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const EDS: &str = "sim-plant/eds/interpd-sim-drive.eds";
+
+fn eds_path() -> PathBuf {
+    repo_root().join(EDS)
+}
+
+/// `python3` with `canopen` importable, or a failure that says how to get it. Not a skip: CI
+/// installs it (.ci/python-requirements.txt) and the check must not silently vanish.
+fn python_with_canopen() -> &'static str {
+    let probe = Command::new("python3").args(["-c", "import canopen"]).output();
+    match probe {
+        Ok(out) if out.status.success() => "python3",
+        Ok(out) => panic!(
+            "the EDS test needs the Python package `canopen`: run `python3 -m pip install canopen` \
+             (CI installs .ci/python-requirements.txt); python3 said: {}",
+            String::from_utf8_lossy(&out.stderr).trim()
+        ),
+        Err(e) => panic!(
+            "the EDS test needs python3 with the `canopen` package ({e}); install python3, then `python3 -m pip install canopen`"
+        ),
+    }
+}
+
+fn run_check(eds: &Path) -> (bool, String) {
+    let python = python_with_canopen();
+    let script = repo_root().join("tests/python/check_eds.py");
+    let out = Command::new(python).arg(&script).arg(eds).output().expect("run check_eds.py");
+    let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    (out.status.success(), text)
+}
+
+#[test]
+fn eds_parses_with_python_canopen() {
+    let (ok, text) = run_check(&eds_path());
+    assert!(ok, "{EDS} fails the independent check:\n{text}");
+    eprintln!("{}", text.trim());
+}
+
+/// The checker is not a rubber stamp: a wrong mapping length and a wrong SubNumber fail it.
+#[test]
+fn eds_check_rejects_a_broken_file() {
+    let good = std::fs::read_to_string(eds_path()).expect("read EDS");
+    let bad = good.replacen("DefaultValue=0x60400010", "DefaultValue=0x60400020", 1).replacen(
+        "SubNumber=5",
+        "SubNumber=4",
+        1,
+    );
+    assert_ne!(bad, good);
+    let dir = std::env::temp_dir().join(format!("interpd-eds-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join("broken.eds");
+    std::fs::write(&path, bad).expect("write broken EDS");
+    let (ok, text) = run_check(&path);
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(!ok, "a broken EDS passed:\n{text}");
+    assert!(text.contains("RPDO1: mapping"), "{text}");
+    assert!(text.contains("[1018]: SubNumber=4"), "{text}");
+}
+
+/// The default values of one `[section]` of the EDS (plain INI scan; the full parse is the
+/// Python test's job).
+fn default_value(eds: &str, section: &str) -> Option<String> {
+    let header = format!("[{section}]");
+    let mut lines = eds.lines().skip_while(|l| l.trim() != header).skip(1);
+    lines
+        .by_ref()
+        .take_while(|l| !l.starts_with('['))
+        .find_map(|l| l.strip_prefix("DefaultValue=").map(|v| v.trim().to_owned()))
+}
+
+#[test]
+fn eds_matches_the_protocol_crate() {
+    let eds = std::fs::read_to_string(eds_path()).expect("read EDS");
+    let expect = [
+        ("1000", "0x00020192".to_owned()),
+        ("1005", format!("0x{:08X}", cob::SYNC)),
+        ("1014", format!("$NODEID+0x{:X}", cob::EMCY_BASE)),
+        ("1400sub1", format!("$NODEID+0x{:X}", cob::RPDO1_BASE)),
+        ("1800sub1", format!("$NODEID+0x{:X}", cob::TPDO1_BASE)),
+        // Controlword u16 then target position i32: the layout of cia402::Rpdo1.
+        ("1600sub1", "0x60400010".to_owned()),
+        ("1600sub2", "0x607A0020".to_owned()),
+        // Statusword u16 then position actual value i32: the layout of cia402::Tpdo1.
+        ("1A00sub1", "0x60410010".to_owned()),
+        ("1A00sub2", "0x60640020".to_owned()),
+        ("6060", "8".to_owned()),
+    ];
+    for (section, want) in expect {
+        assert_eq!(default_value(&eds, section).as_deref(), Some(want.as_str()), "[{section}] DefaultValue");
+    }
+}

@@ -88,9 +88,17 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
     let mut d = AxisDerivs::default();
     let samples = (duration / period_s).ceil() as u64 + 1;
     for k in 0..samples {
-        let t = (k as f64 * period_s).min(duration);
-        let Some((st, _line)) = cursor.at(&segments, t) else { break };
-        path.eval(st.s_mm, &mut d);
+        // Uniform time steps, also past the end (the machine rests there), so finite
+        // differences of the output are exact in their spacing.
+        let t = k as f64 * period_s;
+        let Some(sample) = cursor.sample(&segments, t) else { break };
+        let st = sample.state;
+        // The geometry on the segment's side of a joint (they differ only at corners).
+        if sample.at_start {
+            path.eval(st.s_mm, &mut d)
+        } else {
+            path.eval_left(st.s_mm, &mut d)
+        }
         for i in 0..n {
             let vel = d.d1[i] * st.v;
             let acc = d.d2[i] * st.v * st.v + d.d1[i] * st.a;
@@ -132,6 +140,14 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             "evals_per_node": evals_per_node,
             "joins": stats.work.joins,
             "repairs": stats.work.repairs,
+            "work": {
+                "evals": stats.work.evals,
+                "steps": stats.work.steps,
+                "ramps": stats.work.ramps,
+                "ramp_nodes": stats.work.ramp_nodes,
+                "bisections": stats.work.bisections,
+                "cap_tries": stats.work.cap_tries,
+            },
             "lookahead_mm": config.planner.lookahead_mm,
         });
         writeln!(stdout, "{json}").map_err(write_err)?;

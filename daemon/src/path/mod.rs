@@ -191,6 +191,16 @@ impl Path {
         }
     }
 
+    /// Like [`Path::eval`], but at a joint between elements it evaluates the element that
+    /// ends there (the side a motion arriving at the joint sees).
+    pub fn eval_left(&self, s_mm: f64, out: &mut AxisDerivs) {
+        let i = self.elements.partition_point(|e| e.s_start_mm < s_mm).saturating_sub(1);
+        match self.elements.get(i) {
+            Some(e) => e.geometry.eval(s_mm - e.s_start_mm, out),
+            None => *out = AxisDerivs { pos: self.start, ..AxisDerivs::default() },
+        }
+    }
+
     /// End position of the path.
     pub fn end_position(&self) -> AxisVec {
         match self.elements.last() {

@@ -6,12 +6,12 @@
 //! the braking ramp's own next state (viable whenever the current state is) finds the largest
 //! viable one. No step ever goes back, so the work per node is bounded.
 
-use super::check::{VIOLATION_TOL, violation};
+use super::check::VIOLATION_TOL;
 use super::envelope::{CurveStart, END_CURVE, Envelope};
 use super::interval::Interval;
 use super::limits::Limits;
 use super::node::Node;
-use super::ramp::{Ceiling, FlattenUnder, ramp, ramp_interval};
+use super::ramp::{CEILING_REL_TOL, FlattenUnder, ramp_interval, ramp_margin};
 use super::step::{Work, evaluate, max_feasible};
 use super::view::View;
 
@@ -35,7 +35,10 @@ pub struct Stuck {
     pub reason: &'static str,
 }
 
-/// The largest feasible and viable step from (v, a) at traversal position `t`.
+/// The largest feasible and viable step from (v, a) at traversal position `t`: the greedy
+/// choice if viable, else the boundary of viability between it and the braking ramp's own
+/// next state (viable whenever the current state is), found by regula falsi on the ramp
+/// margin.
 #[allow(clippy::too_many_arguments)]
 pub fn greedy_step(
     view: &View,
@@ -43,7 +46,7 @@ pub fn greedy_step(
     v: f64,
     a: f64,
     v_max: f64,
-    ceiling: &impl Ceiling,
+    ceiling: &FlattenUnder,
     lim: &Limits,
     work: &mut Work,
 ) -> Option<Interval> {
@@ -52,49 +55,67 @@ pub fn greedy_step(
         tracing::trace!(t, v, a, v_max, "no feasible next velocity");
         return None;
     };
-    if ramp(view, t + 1, cand.v1(), cand.a1(), lim, ceiling, work).is_safe() {
+    let margin = |iv: &Interval, work: &mut Work| ramp_margin(view, t + 1, iv.v1(), iv.a1(), lim, ceiling, work);
+    let m_cand = margin(&cand, work);
+    if m_cand.is_some_and(|m| m <= CEILING_REL_TOL) {
         return Some(cand);
     }
-    let viable = |iv: &Interval, work: &mut Work| ramp(view, t + 1, iv.v1(), iv.a1(), lim, ceiling, work).is_safe();
-    // The braking ramp's own next state: viable whenever the current state is.
-    let anchor = ramp_interval(view, t, v, a, lim)
-        .filter(|iv| iv.v1() <= v_max * (1.0 + 1e-12) && violation(iv, &g, lim) <= VIOLATION_TOL)
-        .filter(|iv| viable(iv, work));
-    let (mut best, mut lo) = match anchor {
-        Some(iv) => (iv, iv.v1()),
-        None => {
-            // Lower velocities, down to tiny ones, before giving up.
-            let fracs = [0.999, 0.99, 0.95, 0.9, 0.7, 0.5].into_iter();
-            let halvings = std::iter::successors(Some(0.25), |f| (*f > 1e-15).then_some(f * 0.5));
-            let mut found = None;
-            for frac in fracs.chain(halvings) {
-                let x = frac * cand.v1();
-                if let Some((iv, f)) = evaluate(v, a, x, &g, lim, work) {
-                    if f <= VIOLATION_TOL && viable(&iv, work) {
-                        found = Some((iv, x));
+    work.bisections += 1;
+    let ok = |m: Option<f64>| m.is_some_and(|m| m <= CEILING_REL_TOL);
+    // A viable lower end: the braking ramp's next state, else lower velocities.
+    let mut lo = ramp_interval(view, t, v, a, lim)
+        .filter(|iv| iv.v1() <= v_max * (1.0 + 1e-12) && iv.v1() < cand.v1())
+        .and_then(|iv| {
+            let m = margin(&iv, work);
+            ok(m).then(|| (iv, m.unwrap_or(0.0)))
+        });
+    if lo.is_none() {
+        let fracs = [0.999, 0.99, 0.95, 0.9, 0.7, 0.5].into_iter();
+        let halvings = std::iter::successors(Some(0.25), |f| (*f > 1e-15).then_some(f * 0.5));
+        for frac in fracs.chain(halvings) {
+            if let Some((iv, f)) = evaluate(v, a, frac * cand.v1(), &g, lim, work) {
+                if f <= VIOLATION_TOL {
+                    let m = margin(&iv, work);
+                    if ok(m) {
+                        lo = Some((iv, m.unwrap_or(0.0)));
                         break;
                     }
                 }
             }
-            let Some(found) = found else {
-                tracing::trace!(t, v, a, v_max, "no viable next velocity");
-                return None;
-            };
-            found
         }
+    }
+    let Some((mut best, mut m_lo)) = lo else {
+        tracing::trace!(t, v, a, v_max, "no viable next velocity");
+        return None;
     };
-    let mut hi = cand.v1();
+    let (mut x_lo, mut x_hi, mut m_hi) = (best.v1(), cand.v1(), m_cand);
+    let mut side = 0i8;
     for _ in 0..VIABLE_SEARCH_ITERS {
-        if hi - lo <= VIABLE_SEARCH_REL_TOL * hi.max(1e-12) {
+        if x_hi - x_lo <= VIABLE_SEARCH_REL_TOL * x_hi.max(1e-12) {
             break;
         }
-        let x = 0.5 * (lo + hi);
-        match evaluate(v, a, x, &g, lim, work).filter(|(iv, f)| *f <= VIOLATION_TOL && viable(iv, work)) {
-            Some((iv, _)) => {
-                best = iv;
-                lo = x;
+        let x = match m_hi {
+            Some(mh) if mh > m_lo => {
+                // Regula falsi towards margin 0, Illinois-weighted against one-sided stalls.
+                let (ml, mh) = (if side == 1 { 0.5 * m_lo } else { m_lo }, if side == -1 { 0.5 * mh } else { mh });
+                x_lo + (-ml / (mh - ml)).clamp(0.02, 0.98) * (x_hi - x_lo)
             }
-            None => hi = x,
+            _ => 0.5 * (x_lo + x_hi),
+        };
+        let trial = evaluate(v, a, x, &g, lim, work).filter(|(_, f)| *f <= VIOLATION_TOL);
+        let m = trial.as_ref().and_then(|(iv, _)| margin(iv, work));
+        match (trial, m) {
+            (Some((iv, _)), Some(m)) if m <= CEILING_REL_TOL => {
+                best = iv;
+                x_lo = x;
+                m_lo = m;
+                side = 1;
+            }
+            (_, m) => {
+                x_hi = x;
+                m_hi = m;
+                side = -1;
+            }
         }
     }
     Some(best)
@@ -105,8 +126,9 @@ pub fn greedy_step(
 pub type BranchNode = (usize, f64, f64, Interval);
 
 /// A backward branch from node `m` with state (`v_start`, forward acceleration `a_start`),
-/// running under v̄ capped at `cap`, leftwards until it has flattened, reaches node `stop`
-/// (exclusive), or meets a node where `lower(i, v)` says the ceiling is already lower.
+/// running under v̄ capped at `cap`, leftwards until it has flattened or reached that ceiling,
+/// reaches node `stop` (exclusive), or meets a node where `lower(i, v)` says another branch
+/// already lies lower.
 /// `None` if it gets stuck.
 #[allow(clippy::too_many_arguments)]
 pub fn backward_branch(
@@ -138,14 +160,14 @@ pub fn backward_branch(
         };
         let (v1, a1) = (iv.v1(), iv.a1());
         if lower(i_next, v1) {
-            break;
+            break; // another branch lies lower from here on
         }
         out.push((i_next, v1, -a1, iv.reversed()));
         v = v1;
         a = a1;
         t += 1;
-        if a1 <= 0.0 {
-            break; // flattened under the ceiling
+        if a1 <= 0.0 || v1 >= v_max * (1.0 - 1e-12) {
+            break; // flattened under the ceiling, or reached it
         }
     }
     Some(out)
@@ -170,7 +192,7 @@ pub fn build_envelope(nodes: &[Node], lim: &Limits, work: &mut Work) -> Result<E
         let mut built = None;
         for factor in BACKWARD_START_FACTORS {
             let v_start = if m == n - 1 { 0.0 } else { factor * nodes[m].vbar_mm_s };
-            let lower = |i: usize, v: f64| env.on_curve(i) || v >= env.v[i] * (1.0 - 1e-12);
+            let lower = |i: usize, v: f64| env.on_curve(i) && v >= env.v[i] * (1.0 - 1e-12);
             if let Some(b) = backward_branch(nodes, m, v_start, 0.0, f64::INFINITY, 0, lower, lim, work) {
                 built = Some((v_start, b));
                 break;

@@ -16,7 +16,7 @@ use super::interval::Interval;
 use super::join::join_two;
 use super::limits::Limits;
 use super::node::Node;
-use super::ramp::FlattenUnder;
+use super::ramp::{FlattenUnder, ramp_interval};
 use super::step::Work;
 use super::view::View;
 
@@ -28,7 +28,11 @@ const CAP_DESCENT_STEPS: usize = 60;
 /// Bisection steps when searching the cap v_c.
 const CAP_SEARCH_ITERS: usize = 30;
 /// The cap search stops when the bracket is this narrow relative to v_c.
-const CAP_SEARCH_REL_TOL: f64 = 1e-6;
+const CAP_SEARCH_REL_TOL: f64 = 1e-4;
+/// Bisection steps on the jerk blend of a brake join's first interval.
+const BLEND_ITERS: usize = 40;
+/// Joins are tried from ramp states at least this close (relative) below the branch.
+const JOIN_NEAR_FRACTION: f64 = 0.97;
 /// A forward state exceeding the branch by less than this (relative) is on it.
 const ON_BRANCH_REL_TOL: f64 = 1e-9;
 
@@ -90,6 +94,7 @@ pub fn forward_branch(
         let t = run.last();
         let (v, a) = run.state(t);
         let step = greedy_step(&view, t, v, a, nodes[t + 1].vbar_mm_s, &free, lim, work);
+        tracing::trace!(t, v, a, step = ?step.map(|iv| (iv.v1(), iv.a1())), env_next = env.v[t + 1], "forward free step");
         let crosses = match &step {
             Some(iv) => env.on_curve(t + 1) && iv.v1() > env.v[t + 1] * (1.0 + ON_BRANCH_REL_TOL),
             None => true,
@@ -104,13 +109,16 @@ pub fn forward_branch(
         };
         let section_end = env.starts[c as usize].node;
         let joined = direct_join(&view, &run, t, anchor, env, c, lim, work)
-            .map(|(from, i1, i2)| {
+            .map(|(from, i1, i2)| (from, vec![i1, i2]))
+            .or_else(|| brake_join(&view, &run, t, anchor, env, c, lim, work))
+            .map(|(from, ivs)| {
                 if c == END_CURVE {
                     final_before = final_before.min(from);
                 }
                 run.truncate(from);
-                run.push(i1);
-                run.push(i2);
+                for iv in ivs {
+                    run.push(iv);
+                }
             })
             .or_else(|| {
                 let capped = capped_section(nodes, &run, anchor, env, c, lim, work)?;
@@ -171,6 +179,132 @@ fn direct_join(
     None
 }
 
+/// What a braking ramp from the forward branch does relative to backward branch `c`.
+enum RampToBranch {
+    /// It crosses the branch at this node: it started too late.
+    Crosses,
+    /// It passes under the branch without touching it: it started too early.
+    Below,
+    /// It joins the branch exactly: the ramp intervals and the two join intervals.
+    Joined(Vec<Interval>),
+}
+
+/// The forward branch accelerating into a backward branch that brakes: find the latest point
+/// before the crossing from which a braking ramp stays under the branch, and join from that
+/// ramp where it touches the branch. The ramp brakes with the full jerk, the branch with
+/// `BACKWARD_JERK_FRACTION` of it, so the touch leaves jerk for the join.
+///
+/// The start node is found by an exponential then binary search back from the crossing (a
+/// later start crosses the branch, an earlier one passes under it); between the last start
+/// that passes under and the first that crosses, the first interval's jerk is blended from
+/// the free run's to the ramp's (λ ∈ [0, 1], bisection) so the ramp touches the branch.
+#[allow(clippy::too_many_arguments)]
+fn brake_join(
+    view: &View,
+    run: &Run,
+    t: usize,
+    anchor: usize,
+    env: &Envelope,
+    c: u32,
+    lim: &Limits,
+    work: &mut Work,
+) -> Option<(usize, Vec<Interval>)> {
+    let first = anchor.max(run.first);
+    let outcome = |f: usize, work: &mut Work| ramp_to_branch(view, run.state(f), f, env, c, lim, work);
+    // Exponential search back from the crossing for a start that does not cross.
+    let mut hi = t; // crosses (the free run crossed right after t)
+    let mut step = 1;
+    let mut lo = loop {
+        if hi <= first {
+            return None;
+        }
+        let f = hi.saturating_sub(step).max(first);
+        match outcome(f, work) {
+            RampToBranch::Joined(ivs) => return Some((f, ivs)),
+            RampToBranch::Below => break f,
+            RampToBranch::Crosses => {
+                hi = f;
+                step *= 2;
+            }
+        }
+    };
+    while hi - lo > 1 {
+        let mid = (lo + hi) / 2;
+        match outcome(mid, work) {
+            RampToBranch::Crosses => hi = mid,
+            RampToBranch::Joined(ivs) => return Some((mid, ivs)),
+            RampToBranch::Below => lo = mid,
+        }
+    }
+    // Blend the jerk of the interval lo → lo+1 between the free run's (λ = 0: the ramp
+    // effectively starts at lo+1 and crosses) and the ramp's (λ = 1: starts at lo, under).
+    let (v, a) = run.state(lo);
+    let j_free = run.intervals[lo - run.first].j;
+    let j_ramp = ramp_interval(view, lo, v, a, lim)?.j;
+    let g = view.interval_geom(lo);
+    let (mut l_lo, mut l_hi) = (0.0f64, 1.0f64);
+    for _ in 0..BLEND_ITERS {
+        let lambda = 0.5 * (l_lo + l_hi);
+        let Some(first_iv) = Interval::with_jerk(v, a, g.ds_mm, j_free + lambda * (j_ramp - j_free)) else {
+            l_hi = lambda;
+            continue;
+        };
+        if super::check::violation(&first_iv, &g, lim) > super::check::VIOLATION_TOL {
+            l_hi = lambda;
+            continue;
+        }
+        match ramp_to_branch(view, (first_iv.v1(), first_iv.a1()), lo + 1, env, c, lim, work) {
+            RampToBranch::Crosses => l_lo = lambda,
+            RampToBranch::Below => l_hi = lambda,
+            RampToBranch::Joined(mut ivs) => {
+                ivs.insert(0, first_iv);
+                return Some((lo, ivs));
+            }
+        }
+    }
+    tracing::trace!(lo, t, "brake join: no join at the touching ramp");
+    None
+}
+
+/// Runs a braking ramp from `state` at node `from` against backward branch `c`.
+fn ramp_to_branch(
+    view: &View,
+    state: (f64, f64),
+    from: usize,
+    env: &Envelope,
+    c: u32,
+    lim: &Limits,
+    work: &mut Work,
+) -> RampToBranch {
+    let n = env.len();
+    let (mut v, mut a) = state;
+    let mut ivs = Vec::new();
+    let mut k = from;
+    while k + 2 < n {
+        if env.curve[k] == c && v > env.v[k] * (1.0 + ON_BRANCH_REL_TOL) {
+            return RampToBranch::Crosses;
+        }
+        if env.curve[k + 2] == c && v >= JOIN_NEAR_FRACTION * env.v[k] {
+            if let Some((i1, i2)) = join_two(view, k, v, a, (env.v[k + 2], env.a[k + 2]), lim, work) {
+                work.joins += 1;
+                ivs.push(i1);
+                ivs.push(i2);
+                return RampToBranch::Joined(ivs);
+            }
+        }
+        if env.curve[k] == c && a < env.a[k] && v < env.v[k] {
+            return RampToBranch::Below; // braking harder below the branch: it moves away
+        }
+        let Some(iv) = ramp_interval(view, k, v, a, lim) else { return RampToBranch::Crosses };
+        work.ramp_nodes += 1;
+        v = iv.v1();
+        a = iv.a1();
+        ivs.push(iv);
+        k += 1;
+    }
+    RampToBranch::Below
+}
+
 /// Forward and backward branch capped at the highest common velocity v_c for which they meet
 /// flat, between the anchor and the section end of branch `c`: the intervals from the anchor
 /// to the section end.
@@ -188,6 +322,7 @@ fn capped_section(
     let lo = va.max(start.v);
     let hi = (anchor..=start.node).map(|i| nodes[i].vbar_mm_s).fold(0.0, f64::max).max(lo);
     let try_cap = |cap: f64, work: &mut Work| {
+        work.cap_tries += 1;
         capped_run(nodes, run.state(anchor), anchor, start.node, (start.v, start.a), cap, lim, work)
     };
     // Caps descending from the top until one works; then bisection between it and the last

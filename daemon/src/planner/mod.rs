@@ -25,6 +25,7 @@ pub mod node;
 pub mod profile;
 pub mod ramp;
 pub mod sampling;
+pub mod scurve;
 pub mod step;
 pub mod view;
 
@@ -255,7 +256,7 @@ impl Planner {
             if virtual_end {
                 self.nodes[idx].vbar_mm_s = 0.0;
             }
-            let result = block::plan_block(&mut self.nodes[block_start..=idx], state, &self.lim);
+            let result = block::plan_block(&mut self.nodes[block_start..=idx], state, !virtual_end, &self.lim);
             if virtual_end {
                 self.nodes[idx].vbar_mm_s = saved_vbar;
             }
@@ -276,6 +277,14 @@ impl Planner {
                 repairs = plan.work.repairs,
                 "planned section block"
             );
+            if !plan.node_aligned {
+                self.emit_block(block_start, idx, &plan.intervals);
+                handed = idx;
+                state = (0.0, 0.0);
+                block_start = idx;
+                idx += 1;
+                continue;
+            }
             let final_count = if virtual_end { plan.final_before } else { plan.intervals.len() };
             self.emit(block_start, &plan.intervals[..final_count]);
             handed = block_start + final_count;
@@ -338,6 +347,45 @@ impl Planner {
         }
         // A dwell at the first node is emitted once: clear it on the handed-over nodes.
         for node in &mut self.nodes[first..first + intervals.len()] {
+            node.dwell_s = 0.0;
+        }
+    }
+
+    /// Appends a time-domain profile from node `first` to node `last` (not node-aligned).
+    fn emit_block(&mut self, first: usize, last: usize, intervals: &[interval::Interval]) {
+        let start = &self.nodes[first];
+        if start.dwell_s > 0.0 && start.stop {
+            self.out.push(Segment {
+                s0_mm: start.s_mm,
+                t0_s: self.t_now_s,
+                dt_s: start.dwell_s,
+                line: start.line,
+                ..Segment::default()
+            });
+            self.t_now_s += start.dwell_s;
+        }
+        let mut s = start.s_mm;
+        let end_s = self.nodes[last].s_mm;
+        for (i, iv) in intervals.iter().enumerate() {
+            // The last piece ends exactly at the block end, whatever the rounding of the sum.
+            let ds = if i + 1 == intervals.len() { end_s - s } else { iv.ds_mm };
+            // The program line of the element the piece starts in.
+            let k = first + self.nodes[first..=last].partition_point(|n| n.s_mm <= s).saturating_sub(1);
+            let line = self.nodes[k.min(last)].line;
+            self.out.push(Segment {
+                s0_mm: s,
+                t0_s: self.t_now_s,
+                v0: iv.v0,
+                a0: iv.a0,
+                j: iv.j,
+                dt_s: iv.t_s,
+                ds_mm: ds,
+                line,
+            });
+            self.t_now_s += iv.t_s;
+            s += ds;
+        }
+        for node in &mut self.nodes[first..last] {
             node.dwell_s = 0.0;
         }
     }

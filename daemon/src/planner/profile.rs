@@ -64,6 +64,12 @@ pub struct Cursor {
 impl Cursor {
     /// State at absolute time `t` (clamped to the profile); the cursor only moves forward.
     pub fn at(&mut self, segments: &[Segment], t: f64) -> Option<(PathState, u32)> {
+        self.sample(segments, t).map(|s| (s.state, s.line))
+    }
+
+    /// State at absolute time `t` with the segment's line and whether the state lies at the
+    /// segment's start (so a caller evaluating the geometry at a joint picks the right side).
+    pub fn sample(&mut self, segments: &[Segment], t: f64) -> Option<Sample> {
         if segments.is_empty() {
             return None;
         }
@@ -71,8 +77,18 @@ impl Cursor {
             self.index += 1;
         }
         let seg = &segments[self.index];
-        Some((seg.at(t - seg.t0_s), seg.line))
+        let tau = t - seg.t0_s;
+        Some(Sample { state: seg.at(tau), line: seg.line, at_start: tau <= 0.0 })
     }
+}
+
+/// A sampled path state (see [`Cursor::sample`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample {
+    pub state: PathState,
+    pub line: u32,
+    /// The state is the segment's start: at a joint, the geometry after it applies.
+    pub at_start: bool,
 }
 
 /// Total duration of a profile.

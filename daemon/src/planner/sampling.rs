@@ -108,15 +108,29 @@ pub fn sample_element(
         line: e.source.line,
     });
 
+    // A straight line between two stops is planned in closed form (`scurve`): its interior
+    // nodes would not be used. A path table brings its own samples (seed 001 §2.2: the
+    // control supplies A … A‴ at each s_i); they are the nodes, as in the seed's example.
+    // Only near stops does a table get extra nodes, where the motion is too slow for its
+    // rows' spacing.
+    let own_samples = matches!(e.geometry, crate::path::Geometry::Septic(_));
+    if stop && next_stops && matches!(e.geometry, crate::path::Geometry::Line(_)) {
+        *since_stop_mm += len;
+        return;
+    }
     let j_path = lim.min_jerk();
     let a_path = lim.min_acc();
     let mut s = 0.0;
     loop {
         let from_start = *since_stop_mm + s;
         let to_end = if next_stops { len - s } else { f64::INFINITY };
-        let mut ds = step_at(e, s, &mut d, feed, from_start, to_end, j_path, a_path, lim, params);
+        let mut ds = if own_samples {
+            near_stop_step(from_start, to_end, j_path, a_path, params).unwrap_or(len)
+        } else {
+            step_at(e, s, &mut d, feed, from_start, to_end, j_path, a_path, lim, params)
+        };
         // Look at the far end of the step too, so a step does not jump into a sharp region.
-        if s + ds < len {
+        if s + ds < len && !own_samples {
             let ds2 = step_at(e, s + ds, &mut d, feed, from_start + ds, to_end - ds, j_path, a_path, lim, params);
             ds = ds.min(ds2.max(0.5 * ds));
         }
@@ -164,6 +178,24 @@ pub fn end_node(last: &Element, final_dwell_s: f64, params: &SamplingParams) -> 
         dwell_s: final_dwell_s,
         line: last.source.line,
     }
+}
+
+/// Step length near a stop only: spacing by the speed reachable from rest, `None` once that
+/// speed is high enough that the row spacing of a table is fine (`max_step_mm`).
+fn near_stop_step(
+    from_start_mm: f64,
+    to_end_mm: f64,
+    j_path: f64,
+    a_path: f64,
+    params: &SamplingParams,
+) -> Option<f64> {
+    let v = speed_from_rest(from_start_mm.max(0.0), j_path, a_path).min(speed_from_rest(
+        to_end_mm.max(0.0),
+        j_path,
+        a_path,
+    ));
+    let ds = (v * params.max_interval_s).max(params.min_step_mm);
+    (ds < params.max_step_mm).then_some(ds)
 }
 
 /// Step length at local position `s` of element `e`.

@@ -33,6 +33,12 @@ pub struct Work {
     pub joins: u64,
     /// Repairs after a branch found no viable next state.
     pub repairs: u64,
+    /// Nodes simulated by viability ramps.
+    pub ramp_nodes: u64,
+    /// Greedy steps whose first choice was not viable (a bisection followed).
+    pub bisections: u64,
+    /// Capped runs tried (forward and backward branch under a common velocity).
+    pub cap_tries: u64,
 }
 
 impl Work {
@@ -42,6 +48,9 @@ impl Work {
         self.ramps += o.ramps;
         self.joins += o.joins;
         self.repairs += o.repairs;
+        self.ramp_nodes += o.ramp_nodes;
+        self.bisections += o.bisections;
+        self.cap_tries += o.cap_tries;
     }
 }
 

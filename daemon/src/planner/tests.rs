@@ -91,6 +91,7 @@ fn debug_dump() {
     let nodes = Planner::sample_path(&cfg, &p.path);
     let mut work = Work::default();
     let env = branch::build_envelope(&nodes, &lim, &mut work);
+    eprintln!("after envelope: {work:?}");
     match &env {
         Ok(env) => {
             for (i, node) in nodes.iter().enumerate() {

@@ -1,0 +1,88 @@
+//! Straight moves from rest to rest in closed form: the time-optimal jerk-limited profile
+//! (jerk +J, 0, −J, cruise, −J, 0, +J) under path limits that are constant along a straight
+//! line. Blocks between two stops that are one straight line (CAM output in exact-stop mode,
+//! corners, staircases) take this instead of the branch search: exact, optimal and O(1).
+
+use super::interval::Interval;
+
+/// The profile's phases for a move of `length` under path limits `v_max`, `a_max`, `j_max`
+/// (all > 0): up to seven constant-jerk intervals (zero-length phases omitted).
+pub fn rest_to_rest(length: f64, v_max: f64, a_max: f64, j_max: f64) -> Vec<Interval> {
+    let (v, a, j) = (v_max, a_max, j_max);
+    // Acceleration phase to peak velocity vp: jerk time tj and constant-acceleration time ta.
+    let phases =
+        |vp: f64| -> (f64, f64) { if vp * j >= a * a { (a / j, vp / a - a / j) } else { ((vp / j).sqrt(), 0.0) } };
+    // Distance to accelerate from rest to vp and back to rest: vp · (2tj + ta).
+    let dist = |vp: f64| {
+        let (tj, ta) = phases(vp);
+        vp * (2.0 * tj + ta)
+    };
+    let vp = if dist(v) <= length {
+        v
+    } else if dist(a * a / j) >= length {
+        // Triangular acceleration: vp · 2√(vp/J) = L.
+        (0.5 * length * j.sqrt()).powf(2.0 / 3.0)
+    } else {
+        // Trapezoidal acceleration without cruise: vp²/A + vp·A/J = L.
+        let b = a / j;
+        0.5 * a * (-b + (b * b + 4.0 * length / a).sqrt())
+    };
+    let (tj, ta) = phases(vp);
+    let cruise = (length - dist(vp)).max(0.0) / vp;
+    let jerks = [j, 0.0, -j, 0.0, -j, 0.0, j];
+    let times = [tj, ta, tj, cruise, tj, ta, tj];
+    let mut out = Vec::with_capacity(7);
+    let (mut vel, mut acc) = (0.0f64, 0.0f64);
+    for (&jk, &tk) in jerks.iter().zip(times.iter()) {
+        if tk <= 0.0 {
+            continue;
+        }
+        let ds = vel * tk + 0.5 * acc * tk * tk + jk * tk * tk * tk / 6.0;
+        let iv = Interval { v0: vel, a0: acc, j: jk, t_s: tk, ds_mm: ds };
+        vel = iv.v1();
+        acc = iv.a1();
+        out.push(iv);
+    }
+    // Rounding: make the pieces cover the length exactly and end at rest.
+    let covered: f64 = out.iter().map(|iv| iv.ds_mm).sum();
+    if let Some(last) = out.last_mut() {
+        last.ds_mm += length - covered;
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(l: f64, v: f64, a: f64, j: f64) -> f64 {
+        let p = rest_to_rest(l, v, a, j);
+        let total: f64 = p.iter().map(|iv| iv.ds_mm).sum();
+        assert!((total - l).abs() < 1e-12 * l.max(1.0));
+        let last = p.last().unwrap();
+        assert!(last.v1().abs() < 1e-9 * v && last.a1().abs() < 1e-6 * a, "ends at rest");
+        for iv in &p {
+            assert!(iv.v0 <= v * (1.0 + 1e-12) && iv.a0.abs() <= a * (1.0 + 1e-12) && iv.j.abs() <= j);
+            // Each piece's own distance agrees with its kinematics.
+            let (s, _, _) = iv.state_at(iv.t_s);
+            assert!((s - iv.ds_mm).abs() < 1e-9 * l.max(1.0));
+        }
+        p.iter().map(|iv| iv.t_s).sum()
+    }
+
+    #[test]
+    fn long_move_reaches_v_max() {
+        let t = check(100.0, 250.0, 2500.0, 50000.0);
+        // L/V + V/A + A/J
+        assert!((t - (100.0 / 250.0 + 250.0 / 2500.0 + 2500.0 / 50000.0)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn short_moves() {
+        // Triangular: t = 4·(L/(2J))^(1/3)
+        let t = check(0.02, 250.0, 2500.0, 50000.0);
+        assert!((t - 4.0 * (0.02f64 / (2.0 * 50000.0)).cbrt()).abs() < 1e-12);
+        check(5.0, 250.0, 2500.0, 50000.0); // trapezoidal, no cruise
+        check(1e-6, 250.0, 2500.0, 50000.0);
+    }
+}

@@ -18,11 +18,13 @@ use super::view::View;
 /// Bisection steps when the greedy choice is not viable.
 const VIABLE_SEARCH_ITERS: usize = 40;
 /// Relative bracket width at which the viable search stops.
-const VIABLE_SEARCH_REL_TOL: f64 = 1e-9;
+const VIABLE_SEARCH_REL_TOL: f64 = 1e-6;
 /// Backward branches brake with this share of the jerk the axes allow, the forward branch
 /// with all of it: where the forward branch crosses a backward branch its braking is the
 /// steeper, which leaves jerk for the exact join.
 pub const BACKWARD_JERK_FRACTION: f64 = 0.95;
+/// A flattened backward branch this far (relative) below the ceiling is done.
+const FLAT_BELOW_CEILING: f64 = 1e-3;
 /// Start velocity factors tried when a backward branch cannot leave its section end at v̄
 /// (seed 001: "a section whose transition speed is not reached must be recomputed").
 const BACKWARD_START_FACTORS: [f64; 6] = [1.0, 0.95, 0.8, 0.5, 0.2, 0.0];
@@ -51,7 +53,11 @@ pub fn greedy_step(
     work: &mut Work,
 ) -> Option<Interval> {
     let g = view.interval_geom(t);
-    let Some(cand) = max_feasible(v, a, v_max, &g, lim, work) else {
+    // The braking ramp's own interval is feasible by construction: the fallback when the
+    // search finds nothing (its anchors sample the jerk range at the start node only).
+    let Some(cand) = max_feasible(v, a, v_max, &g, lim, work)
+        .or_else(|| ramp_interval(view, t, v, a, lim).filter(|iv| iv.v1() <= v_max * (1.0 + 1e-12)))
+    else {
         tracing::trace!(t, v, a, v_max, "no feasible next velocity");
         return None;
     };
@@ -126,9 +132,8 @@ pub fn greedy_step(
 pub type BranchNode = (usize, f64, f64, Interval);
 
 /// A backward branch from node `m` with state (`v_start`, forward acceleration `a_start`),
-/// running under v̄ capped at `cap`, leftwards until it has flattened or reached that ceiling,
-/// reaches node `stop` (exclusive), or meets a node where `lower(i, v)` says another branch
-/// already lies lower.
+/// running under v̄ capped at `cap`, leftwards until it has flattened, reaches node `stop`
+/// (exclusive), or meets a node where `lower(i, v)` says another branch already lies lower.
 /// `None` if it gets stuck.
 #[allow(clippy::too_many_arguments)]
 pub fn backward_branch(
@@ -148,6 +153,7 @@ pub fn backward_branch(
     for j in lim_b.jerk.iter_mut() {
         *j *= BACKWARD_JERK_FRACTION;
     }
+    lim_b.refresh();
     let mut out = Vec::new();
     let (mut v, mut a) = (v_start, -a_start);
     let mut t = view.position(m);
@@ -166,8 +172,16 @@ pub fn backward_branch(
         v = v1;
         a = a1;
         t += 1;
-        if a1 <= 0.0 || v1 >= v_max * (1.0 - 1e-12) {
-            break; // flattened under the ceiling, or reached it
+        // Flattened: done once it lies clearly below the ceiling (a forward branch running
+        // along v̄ will cross it), or the ceiling stops rising away from the section end.
+        // While it rides a v̄ that keeps falling towards the section end it goes on: the
+        // forward branch cannot follow a falling v̄ without it.
+        if a1 <= 0.0 {
+            let here = nodes[i_next].vbar_mm_s.min(cap);
+            let further = if i_next > 0 { nodes[i_next - 1].vbar_mm_s.min(cap) } else { here };
+            if v1 < (1.0 - FLAT_BELOW_CEILING) * here || further <= here {
+                break;
+            }
         }
     }
     Some(out)

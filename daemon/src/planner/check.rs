@@ -68,18 +68,32 @@ pub fn interior_vbar(g: &IntervalGeom, lim: &Limits) -> f64 {
 pub fn violation(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> f64 {
     let mut worst = f64::NEG_INFINITY;
     for &f in &CHECK_FRACTIONS {
-        let tau = f * iv.t_s;
-        let (s, v, a) = iv.state_at(tau);
-        let sigma = if f == 0.0 {
-            0.0
-        } else if f == 1.0 {
-            1.0
-        } else {
-            (s / g.ds_mm).clamp(0.0, 1.0)
-        };
+        let (sigma, v, a) = check_point(iv, g, f);
         worst = worst.max(point_violation(g, sigma, v, a, iv.j, lim));
     }
     worst
+}
+
+/// Whether the interval breaks a limit by more than `VIOLATION_TOL` (stops at the first).
+pub fn violates(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> bool {
+    CHECK_FRACTIONS.iter().any(|&f| {
+        let (sigma, v, a) = check_point(iv, g, f);
+        point_violation(g, sigma, v, a, iv.j, lim) > VIOLATION_TOL
+    })
+}
+
+/// Geometry fraction σ, velocity and acceleration at time fraction `f` of the interval.
+#[inline]
+fn check_point(iv: &Interval, g: &IntervalGeom, f: f64) -> (f64, f64, f64) {
+    let (s, v, a) = iv.state_at(f * iv.t_s);
+    let sigma = if f == 0.0 {
+        0.0
+    } else if f == 1.0 {
+        1.0
+    } else {
+        (s / g.ds_mm).clamp(0.0, 1.0)
+    };
+    (sigma, v, a)
 }
 
 /// Normalised limit use minus one at one point with state (v, a) and jerk j.
@@ -98,12 +112,12 @@ pub fn point_violation(g: &IntervalGeom, sigma: f64, v: f64, a: f64, j: f64, lim
         let vel = d1 * v; // seed 001 eq. 1a
         let acc = d2 * v2 + d1 * a; // eq. 1b
         let jerk = d3 * v3 + 3.0 * d2 * v * a + d1 * j; // eq. 1c
-        let r_vel = vel.abs() / lim.vel[k];
-        let r_acc = if acc >= 0.0 { acc / lim.acc_max[k] } else { acc / lim.acc_min[k] };
-        let r_jerk = jerk.abs() / lim.jerk[k];
-        worst = worst.max(r_vel.max(r_acc).max(r_jerk) - 1.0);
+        let r_vel = vel.abs() * lim.inv_vel[k];
+        let r_acc = acc * if acc >= 0.0 { lim.inv_acc_max[k] } else { lim.inv_acc_min[k] };
+        let r_jerk = jerk.abs() * lim.inv_jerk[k];
+        worst = worst.max(r_vel.max(r_acc).max(r_jerk));
     }
-    worst
+    worst - 1.0
 }
 
 /// The path jerks j allowed at a point with geometry `g` (traversal orientation `sign`) and
@@ -159,6 +173,10 @@ mod tests {
             acc_max: [f64::INFINITY; MAX_AXES],
             acc_min: [f64::NEG_INFINITY; MAX_AXES],
             jerk: [f64::INFINITY; MAX_AXES],
+            inv_vel: [0.0; MAX_AXES],
+            inv_acc_max: [0.0; MAX_AXES],
+            inv_acc_min: [0.0; MAX_AXES],
+            inv_jerk: [0.0; MAX_AXES],
             configured_vel: [1.0; MAX_AXES],
             configured_acc: [1.0; MAX_AXES],
             configured_jerk: [1.0; MAX_AXES],
@@ -169,6 +187,7 @@ mod tests {
             l.acc_min[k] = -1000.0;
             l.jerk[k] = 10000.0;
         }
+        l.refresh();
         l
     }
 

@@ -13,7 +13,7 @@
 use super::branch::{Stuck, backward_branch, greedy_step};
 use super::envelope::{END_CURVE, Envelope};
 use super::interval::Interval;
-use super::join::join_two;
+use super::join::{join_three, join_two};
 use super::limits::Limits;
 use super::node::Node;
 use super::ramp::{FlattenUnder, ramp_interval};
@@ -109,7 +109,6 @@ pub fn forward_branch(
         };
         let section_end = env.starts[c as usize].node;
         let joined = direct_join(&view, &run, t, anchor, env, c, lim, work)
-            .map(|(from, i1, i2)| (from, vec![i1, i2]))
             .or_else(|| brake_join(&view, &run, t, anchor, env, c, lim, work))
             .map(|(from, ivs)| {
                 if c == END_CURVE {
@@ -163,7 +162,7 @@ fn direct_join(
     c: u32,
     lim: &Limits,
     work: &mut Work,
-) -> Option<(usize, Interval, Interval)> {
+) -> Option<(usize, Vec<Interval>)> {
     let lo = anchor.max(run.first).max(t.saturating_sub(2));
     for from in (lo..=t).rev() {
         let to = from + 2;
@@ -173,7 +172,13 @@ fn direct_join(
         let (v, a) = run.state(from);
         if let Some((i1, i2)) = join_two(view, from, v, a, (env.v[to], env.a[to]), lim, work) {
             work.joins += 1;
-            return Some((from, i1, i2));
+            return Some((from, vec![i1, i2]));
+        }
+        if to + 1 < env.len() && env.curve[to + 1] == c {
+            if let Some(ivs) = join_three(view, from, v, a, (env.v[to + 1], env.a[to + 1]), lim, work) {
+                work.joins += 1;
+                return Some((from, ivs.to_vec()));
+            }
         }
     }
     None
@@ -291,11 +296,19 @@ fn ramp_to_branch(
                 ivs.push(i2);
                 return RampToBranch::Joined(ivs);
             }
+            if k + 3 < n && env.curve[k + 3] == c {
+                if let Some(three) = join_three(view, k, v, a, (env.v[k + 3], env.a[k + 3]), lim, work) {
+                    work.joins += 1;
+                    ivs.extend(three);
+                    return RampToBranch::Joined(ivs);
+                }
+            }
         }
         if env.curve[k] == c && a < env.a[k] && v < env.v[k] {
             return RampToBranch::Below; // braking harder below the branch: it moves away
         }
-        let Some(iv) = ramp_interval(view, k, v, a, lim) else { return RampToBranch::Crosses };
+        // A ramp that cannot go on has braked itself to rest below the branch: too early.
+        let Some(iv) = ramp_interval(view, k, v, a, lim) else { return RampToBranch::Below };
         work.ramp_nodes += 1;
         v = iv.v1();
         a = iv.a1();
@@ -411,18 +424,25 @@ fn capped_run(
                 continue;
             }
             let (v, a) = run.state(from);
-            if let Some(j) = join_two(&view, from, v, a, (bv[to], ba[to]), lim, work) {
-                joined = Some((from, j));
+            if let Some((i1, i2)) = join_two(&view, from, v, a, (bv[to], ba[to]), lim, work) {
+                joined = Some((from, vec![i1, i2]));
                 break;
             }
+            if to < end {
+                if let Some(three) = join_three(&view, from, v, a, (bv[to + 1], ba[to + 1]), lim, work) {
+                    joined = Some((from, three.to_vec()));
+                    break;
+                }
+            }
         }
-        let Some((from, (i1, i2))) = joined else {
+        let Some((from, ivs)) = joined else {
             tracing::trace!(cap, t, left, v, a, bv = bv[t + 1], ba = ba[t + 1], step = ?step.map(|iv| (iv.v1(), iv.a1())), "capped run: no join");
             return None;
         };
         run.truncate(from);
-        run.push(i1);
-        run.push(i2);
+        for iv in ivs {
+            run.push(iv);
+        }
         while run.last() < end {
             let i = run.last();
             run.push(biv[i]);

@@ -1,7 +1,7 @@
 //! Exact join of a branch onto another branch's state (seed 001 §3.3): two intervals whose
 //! middle velocity is chosen so the second ends with the target's velocity and acceleration.
 
-use super::check::{VIOLATION_TOL, violation};
+use super::check::{VIOLATION_TOL, violates, violation};
 use super::interval::Interval;
 use super::limits::Limits;
 use super::step::Work;
@@ -75,4 +75,48 @@ pub fn join_two(
         return None;
     }
     Some((i1, i2))
+}
+
+/// Samples of the first middle velocity in a three-interval join.
+const JOIN3_SAMPLES: usize = 16;
+
+/// Exact join over three intervals, from (v, a) at node t onto `target` at node t+3: the
+/// velocity at t+1 is scanned between the two ends' velocities (and a little beyond), and for
+/// each the two-interval join from t+1 fixes the velocity at t+2. One more degree of freedom
+/// than [`join_two`], for states farther from the branch. The highest feasible path wins.
+pub fn join_three(
+    view: &View,
+    t: usize,
+    v: f64,
+    a: f64,
+    target: (f64, f64),
+    lim: &Limits,
+    work: &mut Work,
+) -> Option<[Interval; 3]> {
+    if t + 3 >= view.len() {
+        return None;
+    }
+    let g1 = view.interval_geom(t);
+    let (lo, hi) = (v.min(target.0), v.max(target.0));
+    let span = (hi - lo).max(1e-9 * hi.max(1.0));
+    let v_cap = view.node(t + 1).vbar_mm_s;
+    let mut best: Option<[Interval; 3]> = None;
+    for k in 0..=JOIN3_SAMPLES {
+        let x = (lo - 0.25 * span + 1.5 * span * k as f64 / JOIN3_SAMPLES as f64).min(v_cap);
+        if x <= 0.0 {
+            continue;
+        }
+        work.evals += 1;
+        let Some(i1) = Interval::through(v, a, g1.ds_mm, x) else { continue };
+        if violates(&i1, &g1, lim) {
+            continue;
+        }
+        if let Some((i2, i3)) = join_two(view, t + 1, i1.v1(), i1.a1(), target, lim, work) {
+            let better = best.as_ref().is_none_or(|b| i1.v1() + i2.v1() > b[0].v1() + b[1].v1());
+            if better {
+                best = Some([i1, i2, i3]);
+            }
+        }
+    }
+    best
 }

@@ -12,6 +12,11 @@ pub struct Limits {
     pub acc_max: [f64; MAX_AXES],
     pub acc_min: [f64; MAX_AXES],
     pub jerk: [f64; MAX_AXES],
+    /// Reciprocals of the limits above (the checks multiply instead of dividing).
+    pub inv_vel: [f64; MAX_AXES],
+    pub inv_acc_max: [f64; MAX_AXES],
+    pub inv_acc_min: [f64; MAX_AXES],
+    pub inv_jerk: [f64; MAX_AXES],
     /// The configured (unscaled) limits, for reporting ratios against them.
     pub configured_vel: [f64; MAX_AXES],
     pub configured_acc: [f64; MAX_AXES],
@@ -27,6 +32,10 @@ impl Limits {
             acc_max: [f64::INFINITY; MAX_AXES],
             acc_min: [f64::NEG_INFINITY; MAX_AXES],
             jerk: [f64::INFINITY; MAX_AXES],
+            inv_vel: [0.0; MAX_AXES],
+            inv_acc_max: [0.0; MAX_AXES],
+            inv_acc_min: [0.0; MAX_AXES],
+            inv_jerk: [0.0; MAX_AXES],
             configured_vel: [f64::INFINITY; MAX_AXES],
             configured_acc: [f64::INFINITY; MAX_AXES],
             configured_jerk: [f64::INFINITY; MAX_AXES],
@@ -36,11 +45,25 @@ impl Limits {
             l.acc_max[k] = a.max_acc_per_s2 * f;
             l.acc_min[k] = -a.max_acc_per_s2 * f;
             l.jerk[k] = a.max_jerk_per_s3 * f;
+            l.inv_vel[k] = 1.0 / l.vel[k];
+            l.inv_acc_max[k] = 1.0 / l.acc_max[k];
+            l.inv_acc_min[k] = 1.0 / l.acc_min[k];
+            l.inv_jerk[k] = 1.0 / l.jerk[k];
             l.configured_vel[k] = a.max_vel_per_s;
             l.configured_acc[k] = a.max_acc_per_s2;
             l.configured_jerk[k] = a.max_jerk_per_s3;
         }
         l
+    }
+
+    /// Recomputes the reciprocals after the limits were changed.
+    pub fn refresh(&mut self) {
+        for k in 0..self.n_axes {
+            self.inv_vel[k] = 1.0 / self.vel[k];
+            self.inv_acc_max[k] = 1.0 / self.acc_max[k];
+            self.inv_acc_min[k] = 1.0 / self.acc_min[k];
+            self.inv_jerk[k] = 1.0 / self.jerk[k];
+        }
     }
 
     /// Smallest jerk limit over the axes: a path-level scale for sampling heuristics.

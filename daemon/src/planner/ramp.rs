@@ -9,7 +9,7 @@
 //! steps back when the interval for v₊ is empty ("Gehe zurück"), which can grow
 //! exponentially; here the work per ramp is bounded by `MAX_RAMP_NODES`.
 
-use super::check::{VIOLATION_TOL, acc_range, jerk_range, violation};
+use super::check::{acc_range, jerk_range, violates};
 use super::interval::Interval;
 use super::limits::Limits;
 use super::step::Work;
@@ -20,6 +20,8 @@ use super::view::View;
 /// room to move; the others cover curvature terms that leave less jerk than the start node
 /// suggests, and the acceleration floor (from index 3 on: hold or raise the acceleration).
 pub const RAMP_JERK_STEPS: [f64; 7] = [0.99, 0.7, 0.4, 0.0, -0.1, -0.3, -0.6];
+/// Corrections of a ramp interval's jerk by the end node's limits before falling back.
+const RAMP_END_CORRECTIONS: usize = 3;
 /// A ramp longer than this many nodes counts as not viable (bounded work).
 pub const MAX_RAMP_NODES: usize = 20_000;
 /// Relative tolerance on velocities compared with the ceiling.
@@ -54,25 +56,59 @@ pub fn peak_velocity(iv: &Interval) -> f64 {
     peak
 }
 
-/// The ramp's interval from traversal position `t` with state (v, a): the steepest of
-/// `RAMP_JERK_STEPS` whose interval keeps every axis limit, so a ramp is a real, feasible
-/// continuation. `None` if none does.
+/// The ramp's interval from traversal position `t` with state (v, a): braking with the
+/// steepest jerk the axes allow at both ends of the interval (and not below the lowest
+/// allowed acceleration), checked over the whole interval. If that fails (curvature taking
+/// jerk inside the interval), the gentler `RAMP_JERK_STEPS` are tried. `None` if none keeps
+/// every limit.
 pub fn ramp_interval(view: &View, t: usize, v: f64, a: f64, lim: &Limits) -> Option<Interval> {
     let g = view.start_geom(t);
-    let (jlo, jhi) = jerk_range(g, view.sign(), v, a, lim);
+    let sign = view.sign();
+    let (jlo, jhi) = jerk_range(g, sign, v, a, lim);
     if jlo > jhi {
         return None;
     }
-    let (alo, _) = acc_range(g, view.sign(), v, lim);
+    let (alo, _) = acc_range(g, sign, v, lim);
     let ig = view.interval_geom(t);
-    let steps: &[f64] = if a > alo { &RAMP_JERK_STEPS } else { &RAMP_JERK_STEPS[3..] };
+    let feasible = |iv: &Interval| !violates(iv, &ig, lim);
+    if a > alo && jlo < 0.0 {
+        // Steepest braking at the start, then corrected by what the end node allows.
+        let mut j = RAMP_JERK_STEPS[0] * jlo;
+        for _ in 0..RAMP_END_CORRECTIONS {
+            let Some(iv) = Interval::with_jerk(v, a, ig.ds_mm, j) else { break };
+            let (v1, a1) = (iv.v1(), iv.a1());
+            let g1 = view.end_geom(t + 1);
+            let (jlo1, jhi1) = jerk_range(g1, sign, v1, a1, lim);
+            let (alo1, _) = acc_range(g1, sign, v1, lim);
+            let mut j_next = j;
+            if jlo1 <= jhi1 && j < jlo1 {
+                j_next = RAMP_JERK_STEPS[0] * jlo1;
+            }
+            if a1 < alo1 {
+                j_next = j_next.max((alo1 - a) / iv.t_s);
+            }
+            if j_next == j {
+                // Jerk and acceleration are inside both nodes' ranges; the peak velocity is
+                // checked against the ceiling by the caller. Between the nodes only the
+                // interpolated geometry changes, second order over one interval, so the full
+                // check runs only where a node range was binding.
+                let at_end_range = jlo1 <= jhi1 && j <= jhi1 && a1 >= alo1;
+                if (at_end_range && j > jlo1 * RAMP_JERK_STEPS[0] * (1.0 - 1e-9) + 0.0 && a1 > alo1) || feasible(&iv) {
+                    return Some(iv);
+                }
+                break;
+            }
+            j = j_next.clamp(jlo, jhi);
+        }
+    }
+    let steps: &[f64] = if a > alo { &RAMP_JERK_STEPS[1..] } else { &RAMP_JERK_STEPS[3..] };
     for &frac in steps {
         let j = if frac >= 0.0 { frac * jlo.min(0.0) } else { -frac * jhi.max(0.0) };
         let j = j.clamp(jlo, jhi);
         // A jerk that brings the motion to rest before the next node is no continuation (it
         // would stop with a ≠ 0 and reverse): try a gentler one.
         if let Some(iv) = Interval::with_jerk(v, a, ig.ds_mm, j) {
-            if violation(&iv, &ig, lim) <= VIOLATION_TOL {
+            if feasible(&iv) {
                 return Some(iv);
             }
         }

@@ -125,7 +125,7 @@ pub fn sample_element(
         let from_start = *since_stop_mm + s;
         let to_end = if next_stops { len - s } else { f64::INFINITY };
         let mut ds = if own_samples {
-            near_stop_step(from_start, to_end, j_path, a_path, params).unwrap_or(len)
+            table_step(e, s, &mut d, feed, from_start, to_end, j_path, a_path, lim, params)
         } else {
             step_at(e, s, &mut d, feed, from_start, to_end, j_path, a_path, lim, params)
         };
@@ -180,22 +180,33 @@ pub fn end_node(last: &Element, final_dwell_s: f64, params: &SamplingParams) -> 
     }
 }
 
-/// Step length near a stop only: spacing by the speed reachable from rest, `None` once that
-/// speed is high enough that the row spacing of a table is fine (`max_step_mm`).
-fn near_stop_step(
+/// Rows of a path table farther apart in time than this many `max_interval_ms` get nodes in
+/// between: jerk can only switch at nodes, and branches cannot meet smoothly on a coarser grid.
+const TABLE_INTERVAL_FACTOR: f64 = 3.0;
+
+/// Step inside a path-table interval: the row spacing unless the motion is slow there (near
+/// a stop) or an interval would last longer than `TABLE_INTERVAL_FACTOR` × `max_interval_ms`
+/// at the velocity bound.
+#[allow(clippy::too_many_arguments)]
+fn table_step(
+    e: &Element,
+    s: f64,
+    d: &mut AxisDerivs,
+    feed: f64,
     from_start_mm: f64,
     to_end_mm: f64,
     j_path: f64,
     a_path: f64,
+    lim: &Limits,
     params: &SamplingParams,
-) -> Option<f64> {
-    let v = speed_from_rest(from_start_mm.max(0.0), j_path, a_path).min(speed_from_rest(
-        to_end_mm.max(0.0),
-        j_path,
-        a_path,
-    ));
-    let ds = (v * params.max_interval_s).max(params.min_step_mm);
-    (ds < params.max_step_mm).then_some(ds)
+) -> f64 {
+    e.geometry.eval(s, d);
+    let v = velocity_bound(&NodeGeom::from(&*d), lim)
+        .min(feed)
+        .min(speed_from_rest(from_start_mm.max(0.0), j_path, a_path))
+        .min(speed_from_rest(to_end_mm.max(0.0), j_path, a_path));
+    let ds = v * params.max_interval_s * TABLE_INTERVAL_FACTOR;
+    if ds.is_finite() { ds.max(params.min_step_mm) } else { e.geometry.length_mm() }
 }
 
 /// Step length at local position `s` of element `e`.

@@ -11,7 +11,7 @@ use super::limits::Limits;
 /// Evaluations of the violation function per step, at most.
 pub const MAX_SEARCH_EVALS: u32 = 48;
 /// The search stops when the bracket is this narrow relative to the velocity.
-pub const SEARCH_REL_TOL: f64 = 1e-9;
+pub const SEARCH_REL_TOL: f64 = 1e-7;
 /// Fractions of the upper bound tried first when the jerk-free continuation is infeasible;
 /// after them the probe halves down to `MIN_PROBE_FRACTION` (near a stop the feasible end
 /// velocities can be many orders of magnitude below v̄).
@@ -161,6 +161,10 @@ mod tests {
             acc_max: [f64::INFINITY; MAX_AXES],
             acc_min: [f64::NEG_INFINITY; MAX_AXES],
             jerk: [f64::INFINITY; MAX_AXES],
+            inv_vel: [0.0; MAX_AXES],
+            inv_acc_max: [0.0; MAX_AXES],
+            inv_acc_min: [0.0; MAX_AXES],
+            inv_jerk: [0.0; MAX_AXES],
             configured_vel: [1.0; MAX_AXES],
             configured_acc: [1.0; MAX_AXES],
             configured_jerk: [1.0; MAX_AXES],
@@ -169,6 +173,7 @@ mod tests {
         l.acc_max[0] = 1000.0;
         l.acc_min[0] = -1000.0;
         l.jerk[0] = 10000.0;
+        l.refresh();
         let mut g = NodeGeom::default();
         g.d1[0] = 1.0;
         (l, g)

@@ -84,9 +84,17 @@ fn circle_keeps_continuity_and_ends_at_rest() {
 #[ignore = "debugging aid: prints the envelope and the profile"]
 fn debug_dump() {
     let _ = tracing_subscriber::fmt().with_max_level(tracing::Level::TRACE).with_writer(std::io::stderr).try_init();
-    let cfg = Config::default_machine();
-    let text = std::env::var("PLAN_TEXT").unwrap_or_else(|_| "G1 X100 F60000\n".into());
-    let p = program::parse(&text, "t.ngc", &cfg).unwrap();
+    let cfg = match std::env::var("PLAN_MACHINE") {
+        Ok(m) => Config::load(std::path::Path::new(&m)).unwrap(),
+        Err(_) => Config::default_machine(),
+    };
+    let p = match std::env::var("PLAN_FILE") {
+        Ok(f) => program::load(std::path::Path::new(&f), &cfg).unwrap(),
+        Err(_) => {
+            let text = std::env::var("PLAN_TEXT").unwrap_or_else(|_| "G1 X100 F60000\n".into());
+            program::parse(&text, "t.ngc", &cfg).unwrap()
+        }
+    };
     let lim = Limits::from_config(&cfg);
     let nodes = Planner::sample_path(&cfg, &p.path);
     let mut work = Work::default();

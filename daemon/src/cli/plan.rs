@@ -32,6 +32,10 @@ pub struct PlanArgs {
     /// Override the configured look-ahead, mm (`inf` plans the whole program at once).
     #[arg(long)]
     pub lookahead_mm: Option<f64>,
+    /// Write the sampled path (nodes with A′, A″, A‴ on both sides, v̄), the limits the planner
+    /// used and its profile at the nodes as JSON, for an independent optimiser (benches/reference/).
+    #[arg(long)]
+    pub export_nodes: Option<PathBuf>,
 }
 
 /// Largest |value| / limit per quantity over all axes and samples.
@@ -83,6 +87,9 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
     }
     let lim = planner.limits();
     let n = path.n_axes;
+    if let Some(p) = &args.export_nodes {
+        export_nodes(p, &config, path, &segments, lim)?;
+    }
     let mut ratios = Ratios::default();
     let mut cursor = Cursor::default();
     let mut d = AxisDerivs::default();
@@ -187,4 +194,46 @@ fn plan_online(config: &Config, path: &Path) -> Result<(Vec<Segment>, Planner), 
         return Err(CliError::Failure("internal error: the planner did not finish the program".into()));
     }
     Ok((segments, planner))
+}
+
+/// The planning problem and our solution at the nodes, as JSON (see benches/reference/README.md).
+fn export_nodes(
+    file: &std::path::Path,
+    config: &Config,
+    path: &Path,
+    segments: &[Segment],
+    lim: &interpd::planner::Limits,
+) -> Result<(), CliError> {
+    let nodes = Planner::sample_path(config, path);
+    let n = path.n_axes;
+    let geom = |g: &interpd::planner::node::NodeGeom| serde_json::json!({ "d1": &g.d1[..n], "d2": &g.d2[..n], "d3": &g.d3[..n] });
+    // Our profile at the nodes: the segment starting at each node's s (node-aligned blocks).
+    let mut states = Vec::with_capacity(nodes.len());
+    let mut k = 0;
+    for node in &nodes {
+        while k + 1 < segments.len() && (segments[k].ds_mm == 0.0 || segments[k].s0_mm < node.s_mm - 1e-12) {
+            k += 1;
+        }
+        let seg = &segments[k];
+        let aligned = (seg.s0_mm - node.s_mm).abs() <= 1e-9 * node.s_mm.abs().max(1.0);
+        states.push(if aligned {
+            serde_json::json!([seg.v0, seg.a0, seg.j, seg.dt_s])
+        } else {
+            serde_json::Value::Null
+        });
+    }
+    let json = serde_json::json!({
+        "axes": path.axis_names,
+        "limits": {
+            "vel": &lim.vel[..n], "acc_max": &lim.acc_max[..n], "acc_min": &lim.acc_min[..n], "jerk": &lim.jerk[..n],
+        },
+        "check_fractions": interpd::planner::check::CHECK_FRACTIONS,
+        "nodes": nodes.iter().map(|nd| serde_json::json!({
+            "s": nd.s_mm, "vbar": nd.vbar_mm_s, "stop": nd.stop, "left": geom(&nd.left), "right": geom(&nd.right),
+        })).collect::<Vec<_>>(),
+        "profile": states,
+        "duration_s": interpd::planner::profile::duration_s(segments),
+    });
+    std::fs::write(file, json.to_string())
+        .map_err(|e| CliError::Failure(format!("{}: cannot write: {e}", file.display())))
 }

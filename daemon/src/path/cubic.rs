@@ -14,11 +14,17 @@ pub struct CubicSpan {
 }
 
 /// Why a span cannot be used.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum SpanError {
     /// P′(u) vanishes somewhere: the curve has a cusp or does not move.
     ZeroTangent,
+    /// The curve turns on a radius below `MIN_CURVATURE_RADIUS_MM` (a near-cusp) at `u`.
+    SharpTurn { radius_mm: f64, u: f64 },
 }
+
+/// Spline spans must not turn on a tighter radius than this, mm: no machine follows a 1 µm
+/// radius at any useful speed, and such near-cusps come from bad tangents or support points.
+pub const MIN_CURVATURE_RADIUS_MM: f64 = 1e-3;
 
 /// Samples per span when looking for a vanishing tangent.
 const CUSP_SAMPLES: usize = 256;
@@ -48,6 +54,10 @@ impl CubicSpan {
         if mean.is_nan() || mean <= 0.0 || min_speed(&r, &mask) < CUSP_REL_TOL * mean {
             return Err(SpanError::ZeroTangent);
         }
+        let (radius_mm, u) = min_curvature_radius(&r, &mask);
+        if radius_mm < MIN_CURVATURE_RADIUS_MM {
+            return Err(SpanError::SharpTurn { radius_mm, u });
+        }
         Ok(Self { r, linear: mask, table })
     }
 
@@ -71,6 +81,16 @@ impl CubicSpan {
 
     pub fn eval(&self, s: f64, out: &mut AxisDerivs) {
         let u = self.u_at(s);
+        self.eval_at_u(u, out);
+    }
+
+    /// Arc length from the span start to parameter `u`.
+    pub fn s_at(&self, u: f64) -> f64 {
+        self.table.s_of_u(&|u| speed_of(&self.r, &self.linear, u), u)
+    }
+
+    /// A(s) … A‴(s) at span parameter `u` (no arc-length inversion: cheap, for scanning).
+    pub fn eval_at_u(&self, u: f64, out: &mut AxisDerivs) {
         let (mut p1, mut p2, mut p3) = ([0.0; MAX_AXES], [0.0; MAX_AXES], [0.0; MAX_AXES]);
         for k in 0..MAX_AXES {
             let r = &self.r;
@@ -136,6 +156,48 @@ fn min_speed(r: &[AxisVec; 4], linear: &[bool; MAX_AXES]) -> f64 {
         best = best.min(speed_of(r, linear, 0.5 * (a + b)));
     }
     best
+}
+
+/// Smallest radius of curvature |P′|³ / |P′ × P″| over the span, and where (u): sampled,
+/// then refined by golden-section search around the tightest sample.
+fn min_curvature_radius(r: &[AxisVec; 4], linear: &[bool; MAX_AXES]) -> (f64, f64) {
+    let radius = |u: f64| {
+        let (mut p1p1, mut p2p2, mut p1p2) = (0.0, 0.0, 0.0);
+        for k in 0..MAX_AXES {
+            if linear[k] {
+                let p1 = (3.0 * r[3][k] * u + 2.0 * r[2][k]) * u + r[1][k];
+                let p2 = 6.0 * r[3][k] * u + 2.0 * r[2][k];
+                p1p1 += p1 * p1;
+                p2p2 += p2 * p2;
+                p1p2 += p1 * p2;
+            }
+        }
+        // |P′ × P″|² = |P′|²|P″|² − (P′·P″)² in any dimension.
+        let cross = (p1p1 * p2p2 - p1p2 * p1p2).max(0.0).sqrt();
+        if cross > 0.0 { p1p1.powf(1.5) / cross } else { f64::INFINITY }
+    };
+    let mut best = (f64::INFINITY, 0.0);
+    for i in 0..=CUSP_SAMPLES {
+        let u = i as f64 / CUSP_SAMPLES as f64;
+        let rad = radius(u);
+        if rad < best.0 {
+            best = (rad, u);
+        }
+    }
+    let h = 1.0 / CUSP_SAMPLES as f64;
+    let (mut a, mut b) = ((best.1 - h).max(0.0), (best.1 + h).min(1.0));
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    for _ in 0..60 {
+        let (c, d) = (b - g * (b - a), a + g * (b - a));
+        if radius(c) < radius(d) {
+            b = d;
+        } else {
+            a = c;
+        }
+    }
+    let u = 0.5 * (a + b);
+    let rad = radius(u);
+    if rad < best.0 { (rad, u) } else { best }
 }
 
 fn speed_of(r: &[AxisVec; 4], linear: &[bool; MAX_AXES], u: f64) -> f64 {

@@ -12,7 +12,7 @@ mod septic;
 pub mod spline;
 
 pub use arc::Helix;
-pub use cubic::CubicSpan;
+pub use cubic::{CubicSpan, MIN_CURVATURE_RADIUS_MM, SpanError};
 pub use line::Line;
 pub use septic::SepticSpan;
 

@@ -11,7 +11,7 @@ use super::envelope::{CurveStart, END_CURVE, Envelope};
 use super::interval::Interval;
 use super::limits::Limits;
 use super::node::Node;
-use super::ramp::{CEILING_REL_TOL, FlattenUnder, ramp_interval, ramp_margin};
+use super::ramp::{CEILING_REL_TOL, Check, FlattenUnder, ramp_interval, ramp_margin};
 use super::step::{Work, evaluate, max_feasible};
 use super::view::View;
 
@@ -56,7 +56,7 @@ pub fn greedy_step(
     // The braking ramp's own interval is feasible by construction: the fallback when the
     // search finds nothing (its anchors sample the jerk range at the start node only).
     let Some(cand) = max_feasible(v, a, v_max, &g, lim, work)
-        .or_else(|| ramp_interval(view, t, v, a, lim).filter(|iv| iv.v1() <= v_max * (1.0 + 1e-12)))
+        .or_else(|| ramp_interval(view, t, v, a, lim, Check::Full).filter(|iv| iv.v1() <= v_max * (1.0 + 1e-12)))
     else {
         tracing::trace!(t, v, a, v_max, "no feasible next velocity");
         return None;
@@ -69,7 +69,7 @@ pub fn greedy_step(
     work.bisections += 1;
     let ok = |m: Option<f64>| m.is_some_and(|m| m <= CEILING_REL_TOL);
     // A viable lower end: the braking ramp's next state, else lower velocities.
-    let mut lo = ramp_interval(view, t, v, a, lim)
+    let mut lo = ramp_interval(view, t, v, a, lim, Check::Full)
         .filter(|iv| iv.v1() <= v_max * (1.0 + 1e-12) && iv.v1() < cand.v1())
         .and_then(|iv| {
             let m = margin(&iv, work);
@@ -127,6 +127,60 @@ pub fn greedy_step(
     Some(best)
 }
 
+/// Back-offs one branch may take before it gives up.
+pub const MAX_BACK_OFFS_PER_BRANCH: usize = 16;
+/// How many steps a stuck branch backs off, in turn, before giving up.
+const BACK_OFF_STEPS: [usize; 7] = [1, 2, 4, 8, 16, 32, 64];
+
+/// A branch found no viable next step at the end of `states` (traversal states from position
+/// `p0`): brake earlier. The last k steps (k = 1, 2, 4, …) are replaced by a braking ramp from
+/// the state k steps back, every interval fully checked and under the ceiling, until it has
+/// flattened. Returns the position the ramp starts from and its intervals; `None` if no
+/// back-off up to `BACK_OFF_STEPS` helps. Bounded work, and rare: the viability test
+/// normally keeps branches out of such dead ends.
+pub fn back_off(
+    view: &View,
+    ceiling: &FlattenUnder,
+    lim: &Limits,
+    work: &mut Work,
+    states: &[(f64, f64)],
+    p0: usize,
+) -> Option<(usize, Vec<Interval>)> {
+    work.repairs += 1;
+    let current = states.len() - 1;
+    for k in BACK_OFF_STEPS {
+        if k > current {
+            break;
+        }
+        let base = p0 + current - k;
+        let (mut v, mut a) = states[current - k];
+        let mut pos = base;
+        let mut ramp = Vec::new();
+        let ok = loop {
+            if a <= 0.0 && !ramp.is_empty() {
+                break true;
+            }
+            if pos + 1 >= view.len() {
+                break false;
+            }
+            let Some(iv) = ramp_interval(view, pos, v, a, lim, Check::Full) else { break false };
+            let cap = ceiling.velocity(pos).min(ceiling.velocity(pos + 1));
+            if super::ramp::peak_velocity(&iv) > cap * (1.0 + CEILING_REL_TOL) {
+                break false;
+            }
+            v = iv.v1();
+            a = iv.a1();
+            ramp.push(iv);
+            pos += 1;
+        };
+        if ok {
+            tracing::trace!(k, base, steps = ramp.len(), "backed off");
+            return Some((base, ramp));
+        }
+    }
+    None
+}
+
 /// One node of a backward branch: the node index, its state (forward acceleration) and the
 /// forward interval from it to the next node.
 pub type BranchNode = (usize, f64, f64, Interval);
@@ -154,21 +208,47 @@ pub fn backward_branch(
         *j *= BACKWARD_JERK_FRACTION;
     }
     lim_b.refresh();
-    let mut out = Vec::new();
+    let mut out: Vec<BranchNode> = Vec::new();
+    let t0 = view.position(m);
+    // Traversal states (v, a in the branch's own direction) from t0 on, for backing off.
+    let mut states = vec![(v_start, -a_start)];
     let (mut v, mut a) = (v_start, -a_start);
-    let mut t = view.position(m);
+    let mut t = t0;
+    let mut backoffs = 0;
     while view.index(t) > stop + 1 {
         let i_next = view.index(t + 1);
         let v_max = nodes[i_next].vbar_mm_s.min(cap);
-        let Some(iv) = greedy_step(&view, t, v, a, v_max, &ceiling, &lim_b, work) else {
-            tracing::trace!(from = m, node = i_next, v, a, v_max, "backward branch stuck");
-            return None;
+        let iv = match greedy_step(&view, t, v, a, v_max, &ceiling, &lim_b, work) {
+            Some(iv) => iv,
+            None => {
+                tracing::trace!(from = m, node = i_next, v, a, v_max, "backward branch stuck: backing off");
+                // Bounded: a branch that keeps getting stuck gives up (its caller lowers the
+                // start or reports the section).
+                backoffs += 1;
+                if backoffs > MAX_BACK_OFFS_PER_BRANCH {
+                    return None;
+                }
+                let (base, ramp) = back_off(&view, &ceiling, &lim_b, work, &states, t0)?;
+                let keep = base - t0;
+                out.truncate(keep);
+                states.truncate(keep + 1);
+                let mut tt = base;
+                for r in ramp {
+                    out.push((view.index(tt + 1), r.v1(), -r.a1(), r.reversed()));
+                    states.push((r.v1(), r.a1()));
+                    tt += 1;
+                }
+                t = tt;
+                (v, a) = *states.last().expect("states never empty");
+                continue;
+            }
         };
         let (v1, a1) = (iv.v1(), iv.a1());
         if lower(i_next, v1) {
             break; // another branch lies lower from here on
         }
         out.push((i_next, v1, -a1, iv.reversed()));
+        states.push((v1, a1));
         v = v1;
         a = a1;
         t += 1;

@@ -10,13 +10,13 @@
 //! seed 001's "lower the faster branch locally", done once by bisection instead of by
 //! repeated recomputation, so the work per section is bounded.
 
-use super::branch::{Stuck, backward_branch, greedy_step};
+use super::branch::{MAX_BACK_OFFS_PER_BRANCH, Stuck, backward_branch, greedy_step};
 use super::envelope::{END_CURVE, Envelope};
 use super::interval::Interval;
 use super::join::{join_three, join_two};
 use super::limits::Limits;
 use super::node::Node;
-use super::ramp::{FlattenUnder, ramp_interval};
+use super::ramp::{Check, FlattenUnder, ramp_interval};
 use super::step::Work;
 use super::view::View;
 
@@ -90,10 +90,27 @@ pub fn forward_branch(
     let mut run = Run::new(0, start);
     let mut anchor = 0;
     let mut final_before = n - 1;
+    let mut backoffs = 0;
     while run.last() + 1 < n {
         let t = run.last();
         let (v, a) = run.state(t);
         let step = greedy_step(&view, t, v, a, nodes[t + 1].vbar_mm_s, &free, lim, work);
+        // Stuck with no branch right ahead: brake earlier (a branch right ahead is joined).
+        if step.is_none()
+            && !(t + 1..(t + 4).min(n)).any(|i| env.on_curve(i))
+            && t > anchor
+            && backoffs < MAX_BACK_OFFS_PER_BRANCH
+        {
+            backoffs += 1;
+            let states = &run.states[anchor - run.first..];
+            if let Some((base, ramp)) = super::branch::back_off(&view, &free, lim, work, states, anchor) {
+                run.truncate(base);
+                for iv in ramp {
+                    run.push(iv);
+                }
+                continue;
+            }
+        }
         tracing::trace!(t, v, a, step = ?step.map(|iv| (iv.v1(), iv.a1())), env_next = env.v[t + 1], "forward free step");
         let crosses = match &step {
             Some(iv) => env.on_curve(t + 1) && iv.v1() > env.v[t + 1] * (1.0 + ON_BRANCH_REL_TOL),
@@ -245,7 +262,7 @@ fn brake_join(
     // effectively starts at lo+1 and crosses) and the ramp's (λ = 1: starts at lo, under).
     let (v, a) = run.state(lo);
     let j_free = run.intervals[lo - run.first].j;
-    let j_ramp = ramp_interval(view, lo, v, a, lim)?.j;
+    let j_ramp = ramp_interval(view, lo, v, a, lim, Check::Full)?.j;
     let g = view.interval_geom(lo);
     let (mut l_lo, mut l_hi) = (0.0f64, 1.0f64);
     for _ in 0..BLEND_ITERS {
@@ -308,7 +325,7 @@ fn ramp_to_branch(
             return RampToBranch::Below; // braking harder below the branch: it moves away
         }
         // A ramp that cannot go on has braked itself to rest below the branch: too early.
-        let Some(iv) = ramp_interval(view, k, v, a, lim) else { return RampToBranch::Below };
+        let Some(iv) = ramp_interval(view, k, v, a, lim, Check::Full) else { return RampToBranch::Below };
         work.ramp_nodes += 1;
         v = iv.v1();
         a = iv.a1();

@@ -44,6 +44,16 @@ impl FlattenUnder<'_> {
     }
 }
 
+/// How thoroughly a ramp interval is checked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Check {
+    /// The whole interval (check points inside): for intervals that become motion.
+    Full,
+    /// The jerk and acceleration ranges at both nodes, with the full check only where one is
+    /// binding: for the viability margin, which is an estimate the real steps re-check.
+    Nodes,
+}
+
 /// Highest velocity inside an interval: v(τ) is a parabola, its vertex may lie inside.
 pub fn peak_velocity(iv: &Interval) -> f64 {
     let mut peak = iv.v0.max(iv.v1());
@@ -61,7 +71,10 @@ pub fn peak_velocity(iv: &Interval) -> f64 {
 /// allowed acceleration), checked over the whole interval. If that fails (curvature taking
 /// jerk inside the interval), the gentler `RAMP_JERK_STEPS` are tried. `None` if none keeps
 /// every limit.
-pub fn ramp_interval(view: &View, t: usize, v: f64, a: f64, lim: &Limits) -> Option<Interval> {
+///
+/// An interval that becomes part of the motion needs `Check::Full`; for the viability margin
+/// `Check::Nodes` suffices where both nodes' ranges hold with room (see below).
+pub fn ramp_interval(view: &View, t: usize, v: f64, a: f64, lim: &Limits, check: Check) -> Option<Interval> {
     let g = view.start_geom(t);
     let sign = view.sign();
     let (jlo, jhi) = jerk_range(g, sign, v, a, lim);
@@ -92,8 +105,15 @@ pub fn ramp_interval(view: &View, t: usize, v: f64, a: f64, lim: &Limits) -> Opt
                 // checked against the ceiling by the caller. Between the nodes only the
                 // interpolated geometry changes, second order over one interval, so the full
                 // check runs only where a node range was binding.
-                let at_end_range = jlo1 <= jhi1 && j <= jhi1 && a1 >= alo1;
-                if (at_end_range && j > jlo1 * RAMP_JERK_STEPS[0] * (1.0 - 1e-9) + 0.0 && a1 > alo1) || feasible(&iv) {
+                let (_, ahi0) = acc_range(g, sign, v, lim);
+                let (_, ahi1) = acc_range(g1, sign, v1, lim);
+                let nodes_ok = jlo1 <= jhi1
+                    && j <= jhi1
+                    && j > jlo1 * RAMP_JERK_STEPS[0] * (1.0 - 1e-9)
+                    && a1 > alo1
+                    && a <= ahi0
+                    && a1 <= ahi1;
+                if (check == Check::Nodes && nodes_ok) || feasible(&iv) {
                     return Some(iv);
                 }
                 break;
@@ -140,7 +160,7 @@ pub fn ramp_margin(
         if t >= last {
             return None;
         }
-        let iv = ramp_interval(view, t, v, a, lim)?;
+        let iv = ramp_interval(view, t, v, a, lim, Check::Nodes)?;
         work.ramp_nodes += 1;
         let cap = ceiling.velocity(t).min(ceiling.velocity(t + 1));
         margin = margin.max(peak_velocity(&iv) / cap - 1.0).max(iv.v1() / ceiling.velocity(t + 1) - 1.0);

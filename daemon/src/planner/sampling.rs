@@ -41,6 +41,129 @@ impl SamplingParams {
     }
 }
 
+/// Samples per span when profiling how sharply a spline or table span turns.
+const SHARPNESS_SAMPLES: usize = 32;
+/// Golden-section steps refining each local maximum of the sharpness.
+const SHARPNESS_REFINE: usize = 30;
+
+/// How sharply a curved span turns along its length, so a step is bounded by the sharpest
+/// point it covers and not only by where it starts (a narrow tight spot would be stepped
+/// over): tangent turn rate, its change, and orientation rate, sampled along the span with
+/// every local maximum refined.
+struct Sharpness {
+    s: Vec<f64>,
+    /// Per sample: (curvature, curvature change, orientation rate) as the step criteria use them.
+    value: Vec<(f64, f64, f64)>,
+}
+
+impl Sharpness {
+    /// Profile of a spline span; `None` for lines and arcs (constant sharpness) and path-table
+    /// spans (the table brings its own sample points).
+    fn of(e: &Element, lim: &Limits, params: &SamplingParams) -> Option<Self> {
+        let len = e.geometry.length_mm();
+        let mut d = AxisDerivs::default();
+        // (span parameter → (s, derivatives)) without arc-length inversion where possible.
+        let mut at = |x: f64, d: &mut AxisDerivs| -> f64 {
+            match &e.geometry {
+                crate::path::Geometry::Cubic(c) => {
+                    c.eval_at_u(x, d);
+                    c.s_at(x)
+                }
+                g => {
+                    g.eval(x * len, d);
+                    x * len
+                }
+            }
+        };
+        if !matches!(e.geometry, crate::path::Geometry::Cubic(_)) {
+            return None;
+        }
+        let measure = |d: &AxisDerivs| sharpness_at(d, lim, params);
+        let mut pts: Vec<(f64, f64, (f64, f64, f64))> = (0..=SHARPNESS_SAMPLES)
+            .map(|i| {
+                let x = i as f64 / SHARPNESS_SAMPLES as f64;
+                let s = at(x, &mut d);
+                (x, s, measure(&d))
+            })
+            .collect();
+        // Refine every local maximum of each criterion by golden-section search in x.
+        let mut extra = Vec::new();
+        for c in 0..3 {
+            let get = |v: &(f64, f64, f64)| [v.0, v.1, v.2][c];
+            for i in 0..pts.len() {
+                let here = get(&pts[i].2);
+                let left = if i > 0 { get(&pts[i - 1].2) } else { f64::NEG_INFINITY };
+                let right = if i + 1 < pts.len() { get(&pts[i + 1].2) } else { f64::NEG_INFINITY };
+                if here > 0.0 && here >= left && here >= right {
+                    let h = 1.0 / SHARPNESS_SAMPLES as f64;
+                    let (mut a, mut b) = ((pts[i].0 - h).max(0.0), (pts[i].0 + h).min(1.0));
+                    let g = 0.5 * (5f64.sqrt() - 1.0);
+                    for _ in 0..SHARPNESS_REFINE {
+                        let (p, q) = (b - g * (b - a), a + g * (b - a));
+                        let (mut dp, mut dq) = (AxisDerivs::default(), AxisDerivs::default());
+                        at(p, &mut dp);
+                        at(q, &mut dq);
+                        if get(&measure(&dp)) > get(&measure(&dq)) {
+                            b = q;
+                        } else {
+                            a = p;
+                        }
+                    }
+                    let x = 0.5 * (a + b);
+                    let s = at(x, &mut d);
+                    extra.push((x, s, measure(&d)));
+                }
+            }
+        }
+        pts.extend(extra);
+        pts.sort_by(|p, q| p.0.total_cmp(&q.0));
+        Some(Self { s: pts.iter().map(|p| p.1).collect(), value: pts.iter().map(|p| p.2).collect() })
+    }
+
+    /// The sharpest values over [a, b] (including the samples just outside, since the
+    /// sharpness between two samples may exceed both only near a refined maximum).
+    fn max_over(&self, a: f64, b: f64) -> (f64, f64, f64) {
+        let i0 = self.s.partition_point(|&x| x < a).saturating_sub(1);
+        let i1 = (self.s.partition_point(|&x| x <= b) + 1).min(self.s.len());
+        self.value[i0..i1].iter().fold((0.0, 0.0, 0.0), |m, v| (m.0.max(v.0), m.1.max(v.1), m.2.max(v.2)))
+    }
+}
+
+/// (curvature, curvature change, orientation rate) at one point, as the step criteria use them.
+fn sharpness_at(d: &AxisDerivs, lim: &Limits, params: &SamplingParams) -> (f64, f64, f64) {
+    let (mut curv2, mut dcurv2, mut rot_rate2) = (0.0, 0.0, 0.0);
+    for k in 0..lim.n_axes {
+        if params.linear[k] {
+            curv2 += d.d2[k] * d.d2[k];
+            dcurv2 += d.d3[k] * d.d3[k];
+        } else {
+            rot_rate2 += d.d1[k] * d.d1[k];
+            let r = d.d2[k].to_radians();
+            curv2 += r * r;
+            let r3 = d.d3[k].to_radians();
+            dcurv2 += r3 * r3;
+        }
+    }
+    (curv2.sqrt(), dcurv2.sqrt(), rot_rate2.sqrt())
+}
+
+/// Step limit from sharpness values: tangent turn, change of curvature and orientation
+/// change per step each at most `max_turn`.
+fn geometric_step(sharp: (f64, f64, f64), params: &SamplingParams) -> f64 {
+    let (curv, dcurv, rot_rate) = sharp;
+    let mut ds = params.max_step_mm;
+    if curv > 0.0 {
+        ds = ds.min(params.max_turn_rad / curv);
+    }
+    if dcurv > 0.0 {
+        ds = ds.min((params.max_turn_rad / dcurv).sqrt());
+    }
+    if rot_rate > 0.0 {
+        ds = ds.min(params.max_turn_deg / rot_rate);
+    }
+    ds
+}
+
 /// The feed of an element in mm/s.
 pub fn feed_of(e: &Element, params: &SamplingParams) -> f64 {
     match e.feed {
@@ -120,6 +243,7 @@ pub fn sample_element(
     }
     let j_path = lim.min_jerk();
     let a_path = lim.min_acc();
+    let sharpness = Sharpness::of(e, lim, params);
     let mut s = 0.0;
     loop {
         let from_start = *since_stop_mm + s;
@@ -133,6 +257,17 @@ pub fn sample_element(
         if s + ds < len && !own_samples {
             let ds2 = step_at(e, s + ds, &mut d, feed, from_start + ds, to_end - ds, j_path, a_path, lim, params);
             ds = ds.min(ds2.max(0.5 * ds));
+        }
+        // And the sharpest point the step covers (splines and tables can turn tightly in a
+        // narrow spot between two sample points).
+        if let Some(sh) = &sharpness {
+            for _ in 0..SHARPNESS_ITERS {
+                let bound = geometric_step(sh.max_over(s, s + ds), params).max(GEOMETRY_MIN_STEP_MM);
+                if bound >= ds {
+                    break;
+                }
+                ds = bound;
+            }
         }
         let remaining = len - s;
         if remaining <= 1.5 * ds {
@@ -224,39 +359,23 @@ fn step_at(
     params: &SamplingParams,
 ) -> f64 {
     e.geometry.eval(s, d);
-    let (mut curv2, mut dcurv2, mut rot_rate2) = (0.0, 0.0, 0.0);
-    for k in 0..lim.n_axes {
-        if params.linear[k] {
-            curv2 += d.d2[k] * d.d2[k];
-            dcurv2 += d.d3[k] * d.d3[k];
-        } else {
-            rot_rate2 += d.d1[k] * d.d1[k];
-            let r = d.d2[k].to_radians();
-            curv2 += r * r;
-            let r3 = d.d3[k].to_radians();
-            dcurv2 += r3 * r3;
-        }
-    }
-    let mut ds = params.max_step_mm;
-    let curv = curv2.sqrt();
-    if curv > 0.0 {
-        ds = ds.min(params.max_turn_rad / curv); // tangent turn per step
-    }
-    let dcurv = dcurv2.sqrt();
-    if dcurv > 0.0 {
-        ds = ds.min((params.max_turn_rad / dcurv).sqrt()); // change of curvature per step
-    }
-    let rot_rate = rot_rate2.sqrt();
-    if rot_rate > 0.0 {
-        ds = ds.min(params.max_turn_deg / rot_rate); // orientation change per step, degrees
-    }
+    let ds = geometric_step(sharpness_at(d, lim, params), params);
     let g = NodeGeom::from(&*d);
     let v_nom = velocity_bound(&g, lim)
         .min(feed)
         .min(speed_from_rest(from_start_mm.max(0.0), j_path, a_path))
         .min(speed_from_rest(to_end_mm.max(0.0), j_path, a_path));
-    if v_nom.is_finite() {
-        ds = ds.min(v_nom * params.max_interval_s);
-    }
-    ds.max(params.min_step_mm)
+    // The speed-based spacing stops at min_step_mm; the geometry-based one may go below it,
+    // down to GEOMETRY_MIN_STEP_MM, so tight features are resolved and not stepped over.
+    let ds_geometry = ds.max(GEOMETRY_MIN_STEP_MM);
+    let ds_speed =
+        if v_nom.is_finite() { (v_nom * params.max_interval_s).max(params.min_step_mm) } else { f64::INFINITY };
+    ds_geometry.min(ds_speed)
 }
+
+/// Rounds of shrinking a step to the sharpest point it covers.
+const SHARPNESS_ITERS: usize = 4;
+
+/// Smallest step the geometry criteria may ask for, mm (spline spans turn on 1 µm radii at
+/// the tightest; 1 nm resolves that by three orders of magnitude).
+const GEOMETRY_MIN_STEP_MM: f64 = 1e-6;

@@ -8,7 +8,10 @@ use super::error::Diagnostics;
 use super::lexer::{Line, Word, lex_line};
 use super::{G06_END_MARKER, Summary};
 use crate::path::Line as LineGeom;
-use crate::path::{AxisVec, Blend, CubicSpan, Feed, Geometry, Helix, MAX_AXES, Path, Source, spline::natural_tangents};
+use crate::path::{
+    AxisVec, Blend, CubicSpan, Feed, Geometry, Helix, MAX_AXES, MIN_CURVATURE_RADIUS_MM, Path, Source, SpanError,
+    spline::natural_tangents,
+};
 use interpd_config::{AxisKind, AxisLetter, Config};
 use std::f64::consts::PI;
 
@@ -839,10 +842,18 @@ impl<'a> Interpreter<'a> {
                     let source = Source { line: span.line, block: span.block };
                     self.push(Geometry::Cubic(Box::new(c)), block.feed, source);
                 }
-                Err(_) => d.error(
+                Err(SpanError::ZeroTangent) => {
+                    d.error(span.line, span.col, "degenerate G06 span: the curve stops or turns back (its tangent vanishes)")
+                }
+                Err(SpanError::SharpTurn { radius_mm, u }) => d.error(
                     span.line,
                     span.col,
-                    "degenerate G06 span: the curve stops or turns back (its tangent vanishes)",
+                    format!(
+                        "degenerate G06 span: the curve turns on a radius of {} µm at u = {:.3} (at least {} µm needed); check the support points and tangents",
+                        fmt_num(radius_mm * 1e3),
+                        u,
+                        fmt_num(MIN_CURVATURE_RADIUS_MM * 1e3)
+                    ),
                 ),
             }
         }

@@ -1,0 +1,231 @@
+//! `interpd plan` on every example program and on machines with default, tight and loose
+//! limits, checked from the outside: the CSV sampled at 0.25 ms is differentiated numerically
+//! and every axis must stay within 1.001 × max_vel and max_acc and 1.02 × max_jerk. The 4 ms
+//! setpoints must lie on the programmed geometry within 1 µm (checked against the shapes'
+//! own equations, not the planner's path code).
+
+use interpd_config::Config;
+use interpd_e2e::{binary, repo_root};
+use std::path::Path;
+use std::process::Command;
+
+struct Csv {
+    header: Vec<String>,
+    rows: Vec<Vec<f64>>,
+}
+
+fn plan_csv(program: &str, machine: Option<&str>, period_ms: f64) -> (Csv, serde_json::Value) {
+    let out = std::env::temp_dir().join(format!(
+        "interpd-plan-{}-{}-{}.csv",
+        std::process::id(),
+        Path::new(program).file_stem().and_then(|s| s.to_str()).unwrap_or("p"),
+        machine.map_or("default".to_string(), |m| Path::new(m).file_stem().unwrap().to_string_lossy().into_owned())
+    ));
+    let mut cmd = Command::new(binary("interpd"));
+    cmd.current_dir(repo_root())
+        .args(["plan", program, "--json", "--period-ms"])
+        .arg(period_ms.to_string())
+        .arg("--out")
+        .arg(&out);
+    if let Some(m) = machine {
+        cmd.args(["--machine", m]);
+    }
+    let res = cmd.output().expect("run interpd plan");
+    assert!(res.status.success(), "{program} on {machine:?}: {}", String::from_utf8_lossy(&res.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&res.stdout).expect("plan --json output");
+    let text = std::fs::read_to_string(&out).expect("read csv");
+    std::fs::remove_file(&out).ok();
+    let mut lines = text.lines();
+    let header: Vec<String> = lines.next().expect("header").split(',').map(str::to_string).collect();
+    let rows = lines.map(|l| l.split(',').map(|x| x.parse::<f64>().expect("number")).collect()).collect();
+    (Csv { header, rows }, json)
+}
+
+/// Largest |value| / limit per axis and quantity from finite differences of the positions.
+fn fd_ratios(csv: &Csv, cfg: &Config) -> [f64; 3] {
+    let dt = csv.rows[1][0] - csv.rows[0][0];
+    let mut worst = [0.0f64; 3];
+    for (k, axis) in cfg.axes.iter().enumerate() {
+        let col = 5 + k;
+        assert_eq!(csv.header[col], axis.name.to_string());
+        let x: Vec<f64> = csv.rows.iter().map(|r| r[col]).collect();
+        for i in 1..x.len().saturating_sub(2) {
+            let v = (x[i + 1] - x[i]) / dt;
+            let a = (x[i + 1] - 2.0 * x[i] + x[i - 1]) / (dt * dt);
+            let j = (x[i + 2] - 3.0 * x[i + 1] + 3.0 * x[i] - x[i - 1]) / (dt * dt * dt);
+            worst[0] = worst[0].max(v.abs() / axis.max_vel_per_s);
+            worst[1] = worst[1].max(a.abs() / axis.max_acc_per_s2);
+            worst[2] = worst[2].max(j.abs() / axis.max_jerk_per_s3);
+        }
+    }
+    worst
+}
+
+const PROGRAMS: [&str; 8] = [
+    "examples/circle_r10.ngc",
+    "examples/corner_90.ngc",
+    "examples/line_arc_line.ngc",
+    "examples/staircase.ngc",
+    "examples/zigzag.ngc",
+    "examples/two_arcs.ngc",
+    "examples/ellipse_g06.ngc",
+    "examples/ellipse_natural.ngc",
+];
+
+fn check_limits(program: &str, machine: Option<&str>) {
+    let cfg = match machine {
+        Some(m) => Config::load(&repo_root().join(m)).expect("machine"),
+        None => Config::default_machine(),
+    };
+    let (csv, json) = plan_csv(program, machine, 0.25);
+    let [v, a, j] = fd_ratios(&csv, &cfg);
+    assert!(v <= 1.001 && a <= 1.001 && j <= 1.02, "{program} on {machine:?}: vel {v:.5} acc {a:.5} jerk {j:.5}");
+    // The planner's own report must agree that nothing exceeds the limits.
+    let mr = &json["max_ratio"];
+    for q in ["vel", "acc", "jerk"] {
+        assert!(mr[q].as_f64().expect("ratio") <= 1.0 + 1e-9, "{program}: reported {q} ratio {}", mr[q]);
+    }
+    // It ends at the program's end point, at rest.
+    let last = csv.rows.last().expect("rows");
+    assert!(last[2].abs() < 1e-9, "{program}: ends with v = {}", last[2]);
+}
+
+#[test]
+fn limits_hold_on_the_default_machine() {
+    for p in PROGRAMS {
+        check_limits(p, None);
+    }
+}
+
+#[test]
+fn limits_hold_on_a_tight_machine() {
+    for p in PROGRAMS {
+        check_limits(p, Some("tests/machines/xyz_tight.toml"));
+    }
+}
+
+#[test]
+fn limits_hold_on_a_loose_machine() {
+    for p in PROGRAMS {
+        check_limits(p, Some("tests/machines/xyz_loose.toml"));
+    }
+}
+
+#[test]
+fn limits_hold_on_the_five_axis_table() {
+    for m in ["config/machines/xyzab.toml", "tests/machines/xyzab_tight.toml", "tests/machines/xyzab_loose.toml"] {
+        check_limits("examples/five_axis_table.csv", Some(m));
+    }
+}
+
+/// Distance from a point (x, y) to the programmed shape of each example, by its own equations.
+fn distance_to_shape(program: &str, x: f64, y: f64) -> f64 {
+    let seg = |ax: f64, ay: f64, bx: f64, by: f64| {
+        let (dx, dy) = (bx - ax, by - ay);
+        let t = (((x - ax) * dx + (y - ay) * dy) / (dx * dx + dy * dy)).clamp(0.0, 1.0);
+        (x - ax - t * dx).hypot(y - ay - t * dy)
+    };
+    let arc = |cx: f64, cy: f64, r: f64, from: f64, to: f64| {
+        // Arc from angle `from` to `to` counter-clockwise; distance to the arc.
+        let ang = (y - cy).atan2(x - cx);
+        let norm = |a: f64| a.rem_euclid(std::f64::consts::TAU);
+        let inside = norm(ang - from) <= norm(to - from) + 1e-12;
+        if inside {
+            ((x - cx).hypot(y - cy) - r).abs()
+        } else {
+            let (ax, ay) = (cx + r * from.cos(), cy + r * from.sin());
+            let (bx, by) = (cx + r * to.cos(), cy + r * to.sin());
+            (x - ax).hypot(y - ay).min((x - bx).hypot(y - by))
+        }
+    };
+    use std::f64::consts::{FRAC_PI_2, PI};
+    match program {
+        "examples/circle_r10.ngc" => ((x + 10.0).hypot(y) - 10.0).abs(),
+        "examples/corner_90.ngc" => seg(0.0, 0.0, 100.0, 0.0).min(seg(100.0, 0.0, 100.0, 100.0)),
+        "examples/line_arc_line.ngc" => {
+            seg(0.0, 0.0, 50.0, 0.0).min(arc(50.0, 20.0, 20.0, -FRAC_PI_2, 0.0)).min(seg(70.0, 20.0, 70.0, 70.0))
+        }
+        "examples/staircase.ngc" => {
+            let p = [(0.0, 0.0), (40.0, 0.0), (40.0, 20.0), (60.0, 20.0), (60.0, 40.0), (80.0, 40.0), (80.0, 80.0)];
+            p.windows(2).map(|w| seg(w[0].0, w[0].1, w[1].0, w[1].1)).fold(f64::INFINITY, f64::min)
+        }
+        "examples/two_arcs.ngc" => {
+            arc(0.0, 20.0, 20.0, -FRAC_PI_2, 0.0).min(arc(30.0, 20.0, 10.0, PI, FRAC_PI_2 + PI).min(
+                // the second arc is clockwise from (20,20) to (30,30) about (30,20): angles π → π/2
+                arc(30.0, 20.0, 10.0, FRAC_PI_2, PI),
+            ))
+        }
+        _ => unreachable!("no shape equation for {program}"),
+    }
+}
+
+#[test]
+fn setpoints_lie_on_the_programmed_geometry() {
+    for program in [
+        "examples/circle_r10.ngc",
+        "examples/corner_90.ngc",
+        "examples/line_arc_line.ngc",
+        "examples/staircase.ngc",
+        "examples/two_arcs.ngc",
+    ] {
+        let (csv, _) = plan_csv(program, None, 4.0);
+        let mut worst = 0.0f64;
+        for r in &csv.rows {
+            worst = worst.max(distance_to_shape(program, r[5], r[6]));
+            assert!(r[7].abs() < 1e-12, "{program}: Z moved");
+        }
+        assert!(worst <= 1e-3 * 1e-3 * 1e3, "{program}: setpoints {worst:.3e} mm off the geometry");
+        assert!(worst <= 0.001, "{program}: {worst} mm");
+    }
+}
+
+#[test]
+fn spline_setpoints_lie_on_the_hermite_spans() {
+    // Densely sampled spans P(u) of seed 002 eq. 1–2 (corrected R₃), independent of the
+    // planner's arc-length map; distance of every 4 ms setpoint to that polyline.
+    let text = std::fs::read_to_string(repo_root().join("examples/ellipse_g06.ngc")).expect("read");
+    let mut pts: Vec<(f64, f64)> = Vec::new();
+    let mut tans: Vec<(f64, f64)> = Vec::new();
+    let word = |line: &str, l: char| -> Option<f64> {
+        let i = line.find(l)?;
+        line[i + 1..].split(|c: char| c == ' ' || c == ';').next()?.parse().ok()
+    };
+    for line in text.lines() {
+        if line.starts_with('(') {
+            continue;
+        }
+        if line.starts_with("G0 ") {
+            pts.push((word(line, 'X').unwrap(), word(line, 'Y').unwrap()));
+        } else if line.contains("G06") {
+            tans.push((word(line, 'I').unwrap(), word(line, 'J').unwrap()));
+        } else if line.ends_with(';') {
+            pts.push((word(line, 'X').unwrap(), word(line, 'Y').unwrap()));
+            tans.push((word(line, 'P').unwrap(), word(line, 'Q').unwrap()));
+        }
+    }
+    assert_eq!(pts.len(), 21);
+    let mut poly = Vec::new();
+    for i in 0..20 {
+        let (a, b, ta, tb) = (pts[i], pts[i + 1], tans[i], tans[i + 1]);
+        for k in 0..20_000 {
+            let u = k as f64 / 20_000.0;
+            let h = |p0: f64, p1: f64, t0: f64, t1: f64| {
+                let r2 = 3.0 * (p1 - p0) - 2.0 * t0 - t1;
+                let r3 = 2.0 * (p0 - p1) + t0 + t1;
+                ((r3 * u + r2) * u + t0) * u + p0
+            };
+            poly.push((h(a.0, b.0, ta.0, tb.0), h(a.1, b.1, ta.1, tb.1)));
+        }
+    }
+    let (csv, _) = plan_csv("examples/ellipse_g06.ngc", None, 4.0);
+    let mut worst = 0.0f64;
+    for r in &csv.rows {
+        let (x, y) = (r[5], r[6]);
+        // The program starts with a G0 from the origin to the first support point.
+        let on_g0 = if y.abs() < 1e-12 && (0.0..=40.0).contains(&x) { 0.0 } else { f64::INFINITY };
+        let d = poly.iter().map(|p| (p.0 - x).hypot(p.1 - y)).fold(on_g0, f64::min);
+        worst = worst.max(d);
+    }
+    // Chord error of the dense polyline is < 1e-7 mm; the setpoints must be within 1 µm.
+    assert!(worst <= 0.001, "spline setpoints {worst:.3e} mm off the spans");
+}

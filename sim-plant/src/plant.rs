@@ -1,0 +1,342 @@
+//! A set of simulated axes stepping from coarse setpoints, as the drives of a machine do.
+//!
+//! Each coarse setpoint is the target for its time stamp; between two of them every drive
+//! interpolates at the servo rate (fine interpolation, see [`crate::drive::Segment`]) and the
+//! plant integrates. The state reported for a setpoint is the state at the setpoint's time, so
+//! following and load errors compare like with like. The per-step path does not allocate.
+
+use crate::PlantError;
+use crate::axis::{Axis, AxisOutput};
+use interpd_config::Config;
+use interpd_config::plant::{PlantConfig, PlantModel, ResolvedAxisPlant};
+use interpd_protocol::MAX_AXES;
+use interpd_protocol::shm::{Feedback, PAYLOAD_VERSION, Setpoints};
+use thiserror::Error;
+
+/// A longer silence than this between two setpoints restarts the plant at the new setpoint
+/// instead of simulating the gap.
+pub const MAX_GAP_S: f64 = 60.0;
+
+/// The target of one axis for one instant, in the axis unit (mm or deg) and per second.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct AxisTarget {
+    pub pos: f64,
+    pub vel: f64,
+    pub acc: f64,
+}
+
+/// Why a received setpoint payload was not used.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Error)]
+pub enum SetpointError {
+    #[error("payload version {got}, expected {expected}")]
+    BadVersion { got: u32, expected: u32 },
+    #[error("payload has {got} axes, the plant {expected}")]
+    AxisCount { got: u32, expected: usize },
+    #[error("non-finite value for axis {axis}")]
+    NonFinite { axis: usize },
+}
+
+/// Counts of what arrived on the setpoint input.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct InputStats {
+    /// Payloads received.
+    pub received: u64,
+    /// Payloads used (one feedback each).
+    pub accepted: u64,
+    /// Rejected: wrong [`PAYLOAD_VERSION`].
+    pub bad_version: u64,
+    /// Rejected: axis count differs from the plant's.
+    pub bad_axis_count: u64,
+    /// Rejected: NaN or infinite position, velocity or acceleration.
+    pub non_finite: u64,
+    /// Cycles missing between consecutive accepted setpoints (cycle numbers skipped).
+    pub missed_cycles: u64,
+    /// Setpoints whose time did not advance (duplicate or backwards): applied without motion.
+    pub time_anomalies: u64,
+    /// Restarts after a silence longer than [`MAX_GAP_S`].
+    pub resyncs: u64,
+}
+
+impl InputStats {
+    /// All rejected payloads.
+    pub fn rejected(&self) -> u64 {
+        self.bad_version + self.bad_axis_count + self.non_finite
+    }
+}
+
+/// The simulated axes of one machine.
+#[derive(Debug, Clone)]
+pub struct Plant {
+    axes: Vec<Axis>,
+    /// Crosstalk routes (source axis, output slot, target axis).
+    routes: Vec<(usize, usize, usize)>,
+    apply_crosstalk: bool,
+    h_ns: u64,
+    h_s: f64,
+    /// Time of the current state, ns.
+    t_ns: u64,
+    /// Time of the first reset (origin of [`Plant::time_s`]), ns.
+    origin_ns: u64,
+    started: bool,
+    outputs: Vec<AxisOutput>,
+    stats: InputStats,
+    last_cycle: Option<u64>,
+}
+
+impl Plant {
+    /// The plant for a validated configuration: one axis per `[[axis]]`, models from `[plant]`.
+    pub fn from_config(config: &Config) -> Result<Self, PlantError> {
+        let resolved = config.plant.resolve(&config.axes, "<config>")?;
+        Self::new(&resolved, &config.plant)
+    }
+
+    /// The plant for resolved axis parameters and the `[plant]` options.
+    pub fn new(axes: &[ResolvedAxisPlant], options: &PlantConfig) -> Result<Self, PlantError> {
+        if axes.is_empty() || axes.len() > MAX_AXES {
+            return Err(PlantError::Model(format!("need 1..={MAX_AXES} axes, got {}", axes.len())));
+        }
+        let rate = options.servo_rate_hz;
+        if !(rate.is_finite() && (1_000.0..=1_000_000.0).contains(&rate)) {
+            return Err(PlantError::Model(format!("servo rate {rate} Hz out of range")));
+        }
+        let h_ns = (1e9 / rate).round() as u64;
+        let h_s = h_ns as f64 * 1e-9;
+        let built = axes
+            .iter()
+            .map(|r| Axis::new(r, h_s, options.substeps, options.fine_interpolation))
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut routes = Vec::new();
+        for (src, r) in axes.iter().enumerate() {
+            if let PlantModel::ThreeMass(p) = &r.model {
+                for (slot, t) in p.crosstalk_targets.iter().enumerate() {
+                    if let Some(dst) = *t {
+                        if dst < axes.len() && dst != src {
+                            routes.push((src, slot, dst));
+                        }
+                    }
+                }
+            }
+        }
+        Ok(Self {
+            outputs: vec![AxisOutput::default(); built.len()],
+            axes: built,
+            routes,
+            apply_crosstalk: options.apply_crosstalk,
+            h_ns,
+            h_s,
+            t_ns: 0,
+            origin_ns: 0,
+            started: false,
+            stats: InputStats::default(),
+            last_cycle: None,
+        })
+    }
+
+    pub fn n_axes(&self) -> usize {
+        self.axes.len()
+    }
+    pub fn axes(&self) -> &[Axis] {
+        &self.axes
+    }
+    /// One axis, for analysis or to change its process force.
+    pub fn axis_mut(&mut self, i: usize) -> Option<&mut Axis> {
+        self.axes.get_mut(i)
+    }
+    /// Servo period, s.
+    pub fn servo_period_s(&self) -> f64 {
+        self.h_s
+    }
+    /// The outputs of the last step (or reset).
+    pub fn outputs(&self) -> &[AxisOutput] {
+        &self.outputs
+    }
+    /// Input counters (setpoint payloads).
+    pub fn stats(&self) -> &InputStats {
+        &self.stats
+    }
+    /// Whether the plant has been placed at a first setpoint.
+    pub fn started(&self) -> bool {
+        self.started
+    }
+    /// Time of the current state, ns (the time base of the setpoints).
+    pub fn time_ns(&self) -> u64 {
+        self.t_ns
+    }
+    /// Seconds since the first setpoint.
+    pub fn time_s(&self) -> f64 {
+        self.t_ns.saturating_sub(self.origin_ns) as f64 * 1e-9
+    }
+
+    /// Sets the static process force of axis `i` (N or N·m); `None` restores the configured one.
+    pub fn set_process_force(&mut self, i: usize, force: Option<f64>) {
+        if let Some(a) = self.axes.get_mut(i) {
+            a.set_process_force(force);
+        }
+    }
+
+    /// Places every axis at rest at `positions` (axis units) at time `t_ns`.
+    pub fn reset(&mut self, t_ns: u64, positions: &[f64]) -> Result<&[AxisOutput], PlantError> {
+        self.check_len(positions.len())?;
+        if positions.iter().any(|p| !p.is_finite()) {
+            return Err(PlantError::Input("non-finite position".into()));
+        }
+        if !self.started {
+            self.origin_ns = t_ns;
+        }
+        self.t_ns = t_ns;
+        self.started = true;
+        let t_s = self.time_s();
+        for (a, &p) in self.axes.iter_mut().zip(positions) {
+            a.reset(p, t_s);
+        }
+        self.update_outputs();
+        Ok(&self.outputs)
+    }
+
+    /// Advances to time `t_ns`, the drives interpolating from the previous targets to
+    /// `targets` (axis units). The first call places the plant at rest at the targets.
+    pub fn advance_to(&mut self, t_ns: u64, targets: &[AxisTarget]) -> Result<&[AxisOutput], PlantError> {
+        self.check_len(targets.len())?;
+        if targets.iter().any(|t| !(t.pos.is_finite() && t.vel.is_finite() && t.acc.is_finite())) {
+            return Err(PlantError::Input("non-finite target".into()));
+        }
+        if !self.started {
+            let mut pos = [0.0; MAX_AXES];
+            for (p, t) in pos.iter_mut().zip(targets) {
+                *p = t.pos;
+            }
+            return self.reset(t_ns, &pos[..targets.len()]);
+        }
+        let half = self.h_ns / 2;
+        if t_ns + half <= self.t_ns {
+            // Time did not advance: take the new target without motion.
+            self.stats.time_anomalies += 1;
+            for (a, t) in self.axes.iter_mut().zip(targets) {
+                a.set_target(t.pos, t.vel, t.acc, 0.0);
+            }
+            self.update_outputs();
+            return Ok(&self.outputs);
+        }
+        let gap_ns = t_ns - self.t_ns.min(t_ns);
+        if gap_ns as f64 * 1e-9 > MAX_GAP_S {
+            self.stats.resyncs += 1;
+            let mut pos = [0.0; MAX_AXES];
+            for (p, t) in pos.iter_mut().zip(targets) {
+                *p = t.pos;
+            }
+            return self.reset(t_ns, &pos[..targets.len()]);
+        }
+        let dur_s = gap_ns as f64 * 1e-9;
+        for (a, t) in self.axes.iter_mut().zip(targets) {
+            a.set_target(t.pos, t.vel, t.acc, dur_s);
+        }
+        let n = (gap_ns + half) / self.h_ns;
+        let t0_s = self.time_s();
+        for j in 0..n {
+            let t_seg = j as f64 * self.h_s;
+            let t_s = t0_s + t_seg;
+            for a in self.axes.iter_mut() {
+                a.step(t_seg, t_s);
+            }
+        }
+        self.t_ns += n * self.h_ns;
+        self.update_outputs();
+        Ok(&self.outputs)
+    }
+
+    /// [`Plant::advance_to`] `dt_s` after the current state.
+    pub fn advance(&mut self, dt_s: f64, targets: &[AxisTarget]) -> Result<&[AxisOutput], PlantError> {
+        if !(dt_s.is_finite() && dt_s >= 0.0) {
+            return Err(PlantError::Input(format!("bad time step {dt_s}")));
+        }
+        let t = self.t_ns + (dt_s * 1e9).round() as u64;
+        self.advance_to(t, targets)
+    }
+
+    /// Validates one received payload and advances to its time. Rejected payloads are counted
+    /// in [`Plant::stats`] and leave the plant untouched.
+    pub fn step_setpoint(&mut self, sp: &Setpoints) -> Result<&[AxisOutput], SetpointError> {
+        self.stats.received += 1;
+        if let Err(e) = self.check_setpoint(sp) {
+            match e {
+                SetpointError::BadVersion { .. } => self.stats.bad_version += 1,
+                SetpointError::AxisCount { .. } => self.stats.bad_axis_count += 1,
+                SetpointError::NonFinite { .. } => self.stats.non_finite += 1,
+            }
+            return Err(e);
+        }
+        if let Some(last) = self.last_cycle {
+            // Cycle 0 starts a new motion; otherwise count skipped cycle numbers.
+            if sp.cycle > last + 1 {
+                self.stats.missed_cycles += sp.cycle - last - 1;
+            }
+        }
+        self.last_cycle = Some(sp.cycle);
+        let n = self.axes.len();
+        let mut targets = [AxisTarget::default(); MAX_AXES];
+        for (i, t) in targets.iter_mut().enumerate().take(n) {
+            *t = AxisTarget { pos: sp.pos[i], vel: sp.vel[i], acc: sp.acc[i] };
+        }
+        self.stats.accepted += 1;
+        // Lengths and values were checked above, so this cannot fail.
+        if self.advance_to(sp.time_ns, &targets[..n]).is_err() {
+            return Err(SetpointError::NonFinite { axis: 0 });
+        }
+        Ok(&self.outputs)
+    }
+
+    fn check_setpoint(&self, sp: &Setpoints) -> Result<(), SetpointError> {
+        if sp.version != PAYLOAD_VERSION {
+            return Err(SetpointError::BadVersion { got: sp.version, expected: PAYLOAD_VERSION });
+        }
+        if sp.n_axes as usize != self.axes.len() {
+            return Err(SetpointError::AxisCount { got: sp.n_axes, expected: self.axes.len() });
+        }
+        for i in 0..self.axes.len() {
+            if !(sp.pos[i].is_finite() && sp.vel[i].is_finite() && sp.acc[i].is_finite()) {
+                return Err(SetpointError::NonFinite { axis: i });
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes the feedback answering `sp` from the current outputs.
+    pub fn fill_feedback(&self, sp: &Setpoints, fb: &mut Feedback) {
+        *fb = Feedback {
+            version: PAYLOAD_VERSION,
+            n_axes: self.axes.len() as u32,
+            cycle: sp.cycle,
+            time_ns: self.t_ns,
+            setpoint_publish_ns: sp.publish_ns,
+            ..Feedback::default()
+        };
+        for (i, o) in self.outputs.iter().enumerate() {
+            fb.motor_pos[i] = o.motor_pos;
+            fb.load_pos[i] = o.load_pos;
+            fb.following_error[i] = o.following_error;
+            fb.load_error[i] = o.load_error;
+            fb.motor_force[i] = o.motor_force;
+        }
+    }
+
+    fn check_len(&self, n: usize) -> Result<(), PlantError> {
+        if n != self.axes.len() {
+            return Err(PlantError::Input(format!("{n} targets for {} axes", self.axes.len())));
+        }
+        Ok(())
+    }
+
+    fn update_outputs(&mut self) {
+        for (o, a) in self.outputs.iter_mut().zip(&self.axes) {
+            *o = a.output();
+        }
+        if self.apply_crosstalk {
+            for &(src, slot, dst) in &self.routes {
+                let c = self.outputs[src].crosstalk[slot];
+                let o = &mut self.outputs[dst];
+                o.load_pos += c;
+                o.load_error = o.setpoint - o.load_pos;
+            }
+        }
+    }
+}

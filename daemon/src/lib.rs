@@ -4,6 +4,7 @@
 //! A‴(s)) → prep (tolerance smoothing) → planner (look-ahead feedrate profile) → interp (fine
 //! interpolation every cycle) → sinks (shared memory, CAN) → drives / sim-plant.
 
+pub mod control;
 pub mod path;
 pub mod planner;
 pub mod program;

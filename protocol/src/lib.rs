@@ -4,6 +4,7 @@
 
 pub mod candump;
 pub mod cia402;
+pub mod rpc;
 pub mod shm;
 
 /// Most axes in any payload (one per G-code axis letter X Y Z A B C U V W).

@@ -1,0 +1,31 @@
+//! The control API: JSON-RPC 2.0, one message per line, on a Unix socket (DESIGN.md "Control
+//! API"; reference with examples in docs/control-api.md).
+//!
+//! - [`motion`]: the [`Motion`] trait the motion core implements, and its errors.
+//! - [`server`]: [`ControlServer`], the socket, its clients and their threads.
+//! - `dispatch`: one received line to one answer (JSON-RPC rules, calls into [`Motion`]).
+//! - `framing`: lines out of a byte stream, never more than 1 MiB.
+//!
+//! The message types themselves are in [`interpd_protocol::rpc`].
+//!
+//! ```no_run
+//! # use std::sync::Arc;
+//! # fn demo(motion: Arc<dyn interpd::control::Motion>) -> Result<(), interpd::control::ServerError> {
+//! use interpd::control::ControlServer;
+//! let server = ControlServer::builder()
+//!     .socket("/run/interpd/control.sock")
+//!     .stop_on_disconnect(false)
+//!     .max_clients(16)
+//!     .build(motion)?;
+//! // ... on SIGTERM: stop the motion, then
+//! server.shutdown();
+//! # Ok(()) }
+//! ```
+
+mod dispatch;
+mod framing;
+pub mod motion;
+pub mod server;
+
+pub use motion::{Motion, MotionError, ProgramSource};
+pub use server::{ControlServer, ControlServerBuilder, ServerError, ServerStats};

@@ -164,6 +164,22 @@ impl Planner {
         Ok(std::mem::take(&mut self.out))
     }
 
+    /// Whether the machine, in the state handed over last, can still come to rest within the
+    /// path planned so far (the nodes held for the horizon): the invariant every hand-over
+    /// keeps. Plans that stop on a copy; the planner is unchanged.
+    pub fn can_stop_within_horizon(&self) -> bool {
+        if self.nodes.len() < 2 {
+            return self.start.0.abs() < 1e-9 && self.start.1.abs() < 1e-6;
+        }
+        // The nodes up to the first stop (or the horizon end, taken as one).
+        let end = (1..self.nodes.len()).find(|&i| self.nodes[i].stop).unwrap_or(self.nodes.len() - 1);
+        let mut nodes = self.nodes[..=end].to_vec();
+        if let Some(last) = nodes.last_mut() {
+            last.vbar_mm_s = 0.0;
+        }
+        block::plan_block(&mut nodes, self.start, false, &self.lim).is_ok()
+    }
+
     /// Plans a whole path at once (the offline use of the same online machinery).
     pub fn plan_path(config: &Config, path: &Path) -> Result<(Vec<Segment>, PlanStats), PlanError> {
         let mut planner = Planner::new(config);

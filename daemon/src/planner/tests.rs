@@ -122,3 +122,63 @@ fn debug_dump() {
     }
     eprintln!("{work:?}");
 }
+
+/// A long smooth G06 path (natural spline through points on a Lissajous curve).
+fn long_spline(points: usize) -> String {
+    let mut t = String::from("G21 G90 G17\nG1 X40 Y0 F6000\nG06\n");
+    for i in 1..=points {
+        let u = i as f64 / points as f64 * std::f64::consts::TAU * 3.0;
+        t += &format!("X{:.5} Y{:.5} Z0;\n", 40.0 * (u).cos() + 8.0 * (3.0 * u).sin(), 30.0 * (2.0 * u).sin());
+    }
+    t + "\nM30\n"
+}
+
+fn plan_online(cfg: &Config, path: &Path, lookahead_mm: f64) -> (Vec<Segment>, usize) {
+    let mut cfg = cfg.clone();
+    cfg.planner.lookahead_mm = lookahead_mm;
+    let mut planner = Planner::new(&cfg);
+    let mut segs = Vec::new();
+    let mut handovers = 0;
+    for e in &path.elements {
+        planner.push(e.clone());
+        let got = planner.plan().expect("online plan");
+        if !got.is_empty() {
+            handovers += 1;
+            assert!(
+                planner.can_stop_within_horizon(),
+                "handed-over state cannot stop within the planned path at s = {}",
+                got.last().unwrap().s1_mm()
+            );
+        }
+        segs.extend(got);
+    }
+    planner.finish(path.final_dwell_s);
+    segs.extend(planner.plan().expect("final plan"));
+    assert!(planner.done());
+    (segs, handovers)
+}
+
+#[test]
+fn online_planning_matches_whole_program() {
+    let cfg = Config::default_machine();
+    let five = Config::five_axis_machine();
+    let table =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/five_axis_table.csv")).unwrap();
+    let cases: Vec<(&str, String, &Config, f64)> = vec![
+        ("spline", long_spline(400), &cfg, 120.0),
+        ("table", table, &five, 120.0),
+        ("circles", format!("G1 F30000\n{}", "G2 X0 Y0 I-10 J0\n".repeat(8)), &cfg, 40.0),
+    ];
+    for (name, text, c, lookahead) in cases {
+        let origin = if name == "table" { "t.csv" } else { "t.ngc" };
+        let prog = program::parse(&text, origin, c).unwrap();
+        let (whole, _) = Planner::plan_path(c, &prog.path).unwrap();
+        let (online, handovers) = plan_online(c, &prog.path, lookahead);
+        let (tw, to) = (profile::duration_s(&whole), profile::duration_s(&online));
+        assert!(handovers > 3, "{name}: only {handovers} hand-overs: the look-ahead did not bound the horizon");
+        assert!((to - tw).abs() <= 0.005 * tw, "{name}: online {to} s vs whole {tw} s");
+        check_continuity(&online);
+        let end = online.last().unwrap();
+        assert!((end.s1_mm() - prog.path.length_mm()).abs() < 1e-6);
+    }
+}

@@ -10,11 +10,13 @@ mod cubic;
 mod line;
 mod septic;
 pub mod spline;
+mod suffix;
 
 pub use arc::Helix;
 pub use cubic::{CubicSpan, MIN_CURVATURE_RADIUS_MM, SpanError};
 pub use line::Line;
 pub use septic::SepticSpan;
+pub use suffix::Suffix;
 
 pub use interpd_config::MAX_AXES;
 
@@ -37,6 +39,8 @@ pub enum Geometry {
     Helix(Helix),
     Cubic(Box<CubicSpan>),
     Septic(Box<SepticSpan>),
+    /// The rest of an element from a point inside it (replanning from a stop or hand-over).
+    Suffix(Box<Suffix>),
 }
 
 impl Geometry {
@@ -47,6 +51,7 @@ impl Geometry {
             Geometry::Helix(g) => g.length_mm(),
             Geometry::Cubic(g) => g.length_mm(),
             Geometry::Septic(g) => g.length_mm(),
+            Geometry::Suffix(g) => g.length_mm(),
         }
     }
 
@@ -58,6 +63,7 @@ impl Geometry {
             Geometry::Helix(g) => g.eval(s, out),
             Geometry::Cubic(g) => g.eval(s, out),
             Geometry::Septic(g) => g.eval(s, out),
+            Geometry::Suffix(g) => g.eval(s, out),
         }
     }
 
@@ -68,6 +74,7 @@ impl Geometry {
             Geometry::Helix(_) => "arc",
             Geometry::Cubic(_) => "spline",
             Geometry::Septic(_) => "table",
+            Geometry::Suffix(g) => g.inner().kind_name(),
         }
     }
 }
@@ -140,6 +147,9 @@ impl Element {
 /// Tangent angles below this count as continuous: a velocity direction step of 1e-9 rad at
 /// 1 m/s is 1e-6 mm/s, far below any measurable acceleration.
 pub const TANGENT_ANGLE_TOL_RAD: f64 = 1e-9;
+/// A cut this close to an element's start (mm) is taken as its start: the element is kept
+/// whole rather than cut into a sliver.
+pub const SUFFIX_AT_START_MM: f64 = 1e-9;
 /// Relative curvature difference below which a joint counts as G².
 pub const CURVATURE_REL_TOL: f64 = 1e-9;
 
@@ -199,6 +209,38 @@ impl Path {
             Some(e) => e.geometry.eval(s_mm - e.s_start_mm, out),
             None => *out = AxisDerivs { pos: self.start, ..AxisDerivs::default() },
         }
+    }
+
+    /// The path from `s_mm` on, keeping absolute path positions: the element that contains
+    /// `s_mm` is cut there and starts the new path (joint `Start`); a cut inside it drops its
+    /// dwell, which lies behind. Used to replan from a hold, an underrun or an override change.
+    pub fn suffix_from(&self, s_mm: f64) -> Path {
+        let mut start = AxisDerivs::default();
+        self.eval(s_mm, &mut start);
+        let mut out = Path { start: start.pos, elements: Vec::new(), ..Path::new(self.axis_names.clone(), start.pos) };
+        out.final_dwell_s = self.final_dwell_s;
+        if s_mm >= self.length_mm() {
+            return out;
+        }
+        let mut first = self.element_index_at(s_mm);
+        // A cut at an element's very end starts with the next element (no sliver).
+        if self.elements[first].s_end_mm() - s_mm <= SUFFIX_AT_START_MM && first + 1 < self.elements.len() {
+            first += 1;
+        }
+        for (k, e) in self.elements[first..].iter().enumerate() {
+            let mut e = e.clone();
+            if k == 0 {
+                let offset = s_mm - e.s_start_mm;
+                if offset > SUFFIX_AT_START_MM {
+                    e.geometry = Geometry::Suffix(Box::new(Suffix::new(e.geometry, offset)));
+                    e.s_start_mm = s_mm;
+                    e.dwell_before_s = 0.0;
+                }
+                e.joint = JointKind::Start;
+            }
+            out.elements.push(e);
+        }
+        out
     }
 
     /// End position of the path.

@@ -24,6 +24,7 @@ pub mod limits;
 pub mod node;
 pub mod profile;
 pub mod ramp;
+mod resume;
 pub mod sampling;
 pub mod scurve;
 pub mod step;
@@ -91,6 +92,8 @@ pub struct Planner {
     /// Nodes from the hand-over point on; `nodes[0]` has the state `start`.
     nodes: Vec<Node>,
     start: (f64, f64),
+    /// The path starts in motion (`with_start_state`): its first node is no stop.
+    start_moving: bool,
     t_now_s: f64,
     /// Node count at the last plan (replan only after the horizon grew enough).
     planned_len: usize,
@@ -118,6 +121,7 @@ impl Planner {
             final_dwell_s: 0.0,
             nodes: Vec::new(),
             start: (0.0, 0.0),
+            start_moving: false,
             t_now_s: 0.0,
             planned_len: 0,
             out: Vec::new(),
@@ -214,6 +218,7 @@ impl Planner {
             let count_before = self.nodes.len();
             sampling::sample_element(
                 self.prev.as_ref(),
+                self.start_moving,
                 e,
                 next_stops,
                 &mut self.since_stop_mm,
@@ -223,6 +228,9 @@ impl Planner {
             );
             self.stats.nodes += (self.nodes.len() - count_before) as u64;
             self.refine_vbar(count_before.saturating_sub(1));
+            if count_before == 0 && self.start_moving {
+                resume::admit_start_state(&mut self.nodes[0], self.start);
+            }
             self.prev = self.pending.pop_front();
         }
         if self.input_done && self.pending.is_empty() && !self.end_sampled {

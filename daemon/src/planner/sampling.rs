@@ -185,8 +185,12 @@ fn speed_from_rest(d_mm: f64, j: f64, a: f64) -> f64 {
 ///
 /// `since_stop_mm` is the path length from the last stop to the element start; it is updated
 /// to the element end. `next_stops` tells whether the motion must be at rest at the element end.
+/// Without `prev` the element starts the path: at rest, unless `start_moving` (a replan from a
+/// state in motion, see `Planner::with_start_state`).
+#[allow(clippy::too_many_arguments)]
 pub fn sample_element(
     prev: Option<&Element>,
+    start_moving: bool,
     e: &Element,
     next_stops: bool,
     since_stop_mm: &mut f64,
@@ -205,7 +209,7 @@ pub fn sample_element(
             p.geometry.eval(p.geometry.length_mm(), &mut dp);
             (NodeGeom::from(&dp), e.stops_before())
         }
-        None => (right, true),
+        None => (right, !start_moving),
     };
     if stop {
         *since_stop_mm = 0.0;

@@ -5,9 +5,13 @@
 //! interpolation every cycle) → sinks (shared memory, CAN) → drives / sim-plant.
 
 pub mod control;
+pub mod interp;
+pub mod motion;
 pub mod path;
 pub mod planner;
 pub mod program;
+pub mod rt;
+pub mod sinks;
 
 pub use interpd_config as config;
 pub use interpd_otg as otg;

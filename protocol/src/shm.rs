@@ -18,6 +18,25 @@ pub const FEEDBACK_SERVICE: &str = "interpd/feedback";
 /// Layout version carried in every payload; bumped on any change of the structs below.
 pub const PAYLOAD_VERSION: u32 = 1;
 
+/// Service settings every participant uses with `open_or_create`, so that whichever process
+/// comes first creates the service the others can open (iceoryx2 refuses to open a service
+/// whose settings are below what the opener asks for).
+pub mod service_settings {
+    /// Samples a late subscriber receives on connecting (DESIGN.md: the latest one).
+    pub const HISTORY_SIZE: usize = 1;
+    /// Samples a subscriber can hold unread (a recorder polls every few cycles).
+    pub const SUBSCRIBER_MAX_BUFFER_SIZE: usize = 512;
+    pub const MAX_SUBSCRIBERS: usize = 16;
+    pub const MAX_PUBLISHERS: usize = 2;
+    pub const MAX_NODES: usize = 32;
+}
+
+/// The full service name of `service` ("setpoints", "feedback") under `prefix` ("interpd"
+/// by default; tests use their own prefixes to run side by side).
+pub fn service_name(prefix: &str, service: &str) -> String {
+    format!("{prefix}/{service}")
+}
+
 /// Bits of [`Setpoints::flags`].
 pub mod flags {
     /// Motion is running (program or jog).

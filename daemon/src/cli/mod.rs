@@ -2,6 +2,7 @@
 
 mod check;
 mod plan;
+mod run;
 
 use clap::{Parser, Subcommand};
 use std::fmt;
@@ -33,6 +34,8 @@ pub enum Command {
     },
     /// Plan a program offline and sample the motion in simulated time (CSV and/or JSON).
     Plan(plan::PlanArgs),
+    /// The service: control socket, planner and real-time threads, setpoint sinks.
+    Run(run::RunArgs),
 }
 
 /// A failed command: bad input (exit 2) or anything else (exit 1).
@@ -87,5 +90,6 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Check { program, machine } => check::run(&program, machine.as_deref()),
         Command::Plan(args) => plan::run(&args),
+        Command::Run(args) => run::run(&args),
     }
 }

@@ -24,7 +24,7 @@ pub mod limits;
 pub mod node;
 pub mod profile;
 pub mod ramp;
-mod resume;
+pub mod resume;
 pub mod sampling;
 pub mod scurve;
 pub mod step;
@@ -97,6 +97,8 @@ pub struct Planner {
     t_now_s: f64,
     /// Node count at the last plan (replan only after the horizon grew enough).
     planned_len: usize,
+    /// A feasible profile from the start whose velocity floors the bounds (`resume`).
+    vbar_floor: Vec<Segment>,
     out: Vec<Segment>,
     pub stats: PlanStats,
 }
@@ -124,6 +126,7 @@ impl Planner {
             start_moving: false,
             t_now_s: 0.0,
             planned_len: 0,
+            vbar_floor: Vec::new(),
             out: Vec::new(),
             stats: PlanStats::default(),
         }
@@ -228,6 +231,9 @@ impl Planner {
             );
             self.stats.nodes += (self.nodes.len() - count_before) as u64;
             self.refine_vbar(count_before.saturating_sub(1));
+            if !self.vbar_floor.is_empty() {
+                resume::raise_to_floor(&mut self.nodes[count_before.saturating_sub(1)..], &self.vbar_floor);
+            }
             if count_before == 0 && self.start_moving {
                 resume::admit_start_state(&mut self.nodes[0], self.start);
             }

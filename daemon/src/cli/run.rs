@@ -1,0 +1,139 @@
+//! `interpd run [--config FILE] [--socket PATH] ...`: the service. Control socket, planner and
+//! real-time threads, sinks; SIGINT/SIGTERM bring the machine to a controlled stop and exit 0.
+
+use super::CliError;
+use interpd::config::Config;
+use interpd::control::{ControlServer, Motion};
+use interpd::motion::{MotionOptions, MotionService};
+use interpd_protocol::rpc::State;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+
+/// How long a controlled stop on SIGTERM may take before the daemon exits anyway.
+const STOP_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// Options of `interpd run`.
+#[derive(Debug, clap::Args)]
+pub struct RunArgs {
+    /// Machine and daemon configuration (TOML); default: the embedded 3-axis machine.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Control socket path (overrides `[control] socket`).
+    #[arg(long)]
+    pub socket: Option<PathBuf>,
+    /// Do not publish setpoints over iceoryx2 (overrides `[sinks] shm`).
+    #[arg(long)]
+    pub no_shm: bool,
+    /// iceoryx2 service prefix (overrides `[sinks] shm_prefix`; services `<prefix>/setpoints`).
+    #[arg(long)]
+    pub shm_prefix: Option<String>,
+    /// Testing aid: the planner thread stalls once for FOR_S seconds after AFTER_S seconds of
+    /// motion were queued, to provoke an underrun. Format AFTER_S:FOR_S.
+    #[arg(long, value_name = "AFTER_S:FOR_S")]
+    pub debug_stall_planner: Option<String>,
+}
+
+pub fn run(args: &RunArgs) -> Result<(), CliError> {
+    let mut config = Config::load_or_default(args.config.as_deref())?;
+    if let Some(p) = &args.shm_prefix {
+        config.sinks.shm_prefix = p.clone();
+        // Validate the override like the file value.
+        let text = format!("[machine]\ncycle_ms = 4.0\n[[axis]]\nname = \"X\"\nkind = \"linear\"\nmax_vel = 1.0\nmax_acc = 1.0\nmax_jerk = 1.0\nmin = -1.0\nmax = 1.0\n[sinks]\nshm_prefix = {p:?}\n");
+        Config::from_toml_str(&text, "--shm-prefix").map_err(|e| CliError::BadInput(e.to_string()))?;
+    }
+    let stall = args.debug_stall_planner.as_deref().map(parse_stall).transpose()?;
+    let socket = args.socket.clone().unwrap_or_else(|| PathBuf::from(config.control.socket_path()));
+    block_termination_signals();
+
+    let service = MotionService::start(MotionOptions { config: config.clone(), shm: config.sinks.shm && !args.no_shm })
+        .map_err(|e| CliError::Failure(e.to_string()))?;
+    if service.sched().all_granted() {
+        tracing::info!("real-time thread: {}", service.sched());
+    } else {
+        eprintln!(
+            "interpd: real-time thread: {} — running with soft real-time only (grant CAP_SYS_NICE and memlock, see README \"Real-time settings\")",
+            service.sched()
+        );
+    }
+    let core = service.core();
+    if let Some((after_s, for_s)) = stall {
+        eprintln!("interpd: debug: the planner thread will stall for {for_s} s after {after_s} s of motion");
+        core.debug_stall_planner(after_s, for_s);
+    }
+    let server = ControlServer::builder()
+        .socket(&socket)
+        .stop_on_disconnect(config.control.stop_on_disconnect)
+        .build(Arc::new(core.clone()))
+        .map_err(|e| CliError::Failure(e.to_string()))?;
+    eprintln!(
+        "interpd: running: {} axes, cycle {} ms, control socket {}, setpoints on {}",
+        config.axes.len(),
+        config.machine.cycle_ms,
+        socket.display(),
+        if config.sinks.shm && !args.no_shm { format!("iceoryx2 {}/setpoints", config.sinks.shm_prefix) } else { "no sink".into() }
+    );
+
+    let signal = wait_for_termination_signal();
+    eprintln!("interpd: {signal}: stopping the motion");
+    let _ = core.stop();
+    let state = core.wait_for(&[State::Idle, State::Finished, State::Error], STOP_TIMEOUT);
+    if !matches!(state, State::Idle | State::Finished) {
+        eprintln!("interpd: the machine did not come to rest within {} s (state {state})", STOP_TIMEOUT.as_secs());
+    }
+    server.shutdown();
+    let report = service.shutdown();
+    eprintln!("interpd: {}", report.histograms);
+    eprintln!(
+        "interpd: {} cycles, {} late, {} overruns; {} chunks planned, {} replans, largest setpoint deviation {:.3} µm; {} publish errors",
+        report.totals.cycles,
+        report.totals.late_cycles,
+        report.totals.overruns,
+        report.feeder.chunks,
+        report.feeder.replans,
+        report.feeder.max_coarse_error_mm * 1e3,
+        report.publish_errors
+    );
+    Ok(())
+}
+
+fn parse_stall(s: &str) -> Result<(f64, f64), CliError> {
+    let bad = || CliError::BadInput(format!("--debug-stall-planner: expected AFTER_S:FOR_S (seconds), got {s:?}"));
+    let (a, b) = s.split_once(':').ok_or_else(bad)?;
+    let (a, b): (f64, f64) = (a.trim().parse().map_err(|_| bad())?, b.trim().parse().map_err(|_| bad())?);
+    if !(a.is_finite() && b.is_finite() && a >= 0.0 && b > 0.0 && b <= 60.0) {
+        return Err(bad());
+    }
+    Ok((a, b))
+}
+
+/// Blocks SIGINT and SIGTERM in this thread and the threads it starts from now on, so that
+/// [`wait_for_termination_signal`] receives them synchronously.
+fn block_termination_signals() {
+    // SAFETY: sigset manipulation on a local set; pthread_sigmask on the calling thread.
+    unsafe {
+        let mut set: libc::sigset_t = std::mem::zeroed();
+        libc::sigemptyset(&mut set);
+        libc::sigaddset(&mut set, libc::SIGINT);
+        libc::sigaddset(&mut set, libc::SIGTERM);
+        libc::pthread_sigmask(libc::SIG_BLOCK, &set, std::ptr::null_mut());
+    }
+}
+
+/// Waits for SIGINT or SIGTERM; returns its name.
+fn wait_for_termination_signal() -> &'static str {
+    // SAFETY: as above; sigwait writes the received signal into `sig`.
+    unsafe {
+        let mut set: libc::sigset_t = std::mem::zeroed();
+        libc::sigemptyset(&mut set);
+        libc::sigaddset(&mut set, libc::SIGINT);
+        libc::sigaddset(&mut set, libc::SIGTERM);
+        let mut sig: libc::c_int = 0;
+        loop {
+            if libc::sigwait(&set, &mut sig) == 0 {
+                return if sig == libc::SIGINT { "SIGINT" } else { "SIGTERM" };
+            }
+        }
+    }
+}
+

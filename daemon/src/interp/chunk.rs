@@ -1,0 +1,45 @@
+//! The unit the planner thread hands to the real-time thread.
+
+use super::coarse::CoarsePoint;
+
+/// A stretch of planned motion, a few interpolation cycles long, with the fastest stop that
+/// can follow it. The real-time thread runs `points`; at their end it continues with the next
+/// chunk of the same epoch, or, on a hold, a stop or when no chunk is there (underrun), runs
+/// `tail` to rest instead. Chunks are allocated by the planner thread and returned to it
+/// through the recycle queue, so the real-time thread never allocates or frees memory.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Chunk {
+    /// Motion generation: a restart after a stop begins a new epoch; chunks of an older epoch
+    /// are discarded.
+    pub epoch: u64,
+    /// Sequence number within the epoch, from 0.
+    pub seq: u64,
+    /// The motion; `points[0]` (at t = 0) is where the previous chunk ended.
+    pub points: Vec<CoarsePoint>,
+    /// The fastest stop from the end of `points` (times from 0 at that end); empty when the
+    /// motion ends at rest there.
+    pub tail: Vec<CoarsePoint>,
+    /// The program ends with this chunk.
+    pub last: bool,
+    /// Feed override the chunk was planned with (1.0 = 100 %).
+    pub feed_override: f64,
+}
+
+impl Chunk {
+    /// Duration of the motion (without the tail), s.
+    pub fn duration_s(&self) -> f64 {
+        self.points.last().map_or(0.0, |p| p.t_s)
+    }
+
+    /// Duration of the tail, s.
+    pub fn tail_duration_s(&self) -> f64 {
+        self.tail.last().map_or(0.0, |p| p.t_s)
+    }
+
+    /// Empties the chunk for reuse, keeping its memory.
+    pub fn clear(&mut self) {
+        self.points.clear();
+        self.tail.clear();
+        self.last = false;
+    }
+}

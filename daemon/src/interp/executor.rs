@@ -1,0 +1,322 @@
+//! Stage 2 of the two-stage interpolation, run every cycle in the real-time thread: the dumb,
+//! exact executor of the chunks the planner thread prepared (the contract is in
+//! [`super`]). It evaluates the quintic between coarse points, switches chunks, and diverts
+//! into a chunk's stop tail on a hold, a stop or an underrun. It never allocates, frees,
+//! locks or blocks: chunks arrive and leave through lock-free queues, notices go out through
+//! one.
+
+use super::chunk::Chunk;
+use super::coarse::CoarsePoint;
+use super::hermite;
+use crossbeam::queue::ArrayQueue;
+use interpd_protocol::shm::{Setpoints, flags};
+
+/// Why the executor stopped following the planned motion and ran a chunk's tail.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DivertCause {
+    /// Feed hold requested (resume continues the program).
+    Hold,
+    /// Stop requested (the program is abandoned).
+    Stop,
+    /// No next chunk was there in time (the program continues when chunks arrive).
+    Underrun,
+}
+
+/// What the executor tells the rest of the daemon (through a lock-free queue).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Notice {
+    /// Motion of `epoch` began (from rest).
+    Started { epoch: u64, cycle: u64 },
+    /// The executor left the planned motion at the end of chunk `seq` of `epoch` and runs its
+    /// tail; chunks of `epoch` are discarded from now on.
+    Diverted { epoch: u64, seq: u64, cause: DivertCause, cycle: u64 },
+    /// The tail ended: the machine stands at `s_mm`.
+    Stood { epoch: u64, seq: u64, cause: DivertCause, s_mm: f64, cycle: u64 },
+    /// The last chunk of the program ended: the machine stands at the program end.
+    Finished { epoch: u64, s_mm: f64, cycle: u64 },
+    /// The setpoints entered program line `line`.
+    Line { line: u32, cycle: u64 },
+}
+
+/// Where the executor is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Phase {
+    /// At rest at `rest`.
+    Standing,
+    /// Following a chunk's motion.
+    Main,
+    /// Running a chunk's tail to rest.
+    Tail(DivertCause),
+}
+
+/// The queues between the executor and the planner thread, and the requests it obeys.
+pub struct Io<'a> {
+    /// Chunks from the planner thread.
+    pub chunks: &'a ArrayQueue<Box<Chunk>>,
+    /// Chunks done with, back to the planner thread.
+    pub recycle: &'a ArrayQueue<Box<Chunk>>,
+    /// Notices to the daemon.
+    pub notices: &'a ArrayQueue<Notice>,
+    /// A feed hold is requested.
+    pub hold: bool,
+    /// A stop is requested.
+    pub stop: bool,
+}
+
+/// Counters of things that should not happen, for the status.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ExecutorFaults {
+    /// Notices dropped because the notice queue was full.
+    pub notices_dropped: u64,
+    /// Chunks leaked because the recycle queue was full (never freed in the cycle).
+    pub chunks_leaked: u64,
+    /// Chunks of an old epoch discarded.
+    pub stale_chunks: u64,
+}
+
+/// The fine interpolator's state.
+pub struct Executor {
+    n_axes: usize,
+    /// Chunks of this epoch continue the motion.
+    epoch: u64,
+    chunk: Option<Box<Chunk>>,
+    phase: Phase,
+    /// Index of the piece (points[piece] → points[piece + 1]) last evaluated.
+    piece: usize,
+    /// Time within the running sequence (main or tail), s.
+    t_s: f64,
+    /// Where the machine stands (when standing) or stood last.
+    rest: CoarsePoint,
+    stand_reason: Option<DivertCause>,
+    finished: bool,
+    line: u32,
+    feed_override: f64,
+    pub faults: ExecutorFaults,
+}
+
+impl Executor {
+    /// An executor at rest at `position` (axis units).
+    pub fn new(n_axes: usize, position: [f64; crate::path::MAX_AXES]) -> Self {
+        Self {
+            n_axes,
+            epoch: 0,
+            chunk: None,
+            phase: Phase::Standing,
+            piece: 0,
+            t_s: 0.0,
+            rest: CoarsePoint::at_rest(0.0, 0.0, 0, position),
+            stand_reason: None,
+            finished: false,
+            line: 0,
+            feed_override: 1.0,
+            faults: ExecutorFaults::default(),
+        }
+    }
+
+    pub fn phase(&self) -> Phase {
+        self.phase
+    }
+
+    /// The epoch whose chunks the executor takes next.
+    pub fn epoch(&self) -> u64 {
+        self.epoch
+    }
+
+    /// Where the machine stands or stood last.
+    pub fn rest(&self) -> &CoarsePoint {
+        &self.rest
+    }
+
+    /// Computes the setpoint of cycle `cycle` (`dt_s` after the previous one) into `out`.
+    pub fn step(&mut self, cycle: u64, dt_s: f64, io: &Io, out: &mut Setpoints) {
+        match self.phase {
+            Phase::Standing => self.try_start(cycle, io),
+            Phase::Main | Phase::Tail(_) => {
+                self.t_s += dt_s;
+                self.advance(cycle, io);
+            }
+        }
+        self.write(out);
+        if out.line != self.line && out.line != 0 {
+            self.line = out.line;
+            self.notify(io, Notice::Line { line: out.line, cycle });
+        }
+    }
+
+    /// At rest: starts the next chunk if one of the current (or a newer) epoch is there and
+    /// no hold or stop is requested.
+    fn try_start(&mut self, cycle: u64, io: &Io) {
+        if io.hold || io.stop {
+            return;
+        }
+        while let Some(chunk) = io.chunks.pop() {
+            if chunk.epoch < self.epoch || chunk.points.len() < 2 {
+                self.faults.stale_chunks += 1;
+                self.recycle(io, chunk);
+                continue;
+            }
+            self.epoch = chunk.epoch;
+            self.feed_override = chunk.feed_override;
+            self.chunk = Some(chunk);
+            self.phase = Phase::Main;
+            self.piece = 0;
+            self.t_s = 0.0;
+            self.stand_reason = None;
+            self.finished = false;
+            self.notify(io, Notice::Started { epoch: self.epoch, cycle });
+            return;
+        }
+    }
+
+    /// Moves past sequence ends until `t_s` lies inside the running sequence (or at rest).
+    fn advance(&mut self, cycle: u64, io: &Io) {
+        loop {
+            let Some(chunk) = self.chunk.as_ref() else {
+                self.phase = Phase::Standing;
+                return;
+            };
+            match self.phase {
+                Phase::Main if self.t_s > chunk.duration_s() => {
+                    let over = self.t_s - chunk.duration_s();
+                    let (epoch, seq, last) = (chunk.epoch, chunk.seq, chunk.last);
+                    if last {
+                        let end = *chunk.points.last().expect("a chunk has points");
+                        self.stand(io, end);
+                        self.finished = true;
+                        self.notify(io, Notice::Finished { epoch, s_mm: end.s_mm, cycle });
+                        return;
+                    }
+                    let cause = if io.stop {
+                        Some(DivertCause::Stop)
+                    } else if io.hold {
+                        Some(DivertCause::Hold)
+                    } else {
+                        match self.next_chunk(io, epoch, seq) {
+                            Some(next) => {
+                                self.feed_override = next.feed_override;
+                                let old = self.chunk.replace(next).expect("a running chunk");
+                                self.recycle(io, old);
+                                self.t_s = over;
+                                self.piece = 0;
+                                continue;
+                            }
+                            None => Some(DivertCause::Underrun),
+                        }
+                    };
+                    if let Some(cause) = cause {
+                        self.epoch = epoch + 1;
+                        self.phase = Phase::Tail(cause);
+                        self.t_s = over;
+                        self.piece = 0;
+                        self.notify(io, Notice::Diverted { epoch, seq, cause, cycle });
+                        continue;
+                    }
+                }
+                Phase::Tail(cause) if self.t_s > chunk.tail_duration_s() || chunk.tail.len() < 2 => {
+                    let end = *chunk.tail.last().or(chunk.points.last()).expect("a chunk has points");
+                    let (epoch, seq) = (chunk.epoch, chunk.seq);
+                    self.stand(io, end);
+                    self.stand_reason = Some(cause);
+                    self.notify(io, Notice::Stood { epoch, seq, cause, s_mm: end.s_mm, cycle });
+                    return;
+                }
+                _ => return,
+            }
+        }
+    }
+
+    /// The next chunk of `epoch` after `seq`, discarding older ones.
+    fn next_chunk(&mut self, io: &Io, epoch: u64, seq: u64) -> Option<Box<Chunk>> {
+        while let Some(next) = io.chunks.pop() {
+            if next.epoch == epoch && next.seq == seq + 1 && next.points.len() >= 2 {
+                return Some(next);
+            }
+            self.faults.stale_chunks += 1;
+            self.recycle(io, next);
+        }
+        None
+    }
+
+    /// Comes to rest at `end` and gives the chunk back.
+    fn stand(&mut self, io: &Io, end: CoarsePoint) {
+        self.rest = CoarsePoint { v_mm_s: 0.0, a_mm_s2: 0.0, vel: [0.0; crate::path::MAX_AXES], acc: [0.0; crate::path::MAX_AXES], ..end };
+        self.phase = Phase::Standing;
+        self.t_s = 0.0;
+        if let Some(chunk) = self.chunk.take() {
+            self.recycle(io, chunk);
+        }
+    }
+
+    fn recycle(&mut self, io: &Io, chunk: Box<Chunk>) {
+        if let Err(chunk) = io.recycle.push(chunk) {
+            // Freeing here would call the allocator in the cycle: leak instead, and count.
+            self.faults.chunks_leaked += 1;
+            std::mem::forget(chunk);
+        }
+    }
+
+    fn notify(&mut self, io: &Io, notice: Notice) {
+        if io.notices.push(notice).is_err() {
+            self.faults.notices_dropped += 1;
+        }
+    }
+
+    /// The setpoint at the current time.
+    fn write(&mut self, out: &mut Setpoints) {
+        out.n_axes = self.n_axes as u32;
+        out.feed_override = self.feed_override;
+        let (points, t) = match (self.phase, self.chunk.as_ref()) {
+            (Phase::Main, Some(c)) => (&c.points[..], self.t_s),
+            (Phase::Tail(_), Some(c)) if c.tail.len() >= 2 => (&c.tail[..], self.t_s),
+            _ => {
+                let r = &self.rest;
+                out.s_mm = r.s_mm;
+                out.v_mm_s = 0.0;
+                out.a_mm_s2 = 0.0;
+                out.line = r.line;
+                out.pos[..self.n_axes].copy_from_slice(&r.pos[..self.n_axes]);
+                out.vel = [0.0; crate::path::MAX_AXES];
+                out.acc = [0.0; crate::path::MAX_AXES];
+                out.flags = self.flags();
+                return;
+            }
+        };
+        let mut i = self.piece.min(points.len() - 2);
+        while i + 2 < points.len() && points[i + 1].t_s < t {
+            i += 1;
+        }
+        self.piece = i;
+        let (a, b) = (&points[i], &points[i + 1]);
+        let (h, tau) = (b.t_s - a.t_s, t - a.t_s);
+        let path = hermite::eval(a.path(), b.path(), h, tau);
+        out.s_mm = path.p;
+        out.v_mm_s = path.v;
+        out.a_mm_s2 = path.a;
+        out.line = a.line;
+        for k in 0..self.n_axes {
+            let q = hermite::eval(a.axis(k), b.axis(k), h, tau);
+            out.pos[k] = q.p;
+            out.vel[k] = q.v;
+            out.acc[k] = q.a;
+        }
+        out.flags = self.flags();
+    }
+
+    fn flags(&self) -> u32 {
+        match self.phase {
+            Phase::Main => flags::RUNNING,
+            Phase::Tail(DivertCause::Hold) => flags::RUNNING | flags::HOLDING,
+            Phase::Tail(DivertCause::Stop) => flags::RUNNING | flags::STOPPING,
+            Phase::Tail(DivertCause::Underrun) => flags::RUNNING | flags::UNDERRUN,
+            Phase::Standing => {
+                flags::IDLE
+                    | match self.stand_reason {
+                        Some(DivertCause::Hold) => flags::HOLDING,
+                        Some(DivertCause::Underrun) => flags::UNDERRUN,
+                        _ if self.finished => flags::FINISHED,
+                        _ => 0,
+                    }
+            }
+        }
+    }
+}

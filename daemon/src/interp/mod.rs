@@ -1,0 +1,39 @@
+//! The fine interpolator: two stages with a written contract between them (seed 002's
+//! two-stage interpolation, improved; Klipper's split of a planner that works ahead and a
+//! dumb, exact executor).
+//!
+//! - Stage 1, [`coarse`], in the planner thread: the planned path-velocity profile and the
+//!   exact geometry become coarse points (time; path s, v, a; per axis position, velocity and
+//!   acceleration), spaced so the quintic between neighbours deviates from the geometry by at
+//!   most [`coarse::TOLERANCE_MM`].
+//! - Stage 2, [`executor`], in the real-time thread: every cycle evaluates the quintic
+//!   ([`hermite`]) between the coarse points around the cycle's time. Setpoints are therefore
+//!   continuous in position, velocity and acceleration.
+//!
+//! ## Contract between the planner thread and the executor
+//!
+//! 1. Motion arrives in [`chunk::Chunk`]s of a few cycles through a bounded lock-free queue.
+//!    A chunk's first point is the previous chunk's last (same time, state and position).
+//! 2. Every chunk carries its *tail*: the fastest stop along the path from its end, within
+//!    the axis limits. At a chunk's end the executor continues with the next chunk of the
+//!    same epoch and sequence number + 1, unless a hold or stop is requested or no chunk is
+//!    there: then it runs the tail and stands. So a hold, a stop and an underrun are all
+//!    jerk-limited, on the path, and need nothing from the planner at that moment.
+//! 3. After running a tail the executor expects the next epoch. The planner thread learns of
+//!    the divert from a [`executor::Notice`] and replans from the tail's end, at rest, as a
+//!    new epoch (at once after an underrun, after the hold is released after a hold, not at
+//!    all after a stop). Chunks of an old epoch are discarded.
+//! 4. A feed override change does not divert: the planner thread replans from the end of the
+//!    last chunk it queued, at the new feed, and the queued chunks run out first (latency =
+//!    queue depth).
+//! 5. Chunks go back to the planner thread through a recycle queue: the executor never
+//!    allocates or frees.
+
+pub mod chunk;
+pub mod coarse;
+pub mod executor;
+pub mod hermite;
+
+pub use chunk::Chunk;
+pub use coarse::{CoarseBuilder, CoarsePoint};
+pub use executor::{DivertCause, Executor, Io, Notice, Phase};

@@ -1,0 +1,462 @@
+//! The planner thread: runs the look-ahead planner over the program, cuts its profile into
+//! chunks of a few cycles, turns them into coarse points (stage 1 of the interpolation), adds
+//! to each the fastest stop from its end, and keeps the real-time queue filled to a short
+//! depth. It also carries out feed override changes (replanning from the end of the queue)
+//! and restarts after a hold or an underrun (replanning from rest where the machine stands).
+//! See [`crate::interp`] for the contract with the real-time thread.
+
+use crate::interp::coarse::{CoarseBuilder, CoarsePoint, split};
+use crate::interp::{Chunk, DivertCause};
+use crate::path::{Feed, Path};
+use super::brake::{brake_along, next_stop_s};
+use crate::planner::resume::{STANDSTILL_A_MM_S2, STANDSTILL_V_MM_S};
+use crate::planner::{PlanError, Planner, Segment};
+use crossbeam::channel::{Receiver, Sender};
+use crossbeam::queue::ArrayQueue;
+use interpd_config::Config;
+use std::collections::VecDeque;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// Cycles of motion per chunk: the reaction time to a hold or stop is at most this.
+pub const CHUNK_CYCLES: u32 = 8;
+/// Chunks kept queued for the real-time thread: the planner thread may stall this long
+/// (× chunk duration) without an underrun; a feed override acts after it.
+pub const QUEUE_CHUNKS: usize = 6;
+/// Capacity of the queues between the threads (chunks in flight never exceed it).
+pub const QUEUE_CAPACITY: usize = 16;
+/// A segment this much longer than the room left in a chunk is split rather than taken whole
+/// (fraction of a chunk).
+const SPLIT_OVERHANG: f64 = 0.25;
+/// How long the thread waits for a command when it has nothing to do.
+const IDLE_WAIT: Duration = Duration::from_millis(2);
+
+/// Commands to the planner thread.
+#[derive(Debug, Clone)]
+pub enum FeederCommand {
+    /// Plan and queue `path` from its start, at rest, as epoch `epoch`.
+    Start { path: Arc<Path>, epoch: u64, feed_override: f64 },
+    /// New feed override factor (> 0).
+    Override(f64),
+    /// The executor left the planned motion (it runs a tail).
+    Diverted { epoch: u64, cause: DivertCause },
+    /// The executor stands at `s_mm` after a tail.
+    Stood { epoch: u64, cause: DivertCause, s_mm: f64 },
+    /// Continue after a hold.
+    Resume,
+    /// Abandon the program.
+    Abort,
+    /// Stall once for `for_s` after `after_s` seconds of motion were queued (underrun tests).
+    DebugStall { after_s: f64, for_s: f64 },
+    Shutdown,
+}
+
+/// What the planner thread reports.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FeederReport {
+    /// Planning failed: the motion stops at the end of the queue.
+    Error(String),
+    /// The last chunk of the program is queued.
+    Complete { epoch: u64 },
+}
+
+/// The queues shared with the real-time thread.
+#[derive(Clone)]
+pub struct Queues {
+    pub chunks: Arc<ArrayQueue<Box<Chunk>>>,
+    pub recycle: Arc<ArrayQueue<Box<Chunk>>>,
+}
+
+impl Queues {
+    pub fn new() -> Self {
+        Self { chunks: Arc::new(ArrayQueue::new(QUEUE_CAPACITY)), recycle: Arc::new(ArrayQueue::new(QUEUE_CAPACITY * 2)) }
+    }
+}
+
+impl Default for Queues {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Where a run waits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Wait {
+    /// Producing chunks.
+    No,
+    /// The executor diverted; waiting for it to stand.
+    Stand { cause: DivertCause, resume_requested: bool },
+    /// Held at rest at `s_mm`; waiting for resume.
+    Resume { s_mm: f64 },
+}
+
+/// One program being planned and queued.
+struct Run {
+    /// The program as loaded (geometry for coarse points, suffixes for replanning).
+    path: Arc<Path>,
+    feed_override: f64,
+    epoch: u64,
+    seq: u64,
+    planner: Planner,
+    /// The path the planner is fed (a suffix of `path` with scaled feeds).
+    plan_path: Path,
+    next_element: usize,
+    finished_input: bool,
+    /// Planned segments not yet queued.
+    buffer: VecDeque<Segment>,
+    /// The last queued point (start of the next chunk).
+    end: CoarsePoint,
+    /// The stop tail queued with the last chunk.
+    last_tail: Vec<Segment>,
+    /// The last chunk of the program is queued.
+    complete: bool,
+    /// Chunks of a new epoch held back until the queue start is deep enough.
+    staged: Vec<Box<Chunk>>,
+    wait: Wait,
+    /// Seconds of motion queued in this run (for the debug stall).
+    queued_s: f64,
+}
+
+/// The planner thread's state.
+pub struct Feeder {
+    config: Config,
+    chunk_s: f64,
+    queues: Queues,
+    pool: Vec<Box<Chunk>>,
+    run: Option<Run>,
+    reports: Sender<FeederReport>,
+    stall: Option<(f64, f64)>,
+    /// Counters for the status and tests.
+    pub stats: FeederStats,
+}
+
+/// Totals of the planner thread.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct FeederStats {
+    pub chunks: u64,
+    pub coarse_points: u64,
+    pub max_coarse_error_mm: f64,
+    pub replans: u64,
+    pub plan_time_s: f64,
+    /// Chunk ends moved later because no stop could follow them.
+    pub tail_retries: u64,
+}
+
+impl Feeder {
+    pub fn new(config: Config, queues: Queues, reports: Sender<FeederReport>) -> Self {
+        let chunk_s = config.cycle_s() * f64::from(CHUNK_CYCLES);
+        Self { config, chunk_s, queues, pool: Vec::new(), run: None, reports, stall: None, stats: FeederStats::default() }
+    }
+
+    /// The thread's loop: commands in, chunks out, until `Shutdown` or the channel closes.
+    pub fn run(mut self, commands: Receiver<FeederCommand>) -> FeederStats {
+        loop {
+            let busy = self.wants_to_produce();
+            let cmd = if busy { commands.try_recv().ok() } else { commands.recv_timeout(IDLE_WAIT).ok() };
+            if let Some(cmd) = cmd {
+                if matches!(cmd, FeederCommand::Shutdown) {
+                    return self.stats;
+                }
+                self.command(cmd);
+                continue;
+            }
+            if commands.is_empty() && matches!(commands.try_recv(), Err(crossbeam::channel::TryRecvError::Disconnected)) {
+                return self.stats;
+            }
+            self.reclaim();
+            if self.wants_to_produce() {
+                self.produce();
+            }
+        }
+    }
+
+    /// Carries out one command (the thread's loop calls this; tests drive it directly).
+    pub fn command(&mut self, cmd: FeederCommand) {
+        match cmd {
+            FeederCommand::Start { path, epoch, feed_override } => {
+                self.abort();
+                let start = CoarsePoint::at_rest(0.0, 0.0, path.elements.first().map_or(0, |e| e.source.line), path.start);
+                self.run = Some(Run::new(&self.config, path, feed_override, epoch, 0.0, start));
+            }
+            FeederCommand::Override(factor) => self.set_override(factor),
+            FeederCommand::Diverted { epoch, cause } => {
+                if let Some(run) = self.run.as_mut().filter(|r| r.epoch == epoch) {
+                    run.epoch = epoch + 1;
+                    run.seq = 0;
+                    run.wait = Wait::Stand { cause, resume_requested: false };
+                    run.buffer.clear();
+                    let staged = std::mem::take(&mut run.staged);
+                    self.pool.extend(staged);
+                }
+            }
+            FeederCommand::Stood { epoch, cause, s_mm } => self.stood(epoch, cause, s_mm),
+            FeederCommand::Resume => {
+                let Some(run) = self.run.as_mut() else { return };
+                match run.wait {
+                    Wait::Resume { s_mm } => self.restart_at_rest(s_mm),
+                    Wait::Stand { cause, .. } => run.wait = Wait::Stand { cause, resume_requested: true },
+                    Wait::No => {}
+                }
+            }
+            FeederCommand::Abort => self.abort(),
+            FeederCommand::DebugStall { after_s, for_s } => self.stall = Some((after_s, for_s)),
+            FeederCommand::Shutdown => {}
+        }
+    }
+
+    /// The executor stands after a tail of `epoch - 1` (the run moved to `epoch` on divert).
+    fn stood(&mut self, epoch: u64, cause: DivertCause, s_mm: f64) {
+        let Some(run) = self.run.as_mut() else { return };
+        if run.epoch != epoch + 1 {
+            return;
+        }
+        let resume_requested = matches!(run.wait, Wait::Stand { resume_requested: true, .. });
+        match cause {
+            DivertCause::Stop => self.abort(),
+            DivertCause::Underrun => self.restart_at_rest(s_mm),
+            DivertCause::Hold if resume_requested => self.restart_at_rest(s_mm),
+            DivertCause::Hold => run.wait = Wait::Resume { s_mm },
+        }
+    }
+
+    fn abort(&mut self) {
+        if let Some(mut run) = self.run.take() {
+            self.pool.append(&mut run.staged);
+        }
+    }
+
+    /// Replans the rest of the program from rest at `s_mm`, as the run's current epoch.
+    fn restart_at_rest(&mut self, s_mm: f64) {
+        let Some(old) = self.run.take() else { return };
+        let mut pos = crate::path::AxisDerivs::default();
+        old.path.eval(s_mm, &mut pos);
+        let line = old.path.elements.get(old.path.element_index_at(s_mm)).map_or(0, |e| e.source.line);
+        let start = CoarsePoint::at_rest(0.0, s_mm, line, pos.pos);
+        let mut run = Run::new(&self.config, old.path, old.feed_override, old.epoch, s_mm, start);
+        run.queued_s = old.queued_s;
+        self.stats.replans += 1;
+        self.run = Some(run);
+    }
+
+    /// A new feed override: replans from the end of the queue (the queued motion runs out
+    /// first) with the programmed feeds scaled. The stop tail from there floors the new bounds,
+    /// so a lower feed is reached by braking no harder than that stop.
+    fn set_override(&mut self, factor: f64) {
+        let Some(run) = self.run.as_mut() else { return };
+        run.feed_override = factor;
+        if run.wait != Wait::No || run.complete {
+            return;
+        }
+        self.stats.replans += 1;
+        let end = run.end;
+        let floor = run.last_tail.clone();
+        let moving = end.v_mm_s > STANDSTILL_V_MM_S || end.a_mm_s2.abs() > STANDSTILL_A_MM_S2;
+        let mut planner = if moving {
+            Planner::with_start_state_and_floor(&self.config, end.v_mm_s, end.a_mm_s2, floor)
+        } else {
+            Planner::new(&self.config)
+        };
+        run.planner = planner;
+        run.plan_path = scaled(&run.path.suffix_from(end.s_mm), factor);
+        run.next_element = 0;
+        run.finished_input = false;
+        run.buffer.clear();
+    }
+
+    /// Returns recycled chunks to the pool.
+    pub fn reclaim(&mut self) {
+        while let Some(mut chunk) = self.queues.recycle.pop() {
+            chunk.clear();
+            self.pool.push(chunk);
+        }
+    }
+
+    /// A chunk is due: a run is producing and the queue is below its depth.
+    pub fn wants_to_produce(&self) -> bool {
+        match &self.run {
+            Some(run) => run.wait == Wait::No && !run.complete && self.queues.chunks.len() < QUEUE_CHUNKS,
+            None => false,
+        }
+    }
+
+    /// Plans and queues one chunk.
+    pub fn produce(&mut self) {
+        if let Some((after_s, for_s)) = self.stall {
+            if self.run.as_ref().is_some_and(|r| r.queued_s >= after_s) {
+                tracing::warn!(for_s, "debug: planner thread stalls");
+                std::thread::sleep(Duration::from_secs_f64(for_s));
+                self.stall = None;
+            }
+        }
+        let mut chunk = self.pool.pop().unwrap_or_default();
+        let started = Instant::now();
+        let result = self.fill_chunk(&mut chunk);
+        self.stats.plan_time_s += started.elapsed().as_secs_f64();
+        let Some(run) = self.run.as_mut() else { return };
+        match result {
+            Ok(true) => {
+                run.queued_s += chunk.duration_s();
+                self.stats.chunks += 1;
+                self.stats.coarse_points += (chunk.points.len() + chunk.tail.len()) as u64;
+                let complete = chunk.last;
+                // A new epoch starts only once half the queue depth is ready (or the program
+                // is complete), so a slow first plan does not underrun at once.
+                let deep_enough = run.seq as usize >= QUEUE_CHUNKS / 2 || complete;
+                run.staged.push(chunk);
+                if deep_enough {
+                    for c in run.staged.drain(..) {
+                        if let Err(c) = self.queues.chunks.push(c) {
+                            // Cannot happen: production stops below the capacity.
+                            tracing::error!("chunk queue full; dropping a chunk");
+                            self.pool.push(c);
+                        }
+                    }
+                }
+                if complete {
+                    run.complete = true;
+                    let _ = self.reports.send(FeederReport::Complete { epoch: run.epoch });
+                }
+            }
+            Ok(false) => {
+                chunk.clear();
+                self.pool.push(chunk);
+            }
+            Err(e) => {
+                chunk.clear();
+                self.pool.push(chunk);
+                tracing::error!("planning failed: {e}");
+                let _ = self.reports.send(FeederReport::Error(e.to_string()));
+                self.abort();
+            }
+        }
+    }
+
+    /// Fills `chunk` with the next stretch of motion (about one chunk duration, longer where
+    /// no stop can follow its end); `Ok(false)` when nothing is left.
+    fn fill_chunk(&mut self, chunk: &mut Chunk) -> Result<bool, PlanError> {
+        let chunk_s = self.chunk_s;
+        let max_piece_s = 2.0 * self.config.cycle_s();
+        let Some(run) = self.run.as_mut() else { return Ok(false) };
+        let lim = run.planner.limits().clone();
+        let mut segments = Vec::new();
+        let mut t = 0.0;
+        let mut target = chunk_s;
+        let tail = loop {
+            run.fill_buffer(target - t)?;
+            run.take(target - t, &mut segments, &mut t);
+            let Some(last) = segments.last() else { return Ok(false) };
+            let end = last.at(last.dt_s);
+            if run.buffer.is_empty() && run.planner.done() {
+                break Vec::new();
+            }
+            let limit = next_stop_s(&run.path, end.s_mm);
+            if let Some(stop) = brake_along(&run.path, end.s_mm, end.v, end.a, &lim, limit, last.line) {
+                break stop;
+            }
+            // No stop from here: end the chunk a little later.
+            self.stats.tail_retries += 1;
+            target = t + 0.25 * chunk_s;
+        };
+        chunk.clear();
+        chunk.epoch = run.epoch;
+        chunk.seq = run.seq;
+        chunk.feed_override = run.feed_override;
+        chunk.points.push(CoarsePoint { t_s: 0.0, ..run.end });
+        let mut builder = CoarseBuilder::new(&run.path, max_piece_s);
+        builder.build(&segments, 0.0, &mut chunk.points);
+        let end = *chunk.points.last().expect("points");
+        chunk.last = run.buffer.is_empty() && run.planner.done();
+        if !tail.is_empty() {
+            chunk.tail.push(CoarsePoint { t_s: 0.0, ..end });
+            builder.build(&tail, 0.0, &mut chunk.tail);
+        }
+        self.stats.max_coarse_error_mm = self.stats.max_coarse_error_mm.max(builder.max_error_mm);
+        run.last_tail = tail;
+        run.end = end;
+        run.seq += 1;
+        Ok(true)
+    }
+}
+
+impl Run {
+    fn new(config: &Config, path: Arc<Path>, feed_override: f64, epoch: u64, s_mm: f64, end: CoarsePoint) -> Run {
+        let plan_path = scaled(&path.suffix_from(s_mm), feed_override);
+        let planner = Planner::new(config);
+        Run {
+            path,
+            feed_override,
+            epoch,
+            seq: 0,
+            planner,
+            plan_path,
+            next_element: 0,
+            finished_input: false,
+            buffer: VecDeque::new(),
+            last_tail: Vec::new(),
+            end,
+            complete: false,
+            staged: Vec::new(),
+            wait: Wait::No,
+            queued_s: 0.0,
+        }
+    }
+
+    /// Plans until at least `need_s` of motion is buffered or the program is planned.
+    fn fill_buffer(&mut self, need_s: f64) -> Result<(), PlanError> {
+        let mut have: f64 = self.buffer.iter().map(|s| s.dt_s).sum();
+        while have < need_s && !self.planner.done() {
+            if self.next_element < self.plan_path.elements.len() {
+                self.planner.push(self.plan_path.elements[self.next_element].clone());
+                self.next_element += 1;
+            } else if !self.finished_input {
+                self.planner.finish(self.plan_path.final_dwell_s);
+                self.finished_input = true;
+            }
+            for seg in self.planner.plan()? {
+                have += seg.dt_s;
+                self.buffer.push_back(seg);
+            }
+        }
+        Ok(())
+    }
+
+    /// Moves about `want_s` of segments from the buffer to `out` (splitting a long one),
+    /// adding their duration to `t`.
+    fn take(&mut self, want_s: f64, out: &mut Vec<Segment>, t: &mut f64) {
+        let mut got = 0.0;
+        while got < want_s {
+            let Some(seg) = self.buffer.pop_front() else { break };
+            let room = want_s - got;
+            let seg = if seg.dt_s > room * (1.0 + SPLIT_OVERHANG) && room > 0.0 {
+                let (now, later) = split(&seg, room);
+                self.buffer.push_front(later);
+                now
+            } else {
+                seg
+            };
+            got += seg.dt_s;
+            out.push(seg);
+        }
+        *t += got;
+    }
+}
+
+/// The programmed feed at `s_mm` (mm/s; ∞ for rapid moves).
+fn feed_at(path: &Path, s_mm: f64) -> f64 {
+    match path.elements.get(path.element_index_at(s_mm)).map(|e| e.feed) {
+        Some(Feed::Programmed { mm_per_s }) => mm_per_s,
+        _ => f64::INFINITY,
+    }
+}
+
+/// `path` with programmed feeds scaled by the override `factor` (rapid moves unchanged).
+pub fn scaled(path: &Path, factor: f64) -> Path {
+    let mut p = path.clone();
+    for e in &mut p.elements {
+        if let Feed::Programmed { mm_per_s } = &mut e.feed {
+            *mm_per_s *= factor;
+        }
+    }
+    p
+}
+

@@ -1,0 +1,184 @@
+//! The planner thread and the executor driven in lockstep in simulated time: the whole chain
+//! from program to setpoints, deterministic, without threads or clocks.
+
+use super::feeder::{Feeder, FeederCommand, FeederReport, Queues};
+use crate::interp::{DivertCause, Executor, Io, Notice};
+use crate::path::{AxisDerivs, Path};
+use crate::program;
+use crossbeam::channel;
+use crossbeam::queue::ArrayQueue;
+use interpd_config::Config;
+use interpd_protocol::shm::Setpoints;
+use std::sync::Arc;
+
+/// The chain in one thread.
+pub(crate) struct Sim {
+    pub config: Config,
+    pub feeder: Feeder,
+    pub executor: Executor,
+    pub queues: Queues,
+    pub notices: ArrayQueue<Notice>,
+    pub reports: channel::Receiver<FeederReport>,
+    pub hold: bool,
+    pub stop: bool,
+    pub cycle: u64,
+    pub out: Vec<Setpoints>,
+    pub seen: Vec<Notice>,
+}
+
+impl Sim {
+    pub fn new(config: Config) -> Sim {
+        let queues = Queues::new();
+        let (tx, rx) = channel::unbounded();
+        let feeder = Feeder::new(config.clone(), queues.clone(), tx);
+        let executor = Executor::new(config.axes.len(), [0.0; crate::path::MAX_AXES]);
+        Sim {
+            config,
+            feeder,
+            executor,
+            queues,
+            notices: ArrayQueue::new(4096),
+            reports: rx,
+            hold: false,
+            stop: false,
+            cycle: 0,
+            out: Vec::new(),
+            seen: Vec::new(),
+        }
+    }
+
+    pub fn start(&mut self, path: Arc<Path>) {
+        self.feeder.command(FeederCommand::Start { path, epoch: 1, feed_override: 1.0 });
+    }
+
+    /// One cycle: the planner thread tops up the queue (as if it were fast enough), then the
+    /// executor computes the setpoint; notices go to the feeder as the supervisor would send.
+    pub fn cycle(&mut self) {
+        self.feeder.reclaim();
+        while self.feeder.wants_to_produce() {
+            self.feeder.produce();
+        }
+        self.step_executor();
+    }
+
+    pub fn step_executor(&mut self) {
+        let io = Io {
+            chunks: &self.queues.chunks,
+            recycle: &self.queues.recycle,
+            notices: &self.notices,
+            hold: self.hold,
+            stop: self.stop,
+        };
+        let mut sp = Setpoints::default();
+        self.executor.step(self.cycle, self.config.cycle_s(), &io, &mut sp);
+        sp.cycle = self.cycle;
+        self.out.push(sp);
+        self.cycle += 1;
+        while let Some(n) = self.notices.pop() {
+            match n {
+                Notice::Diverted { epoch, cause, .. } => self.feeder.command(FeederCommand::Diverted { epoch, cause }),
+                Notice::Stood { epoch, cause, s_mm, .. } => self.feeder.command(FeederCommand::Stood { epoch, cause, s_mm }),
+                _ => {}
+            }
+            self.seen.push(n);
+        }
+        while let Ok(r) = self.reports.try_recv() {
+            assert!(!matches!(r, FeederReport::Error(_)), "feeder report: {r:?}");
+        }
+    }
+
+    pub fn finished(&self) -> bool {
+        self.seen.iter().any(|n| matches!(n, Notice::Finished { .. }))
+    }
+
+    pub fn run_to_end(&mut self, max_cycles: u64) {
+        while !self.finished() && self.cycle < max_cycles {
+            self.cycle();
+        }
+        assert!(self.finished(), "not finished after {max_cycles} cycles");
+    }
+}
+
+/// Largest |value|/limit of velocity, acceleration and jerk by finite differences of the
+/// setpoint positions (the 4 ms stream), and the largest step of the reported acceleration.
+pub(crate) fn stream_ratios(config: &Config, out: &[Setpoints]) -> [f64; 3] {
+    let dt = config.cycle_s();
+    let mut worst = [0.0f64; 3];
+    for (k, ax) in config.axes.iter().enumerate() {
+        for w in out.windows(4) {
+            let p: Vec<f64> = w.iter().map(|s| s.pos[k]).collect();
+            let v = (p[1] - p[0]) / dt;
+            let a = (p[2] - 2.0 * p[1] + p[0]) / (dt * dt);
+            let j = (p[3] - 3.0 * p[2] + 3.0 * p[1] - p[0]) / (dt * dt * dt);
+            worst[0] = worst[0].max(v.abs() / ax.max_vel_per_s);
+            worst[1] = worst[1].max(a.abs() / ax.max_acc_per_s2);
+            worst[2] = worst[2].max(j.abs() / ax.max_jerk_per_s3);
+        }
+    }
+    worst
+}
+
+/// Largest distance of a setpoint from the exact geometry at its own path position.
+pub(crate) fn path_deviation_mm(path: &Path, out: &[Setpoints]) -> f64 {
+    let mut d = AxisDerivs::default();
+    let mut worst: f64 = 0.0;
+    for sp in out {
+        path.eval(sp.s_mm, &mut d);
+        let e: f64 = (0..path.n_axes).map(|k| (sp.pos[k] - d.pos[k]).powi(2)).sum::<f64>().sqrt();
+        worst = worst.max(e);
+    }
+    worst
+}
+
+fn example(name: &str) -> String {
+    std::fs::read_to_string(format!("{}/../examples/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap()
+}
+
+fn load(name: &str, config: &Config) -> Arc<Path> {
+    Arc::new(program::parse(&example(name), name, config).unwrap().path)
+}
+
+#[test]
+fn circle_runs_to_the_end_within_limits_and_on_the_path() {
+    let config = Config::default_machine();
+    let path = load("circle_r10.ngc", &config);
+    let mut sim = Sim::new(config.clone());
+    let t = std::time::Instant::now();
+    sim.start(path.clone());
+    sim.run_to_end(20_000);
+    eprintln!("simulated {} cycles in {:?}; {:?}", sim.cycle, t.elapsed(), sim.feeder.stats);
+    let end = path.end_position();
+    let last = sim.out.last().unwrap();
+    for k in 0..3 {
+        assert!((last.pos[k] - end[k]).abs() < 1e-9, "axis {k} ends at {} not {}", last.pos[k], end[k]);
+    }
+    let r = stream_ratios(&config, &sim.out);
+    assert!(r[0] <= 1.001 && r[1] <= 1.001 && r[2] <= 1.02, "limits: {r:?}");
+    let dev = path_deviation_mm(&path, &sim.out);
+    assert!(dev <= 1e-3, "deviation {dev} mm");
+    assert!(!sim.seen.iter().any(|n| matches!(n, Notice::Diverted { .. })), "diverted: {:?}", sim.seen);
+}
+
+#[test]
+fn hold_stops_on_the_path_and_resume_finishes() {
+    let config = Config::default_machine();
+    let path = load("line_arc_line.ngc", &config);
+    let mut sim = Sim::new(config.clone());
+    sim.start(path.clone());
+    for _ in 0..100 {
+        sim.cycle();
+    }
+    sim.hold = true;
+    for _ in 0..150 {
+        sim.cycle();
+    }
+    assert!(sim.seen.iter().any(|n| matches!(n, Notice::Stood { cause: DivertCause::Hold, .. })), "{:?}", sim.seen);
+    let held = *sim.out.last().unwrap();
+    assert!(held.v_mm_s.abs() < 1e-9);
+    sim.hold = false;
+    sim.feeder.command(FeederCommand::Resume);
+    sim.run_to_end(50_000);
+    let r = stream_ratios(&config, &sim.out);
+    assert!(r[0] <= 1.001 && r[1] <= 1.001 && r[2] <= 1.02, "limits: {r:?}");
+    assert!(path_deviation_mm(&path, &sim.out) <= 1e-3);
+}

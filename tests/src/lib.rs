@@ -28,3 +28,5 @@ pub fn binary(name: &str) -> PathBuf {
 pub fn example(name: &str) -> PathBuf {
     repo_root().join("examples").join(name)
 }
+
+pub mod daemon;

@@ -140,11 +140,22 @@ pub struct FeederStats {
     pub plan_time_s: f64,
     /// Chunk ends moved later because no stop could follow them.
     pub tail_retries: u64,
+    /// Planning failures in motion recovered by stopping along the path and replanning.
+    pub recoveries: u64,
 }
 
 impl Feeder {
-    pub fn new(config: Config, queues: Queues, reports: Sender<FeederReport>) -> Self {
+    pub fn new(mut config: Config, queues: Queues, reports: Sender<FeederReport>) -> Self {
         let chunk_s = config.cycle_s() * f64::from(CHUNK_CYCLES);
+        let bounded = bounded_lookahead_mm(&config);
+        if bounded < config.planner.lookahead_mm {
+            tracing::info!(
+                configured_mm = config.planner.lookahead_mm,
+                used_mm = bounded,
+                "look-ahead bounded to what braking from full speed needs (replans stay fast)"
+            );
+            config.planner.lookahead_mm = bounded;
+        }
         Self { config, chunk_s, queues, pool: Vec::new(), run: None, reports, stall: None, stats: FeederStats::default() }
     }
 
@@ -324,11 +335,32 @@ impl Feeder {
             Err(e) => {
                 chunk.clear();
                 self.pool.push(chunk);
-                tracing::error!("planning failed: {e}");
-                let _ = self.reports.send(FeederReport::Error(e.to_string()));
-                self.abort();
+                if !self.recover(&e) {
+                    tracing::error!("planning failed: {e}");
+                    let _ = self.reports.send(FeederReport::Error(e.to_string()));
+                    self.abort();
+                }
             }
         }
+    }
+
+    /// After a planning failure in motion (the planner could not continue from a state in
+    /// motion, e.g. after an override change): the queue ends with a stop tail that is known to
+    /// keep the limits. Run it as motion and replan the rest from rest at its end. `false` if
+    /// the machine is at rest there already (a failure from rest is a real error).
+    fn recover(&mut self, e: &PlanError) -> bool {
+        let Some(run) = self.run.as_mut() else { return false };
+        let Some(last) = run.last_tail.last() else { return false };
+        let s_stop = last.s1_mm();
+        tracing::warn!("planner: {e}; stopping along the path at s = {s_stop:.3} mm and replanning from there");
+        self.stats.recoveries += 1;
+        let mut fresh = Run::new(&self.config, run.path.clone(), run.feed_override, run.epoch, s_stop, run.end);
+        fresh.seq = run.seq;
+        fresh.queued_s = run.queued_s;
+        fresh.buffer = std::mem::take(&mut run.last_tail).into();
+        fresh.staged = std::mem::take(&mut run.staged);
+        *run = fresh;
+        true
     }
 
     /// Fills `chunk` with the next stretch of motion (about one chunk duration, longer where
@@ -440,6 +472,23 @@ impl Run {
         *t += got;
     }
 }
+
+/// Look-ahead the daemon plans with: the configured one, but no more than
+/// `LOOKAHEAD_STOPS` × the longest braking distance of any axis from its top speed (further
+/// look-ahead cannot change the motion, and every replan after an override change or a
+/// restart costs time proportional to it), and at least `MIN_LOOKAHEAD_MM`.
+pub fn bounded_lookahead_mm(config: &Config) -> f64 {
+    let brake_mm = config
+        .axes
+        .iter()
+        .map(|a| a.max_vel_per_s * (a.max_vel_per_s / a.max_acc_per_s2 + a.max_acc_per_s2 / a.max_jerk_per_s3))
+        .fold(0.0, f64::max);
+    config.planner.lookahead_mm.min((LOOKAHEAD_STOPS * brake_mm).max(MIN_LOOKAHEAD_MM))
+}
+
+/// See [`bounded_lookahead_mm`].
+const LOOKAHEAD_STOPS: f64 = 3.0;
+const MIN_LOOKAHEAD_MM: f64 = 20.0;
 
 /// The programmed feed at `s_mm` (mm/s; ∞ for rapid moves).
 fn feed_at(path: &Path, s_mm: f64) -> f64 {

@@ -182,3 +182,30 @@ fn hold_stops_on_the_path_and_resume_finishes() {
     assert!(r[0] <= 1.001 && r[1] <= 1.001 && r[2] <= 1.02, "limits: {r:?}");
     assert!(path_deviation_mm(&path, &sim.out) <= 1e-3);
 }
+
+#[test]
+fn override_changes_apply_within_the_limits() {
+    let config = Config::default_machine();
+    let text = "G21 G90 G17\nG1 X0 Y0 F6000\nG1 X100 Y0\nG3 X110 Y10 I0 J10\nG1 X110 Y60\nG3 X100 Y70 I-10 J0\nG1 X0 Y70\nG3 X-10 Y60 I0 J-10\nG1 X-10 Y10\nG3 X0 Y0 I10 J0\nG1 X100 Y0\n";
+    let path = Arc::new(program::parse(text, "loop.ngc", &config).unwrap().path);
+    let mut sim = Sim::new(config.clone());
+    sim.start(path.clone());
+    let mut worst_chunk_s: f64 = 0.0;
+    for (at_cycle, factor) in [(150u64, 1.5), (300, 0.3), (600, 1.0)] {
+        while sim.cycle < at_cycle {
+            let t = std::time::Instant::now();
+            sim.cycle();
+            worst_chunk_s = worst_chunk_s.max(t.elapsed().as_secs_f64());
+        }
+        sim.feeder.command(FeederCommand::Override(factor));
+    }
+    let t = std::time::Instant::now();
+    sim.run_to_end(60_000);
+    eprintln!("override sim: {} cycles, {:?}, worst cycle incl. planning {:.1} ms, {:?}", sim.cycle, t.elapsed(), worst_chunk_s * 1e3, sim.feeder.stats);
+    let v_at = |c: usize| sim.out[c].v_mm_s;
+    eprintln!("v at 140: {:.1}, 290: {:.1}, 580: {:.1}, 900: {:.1}", v_at(140), v_at(290), v_at(580), v_at(900));
+    let r = stream_ratios(&config, &sim.out);
+    assert!(r[0] <= 1.001 && r[1] <= 1.001 && r[2] <= 1.02, "limits: {r:?}");
+    assert!(path_deviation_mm(&path, &sim.out) <= 1e-3);
+    assert!(sim.out.iter().any(|s| s.feed_override == 1.5) && sim.out.iter().any(|s| s.feed_override == 0.3));
+}

@@ -1,0 +1,204 @@
+//! A real `interpd run` process for a test: its own control socket and iceoryx2 service
+//! prefix (so tests run side by side), a JSON-RPC client, and a collector of the setpoint
+//! stream over iceoryx2.
+
+use iceoryx2::prelude::*;
+use interpd_protocol::shm::{Setpoints, service_settings as ss};
+use serde_json::{Value, json};
+use std::io::{BufRead, BufReader, Write};
+use std::os::unix::net::UnixStream;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// A running `interpd run`; SIGTERM and wait on drop.
+pub struct Daemon {
+    child: Option<Child>,
+    pub socket: PathBuf,
+    pub prefix: String,
+    dir: PathBuf,
+}
+
+fn unique(tag: &str) -> String {
+    use std::sync::atomic::AtomicU64;
+    static N: AtomicU64 = AtomicU64::new(0);
+    format!("{tag}{}x{}", std::process::id(), N.fetch_add(1, Ordering::SeqCst))
+}
+
+impl Daemon {
+    /// Starts `interpd run` with `extra` arguments and waits for its socket.
+    pub fn start(extra: &[&str]) -> Daemon {
+        let name = unique("t");
+        let dir = std::env::temp_dir().join(format!("interpd-e2e-{name}"));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let socket = dir.join("control.sock");
+        let prefix = format!("interpd-test/{name}");
+        let mut cmd = Command::new(crate::binary("interpd"));
+        cmd.arg("run").arg("--socket").arg(&socket).arg("--shm-prefix").arg(&prefix).args(extra);
+        cmd.stdout(Stdio::null()).stderr(Stdio::from(std::fs::File::create(dir.join("stderr.log")).expect("log file")));
+        let child = cmd.spawn().expect("start interpd run");
+        let d = Daemon { child: Some(child), socket, prefix, dir };
+        let until = Instant::now() + Duration::from_secs(20);
+        while !d.socket.exists() {
+            assert!(Instant::now() < until, "interpd run did not create its socket; stderr: {}", d.stderr());
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        d
+    }
+
+    pub fn stderr(&self) -> String {
+        std::fs::read_to_string(self.dir.join("stderr.log")).unwrap_or_default()
+    }
+
+    /// Sends SIGTERM and waits for the exit status; returns (status code, stderr).
+    pub fn terminate(mut self) -> (Option<i32>, String) {
+        let child = self.child.take().expect("running");
+        // SAFETY: plain kill(2) on our child's pid.
+        unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+        let out = child.wait_with_output().expect("wait");
+        (out.status.code(), self.stderr())
+    }
+
+    pub fn client(&self) -> Client {
+        Client::connect(&self.socket)
+    }
+}
+
+impl Drop for Daemon {
+    fn drop(&mut self) {
+        if let Some(mut c) = self.child.take() {
+            // SAFETY: as above.
+            unsafe { libc::kill(c.id() as i32, libc::SIGTERM) };
+            let _ = c.wait();
+        }
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+/// A JSON-RPC client on the control socket (notifications are kept apart).
+pub struct Client {
+    reader: BufReader<UnixStream>,
+    writer: UnixStream,
+    next_id: u64,
+    pub events: Vec<Value>,
+}
+
+impl Client {
+    pub fn connect(socket: &Path) -> Client {
+        let s = UnixStream::connect(socket).expect("connect to the control socket");
+        s.set_read_timeout(Some(Duration::from_secs(30))).expect("timeout");
+        Client { reader: BufReader::new(s.try_clone().expect("clone")), writer: s, next_id: 1, events: Vec::new() }
+    }
+
+    /// Calls `method`; returns the whole response object.
+    pub fn call(&mut self, method: &str, params: Value) -> Value {
+        let id = self.next_id;
+        self.next_id += 1;
+        let mut msg = json!({"jsonrpc": "2.0", "id": id, "method": method});
+        if !params.is_null() {
+            msg["params"] = params;
+        }
+        writeln!(self.writer, "{msg}").expect("send");
+        loop {
+            let v = self.read_message().expect("a response");
+            if v.get("id") == Some(&json!(id)) {
+                return v;
+            }
+        }
+    }
+
+    /// Calls `method` and returns its `result`, panicking on an error response.
+    pub fn ok(&mut self, method: &str, params: Value) -> Value {
+        let r = self.call(method, params);
+        assert!(r.get("error").is_none(), "{method} failed: {r}");
+        r["result"].clone()
+    }
+
+    fn read_message(&mut self) -> Option<Value> {
+        let mut line = String::new();
+        if self.reader.read_line(&mut line).ok()? == 0 {
+            return None;
+        }
+        let v: Value = serde_json::from_str(&line).expect("JSON from the daemon");
+        if v.get("method").and_then(Value::as_str) == Some("event") {
+            self.events.push(v["params"].clone());
+            return self.read_message();
+        }
+        Some(v)
+    }
+
+    /// Polls `status` until its state is one of `states`; returns the status.
+    pub fn wait_state(&mut self, states: &[&str], timeout: Duration) -> Value {
+        let until = Instant::now() + timeout;
+        loop {
+            let st = self.ok("status", Value::Null);
+            if states.contains(&st["state"].as_str().unwrap_or("")) {
+                return st;
+            }
+            assert!(Instant::now() < until, "state {} not in {states:?} after {timeout:?}: {st}", st["state"]);
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+}
+
+/// Collects every setpoint published on `<prefix>/setpoints` in a thread of its own.
+pub struct Collector {
+    stop: Arc<AtomicBool>,
+    samples: Arc<Mutex<Vec<Setpoints>>>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl Collector {
+    pub fn start(prefix: &str) -> Collector {
+        let stop = Arc::new(AtomicBool::new(false));
+        let samples = Arc::new(Mutex::new(Vec::new()));
+        let (ready_tx, ready_rx) = std::sync::mpsc::channel();
+        let (s2, st2, p2) = (samples.clone(), stop.clone(), format!("{prefix}/setpoints"));
+        let thread = std::thread::spawn(move || {
+            set_log_level(LogLevel::Error);
+            let node = NodeBuilder::new()
+                .signal_handling_mode(SignalHandlingMode::Disabled)
+                .create::<ipc::Service>()
+                .expect("iceoryx2 node");
+            let name: ServiceName = p2.as_str().try_into().expect("service name");
+            let service = node
+                .service_builder(&name)
+                .publish_subscribe::<Setpoints>()
+                .history_size(ss::HISTORY_SIZE)
+                .subscriber_max_buffer_size(ss::SUBSCRIBER_MAX_BUFFER_SIZE)
+                .max_subscribers(ss::MAX_SUBSCRIBERS)
+                .max_publishers(ss::MAX_PUBLISHERS)
+                .max_nodes(ss::MAX_NODES)
+                .open_or_create()
+                .expect("setpoint service");
+            let sub = service.subscriber_builder().buffer_size(ss::SUBSCRIBER_MAX_BUFFER_SIZE).create().expect("subscriber");
+            ready_tx.send(()).expect("ready");
+            while !st2.load(Ordering::SeqCst) {
+                let mut got = Vec::new();
+                while let Ok(Some(sample)) = sub.receive() {
+                    got.push(*sample);
+                }
+                s2.lock().expect("samples").extend(got);
+                std::thread::sleep(Duration::from_millis(10));
+            }
+        });
+        ready_rx.recv_timeout(Duration::from_secs(10)).expect("collector ready");
+        Collector { stop, samples, thread: Some(thread) }
+    }
+
+    /// The setpoints received so far.
+    pub fn snapshot(&self) -> Vec<Setpoints> {
+        self.samples.lock().expect("samples").clone()
+    }
+
+    pub fn finish(mut self) -> Vec<Setpoints> {
+        self.stop.store(true, Ordering::SeqCst);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+        self.snapshot()
+    }
+}

@@ -5,6 +5,7 @@
 //! interpolation every cycle) → sinks (shared memory, CAN) → drives / sim-plant.
 
 pub mod control;
+pub mod law;
 pub mod path;
 pub mod planner;
 pub mod program;

@@ -14,14 +14,19 @@ pub mod chebyshev;
 pub mod condition;
 pub mod ddouble;
 pub mod error;
+pub mod limits;
+pub mod movement;
 pub mod polynomial;
 pub mod preset;
+pub mod program;
 pub mod roots;
 pub mod solver;
 
 pub use characteristic::{Characteristics, Extreme, Peak};
 pub use condition::{Condition, ConditionSet, MAX_CONDITIONS, MAX_DEGREE};
 pub use error::LawError;
+pub use limits::{AxisLimits, LimitError, LimitKind};
+pub use movement::{AxisState, LawAxis, LawMove, LawMoveError};
 pub use polynomial::{Derivs, Law, Residual};
 pub use preset::Preset;
 

@@ -1,6 +1,7 @@
 //! Subcommands of `interpd`.
 
 mod check;
+mod law;
 mod plan;
 
 use clap::{Parser, Subcommand};
@@ -33,6 +34,9 @@ pub enum Command {
     },
     /// Plan a program offline and sample the motion in simulated time (CSV and/or JSON).
     Plan(plan::PlanArgs),
+    /// Design a motion law from interpolation conditions (seed 003): degree, VDI 2143
+    /// characteristic values, residuals, coefficients; CSV samples and a plot on request.
+    Law(law::LawArgs),
 }
 
 /// A failed command: bad input (exit 2) or anything else (exit 1).
@@ -87,5 +91,6 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Check { program, machine } => check::run(&program, machine.as_deref()),
         Command::Plan(args) => plan::run(&args),
+        Command::Law(args) => law::run(&args),
     }
 }

@@ -16,6 +16,7 @@ pub mod ddouble;
 pub mod error;
 pub mod limits;
 pub mod movement;
+pub mod plot;
 pub mod polynomial;
 pub mod preset;
 pub mod program;

@@ -32,7 +32,7 @@ const SCHUR_MAX_ITER: usize = 100_000;
 pub fn roots_in_unit(c: &[f64]) -> Vec<f64> {
     let dc = chebyshev::derivative(c);
     let mut out: Vec<f64> = colleague_roots(c).into_iter().map(|z| polish(c, &dc, z)).collect();
-    out.extend(sign_change_roots(c));
+    out.extend(sign_change_roots(c).into_iter().map(|z| snap_to_end(c, z)));
     out.sort_by(f64::total_cmp);
     out.dedup_by(|a, b| (*a - *b).abs() < 1e-14);
     out
@@ -78,8 +78,31 @@ fn colleague_roots(c: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// Newton on the series; keeps the start when a step leaves [0, 1] or makes |p| larger.
-fn polish(c: &[f64], dc: &[f64], mut z: f64) -> f64 {
+/// Candidates this close to an end of the section are moved onto it when the end is a root to
+/// working precision: a multiple root at an end (f‴(1) = f⁗(1) = 0 makes z = 1 a double root of
+/// f‴) comes out of the eigenvalues or the bisection only to ~√ε, and the end is the exact place.
+const END_SNAP: f64 = 1e-6;
+
+/// "A root to working precision": |p| ≤ this × Σ|c_k| (evaluation rounding is ~ε·Σ|c_k|).
+const ROOT_NOISE_REL: f64 = 1e-12;
+
+/// Newton on the series, then the snap to the ends.
+fn polish(c: &[f64], dc: &[f64], z: f64) -> f64 {
+    snap_to_end(c, newton(c, dc, z))
+}
+
+fn snap_to_end(c: &[f64], z: f64) -> f64 {
+    let noise = chebyshev::eval(c, z).abs().max(ROOT_NOISE_REL * chebyshev::abs_sum(c));
+    for end in [0.0, 1.0] {
+        if (z - end).abs() < END_SNAP && chebyshev::eval(c, end).abs() <= noise {
+            return end;
+        }
+    }
+    z
+}
+
+/// Newton steps; keeps the last point when a step leaves [0, 1] or makes |p| larger.
+fn newton(c: &[f64], dc: &[f64], mut z: f64) -> f64 {
     let mut pz = chebyshev::eval(c, z).abs();
     for _ in 0..NEWTON_STEPS {
         let d = chebyshev::eval(dc, z);

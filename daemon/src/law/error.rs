@@ -38,9 +38,11 @@ pub enum LawError {
     #[error("conditions {} contradict each other: {detail}", numbers(indices))]
     Contradictory { indices: Vec<usize>, detail: String },
     #[error(
-        "conditions {} are not independent (reciprocal condition number {rcond:.1e}): they do not determine a \
-         polynomial of degree {degree}; replace one of them",
-        numbers(indices)
+        "conditions {} are not independent, or too nearly dependent to give a reliable law (reciprocal condition \
+         number {rcond:.1e}, minimum {min:.0e}): they do not determine a polynomial of degree {degree}; replace one \
+         of them or spread them over the section",
+        numbers(indices),
+        min = super::solver::RCOND_MIN
     )]
     Dependent { indices: Vec<usize>, rcond: f64, degree: usize },
     #[error("condition {} ({condition}) is met only to {residual:.1e} after solving (limit {limit:.0e})", index + 1)]

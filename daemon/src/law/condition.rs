@@ -7,10 +7,11 @@ use std::fmt;
 /// Most conditions in one set; the law's degree is at most [`MAX_DEGREE`].
 ///
 /// Why 25 (degree 24): the seed's largest example (the asymmetric law) has 18 conditions,
-/// degree 17. In the scaled Chebyshev basis the systems stay well conditioned far beyond that,
-/// but f‴ of a degree-n polynomial amplifies coefficient rounding by about n⁶/15 (Markov's
-/// inequality, three times), so beyond degree ~24 the jerk C_j is no longer trustworthy to
-/// ~1e-6 relative, and such laws are not useful for machines anyway.
+/// degree 17, so this leaves room for combining its conditions with a few more. The solve itself
+/// would go further (Chebyshev basis, double-double refinement), but the law is evaluated in f64
+/// at run time, and f‴ amplifies the coefficients' rounding by up to T_n‴(1)·2³ ≈ 8n⁶/15
+/// (V. Markov): ~1e8 at n = 24, i.e. C_j and the jerk setpoints to ~1e-8 relative. Beyond that
+/// the margin shrinks quickly, and such laws have no use on a machine.
 pub const MAX_CONDITIONS: usize = 25;
 
 /// Highest polynomial degree a condition set may produce.

@@ -168,13 +168,12 @@ mod tests {
 
     #[test]
     fn finds_close_and_edge_roots() {
-        // (z − 0.3)(z − 0.3001)(z − 1)·z as a Chebyshev series via sampling-free construction:
-        // build in monomials, convert by solving is overkill; use the product of T-forms instead.
-        // p(z) = z(z−1)(z−0.3)(z−0.3001): two roots closer than the grid spacing.
+        // p(z) = z(z − 1)(z − 0.3)(z − 0.3001): roots at both ends and a pair closer than the
+        // grid spacing (1/256), which only the eigenvalues can separate.
         let roots = [0.0, 1.0, 0.3, 0.3001];
-        // Chebyshev coefficients by interpolation at Chebyshev points (exact for degree 4).
-        let n = 5;
         let p = |z: f64| roots.iter().map(|r| z - r).product::<f64>();
+        // Chebyshev coefficients by interpolation at the 5 Chebyshev points (exact for degree 4).
+        let n = 5;
         let xs: Vec<f64> = (0..n).map(|j| (std::f64::consts::PI * (j as f64 + 0.5) / n as f64).cos()).collect();
         let mut c = vec![0.0; n];
         for (k, ck) in c.iter_mut().enumerate() {

@@ -91,7 +91,7 @@ impl Trajectory {
             }
             t -= p.brake.duration;
         }
-        match p.t_end.iter().position(|&end| t < end) {
+        match p.t_sum.iter().position(|&end| t < end) {
             Some(i) => 2 + i,
             None => 9,
         }

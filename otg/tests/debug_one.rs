@@ -24,7 +24,7 @@ fn debug_one() {
     eprintln!("ours: {r:?} duration {}", t.duration());
     for p in t.profiles() {
         eprintln!("  brake {:?} t {:?} j {:?} total {}", p.brake, p.t, p.j, p.duration());
-        eprintln!("  v {:?}\n  a {:?}\n  {:?} {:?} {:?}", p.v, p.a, p.limits, p.direction, p.signs);
+        eprintln!("  v {:?}\n  a {:?}\n  {:?} {:?} {:?}", p.v, p.a, p.limits, p.direction, p.control_signs);
     }
     eprintln!("independent: {:?}", t.independent_min_durations());
     let mut o = RuckigOracle::new(input.dofs);

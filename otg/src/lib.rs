@@ -474,7 +474,8 @@ impl Otg {
             let l = &input.limits[dof];
             let jf = j_lim * scale;
             let ok = match input.control {
-                ControlInterface::Position => p.check_with_jerk_limit(
+                ControlInterface::Position => p.check_with_timing_and_jerk(
+                    trajectory.duration,
                     p_lim.control_signs,
                     ReachedLimits::None,
                     jf,
@@ -484,7 +485,8 @@ impl Otg {
                     l.a_min,
                     l.j_max,
                 ),
-                ControlInterface::Velocity => p.check_for_velocity_with_jerk_limit(
+                ControlInterface::Velocity => p.check_for_velocity_with_timing_and_jerk(
+                    trajectory.duration,
                     p_lim.control_signs,
                     ReachedLimits::None,
                     jf,

@@ -200,7 +200,7 @@ impl Step2 {
             p.t[5] = tf - (p.t[0] + p.t[1] + p.t[2] + p.t[3] + 2.0 * p.t[4] + af / j_max);
             p.t[6] = p.t[4] + af / j_max;
 
-            if p.check(Uddu, RL::Acc0Acc1Vel, false, j_max, v_max, v_min, a_max, a_min) {
+            if p.check_with_timing(tf, Uddu, RL::Acc0Acc1Vel, j_max, v_max, v_min, a_max, a_min) {
                 return true;
             }
         }
@@ -228,7 +228,7 @@ impl Step2 {
             p.t[5] = tf - (p.t[0] + p.t[1] + p.t[2] + p.t[3] + 2.0 * p.t[4] - af / j_max);
             p.t[6] = p.t[4] - af / j_max;
 
-            if p.check(Udud, RL::Acc0Acc1Vel, false, j_max, v_max, v_min, a_max, a_min) {
+            if p.check_with_timing(tf, Udud, RL::Acc0Acc1Vel, j_max, v_max, v_min, a_max, a_min) {
                 return true;
             }
         }
@@ -309,7 +309,7 @@ impl Step2 {
                 p.t[5] = (h1 + a_min) / j_max;
                 p.t[6] = p.t[4] + af / j_max;
 
-                if p.check(Uddu, RL::Acc1Vel, false, j_max, v_max, v_min, a_max, a_min) {
+                if p.check_with_timing(tf, Uddu, RL::Acc1Vel, j_max, v_max, v_min, a_max, a_min) {
                     return true;
                 }
             }
@@ -352,7 +352,7 @@ impl Step2 {
                 p.t[5] = -(h1 + a_max) / j_max;
                 p.t[6] = p.t[4] - af / j_max;
 
-                if p.check(Udud, RL::Acc1Vel, false, j_max, v_max, v_min, a_max, a_min) {
+                if p.check_with_timing(tf, Udud, RL::Acc1Vel, j_max, v_max, v_min, a_max, a_min) {
                     return true;
                 }
             }
@@ -428,7 +428,7 @@ impl Step2 {
                 p.t[5] = 0.0;
                 p.t[6] = af / j_max + t;
 
-                if p.check(Uddu, RL::Acc0Vel, false, j_max, v_max, v_min, a_max, a_min) {
+                if p.check_with_timing(tf, Uddu, RL::Acc0Vel, j_max, v_max, v_min, a_max, a_min) {
                     return true;
                 }
             }
@@ -490,7 +490,7 @@ impl Step2 {
                 p.t[5] = 0.0;
                 p.t[6] = -(af / j_max) + t;
 
-                if p.check(Udud, RL::Acc0Vel, false, j_max, v_max, v_min, a_max, a_min) {
+                if p.check_with_timing(tf, Udud, RL::Acc0Vel, j_max, v_max, v_min, a_max, a_min) {
                     return true;
                 }
             }
@@ -515,7 +515,7 @@ impl Step2 {
             p.t[5] = tf - (2.0 * p.t[0] + p.t[1] + 2.0 * p.t[4]);
             p.t[6] = p.t[4];
 
-            return p.check_with_jerk_limit(Uddu, RL::Acc0Acc1, jf, v_max, v_min, a_max, a_min, j_max);
+            return p.check_with_timing_and_jerk(tf, Uddu, RL::Acc0Acc1, jf, v_max, v_min, a_max, a_min, j_max);
         }
 
         // UDDU
@@ -558,7 +558,7 @@ impl Step2 {
             p.t[5] = tf - (p.t[0] + p.t[1] + p.t[2] + 2.0 * p.t[4] + af / jf);
             p.t[6] = p.t[4] + af / jf;
 
-            if p.check_with_jerk_limit(Uddu, RL::Acc0Acc1, jf, v_max, v_min, a_max, a_min, j_max) {
+            if p.check_with_timing_and_jerk(tf, Uddu, RL::Acc0Acc1, jf, v_max, v_min, a_max, a_min, j_max) {
                 return true;
             }
         }
@@ -612,7 +612,7 @@ impl Step2 {
             p.t[5] = h1;
             p.t[6] = tf - (p.t[0] + p.t[2] + p.t[5]);
 
-            if p.check(Uddu, RL::Acc1, false, j_max, v_max, v_min, a_max, a_min) {
+            if p.check_with_timing(tf, Uddu, RL::Acc1, j_max, v_max, v_min, a_max, a_min) {
                 return true;
             }
         }
@@ -641,7 +641,7 @@ impl Step2 {
             p.t[5] = h1;
             p.t[6] = tf - (p.t[5] + p.t[4] + p.t[2]);
 
-            if p.check(Udud, RL::Acc1, false, j_max, v_max, v_min, a_max, a_min) {
+            if p.check_with_timing(tf, Udud, RL::Acc1, j_max, v_max, v_min, a_max, a_min) {
                 return true;
             }
         }
@@ -677,7 +677,7 @@ impl Step2 {
             p.t[5] = tf - (p.t[2] + p.t[3] + p.t[4] + (af - a_min) / j_max);
             p.t[6] = (af - a_min) / j_max;
 
-            if p.check(Uddu, RL::Acc1, false, j_max, v_max, v_min, a_max, a_min) {
+            if p.check_with_timing(tf, Uddu, RL::Acc1, j_max, v_max, v_min, a_max, a_min) {
                 return true;
             }
         }
@@ -709,7 +709,7 @@ impl Step2 {
             p.t[5] = tf - (p.t[2] + p.t[3] + p.t[4] + (-af + a_max) / j_max);
             p.t[6] = (-af + a_max) / j_max;
 
-            if p.check(Udud, RL::Acc1, false, j_max, v_max, v_min, a_max, a_min) {
+            if p.check_with_timing(tf, Udud, RL::Acc1, j_max, v_max, v_min, a_max, a_min) {
                 return true;
             }
         }
@@ -731,7 +731,7 @@ impl Step2 {
             p.t[5] = 0.0;
             p.t[6] = 0.0;
 
-            if p.check(Udud, RL::None, false, j_max, v_max, v_min, a_max, a_min) {
+            if p.check_with_timing(tf, Udud, RL::None, j_max, v_max, v_min, a_max, a_min) {
                 return true;
             }
         }
@@ -763,7 +763,7 @@ impl Step2 {
             p.t[5] = 0.0;
             p.t[6] = tf - (p.t[0] + p.t[1] + p.t[2] + p.t[3]);
 
-            if p.check(Uddu, RL::None, false, j_max, v_max, v_min, a_max, a_min) {
+            if p.check_with_timing(tf, Uddu, RL::None, j_max, v_max, v_min, a_max, a_min) {
                 return true;
             }
         }
@@ -792,7 +792,7 @@ impl Step2 {
             p.t[5] = 0.0;
             p.t[6] = 0.0;
 
-            if p.check(Uddu, RL::Acc0, false, j_max, v_max, v_min, a_max, a_min) {
+            if p.check_with_timing(tf, Uddu, RL::Acc0, j_max, v_max, v_min, a_max, a_min) {
                 return true;
             }
         }
@@ -844,7 +844,7 @@ impl Step2 {
             p.t[5] = 0.0;
             p.t[6] = p.t[0];
 
-            if p.check_with_jerk_limit(Uddu, RL::None, jf, v_max, v_min, a_max, a_min, j_max) {
+            if p.check_with_timing_and_jerk(tf, Uddu, RL::None, jf, v_max, v_min, a_max, a_min, j_max) {
                 return true;
             }
         }
@@ -891,7 +891,7 @@ impl Step2 {
                         p.t[5] = 0.0;
                         p.t[6] = 0.0;
 
-                        if p.check(Uddu, RL::None, false, j_max, v_max, v_min, a_max, a_min) {
+                        if p.check_with_timing(tf, Uddu, RL::None, j_max, v_max, v_min, a_max, a_min) {
                             return true;
                         }
                     }
@@ -957,7 +957,7 @@ impl Step2 {
                 - h0)
                 / h1;
 
-            if p.check(Udud, RL::None, false, j_max, v_max, v_min, a_max, a_min) {
+            if p.check_with_timing(tf, Udud, RL::None, j_max, v_max, v_min, a_max, a_min) {
                 return true;
             }
         }
@@ -1029,7 +1029,7 @@ impl Step2 {
                     p.t[5] = 0.0;
                     p.t[6] = 0.0;
 
-                    if p.check(Uddu, RL::None, false, j_max, v_max, v_min, a_max, a_min) {
+                    if p.check_with_timing(tf, Uddu, RL::None, j_max, v_max, v_min, a_max, a_min) {
                         return true;
                     }
                 }
@@ -1061,7 +1061,7 @@ impl Step2 {
                 p.t[5] = h0;
                 p.t[6] = (tf - p.t[3] + ad / j_max - h0) / 2.0;
 
-                if p.check(Uddu, RL::None, false, j_max, v_max, v_min, a_max, a_min) {
+                if p.check_with_timing(tf, Uddu, RL::None, j_max, v_max, v_min, a_max, a_min) {
                     return true;
                 }
             }
@@ -1166,7 +1166,7 @@ impl Step2 {
                     p.t[5] = 0.0;
                     p.t[6] = tf - (t + p.t[3] + p.t[4]);
 
-                    if p.check(Uddu, RL::None, false, j_max, v_max, v_min, a_max, a_min) {
+                    if p.check_with_timing(tf, Uddu, RL::None, j_max, v_max, v_min, a_max, a_min) {
                         return true;
                     }
                 }
@@ -1243,7 +1243,7 @@ impl Step2 {
                     p.t[5] = 0.0;
                     p.t[6] = 0.0;
 
-                    if p.check(Udud, RL::None, false, j_max, v_max, v_min, a_max, a_min) {
+                    if p.check_with_timing(tf, Udud, RL::None, j_max, v_max, v_min, a_max, a_min) {
                         return true;
                     }
                 }
@@ -1262,7 +1262,7 @@ impl Step2 {
             p.t[5] = 0.0;
             p.t[6] = 0.0;
 
-            if p.check(Uddu, RL::None, false, j_max, v_max, v_min, a_max, a_min) {
+            if p.check_with_timing(tf, Uddu, RL::None, j_max, v_max, v_min, a_max, a_min) {
                 return true;
             }
         }
@@ -1294,7 +1294,7 @@ impl Step2 {
                 p.t[5] = 0.0;
                 p.t[6] = tf - (p.t[0] + p.t[1]);
 
-                if p.check_with_jerk_limit(Uddu, RL::None, jf, v_max, v_min, a_max, a_min, j_max) {
+                if p.check_with_timing_and_jerk(tf, Uddu, RL::None, jf, v_max, v_min, a_max, a_min, j_max) {
                     return true;
                 }
             }
@@ -1310,7 +1310,7 @@ impl Step2 {
             p.t[5] = 0.0;
             p.t[6] = tf - (p.t[0] + p.t[2]);
 
-            if p.check(Uddu, RL::None, false, j_max, v_max, v_min, a_max, a_min) {
+            if p.check_with_timing(tf, Uddu, RL::None, j_max, v_max, v_min, a_max, a_min) {
                 return true;
             }
         }
@@ -1365,7 +1365,7 @@ impl Step2 {
                     t -= orig / deriv;
                 }
                 p.t = [t, 0.0, t, tf - 4.0 * t, t, 0.0, t];
-                if p.check(Uddu, RL::Vel, false, j_max, v_max, v_min, a_max, a_min) {
+                if p.check_with_timing(tf, Uddu, RL::Vel, j_max, v_max, v_min, a_max, a_min) {
                     return true;
                 }
             }
@@ -1435,7 +1435,7 @@ impl Step2 {
                 }
                 let h1 = sqrt((a0_a0 + af_af) / (2.0 * jj) + (t * (2.0 * a0 + j_max * t) - vd) / j_max);
                 p.t = [t, 0.0, t + a0 / j_max, tf - 2.0 * (t + h1) - (a0 + af) / j_max, h1, 0.0, h1 + af / j_max];
-                p.check(Uddu, RL::Vel, false, j_max, v_max, v_min, a_max, a_min)
+                p.check_with_timing(tf, Uddu, RL::Vel, j_max, v_max, v_min, a_max, a_min)
             };
 
             for &extremum in d_extremas.as_slice() {
@@ -1559,7 +1559,7 @@ impl Step2 {
                 }
                 let h1 = sqrt((af_af - a0_a0) / (2.0 * jj) - ((2.0 * a0 + j_max * t) * t - vd) / j_max);
                 p.t = [t, 0.0, t + a0 / j_max, tf - 2.0 * (t + h1) + ad / j_max, h1, 0.0, h1 - af / j_max];
-                p.check(Udud, RL::Vel, false, j_max, v_max, v_min, a_max, a_min)
+                p.check_with_timing(tf, Udud, RL::Vel, j_max, v_max, v_min, a_max, a_min)
             };
 
             for &(lo, hi) in intervals.iter() {

@@ -25,6 +25,25 @@ const A_PRECISION: f64 = 1e-10;
 const T_MAX_S: f64 = 1e12;
 /// Phases that must have a positive length (a plateau at a limit) must be longer than this [s].
 const T_EPS_S: f64 = f64::EPSILON;
+/// Refinement runs when an accepted candidate's end state (relative to the magnitude of the
+/// quantity) or a pinned plateau acceleration (relative to the acceleration limit) is off by more
+/// than this: a few ulps, i.e. beyond the rounding of its own integration.
+const REFINE_TRIGGER: f64 = 16.0 * f64::EPSILON;
+/// Refinement stops once every scaled residual is below this.
+const REFINE_GOAL: f64 = 2.0 * f64::EPSILON;
+/// A refined candidate replaces the original only if its scaled residuals are below this.
+const REFINE_ACCEPT: f64 = 1e-11;
+/// An iteration that does not reduce the residual below this fraction of the best so far has
+/// reached the rounding floor.
+const REFINE_PROGRESS: f64 = 0.5;
+/// Newton iterations of the refinement (quadratic convergence from ~1e-9 needs two).
+const REFINE_ITERATIONS: usize = 6;
+/// A pinned acceleration this many ulps (of the values it is computed from) off its value is
+/// that value: the resolution of the phase durations (the test's integration does the same).
+const PIN_ROUNDING_ULPS: f64 = 8.0;
+/// A plateau acceleration within this (relative to the acceleration limit) of a limit or of zero
+/// is held exactly there by the refinement.
+const PIN_DETECT_REL: f64 = 1e-9;
 /// Products a_i·a_{i+1} below -this mark a zero crossing of the acceleration inside a phase.
 const A_SIGN_CHANGE_EPS: f64 = f64::EPSILON;
 
@@ -110,6 +129,108 @@ pub struct Profile {
     pub control_signs: ControlSigns,
 }
 
+/// What a candidate is checked against.
+struct Candidate {
+    /// Step 2: the profile must last this long [s].
+    duration: Option<f64>,
+    signs: ControlSigns,
+    limits: ReachedLimits,
+    set_limits: bool,
+    jf: f64,
+    v_max: f64,
+    v_min: f64,
+    a_max: f64,
+    a_min: f64,
+}
+
+/// One equation of the refinement.
+#[derive(Clone, Copy)]
+enum Row {
+    EndA,
+    EndV,
+    EndP,
+    Duration(f64),
+    /// The acceleration at the start of phase `.0` equals `.1`.
+    Pin(usize, f64),
+}
+
+/// Solution of the m×n system `J x = r` (m, n ≤ 7) by Householder QR: the minimum-norm solution
+/// if it is underdetermined (m ≤ n, QR of Jᵀ), the least-squares one otherwise (QR of J). No
+/// normal equations, so the condition number is not squared. `None` if J is rank-deficient.
+fn solve_small(jac: &[[f64; 7]; 7], rhs: &[f64; 7], m: usize, n: usize) -> Option<[f64; 7]> {
+    // A is rows × cols with rows ≥ cols: Jᵀ (n × m) or J (m × n).
+    let transpose = m <= n;
+    let (rows, cols) = if transpose { (n, m) } else { (m, n) };
+    let mut qr = [[0.0f64; 7]; 7];
+    for r in 0..rows {
+        for c in 0..cols {
+            qr[r][c] = if transpose { jac[c][r] } else { jac[r][c] };
+        }
+    }
+    // Householder vectors are kept below the diagonal, R on and above it.
+    let mut diag = [0.0f64; 7];
+    let mut column_norm = [0.0f64; 7];
+    for (c, norm) in column_norm.iter_mut().enumerate().take(cols) {
+        *norm = (0..rows).map(|r| qr[r][c] * qr[r][c]).sum::<f64>().sqrt();
+    }
+    for k in 0..cols {
+        // What is left of column k after removing its components along the previous ones.
+        let norm = (k..rows).map(|r| qr[r][k] * qr[r][k]).sum::<f64>().sqrt();
+        if !(norm > RANK_TOLERANCE * column_norm[k]) {
+            return None;
+        }
+        let alpha = if qr[k][k] > 0.0 { -norm } else { norm };
+        qr[k][k] -= alpha;
+        let vnorm2: f64 = (k..rows).map(|r| qr[r][k] * qr[r][k]).sum();
+        for c in k + 1..cols {
+            let dot: f64 = (k..rows).map(|r| qr[r][k] * qr[r][c]).sum();
+            let f = 2.0 * dot / vnorm2;
+            for r in k..rows {
+                qr[r][c] -= f * qr[r][k];
+            }
+        }
+        diag[k] = alpha;
+        // Store the reflector normalised so that it can be applied later.
+        let scale = (2.0 / vnorm2).sqrt();
+        for row in qr.iter_mut().take(rows).skip(k) {
+            row[k] *= scale;
+        }
+    }
+    let r_at = |r: usize, c: usize| if r == c { diag[r] } else { qr[r][c] };
+    let apply_reflector = |x: &mut [f64; 7], k: usize| {
+        let dot: f64 = (k..rows).map(|r| qr[r][k] * x[r]).sum();
+        for (r, xr) in x.iter_mut().enumerate().take(rows).skip(k) {
+            *xr -= dot * qr[r][k];
+        }
+    };
+    let mut x = [0.0f64; 7];
+    if transpose {
+        // J = Rᵀ Qᵀ: solve Rᵀ y = r (forward), then x = Q [y; 0].
+        for c in 0..cols {
+            let s: f64 = (0..c).map(|k| r_at(k, c) * x[k]).sum();
+            x[c] = (rhs[c] - s) / r_at(c, c);
+        }
+        for k in (0..cols).rev() {
+            apply_reflector(&mut x, k);
+        }
+    } else {
+        // J = Q R: x = R⁻¹ (Qᵀ r)[..n].
+        let mut y = *rhs;
+        for k in 0..cols {
+            apply_reflector(&mut y, k);
+        }
+        for c in (0..cols).rev() {
+            let s: f64 = (c + 1..cols).map(|k| r_at(c, k) * x[k]).sum();
+            x[c] = (y[c] - s) / r_at(c, c);
+        }
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
+/// A column of the refinement's system whose part independent of the previous columns is
+/// shorter than this (relative to its length) makes the system rank-deficient.
+const RANK_TOLERANCE: f64 = 1e-13;
+
 /// Integrate one constant-jerk phase: (p, v, a) after `t` seconds.
 #[inline]
 pub(crate) fn integrate(t: f64, p: f64, v: f64, a: f64, j: f64) -> (f64, f64, f64) {
@@ -120,6 +241,13 @@ pub(crate) fn integrate(t: f64, p: f64, v: f64, a: f64, j: f64) -> (f64, f64, f6
 #[inline]
 fn magnitude(values: &[f64], extra: f64) -> f64 {
     values.iter().fold(extra.abs().max(1.0), |m, x| m.max(x.abs()))
+}
+
+/// max(|x_i|, |extra|), or 1 if all are zero.
+#[inline]
+fn magnitude_or_one(values: &[f64], extra: f64) -> f64 {
+    let m = values.iter().fold(extra.abs(), |m, x| m.max(x.abs()));
+    if m > 0.0 { m } else { 1.0 }
 }
 
 /// `|x - target| < precision · max(1, magnitude)`, the magnitude computed only when needed.
@@ -178,8 +306,8 @@ impl Profile {
         self.j = [on(self.t[0], jf), 0.0, on(self.t[2], -jf), 0.0, on(self.t[4], s4 * jf), 0.0, on(self.t[6], s6 * jf)];
     }
 
-    /// Position interface: integrate the candidate (durations in `t`) with jerk `jf` and accept
-    /// it if it reaches the target and respects the limits. The limits are given in the
+    /// Step 1, position interface: integrate the candidate (durations in `t`) with jerk `jf` and
+    /// accept it if it reaches the target and respects the limits. The limits are given in the
     /// direction of the profile (mirrored for `Down`). `set_limits` pins the plateau
     /// accelerations to the limits they are known to equal (removes rounding).
     #[allow(clippy::too_many_arguments)]
@@ -195,9 +323,55 @@ impl Profile {
         a_max: f64,
         a_min: f64,
     ) -> bool {
+        let c = Candidate { duration: None, signs, limits, set_limits, jf, v_max, v_min, a_max, a_min };
+        self.check_position(&c, true)
+    }
+
+    /// Step 2, position interface: like [`Profile::check`] for a profile that must last `tf`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub(crate) fn check_with_timing(
+        &mut self,
+        tf: f64,
+        signs: ControlSigns,
+        limits: ReachedLimits,
+        jf: f64,
+        v_max: f64,
+        v_min: f64,
+        a_max: f64,
+        a_min: f64,
+    ) -> bool {
+        let c = Candidate { duration: Some(tf), signs, limits, set_limits: false, jf, v_max, v_min, a_max, a_min };
+        self.check_position(&c, true)
+    }
+
+    /// [`Profile::check_with_timing`] with a jerk `jf` that may be below the limit `j_max`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub(crate) fn check_with_timing_and_jerk(
+        &mut self,
+        tf: f64,
+        signs: ControlSigns,
+        limits: ReachedLimits,
+        jf: f64,
+        v_max: f64,
+        v_min: f64,
+        a_max: f64,
+        a_min: f64,
+        j_max: f64,
+    ) -> bool {
+        jf.abs() < j_max.abs() * (1.0 + JERK_EPS_REL)
+            && self.check_with_timing(tf, signs, limits, jf, v_max, v_min, a_max, a_min)
+    }
+
+    /// The check of the position interface (Ruckig's `Profile::check`), followed by the
+    /// refinement of an accepted candidate whose end state or pinned plateaus are off by more
+    /// than rounding.
+    fn check_position(&mut self, c: &Candidate, allow_refine: bool) -> bool {
         if !self.fill_t_sum() {
             return false;
         }
+        let limits = c.limits;
         if limits.has_cruise() && self.t[3] < T_EPS_S {
             return false;
         }
@@ -210,14 +384,16 @@ impl Profile {
         if self.t_sum[6] > T_MAX_S {
             return false;
         }
-        self.set_jerks(signs, jf);
+        self.set_jerks(c.signs, c.jf);
 
-        let up = v_max > 0.0;
+        let up = c.v_max > 0.0;
         self.direction = if up { Direction::Up } else { Direction::Down };
-        let v_eps = LIMIT_EPS_REL * v_max.abs().max(v_min.abs());
-        let v_upp = if up { v_max } else { v_min } + v_eps;
-        let v_low = if up { v_min } else { v_max } - v_eps;
+        let v_eps = LIMIT_EPS_REL * c.v_max.abs().max(c.v_min.abs());
+        let v_upp = if up { c.v_max } else { c.v_min } + v_eps;
+        let v_low = if up { c.v_min } else { c.v_max } - v_eps;
         let zero_at_3 = limits.has_cruise() || limits == ReachedLimits::Acc0Acc1;
+        // Largest change made by pinning a plateau acceleration (0 when nothing was pinned).
+        let mut pin_offset = 0.0f64;
 
         for i in 0..7 {
             let (t, j) = (self.t[i], self.j[i]);
@@ -225,21 +401,20 @@ impl Profile {
             self.v[i + 1] = self.v[i] + t * (self.a[i] + t * j / 2.0);
             self.p[i + 1] = self.p[i] + t * (self.v[i] + t * (self.a[i] / 2.0 + t * j / 6.0));
 
-            if zero_at_3 && i == 2 {
-                self.a[3] = 0.0;
-            }
-            if set_limits {
-                if limits == ReachedLimits::Acc1 && i == 2 {
-                    self.a[3] = a_min;
-                }
-                if limits == ReachedLimits::Acc0Acc1 {
-                    if i == 0 {
-                        self.a[1] = a_max;
-                    }
-                    if i == 4 {
-                        self.a[5] = a_min;
-                    }
-                }
+            let pin = if zero_at_3 && i == 2 {
+                Some(0.0)
+            } else if c.set_limits && limits == ReachedLimits::Acc1 && i == 2 {
+                Some(c.a_min)
+            } else if c.set_limits && limits == ReachedLimits::Acc0Acc1 && i == 0 {
+                Some(c.a_max)
+            } else if c.set_limits && limits == ReachedLimits::Acc0Acc1 && i == 4 {
+                Some(c.a_min)
+            } else {
+                None
+            };
+            if let Some(value) = pin {
+                pin_offset = pin_offset.max((self.a[i + 1] - value).abs());
+                self.a[i + 1] = value;
             }
             // Velocity extremum inside a phase where the acceleration changes sign.
             if i > 1 && self.a[i + 1] * self.a[i] < -A_SIGN_CHANGE_EPS {
@@ -249,14 +424,14 @@ impl Profile {
                 }
             }
         }
-        self.control_signs = signs;
+        self.control_signs = c.signs;
         self.limits = limits;
 
-        let a_eps = LIMIT_EPS_REL * a_max.abs().max(a_min.abs());
-        let a_upp = if up { a_max } else { a_min } + a_eps;
-        let a_low = if up { a_min } else { a_max } - a_eps;
+        let a_eps = LIMIT_EPS_REL * c.a_max.abs().max(c.a_min.abs());
+        let a_upp = if up { c.a_max } else { c.a_min } + a_eps;
+        let a_low = if up { c.a_min } else { c.a_max } - a_eps;
         let (a, v) = (&self.a, &self.v);
-        within_precision(self.p[7], self.pf, P_PRECISION, &self.p)
+        let accepted = within_precision(self.p[7], self.pf, P_PRECISION, &self.p)
             && within_precision(v[7], self.vf, V_PRECISION, v)
             && within_precision(a[7], self.af, A_PRECISION, a)
             && a[1] >= a_low
@@ -272,28 +447,17 @@ impl Profile {
             && v[3] >= v_low
             && v[4] >= v_low
             && v[5] >= v_low
-            && v[6] >= v_low
+            && v[6] >= v_low;
+        if accepted && allow_refine && self.needs_refinement(true, pin_offset, c.a_max, c.a_min) {
+            let mut refined = *self;
+            if refined.refine(c.duration, true, c.a_max, c.a_min) && refined.check_position(c, false) {
+                *self = refined;
+            }
+        }
+        accepted
     }
 
-    /// [`Profile::check`] for step 2 with a jerk `jf` that may be below the limit `j_max`.
-    #[allow(clippy::too_many_arguments)]
-    #[inline]
-    pub(crate) fn check_with_jerk_limit(
-        &mut self,
-        signs: ControlSigns,
-        limits: ReachedLimits,
-        jf: f64,
-        v_max: f64,
-        v_min: f64,
-        a_max: f64,
-        a_min: f64,
-        j_max: f64,
-    ) -> bool {
-        jf.abs() < j_max.abs() * (1.0 + JERK_EPS_REL)
-            && self.check(signs, limits, false, jf, v_max, v_min, a_max, a_min)
-    }
-
-    /// Velocity interface: like [`Profile::check`] without position and velocity limits.
+    /// Velocity interface, step 1: like [`Profile::check`] without position and velocity limits.
     #[inline]
     pub(crate) fn check_for_velocity(
         &mut self,
@@ -303,44 +467,18 @@ impl Profile {
         a_max: f64,
         a_min: f64,
     ) -> bool {
-        if !self.fill_t_sum() {
-            return false;
-        }
-        if limits == ReachedLimits::Acc0 && self.t[1] < T_EPS_S {
-            return false;
-        }
-        if self.t_sum[6] > T_MAX_S {
-            return false;
-        }
-        self.set_jerks(signs, jf);
-        for i in 0..7 {
-            let (t, j) = (self.t[i], self.j[i]);
-            self.a[i + 1] = self.a[i] + t * j;
-            self.v[i + 1] = self.v[i] + t * (self.a[i] + t * j / 2.0);
-            self.p[i + 1] = self.p[i] + t * (self.v[i] + t * (self.a[i] / 2.0 + t * j / 6.0));
-        }
-        self.control_signs = signs;
-        self.limits = limits;
-        let up = a_max > 0.0;
-        self.direction = if up { Direction::Up } else { Direction::Down };
-        let a_eps = LIMIT_EPS_REL * a_max.abs().max(a_min.abs());
-        let a_upp = if up { a_max } else { a_min } + a_eps;
-        let a_low = if up { a_min } else { a_max } - a_eps;
-        let a = &self.a;
-        within_precision(self.v[7], self.vf, V_PRECISION, &self.v)
-            && within_precision(a[7], self.af, A_PRECISION, a)
-            && a[1] >= a_low
-            && a[3] >= a_low
-            && a[5] >= a_low
-            && a[1] <= a_upp
-            && a[3] <= a_upp
-            && a[5] <= a_upp
+        let c =
+            Candidate { duration: None, signs, limits, set_limits: false, jf, v_max: 0.0, v_min: 0.0, a_max, a_min };
+        self.check_velocity(&c, true)
     }
 
-    /// [`Profile::check_for_velocity`] with a jerk `jf` that may be below the limit `j_max`.
+    /// Velocity interface, step 2: a profile that must last `tf`, with a jerk `jf` that may be
+    /// below the limit `j_max`.
+    #[allow(clippy::too_many_arguments)]
     #[inline]
-    pub(crate) fn check_for_velocity_with_jerk_limit(
+    pub(crate) fn check_for_velocity_with_timing_and_jerk(
         &mut self,
+        tf: f64,
         signs: ControlSigns,
         limits: ReachedLimits,
         jf: f64,
@@ -348,7 +486,215 @@ impl Profile {
         a_min: f64,
         j_max: f64,
     ) -> bool {
-        jf.abs() < j_max.abs() * (1.0 + JERK_EPS_REL) && self.check_for_velocity(signs, limits, jf, a_max, a_min)
+        let c = Candidate {
+            duration: Some(tf),
+            signs,
+            limits,
+            set_limits: false,
+            jf,
+            v_max: 0.0,
+            v_min: 0.0,
+            a_max,
+            a_min,
+        };
+        jf.abs() < j_max.abs() * (1.0 + JERK_EPS_REL) && self.check_velocity(&c, true)
+    }
+
+    /// Ruckig's `check_for_velocity`, followed by the refinement of an accepted candidate.
+    fn check_velocity(&mut self, c: &Candidate, allow_refine: bool) -> bool {
+        if !self.fill_t_sum() {
+            return false;
+        }
+        if c.limits == ReachedLimits::Acc0 && self.t[1] < T_EPS_S {
+            return false;
+        }
+        if self.t_sum[6] > T_MAX_S {
+            return false;
+        }
+        self.set_jerks(c.signs, c.jf);
+        for i in 0..7 {
+            let (t, j) = (self.t[i], self.j[i]);
+            self.a[i + 1] = self.a[i] + t * j;
+            self.v[i + 1] = self.v[i] + t * (self.a[i] + t * j / 2.0);
+            self.p[i + 1] = self.p[i] + t * (self.v[i] + t * (self.a[i] / 2.0 + t * j / 6.0));
+        }
+        self.control_signs = c.signs;
+        self.limits = c.limits;
+        let up = c.a_max > 0.0;
+        self.direction = if up { Direction::Up } else { Direction::Down };
+        let a_eps = LIMIT_EPS_REL * c.a_max.abs().max(c.a_min.abs());
+        let a_upp = if up { c.a_max } else { c.a_min } + a_eps;
+        let a_low = if up { c.a_min } else { c.a_max } - a_eps;
+        let a = &self.a;
+        let accepted = within_precision(self.v[7], self.vf, V_PRECISION, &self.v)
+            && within_precision(a[7], self.af, A_PRECISION, a)
+            && a[1] >= a_low
+            && a[3] >= a_low
+            && a[5] >= a_low
+            && a[1] <= a_upp
+            && a[3] <= a_upp
+            && a[5] <= a_upp;
+        if accepted && allow_refine && self.needs_refinement(false, 0.0, c.a_max, c.a_min) {
+            let mut refined = *self;
+            if refined.refine(c.duration, false, c.a_max, c.a_min) && refined.check_velocity(c, false) {
+                *self = refined;
+            }
+        }
+        accepted
+    }
+
+    /// Whether an accepted candidate is off its target (or its pinned plateaus) by more than
+    /// rounding, so that integrating its phases from the start would miss the target.
+    fn needs_refinement(&self, position: bool, pin_offset: f64, a_max: f64, a_min: f64) -> bool {
+        let a_scale = a_max.abs().max(a_min.abs());
+        if pin_offset > REFINE_TRIGGER * a_scale {
+            return true;
+        }
+        let off = |x: f64, target: f64, along: &[f64]| {
+            let err = (x - target).abs();
+            err > REFINE_TRIGGER * magnitude(along, target) && err > 0.0
+        };
+        off(self.a[7], self.af, &self.a)
+            || off(self.v[7], self.vf, &self.v)
+            || (position && off(self.p[7], self.pf, &self.p))
+    }
+
+    /// Newton iterations on the durations of the non-empty phases (jerks fixed) so that the
+    /// phases, integrated from the start without any pinning, end exactly on the target, last
+    /// `duration` (step 2), and hold plateaus at the acceleration limit or at zero exactly.
+    /// Minimum-norm steps: the system is usually underdetermined. Returns false if it does not
+    /// converge below the rounding level or a duration turns negative.
+    fn refine(&mut self, duration: Option<f64>, position: bool, a_max: f64, a_min: f64) -> bool {
+        let mut active = [0usize; 7];
+        let mut n = 0;
+        for i in 0..7 {
+            if self.t[i] > 0.0 {
+                active[n] = i;
+                n += 1;
+            }
+        }
+        if n == 0 {
+            return false;
+        }
+        let active = &active[..n];
+        let a_scale = a_max.abs().max(a_min.abs());
+        // Plateaus (hold phases) at a limit or at zero keep that acceleration exactly.
+        let mut pins = [(0usize, 0.0f64); 3];
+        let mut n_pins = 0;
+        for k in [1, 3, 5] {
+            if self.t[k] > 0.0 {
+                if let Some(value) =
+                    [a_max, a_min, 0.0].into_iter().find(|&x| (self.a[k] - x).abs() <= PIN_DETECT_REL * a_scale)
+                {
+                    pins[n_pins] = (k, value);
+                    n_pins += 1;
+                }
+            }
+        }
+        let pins = &pins[..n_pins];
+        let mut rows = [Row::EndA; 7];
+        let mut m = 0;
+        let mut add = |row: Row| {
+            rows[m] = row;
+            m += 1;
+        };
+        add(Row::EndA);
+        add(Row::EndV);
+        if position {
+            add(Row::EndP);
+        }
+        if let Some(d) = duration {
+            add(Row::Duration(d));
+        }
+        for &(k, value) in pins {
+            add(Row::Pin(k, value));
+        }
+        let rows = &rows[..m];
+
+        let mut first_residual = f64::INFINITY;
+        let mut best = (f64::INFINITY, self.t);
+        for iteration in 0..=REFINE_ITERATIONS {
+            // Integrate without pinning, except that a pinned acceleration within rounding of its
+            // value is that value (durations cannot resolve it any finer; a long plateau after it
+            // would otherwise turn the last ulp into a drift).
+            let (mut a, mut v, mut p) = ([0.0f64; 8], [0.0f64; 8], [0.0f64; 8]);
+            (a[0], v[0], p[0]) = (self.a[0], self.v[0], self.p[0]);
+            let mut pin_residual = [0.0f64; 8];
+            let mut t_end = [0.0f64; 7];
+            let mut total = 0.0;
+            for i in 0..7 {
+                let (t, j) = (self.t[i], self.j[i]);
+                (p[i + 1], v[i + 1], a[i + 1]) = integrate(t, p[i], v[i], a[i], j);
+                if let Some(&(_, value)) = pins.iter().find(|&&(k, _)| k == i + 1) {
+                    let offset = a[i + 1] - value;
+                    let rounding = PIN_ROUNDING_ULPS * f64::EPSILON * (a[i].abs() + (t * j).abs()).max(a_scale);
+                    if offset.abs() <= rounding {
+                        a[i + 1] = value;
+                    } else {
+                        pin_residual[i + 1] = offset;
+                    }
+                }
+                total += t;
+                t_end[i] = total;
+            }
+            let sa = magnitude(&a, self.af).max(a_scale);
+            let sv = magnitude_or_one(&v, self.vf);
+            let sp = magnitude_or_one(&p, self.pf);
+            let mut jac = [[0.0f64; 7]; 7];
+            let mut rhs = [0.0f64; 7];
+            let mut residual = 0.0f64;
+            for (r, row) in rows.iter().enumerate() {
+                let (value, scale) = match *row {
+                    Row::EndA => (a[7] - self.af, sa),
+                    Row::EndV => (v[7] - self.vf, sv),
+                    Row::EndP => (p[7] - self.pf, sp),
+                    Row::Duration(d) => (total - d, d.max(f64::MIN_POSITIVE)),
+                    Row::Pin(k, _) => (pin_residual[k], sa),
+                };
+                rhs[r] = -value / scale;
+                residual = residual.max((value / scale).abs());
+                for (col, &i) in active.iter().enumerate() {
+                    let rem = total - t_end[i];
+                    let (j, a1, v1) = (self.j[i], a[i + 1], v[i + 1]);
+                    let d = match *row {
+                        Row::EndA => j,
+                        Row::EndV => a1 + j * rem,
+                        Row::EndP => v1 + rem * (a1 + j * rem / 2.0),
+                        Row::Duration(_) => 1.0,
+                        Row::Pin(k, _) => {
+                            if i < k {
+                                j
+                            } else {
+                                0.0
+                            }
+                        }
+                    };
+                    jac[r][col] = d / scale;
+                }
+            }
+            if iteration == 0 {
+                first_residual = residual;
+            }
+            // Stop at the rounding floor: once an iteration no longer halves the residual.
+            let progress = residual < REFINE_PROGRESS * best.0;
+            if residual < best.0 {
+                best = (residual, self.t);
+            }
+            if residual <= REFINE_GOAL || !progress || iteration == REFINE_ITERATIONS {
+                break;
+            }
+            let Some(delta) = solve_small(&jac, &rhs, m, n) else {
+                return false;
+            };
+            for (col, &i) in active.iter().enumerate() {
+                self.t[i] += delta[col];
+                if !(self.t[i] >= 0.0) {
+                    return false;
+                }
+            }
+        }
+        self.t = best.1;
+        best.0 < first_residual && best.0 <= REFINE_ACCEPT
     }
 
     /// Start state (after the brake) and target of the position interface.
@@ -437,6 +783,35 @@ mod tests {
         let mut p = none_profile(2.0);
         p.t[1] = -1e-3;
         assert!(!p.check(ControlSigns::Uddu, ReachedLimits::None, false, 1.0, 1.0, -1.0, 1.0, -1.0));
+    }
+
+    #[test]
+    fn small_solver_square_underdetermined_and_overdetermined() {
+        let mut jac = [[0.0f64; 7]; 7];
+        jac[0][..3].copy_from_slice(&[2.0, 1.0, 0.0]);
+        jac[1][..3].copy_from_slice(&[1.0, 3.0, 1.0]);
+        jac[2][..3].copy_from_slice(&[0.0, 1.0, 4.0]);
+        let mut rhs = [0.0f64; 7];
+        rhs[..3].copy_from_slice(&[3.0, 5.0, 5.0]);
+        let x = solve_small(&jac, &rhs, 3, 3).unwrap();
+        for (got, want) in x.iter().zip([1.0, 1.0, 1.0]) {
+            assert!((got - want).abs() < 1e-14, "{x:?}");
+        }
+        // x + y = 2: minimum norm (1, 1).
+        let mut jac = [[0.0f64; 7]; 7];
+        jac[0][..2].copy_from_slice(&[1.0, 1.0]);
+        let mut rhs = [0.0f64; 7];
+        rhs[0] = 2.0;
+        let x = solve_small(&jac, &rhs, 1, 2).unwrap();
+        assert!((x[0] - 1.0).abs() < 1e-15 && (x[1] - 1.0).abs() < 1e-15, "{x:?}");
+        // x = 1, x = 3: least squares 2.
+        let mut jac = [[0.0f64; 7]; 7];
+        jac[0][0] = 1.0;
+        jac[1][0] = 1.0;
+        let mut rhs = [0.0f64; 7];
+        rhs[..2].copy_from_slice(&[1.0, 3.0]);
+        let x = solve_small(&jac, &rhs, 2, 1).unwrap();
+        assert!((x[0] - 2.0).abs() < 1e-15, "{x:?}");
     }
 
     #[test]

@@ -22,7 +22,15 @@ struct Step2 {
 impl Step2 {
     fn try_acc0(&self, p: &mut Profile, t: [f64; 7], a_max: f64, a_min: f64, j_max: f64) -> bool {
         p.t = t;
-        if p.check_for_velocity(ControlSigns::Uddu, ReachedLimits::Acc0, j_max, a_max, a_min) {
+        if p.check_for_velocity_with_timing_and_jerk(
+            self.tf,
+            ControlSigns::Uddu,
+            ReachedLimits::Acc0,
+            j_max,
+            a_max,
+            a_min,
+            j_max,
+        ) {
             p.pf = p.p[7];
             return true;
         }
@@ -52,7 +60,15 @@ impl Step2 {
         let Step2 { a0, af, tf, vd, ad } = *self;
         if a0.abs() < ZERO && af.abs() < ZERO && vd.abs() < ZERO {
             p.t = [0.0, tf, 0.0, 0.0, 0.0, 0.0, 0.0];
-            if p.check_for_velocity(ControlSigns::Uddu, ReachedLimits::None, j_max, a_max, a_min) {
+            if p.check_for_velocity_with_timing_and_jerk(
+                tf,
+                ControlSigns::Uddu,
+                ReachedLimits::None,
+                j_max,
+                a_max,
+                a_min,
+                j_max,
+            ) {
                 p.pf = p.p[7];
                 return true;
             }
@@ -62,7 +78,15 @@ impl Step2 {
         let t0 = h1 / ad;
         p.t = [t0, tf - t0, 0.0, 0.0, 0.0, 0.0, 0.0];
         let jf = ad * ad / h1;
-        if p.check_for_velocity_with_jerk_limit(ControlSigns::Uddu, ReachedLimits::None, jf, a_max, a_min, j_max) {
+        if p.check_for_velocity_with_timing_and_jerk(
+            tf,
+            ControlSigns::Uddu,
+            ReachedLimits::None,
+            jf,
+            a_max,
+            a_min,
+            j_max,
+        ) {
             p.pf = p.p[7];
             return true;
         }

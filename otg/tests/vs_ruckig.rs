@@ -42,6 +42,8 @@ fn random_problems_match_ruckig() {
     let mut stats: BTreeMap<(Kind, usize), Stats> = BTreeMap::new();
     let mut failures = Vec::new();
     let mut rng = Rng::new(0x07C0_FFEE);
+    let mut err_hist = [0usize; 4];
+    let mut shown_err = 0;
     for &kind in &KINDS {
         for i in 0..per_kind {
             let dofs = [1, 1, 2, 3, 6][i % 5];
@@ -57,6 +59,18 @@ fn random_problems_match_ruckig() {
                 continue;
             }
             let val = validate_ours(&input, &traj);
+            if let Ok(t) = std::env::var("OTG_SHOW_ERR") {
+                let t: f64 = t.parse().unwrap_or(1e-9);
+                if val.target_err > t && shown_err < 400 {
+                    shown_err += 1;
+                    eprintln!("ERR {kind:?} {:e} dof {}: {}", val.target_err, val.dof, fmt_input(&input));
+                }
+            }
+            for (k, threshold) in [1e-12, 1e-11, 1e-10, 1e-9].iter().enumerate() {
+                if val.target_err > *threshold {
+                    err_hist[k] += 1;
+                }
+            }
             st.max_target_err = st.max_target_err.max(val.target_err);
             st.max_limit_excess = st.max_limit_excess.max(val.limit_excess);
             if !val.ok {
@@ -134,6 +148,7 @@ fn random_problems_match_ruckig() {
             total.max_duration_rel_diff_when_equal.max(s.max_duration_rel_diff_when_equal);
     }
     eprintln!("total: {total:?}");
+    eprintln!("target errors above 1e-12, 1e-11, 1e-10, 1e-9: {err_hist:?}");
     let mut classes: BTreeMap<&str, usize> = BTreeMap::new();
     for (class, detail) in &failures {
         let n = classes.entry(class).or_default();

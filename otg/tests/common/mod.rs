@@ -145,7 +145,7 @@ pub fn random_problem(rng: &mut Rng, kind: Kind, dofs: usize) -> Input {
                 Kind::Discrete => 1.0,
                 _ => length,
             };
-            let mut draw = |rng: &mut Rng, p: f64, scale: f64| {
+            let draw = |rng: &mut Rng, p: f64, scale: f64| {
                 if kind == Kind::Discrete {
                     (rng.next_u64() % 3) as f64 - 1.0
                 } else if rng.chance(p) {
@@ -265,6 +265,9 @@ impl RuckigOracle {
 /// Tolerances of the independent validation (the figures).
 pub const TARGET_TOL: f64 = 1e-8;
 pub const LIMIT_TOL: f64 = 1e-9;
+/// An integrated acceleration within this many ulps (of the values it is computed from) of zero
+/// is zero (see `validate_ours`).
+pub const ZERO_ACC_ULPS: f64 = 8.0;
 /// Dense samples per DoF for the limit check.
 pub const SAMPLES: usize = 64;
 
@@ -279,6 +282,10 @@ pub struct Validation {
     /// Largest deviation of a DoF's own end from the trajectory duration (relative).
     pub sync_err: f64,
     pub reason: &'static str,
+    /// The DoF of the first failure.
+    pub dof: usize,
+    /// The DoF with the largest target error.
+    pub worst_target_dof: usize,
 }
 
 /// Magnitude of a quantity for the relative target tolerance: max(1, |x| over the motion).
@@ -293,15 +300,16 @@ fn magnitude(values: impl Iterator<Item = f64>) -> f64 {
 pub fn validate_ours(input: &Input, traj: &Trajectory) -> Validation {
     let position = input.control == ControlInterface::Position;
     let mut v = Validation { ok: true, ..Validation::default() };
-    let mut fail = |v: &mut Validation, reason: &'static str| {
+    let fail = |v: &mut Validation, reason: &'static str, dof: usize| {
         if v.ok {
             v.reason = reason;
+            v.dof = dof;
         }
         v.ok = false;
     };
     let duration = traj.duration();
     if !(duration.is_finite() && duration >= 0.0) {
-        fail(&mut v, "duration not finite");
+        fail(&mut v, "duration not finite", 0);
         return v;
     }
     for (dof, prof) in traj.profiles().iter().enumerate() {
@@ -313,10 +321,17 @@ pub fn validate_ours(input: &Input, traj: &Trajectory) -> Validation {
         let mut ps = vec![p];
         let mut vs = vec![vel];
         let mut as_ = vec![a];
+        // A ramp that ends at zero acceleration leaves a rounding residual in `a` that a long
+        // cruise after it would turn into a drift (½·δa·T²); the generator holds exactly a = 0
+        // there, and so does this integration: an end acceleration within rounding of zero
+        // (relative to the values it was computed from) is zero.
+        let a_scale = lim.a_max.max(-lim.a_min);
         let step = |t: f64, j: f64, p: &mut f64, vel: &mut f64, a: &mut f64| {
             *p += t * (*vel + t * (*a / 2.0 + t * j / 6.0));
             *vel += t * (*a + t * j / 2.0);
-            *a += t * j;
+            let a_new = *a + t * j;
+            let rounding = ZERO_ACC_ULPS * f64::EPSILON * (a.abs() + (t * j).abs()).max(a_scale);
+            *a = if a_new.abs() <= rounding { 0.0 } else { a_new };
         };
         for k in 0..2 {
             if prof.brake.t[k] > 0.0 {
@@ -327,7 +342,7 @@ pub fn validate_ours(input: &Input, traj: &Trajectory) -> Validation {
         boundary.push((p, vel, a, 0.0f64));
         for k in 0..7 {
             if prof.t[k] < 0.0 || !prof.t[k].is_finite() {
-                fail(&mut v, "negative or non-finite phase duration");
+                fail(&mut v, "negative or non-finite phase duration", dof);
             }
             let (pa, va, aa) = (p, vel, a);
             step(prof.t[k], prof.j[k], &mut p, &mut vel, &mut a);
@@ -346,7 +361,7 @@ pub fn validate_ours(input: &Input, traj: &Trajectory) -> Validation {
             let e = (own_end - duration).abs() / duration.max(1e-300);
             v.sync_err = v.sync_err.max(if duration > 0.0 { e } else { own_end });
             if e > 1e-9 && (own_end - duration).abs() > 1e-12 {
-                fail(&mut v, "DoF does not end at the trajectory duration");
+                fail(&mut v, "DoF does not end at the trajectory duration", dof);
             }
         }
         let mag_p = magnitude(ps.iter().copied().chain([target.p]));
@@ -360,9 +375,12 @@ pub fn validate_ours(input: &Input, traj: &Trajectory) -> Validation {
         if position {
             err = err.max((p - target.p).abs() / mag_p);
         }
-        v.target_err = v.target_err.max(err);
+        if err > v.target_err {
+            v.target_err = err;
+            v.worst_target_dof = dof;
+        }
         if !(err <= TARGET_TOL) {
-            fail(&mut v, "target not reached");
+            fail(&mut v, "target not reached", dof);
         }
         // Limits at boundaries and extrema, then at dense samples, after the brake pre-phase.
         // A velocity still outside the band after the brake must come back monotonically: until
@@ -390,11 +408,11 @@ pub fn validate_ours(input: &Input, traj: &Trajectory) -> Validation {
             0.0
         });
         if !(e_end <= TARGET_TOL) {
-            fail(&mut v, "sampled end state is not the target");
+            fail(&mut v, "sampled end state is not the target", dof);
         }
         v.limit_excess = v.limit_excess.max(excess);
         if excess > LIMIT_TOL {
-            fail(&mut v, "limit violated");
+            fail(&mut v, "limit violated", dof);
         }
     }
     v
@@ -487,15 +505,50 @@ pub fn validate_ruckig(input: &Input, oracle: &RuckigOracle, skip: &[f64]) -> Va
 /// MAX_DOFS re-export for convenience.
 pub const CAPACITY: usize = MAX_DOFS;
 
-/// Compact, reproducible text of an input (only the DoFs in use, full precision).
+/// One DoF of a problem as a literal: `[p0, v0, a0, pf, vf, af, v_min, v_max, a_min, a_max, j_max]`.
+pub type DofCase = [f64; 11];
+
+/// An input as a pasteable Rust literal (full precision): `case("Position/Time", &[[...], ...])`,
+/// the form the regression tests and `examples/inspect.rs` take.
 pub fn fmt_input(input: &Input) -> String {
-    let mut s = format!("{:?}/{:?} dofs={}", input.control, input.sync, input.dofs);
+    let mut s = format!("case(\"{:?}/{:?}\", &[", input.control, input.sync);
     for d in 0..input.dofs {
         let (c, t, l) = (input.current[d], input.target[d], input.limits[d]);
-        s += &format!(
-            "\n   dof{d}: from ({:?}, {:?}, {:?}) to ({:?}, {:?}, {:?}) v[{:?}, {:?}] a[{:?}, {:?}] j {:?}",
-            c.p, c.v, c.a, t.p, t.v, t.a, l.v_min, l.v_max, l.a_min, l.a_max, l.j_max
-        );
+        let values = [c.p, c.v, c.a, t.p, t.v, t.a, l.v_min, l.v_max, l.a_min, l.a_max, l.j_max];
+        let items: Vec<String> = values.iter().map(|x| format!("{x:?}")).collect();
+        s += &format!("\n    [{}],", items.join(", "));
     }
-    s
+    s + "\n])"
+}
+
+/// The input of a case literal (see [`fmt_input`]); `mode` is "Position/Time", "Velocity/Phase", ...
+pub fn case(mode: &str, dofs: &[DofCase]) -> Input {
+    let mut input = Input::new(dofs.len());
+    input.control = if mode.contains("Velocity") { ControlInterface::Velocity } else { ControlInterface::Position };
+    input.sync = if mode.contains("Phase") {
+        Synchronization::Phase
+    } else if mode.contains("None") {
+        Synchronization::None
+    } else {
+        Synchronization::Time
+    };
+    for (d, x) in dofs.iter().enumerate() {
+        input.current[d] = State { p: x[0], v: x[1], a: x[2] };
+        input.target[d] = State { p: x[3], v: x[4], a: x[5] };
+        input.limits[d] = Limits { v_min: x[6], v_max: x[7], a_min: x[8], a_max: x[9], j_max: x[10] };
+    }
+    input
+}
+
+/// Parse the text of a case literal (whitespace and the `case(` wrapper are optional).
+pub fn parse_case(text: &str) -> Option<Input> {
+    let body = &text[text.find("&[")? + 2..];
+    let mut dofs = Vec::new();
+    for chunk in body.split('[').skip(1) {
+        let inner = chunk.split(']').next()?;
+        let values: Vec<f64> =
+            inner.split(',').filter(|x| !x.trim().is_empty()).map(|x| x.trim().parse().ok()).collect::<Option<_>>()?;
+        dofs.push(<DofCase>::try_from(values.as_slice()).ok()?);
+    }
+    (!dofs.is_empty()).then(|| case(text, &dofs))
 }

@@ -495,7 +495,8 @@ impl Otg {
                     l.j_max,
                 ),
             };
-            if !ok || (p.duration() - trajectory.duration).abs() > PHASE_DURATION_REL * trajectory.duration {
+            let within = !position || p.velocity_within(l.v_max, l.v_min);
+            if !ok || !within || (p.duration() - trajectory.duration).abs() > PHASE_DURATION_REL * trajectory.duration {
                 return false;
             }
             p.limits = p_lim.limits;

@@ -150,8 +150,8 @@ enum Row {
     EndV,
     EndP,
     Duration(f64),
-    /// The acceleration at the start of phase `.0` equals `.1`.
-    Pin(usize, f64),
+    /// The acceleration at the start of phase `.0` equals its pinned value.
+    Pin(usize),
 }
 
 /// Solution of the m×n system `J x = r` (m, n ≤ 7) by Householder QR: the minimum-norm solution
@@ -543,6 +543,27 @@ impl Profile {
         accepted
     }
 
+    /// Whether the velocity stays within [v_min, v_max] over the whole profile, including the
+    /// first phases and the extrema inside phases (the checks above skip the first phases,
+    /// which the step-1/2 families never take beyond the limits; a phase-synchronised copy of
+    /// another DoF's timing can).
+    pub(crate) fn velocity_within(&self, v_max: f64, v_min: f64) -> bool {
+        let v_eps = LIMIT_EPS_REL * v_max.abs().max(v_min.abs());
+        let (hi, lo) = (v_max + v_eps, v_min - v_eps);
+        (0..7).all(|i| {
+            let v_end = self.v[i + 1];
+            let inside = v_end <= hi && v_end >= lo;
+            let (a0, a1) = (self.a[i], self.a[i + 1]);
+            let extremum_inside = if self.j[i] != 0.0 && a0 * a1 < 0.0 {
+                let v_ext = self.v[i] - a0 * a0 / (2.0 * self.j[i]);
+                v_ext <= hi && v_ext >= lo
+            } else {
+                true
+            };
+            inside && extremum_inside
+        })
+    }
+
     /// Whether an accepted candidate is off its target (or its pinned plateaus) by more than
     /// rounding, so that integrating its phases from the start would miss the target.
     fn needs_refinement(&self, position: bool, pin_offset: f64, a_max: f64, a_min: f64) -> bool {
@@ -606,8 +627,8 @@ impl Profile {
         if let Some(d) = duration {
             add(Row::Duration(d));
         }
-        for &(k, value) in pins {
-            add(Row::Pin(k, value));
+        for &(k, _) in pins {
+            add(Row::Pin(k));
         }
         let rows = &rows[..m];
 
@@ -649,7 +670,7 @@ impl Profile {
                     Row::EndV => (v[7] - self.vf, sv),
                     Row::EndP => (p[7] - self.pf, sp),
                     Row::Duration(d) => (total - d, d.max(f64::MIN_POSITIVE)),
-                    Row::Pin(k, _) => (pin_residual[k], sa),
+                    Row::Pin(k) => (pin_residual[k], sa),
                 };
                 rhs[r] = -value / scale;
                 residual = residual.max((value / scale).abs());
@@ -661,7 +682,7 @@ impl Profile {
                         Row::EndV => a1 + j * rem,
                         Row::EndP => v1 + rem * (a1 + j * rem / 2.0),
                         Row::Duration(_) => 1.0,
-                        Row::Pin(k, _) => {
+                        Row::Pin(k) => {
                             if i < k {
                                 j
                             } else {

@@ -1,7 +1,7 @@
 //! The result of a calculation: one profile per DoF, all ending together (time or phase
 //! synchronisation) or independently, and sampling at any time.
 
-use crate::profile::Profile;
+use crate::profile::{Profile, integrate};
 use crate::{MAX_DOFS, State};
 
 /// A calculated multi-DoF trajectory (fixed capacity, no heap memory).
@@ -71,9 +71,17 @@ impl Trajectory {
     /// State and jerk of one DoF at time `t` [s].
     #[inline]
     pub fn state_of(&self, dof: usize, t: f64) -> (State, f64) {
-        let Some(profile) = self.profiles.get(dof) else {
+        let Some(profile) = self.profiles[..self.dofs].get(dof) else {
             return (State::default(), 0.0);
         };
+        if t >= self.duration {
+            // Every DoF has arrived: its end state, continued with its final acceleration. The
+            // DoFs' own durations equal `duration` only up to rounding of their phase sums, so
+            // the continuation is measured from each DoF's own end (Ruckig does the same).
+            let own_end = profile.duration();
+            let (p, v, a) = integrate(t - own_end, profile.p[7], profile.v[7], profile.a[7], 0.0);
+            return (State { p, v, a }, 0.0);
+        }
         let (p, v, a, j) = profile.state_at(t.max(0.0));
         (State { p, v, a }, j)
     }

@@ -33,6 +33,7 @@ mod block;
 pub mod brake;
 mod position_step1;
 mod position_step2;
+mod position_step2_cruise;
 pub mod profile;
 mod roots;
 mod trajectory;

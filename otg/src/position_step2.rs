@@ -10,7 +10,9 @@
 //!
 //! The equations, their order and the root refinement are ported from Ruckig's
 //! `position-third-step2.cpp` (L. Berscheid, MIT licence, <https://github.com/pantor/ruckig>);
-//! the lower direction passes the mirrored limits (v_min, v_max, a_min, a_max, -j_max).
+//! the lower direction passes the mirrored limits (v_min, v_max, a_min, a_max, -j_max). When
+//! all of them fail (durations far beyond the ramp times), the cruise family of
+//! [`crate::position_step2_cruise`] is the fallback.
 
 use crate::profile::{ControlSigns, Profile, ReachedLimits};
 use crate::roots::{
@@ -159,6 +161,7 @@ pub(crate) fn calculate(p: &mut Profile, tf: f64, v_max: f64, v_min: f64, a_max:
         || s.time_acc0(p, second)
         || s.time_acc1(p, second)
         || s.time_none(p, second)
+        || crate::position_step2_cruise::calculate(p, tf, v_max, v_min, a_max, a_min, j_max)
 }
 
 impl Step2 {

@@ -18,6 +18,8 @@ use crate::profile::{ControlSigns, Profile, ReachedLimits, integrate};
 
 /// Bracketing stops when the interval is this small relative to the cruise velocity scale.
 const BRACKET_REL: f64 = 4.0 * f64::EPSILON;
+/// A squared peak acceleration this many ulps (of its terms) below its lower bound is that bound.
+const PEAK_ROUNDING_ULPS: f64 = 16.0;
 /// Iteration cap of the bracketing (bisection alone needs ~64 for full precision).
 const BRACKET_MAX_ITERATIONS: usize = 100;
 
@@ -42,8 +44,6 @@ struct Cruise {
     af: f64,
     pd: f64,
     tf: f64,
-    v_max: f64,
-    v_min: f64,
     a_max: f64,
     a_min: f64,
     j: f64,
@@ -53,18 +53,23 @@ struct Cruise {
 /// where the acceleration first rises) from acceleration `a_start` to `a_end`, through a peak
 /// limited to `a_hi`: peak² = j·dv + (a_start² + a_end²)/2.
 fn ramps(dv: f64, a_start: f64, a_end: f64, a_hi: f64, j: f64) -> Option<([f64; 3], f64)> {
-    let peak_sq = j * dv + (a_start * a_start + a_end * a_end) / 2.0;
-    if !(peak_sq >= 0.0) {
-        return None;
+    let squares = (a_start * a_start + a_end * a_end) / 2.0;
+    let mut peak_sq = j * dv + squares;
+    // At the ends of the V (v_c at the stopping velocity) the peak is exactly max(a_start, a_end)
+    // or zero; rounding may put it just below.
+    let rounding = PEAK_ROUNDING_ULPS * f64::EPSILON * ((j * dv).abs() + squares);
+    let floor = a_start.max(a_end).max(0.0);
+    if peak_sq < floor * floor {
+        if peak_sq < floor * floor - rounding {
+            return None;
+        }
+        peak_sq = floor * floor;
     }
     if peak_sq > a_hi * a_hi {
         let hold = (dv - (2.0 * a_hi * a_hi - a_start * a_start - a_end * a_end) / (2.0 * j)) / a_hi;
         return Some(([(a_hi - a_start) / j, hold.max(0.0), (a_hi - a_end) / j], a_hi));
     }
-    let peak = peak_sq.sqrt();
-    if peak < a_start || peak < a_end {
-        return None;
-    }
+    let peak = peak_sq.sqrt().max(floor);
     Some(([(peak - a_start) / j, 0.0, (peak - a_end) / j], peak))
 }
 
@@ -174,8 +179,6 @@ pub(crate) fn calculate(p: &mut Profile, tf: f64, v_max: f64, v_min: f64, a_max:
         af: p.af,
         pd: p.pf - p.p[0],
         tf,
-        v_max,
-        v_min,
         a_max,
         a_min,
         j: j_max,
@@ -269,8 +272,6 @@ mod tests {
             af: 0.4,
             pd: 2.0,
             tf: 30.0,
-            v_max: 1.0,
-            v_min: -1.0,
             a_max: 0.5,
             a_min: -0.7,
             j: 0.9,

@@ -51,13 +51,14 @@ struct Cruise {
 
 /// Durations (ramp, hold, ramp) of the change of velocity by `dv` ≥ 0 (in the mirrored frame
 /// where the acceleration first rises) from acceleration `a_start` to `a_end`, through a peak
-/// limited to `a_hi`: peak² = j·dv + (a_start² + a_end²)/2.
-fn ramps(dv: f64, a_start: f64, a_end: f64, a_hi: f64, j: f64) -> Option<([f64; 3], f64)> {
+/// limited to `a_hi`: peak² = j·dv + (a_start² + a_end²)/2. `v_scale` is the magnitude of the
+/// velocities `dv` was computed from (its rounding).
+fn ramps(dv: f64, v_scale: f64, a_start: f64, a_end: f64, a_hi: f64, j: f64) -> Option<([f64; 3], f64)> {
     let squares = (a_start * a_start + a_end * a_end) / 2.0;
     let mut peak_sq = j * dv + squares;
     // At the ends of the V (v_c at the stopping velocity) the peak is exactly max(a_start, a_end)
     // or zero; rounding may put it just below.
-    let rounding = PEAK_ROUNDING_ULPS * f64::EPSILON * ((j * dv).abs() + squares);
+    let rounding = PEAK_ROUNDING_ULPS * f64::EPSILON * (j * (dv.abs() + v_scale) + squares);
     let floor = a_start.max(a_end).max(0.0);
     if peak_sq < floor * floor {
         if peak_sq < floor * floor - rounding {
@@ -83,7 +84,8 @@ impl Cruise {
     fn to_cruise(&self, vc: f64) -> Option<Change> {
         let v_stop = self.v0 + self.a0 * self.a0.abs() / (2.0 * self.j);
         let s = if vc >= v_stop { 1.0 } else { -1.0 };
-        let (t, peak) = ramps(s * (vc - self.v0), s * self.a0, 0.0, self.a_hi(s), self.j)?;
+        let v_scale = vc.abs().max(self.v0.abs());
+        let (t, peak) = ramps(s * (vc - self.v0), v_scale, s * self.a0, 0.0, self.a_hi(s), self.j)?;
         let mut state = (0.0, self.v0, self.a0);
         for (k, &tk) in t.iter().enumerate() {
             let jk = [s * self.j, 0.0, -s * self.j][k];
@@ -96,7 +98,8 @@ impl Cruise {
     fn from_cruise(&self, vc: f64) -> Option<Change> {
         let v_pre = self.vf - self.af * self.af.abs() / (2.0 * self.j);
         let s = if vc <= v_pre { 1.0 } else { -1.0 };
-        let (t, peak) = ramps(s * (self.vf - vc), 0.0, s * self.af, self.a_hi(s), self.j)?;
+        let v_scale = vc.abs().max(self.vf.abs());
+        let (t, peak) = ramps(s * (self.vf - vc), v_scale, 0.0, s * self.af, self.a_hi(s), self.j)?;
         let mut state = (0.0, vc, 0.0);
         for (k, &tk) in t.iter().enumerate() {
             let jk = [s * self.j, 0.0, -s * self.j][k];

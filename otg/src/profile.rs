@@ -648,7 +648,7 @@ impl Profile {
                 (p[i + 1], v[i + 1], a[i + 1]) = integrate(t, p[i], v[i], a[i], j);
                 if let Some(&(_, value)) = pins.iter().find(|&&(k, _)| k == i + 1) {
                     let offset = a[i + 1] - value;
-                    let rounding = PIN_ROUNDING_ULPS * f64::EPSILON * (a[i].abs() + (t * j).abs()).max(a_scale);
+                    let rounding = PIN_ROUNDING_ULPS * f64::EPSILON * (a[i].abs() + (t * j).abs());
                     if offset.abs() <= rounding {
                         a[i + 1] = value;
                     } else {

@@ -77,9 +77,10 @@ impl Trajectory {
         if t >= self.duration {
             // Every DoF has arrived: its end state, continued with its final acceleration. The
             // DoFs' own durations equal `duration` only up to rounding of their phase sums, so
-            // the continuation is measured from each DoF's own end (Ruckig does the same).
+            // the continuation is measured from each DoF's own end, and a DoF that ends a few
+            // ulps after `duration` is at its target at `duration` already.
             let own_end = profile.duration();
-            let (p, v, a) = integrate(t - own_end, profile.p[7], profile.v[7], profile.a[7], 0.0);
+            let (p, v, a) = integrate((t - own_end).max(0.0), profile.p[7], profile.v[7], profile.a[7], 0.0);
             return (State { p, v, a }, 0.0);
         }
         let (p, v, a, j) = profile.state_at(t.max(0.0));

@@ -325,12 +325,11 @@ pub fn validate_ours(input: &Input, traj: &Trajectory) -> Validation {
         // cruise after it would turn into a drift (½·δa·T²); the generator holds exactly a = 0
         // there, and so does this integration: an end acceleration within rounding of zero
         // (relative to the values it was computed from) is zero.
-        let a_scale = lim.a_max.max(-lim.a_min);
         let step = |t: f64, j: f64, p: &mut f64, vel: &mut f64, a: &mut f64| {
             *p += t * (*vel + t * (*a / 2.0 + t * j / 6.0));
             *vel += t * (*a + t * j / 2.0);
             let a_new = *a + t * j;
-            let rounding = ZERO_ACC_ULPS * f64::EPSILON * (a.abs() + (t * j).abs()).max(a_scale);
+            let rounding = ZERO_ACC_ULPS * f64::EPSILON * (a.abs() + (t * j).abs());
             *a = if a_new.abs() <= rounding { 0.0 } else { a_new };
         };
         for k in 0..2 {

@@ -175,17 +175,7 @@ fn bracket_root(mut lo: f64, mut hi: f64, f: impl Fn(f64) -> f64) -> f64 {
 /// receives the profile lasting exactly `tf`. False if there is none of this shape.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn calculate(p: &mut Profile, tf: f64, v_max: f64, v_min: f64, a_max: f64, a_min: f64, j_max: f64) -> bool {
-    let c = Cruise {
-        v0: p.v[0],
-        a0: p.a[0],
-        vf: p.vf,
-        af: p.af,
-        pd: p.pf - p.p[0],
-        tf,
-        a_max,
-        a_min,
-        j: j_max,
-    };
+    let c = Cruise { v0: p.v[0], a0: p.a[0], vf: p.vf, af: p.af, pd: p.pf - p.p[0], tf, a_max, a_min, j: j_max };
     let m1 = (c.v0 + c.a0 * c.a0.abs() / (2.0 * c.j)).clamp(v_min, v_max);
     let m2 = (c.vf - c.af * c.af.abs() / (2.0 * c.j)).clamp(v_min, v_max);
     let (lo, hi) = if m1 <= m2 { (m1, m2) } else { (m2, m1) };
@@ -268,17 +258,7 @@ mod tests {
 
     #[test]
     fn residual_slope_matches_the_closed_form() {
-        let c = Cruise {
-            v0: 0.3,
-            a0: -0.2,
-            vf: -0.1,
-            af: 0.4,
-            pd: 2.0,
-            tf: 30.0,
-            a_max: 0.5,
-            a_min: -0.7,
-            j: 0.9,
-        };
+        let c = Cruise { v0: 0.3, a0: -0.2, vf: -0.1, af: 0.4, pd: 2.0, tf: 30.0, a_max: 0.5, a_min: -0.7, j: 0.9 };
         for vc in [-0.8, -0.2, 0.05, 0.6, 0.95] {
             let h = 1e-6;
             let (g, _, first, second) = c.eval(vc).unwrap();

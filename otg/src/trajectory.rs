@@ -4,6 +4,9 @@
 use crate::profile::{Profile, integrate};
 use crate::{MAX_DOFS, State};
 
+/// A DoF whose own duration is within this (relative) of the trajectory's ends with it.
+const SAME_END_REL: f64 = 64.0 * f64::EPSILON;
+
 /// A calculated multi-DoF trajectory (fixed capacity, no heap memory).
 #[derive(Clone, Copy, Debug)]
 pub struct Trajectory {
@@ -75,12 +78,14 @@ impl Trajectory {
             return (State::default(), 0.0);
         };
         if t >= self.duration {
-            // Every DoF has arrived: its end state, continued with its final acceleration. The
-            // DoFs' own durations equal `duration` only up to rounding of their phase sums, so
-            // the continuation is measured from each DoF's own end, and a DoF that ends a few
-            // ulps after `duration` is at its target at `duration` already.
+            // Every DoF has arrived: its end state, continued with its final acceleration from
+            // its own end. A synchronised DoF's own duration equals `duration` only up to the
+            // rounding of its phase sum: then the continuation starts at `duration`, so that
+            // every DoF is exactly at its target there.
             let own_end = profile.duration();
-            let (p, v, a) = integrate((t - own_end).max(0.0), profile.p[7], profile.v[7], profile.a[7], 0.0);
+            let from =
+                if (own_end - self.duration).abs() <= SAME_END_REL * self.duration { self.duration } else { own_end };
+            let (p, v, a) = integrate((t - from).max(0.0), profile.p[7], profile.v[7], profile.a[7], 0.0);
             return (State { p, v, a }, 0.0);
         }
         let (p, v, a, j) = profile.state_at(t.max(0.0));

@@ -25,10 +25,10 @@ const A_PRECISION: f64 = 1e-10;
 const T_MAX_S: f64 = 1e12;
 /// Phases that must have a positive length (a plateau at a limit) must be longer than this [s].
 const T_EPS_S: f64 = f64::EPSILON;
-/// Refinement runs when an accepted candidate's end state (relative to the magnitude of the
-/// quantity) or a pinned plateau acceleration (relative to the acceleration limit) is off by more
-/// than this: a few ulps, i.e. beyond the rounding of its own integration.
-const REFINE_TRIGGER: f64 = 16.0 * f64::EPSILON;
+/// Refinement runs when an accepted candidate's end state, or the drift that an offset of a
+/// pinned plateau acceleration causes, is off by more than this, relative to max(1, magnitude of
+/// the quantity along the profile): well above rounding, well below the target precisions.
+const REFINE_TRIGGER: f64 = 1e-12;
 /// Refinement stops once every scaled residual is below this.
 const REFINE_GOAL: f64 = 2.0 * f64::EPSILON;
 /// A refined candidate replaces the original only if its scaled residuals are below this.
@@ -448,7 +448,7 @@ impl Profile {
             && v[4] >= v_low
             && v[5] >= v_low
             && v[6] >= v_low;
-        if accepted && allow_refine && self.needs_refinement(true, pin_offset, c.a_max, c.a_min) {
+        if accepted && allow_refine && self.needs_refinement(true, pin_offset) {
             let mut refined = *self;
             if refined.refine(c.duration, true, c.a_max, c.a_min) && refined.check_position(c, false) {
                 *self = refined;
@@ -534,7 +534,7 @@ impl Profile {
             && a[1] <= a_upp
             && a[3] <= a_upp
             && a[5] <= a_upp;
-        if accepted && allow_refine && self.needs_refinement(false, 0.0, c.a_max, c.a_min) {
+        if accepted && allow_refine && self.needs_refinement(false, 0.0) {
             let mut refined = *self;
             if refined.refine(c.duration, false, c.a_max, c.a_min) && refined.check_velocity(c, false) {
                 *self = refined;
@@ -566,18 +566,16 @@ impl Profile {
 
     /// Whether an accepted candidate is off its target (or its pinned plateaus) by more than
     /// rounding, so that integrating its phases from the start would miss the target.
-    fn needs_refinement(&self, position: bool, pin_offset: f64, a_max: f64, a_min: f64) -> bool {
-        let a_scale = a_max.abs().max(a_min.abs());
-        if pin_offset > REFINE_TRIGGER * a_scale {
-            return true;
-        }
-        let off = |x: f64, target: f64, along: &[f64]| {
-            let err = (x - target).abs();
-            err > REFINE_TRIGGER * magnitude(along, target) && err > 0.0
-        };
-        off(self.a[7], self.af, &self.a)
-            || off(self.v[7], self.vf, &self.v)
-            || (position && off(self.p[7], self.pf, &self.p))
+    fn needs_refinement(&self, position: bool, pin_offset: f64) -> bool {
+        let off = |err: f64, target: f64, along: &[f64]| err > REFINE_TRIGGER && err > REFINE_TRIGGER * magnitude(along, target);
+        // A pinned acceleration that is off by δa makes the unpinned phases drift by up to
+        // δa·T in velocity and δa·T²/2 in position.
+        let t = self.t_sum[6];
+        let drift_v = pin_offset * t;
+        let drift_p = drift_v * t / 2.0;
+        off((self.a[7] - self.af).abs(), self.af, &self.a)
+            || off((self.v[7] - self.vf).abs() + drift_v, self.vf, &self.v)
+            || (position && off((self.p[7] - self.pf).abs() + drift_p, self.pf, &self.p))
     }
 
     /// Newton iterations on the durations of the non-empty phases (jerks fixed) so that the

@@ -230,26 +230,14 @@ impl RuckigOracle {
 
     /// Fill Ruckig's input from ours (symmetric limits only).
     pub fn set_input(&mut self, input: &Input) {
-        let n = input.dofs;
-        let ri = &mut self.input;
-        ri.control_interface = match input.control {
-            ControlInterface::Position => ruckig::ControlInterface::Position,
-            ControlInterface::Velocity => ruckig::ControlInterface::Velocity,
-        };
-        ri.synchronization = match input.sync {
-            Synchronization::Time => ruckig::Synchronization::Time,
-            Synchronization::Phase => ruckig::Synchronization::Phase,
-            Synchronization::None => ruckig::Synchronization::None,
-        };
-        ri.current_position = (0..n).map(|d| input.current[d].p).collect();
-        ri.current_velocity = (0..n).map(|d| input.current[d].v).collect();
-        ri.current_acceleration = (0..n).map(|d| input.current[d].a).collect();
-        ri.target_position = (0..n).map(|d| input.target[d].p).collect();
-        ri.target_velocity = (0..n).map(|d| input.target[d].v).collect();
-        ri.target_acceleration = (0..n).map(|d| input.target[d].a).collect();
-        ri.max_velocity = (0..n).map(|d| input.limits[d].v_max).collect();
-        ri.max_acceleration = (0..n).map(|d| input.limits[d].a_max).collect();
-        ri.max_jerk = (0..n).map(|d| input.limits[d].j_max).collect();
+        fill_ruckig_input(&mut self.input, input);
+    }
+
+    /// A separate Ruckig input for `input` (benchmarks keep one per problem).
+    pub fn make_input(&self, input: &Input) -> ruckig::InputParameter {
+        let mut ri = ruckig::InputParameter::new(input.dofs);
+        fill_ruckig_input(&mut ri, input);
+        ri
     }
 
     /// Calculate; Ok(duration) or Err(Ruckig's result code).
@@ -260,6 +248,29 @@ impl RuckigOracle {
             e => Err(e),
         }
     }
+}
+
+/// Fill Ruckig's input from ours (symmetric limits only: the bindings have no minimum limits).
+pub fn fill_ruckig_input(ri: &mut ruckig::InputParameter, input: &Input) {
+    let n = input.dofs;
+    ri.control_interface = match input.control {
+        ControlInterface::Position => ruckig::ControlInterface::Position,
+        ControlInterface::Velocity => ruckig::ControlInterface::Velocity,
+    };
+    ri.synchronization = match input.sync {
+        Synchronization::Time => ruckig::Synchronization::Time,
+        Synchronization::Phase => ruckig::Synchronization::Phase,
+        Synchronization::None => ruckig::Synchronization::None,
+    };
+    ri.current_position = (0..n).map(|d| input.current[d].p).collect();
+    ri.current_velocity = (0..n).map(|d| input.current[d].v).collect();
+    ri.current_acceleration = (0..n).map(|d| input.current[d].a).collect();
+    ri.target_position = (0..n).map(|d| input.target[d].p).collect();
+    ri.target_velocity = (0..n).map(|d| input.target[d].v).collect();
+    ri.target_acceleration = (0..n).map(|d| input.target[d].a).collect();
+    ri.max_velocity = (0..n).map(|d| input.limits[d].v_max).collect();
+    ri.max_acceleration = (0..n).map(|d| input.limits[d].a_max).collect();
+    ri.max_jerk = (0..n).map(|d| input.limits[d].j_max).collect();
 }
 
 /// Tolerances of the independent validation (the figures).

@@ -246,6 +246,19 @@ impl Otg {
 
     /// Calculate the trajectory for `input` into `trajectory`. Allocation-free.
     pub fn calculate(&mut self, input: &Input, trajectory: &mut Trajectory) -> Result<(), OtgError> {
+        self.profiles(input, trajectory)?;
+        // Refine the phase durations of the profiles actually used so that they integrate onto
+        // the target (their durations are kept).
+        let position = input.control == ControlInterface::Position;
+        for (p, lim) in trajectory.profiles[..input.dofs].iter_mut().zip(&input.limits) {
+            let t = p.t_sum[6];
+            p.polish(position, Some(t), lim);
+        }
+        Ok(())
+    }
+
+    /// Brake, step 1, synchronisation and step 2: the profiles of all DoFs.
+    fn profiles(&mut self, input: &Input, trajectory: &mut Trajectory) -> Result<(), OtgError> {
         validate(input)?;
         let n = input.dofs;
         trajectory.dofs = n;

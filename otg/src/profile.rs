@@ -25,9 +25,10 @@ const A_PRECISION: f64 = 1e-10;
 const T_MAX_S: f64 = 1e12;
 /// Phases that must have a positive length (a plateau at a limit) must be longer than this [s].
 const T_EPS_S: f64 = f64::EPSILON;
-/// Refinement runs when an accepted candidate's end state, or the drift that an offset of a
-/// pinned plateau acceleration causes, is off by more than this, relative to max(1, magnitude of
-/// the quantity along the profile): well above rounding, well below the target precisions.
+/// Refinement runs when a final profile's phases, integrated from the start (pinned plateau
+/// accelerations as they come out, unless within rounding), miss the end state by more than
+/// this, relative to max(1, magnitude of the quantity along the profile): well above rounding,
+/// well below the target precisions.
 const REFINE_TRIGGER: f64 = 1e-12;
 /// Refinement stops once every scaled residual is below this.
 const REFINE_GOAL: f64 = 2.0 * f64::EPSILON;
@@ -131,8 +132,6 @@ pub struct Profile {
 
 /// What a candidate is checked against.
 struct Candidate {
-    /// Step 2: the profile must last this long [s].
-    duration: Option<f64>,
     signs: ControlSigns,
     limits: ReachedLimits,
     set_limits: bool,
@@ -323,16 +322,18 @@ impl Profile {
         a_max: f64,
         a_min: f64,
     ) -> bool {
-        let c = Candidate { duration: None, signs, limits, set_limits, jf, v_max, v_min, a_max, a_min };
-        self.check_position(&c, true)
+        let c = Candidate { signs, limits, set_limits, jf, v_max, v_min, a_max, a_min };
+        self.check_position(&c)
     }
 
     /// Step 2, position interface: like [`Profile::check`] for a profile that must last `tf`.
+    /// The duration itself is not checked (as in Ruckig): every step-2 family computes one phase
+    /// as tf minus the others; the parameter keeps the call sites readable.
     #[allow(clippy::too_many_arguments)]
     #[inline]
     pub(crate) fn check_with_timing(
         &mut self,
-        tf: f64,
+        _tf: f64,
         signs: ControlSigns,
         limits: ReachedLimits,
         jf: f64,
@@ -341,8 +342,8 @@ impl Profile {
         a_max: f64,
         a_min: f64,
     ) -> bool {
-        let c = Candidate { duration: Some(tf), signs, limits, set_limits: false, jf, v_max, v_min, a_max, a_min };
-        self.check_position(&c, true)
+        let c = Candidate { signs, limits, set_limits: false, jf, v_max, v_min, a_max, a_min };
+        self.check_position(&c)
     }
 
     /// [`Profile::check_with_timing`] with a jerk `jf` that may be below the limit `j_max`.
@@ -367,7 +368,7 @@ impl Profile {
     /// The check of the position interface (Ruckig's `Profile::check`), followed by the
     /// refinement of an accepted candidate whose end state or pinned plateaus are off by more
     /// than rounding.
-    fn check_position(&mut self, c: &Candidate, allow_refine: bool) -> bool {
+    fn check_position(&mut self, c: &Candidate) -> bool {
         if !self.fill_t_sum() {
             return false;
         }
@@ -392,8 +393,6 @@ impl Profile {
         let v_upp = if up { c.v_max } else { c.v_min } + v_eps;
         let v_low = if up { c.v_min } else { c.v_max } - v_eps;
         let zero_at_3 = limits.has_cruise() || limits == ReachedLimits::Acc0Acc1;
-        // Largest change made by pinning a plateau acceleration (0 when nothing was pinned).
-        let mut pin_offset = 0.0f64;
 
         for i in 0..7 {
             let (t, j) = (self.t[i], self.j[i]);
@@ -413,7 +412,6 @@ impl Profile {
                 None
             };
             if let Some(value) = pin {
-                pin_offset = pin_offset.max((self.a[i + 1] - value).abs());
                 self.a[i + 1] = value;
             }
             // Velocity extremum inside a phase where the acceleration changes sign.
@@ -448,12 +446,6 @@ impl Profile {
             && v[4] >= v_low
             && v[5] >= v_low
             && v[6] >= v_low;
-        if accepted && allow_refine && self.needs_refinement(true, pin_offset) {
-            let mut refined = *self;
-            if refined.refine(c.duration, true, c.a_max, c.a_min) && refined.check_position(c, false) {
-                *self = refined;
-            }
-        }
         accepted
     }
 
@@ -467,18 +459,17 @@ impl Profile {
         a_max: f64,
         a_min: f64,
     ) -> bool {
-        let c =
-            Candidate { duration: None, signs, limits, set_limits: false, jf, v_max: 0.0, v_min: 0.0, a_max, a_min };
-        self.check_velocity(&c, true)
+        let c = Candidate { signs, limits, set_limits: false, jf, v_max: 0.0, v_min: 0.0, a_max, a_min };
+        self.check_velocity(&c)
     }
 
-    /// Velocity interface, step 2: a profile that must last `tf`, with a jerk `jf` that may be
-    /// below the limit `j_max`.
+    /// Velocity interface, step 2: a profile that must last `tf` (not checked, see
+    /// [`Profile::check_with_timing`]), with a jerk `jf` that may be below the limit `j_max`.
     #[allow(clippy::too_many_arguments)]
     #[inline]
     pub(crate) fn check_for_velocity_with_timing_and_jerk(
         &mut self,
-        tf: f64,
+        _tf: f64,
         signs: ControlSigns,
         limits: ReachedLimits,
         jf: f64,
@@ -486,22 +477,12 @@ impl Profile {
         a_min: f64,
         j_max: f64,
     ) -> bool {
-        let c = Candidate {
-            duration: Some(tf),
-            signs,
-            limits,
-            set_limits: false,
-            jf,
-            v_max: 0.0,
-            v_min: 0.0,
-            a_max,
-            a_min,
-        };
-        jf.abs() < j_max.abs() * (1.0 + JERK_EPS_REL) && self.check_velocity(&c, true)
+        let c = Candidate { signs, limits, set_limits: false, jf, v_max: 0.0, v_min: 0.0, a_max, a_min };
+        jf.abs() < j_max.abs() * (1.0 + JERK_EPS_REL) && self.check_velocity(&c)
     }
 
     /// Ruckig's `check_for_velocity`, followed by the refinement of an accepted candidate.
-    fn check_velocity(&mut self, c: &Candidate, allow_refine: bool) -> bool {
+    fn check_velocity(&mut self, c: &Candidate) -> bool {
         if !self.fill_t_sum() {
             return false;
         }
@@ -534,12 +515,6 @@ impl Profile {
             && a[1] <= a_upp
             && a[3] <= a_upp
             && a[5] <= a_upp;
-        if accepted && allow_refine && self.needs_refinement(false, 0.0) {
-            let mut refined = *self;
-            if refined.refine(c.duration, false, c.a_max, c.a_min) && refined.check_velocity(c, false) {
-                *self = refined;
-            }
-        }
         accepted
     }
 
@@ -564,18 +539,36 @@ impl Profile {
         })
     }
 
-    /// Whether an accepted candidate is off its target (or its pinned plateaus) by more than
-    /// rounding, so that integrating its phases from the start would miss the target.
-    fn needs_refinement(&self, position: bool, pin_offset: f64) -> bool {
-        let off = |err: f64, target: f64, along: &[f64]| err > REFINE_TRIGGER && err > REFINE_TRIGGER * magnitude(along, target);
-        // A pinned acceleration that is off by δa makes the unpinned phases drift by up to
-        // δa·T in velocity and δa·T²/2 in position.
-        let t = self.t_sum[6];
-        let drift_v = pin_offset * t;
-        let drift_p = drift_v * t / 2.0;
-        off((self.a[7] - self.af).abs(), self.af, &self.a)
-            || off((self.v[7] - self.vf).abs() + drift_v, self.vf, &self.v)
-            || (position && off((self.p[7] - self.pf).abs() + drift_p, self.pf, &self.p))
+    /// Refine the phase durations of a final profile (see [`Profile::refine`]) if integrating
+    /// its phases from the start would miss the target by more than [`REFINE_TRIGGER`]: the
+    /// closed forms and Ruckig's root refinement leave up to 1e-8, and a pinned plateau
+    /// acceleration hides the drift its rounding causes. The refined profile replaces this one
+    /// only if it passes the check again. `duration`: the phases must keep lasting this long.
+    pub(crate) fn polish(&mut self, position: bool, duration: Option<f64>, lim: &crate::Limits) {
+        let (v_max, v_min, a_max, a_min) = match self.direction {
+            Direction::Up => (lim.v_max, lim.v_min, lim.a_max, lim.a_min),
+            Direction::Down => (lim.v_min, lim.v_max, lim.a_min, lim.a_max),
+        };
+        let mut refined = *self;
+        if !refined.refine(duration, position, a_max, a_min) {
+            return;
+        }
+        let c = Candidate {
+            signs: self.control_signs,
+            limits: self.limits,
+            set_limits: false,
+            jf: self.ramp_jerk(),
+            v_max,
+            v_min,
+            a_max,
+            a_min,
+        };
+        let ok = if position { refined.check_position(&c) } else { refined.check_velocity(&c) };
+        if ok {
+            // The check recomputes the bookkeeping; keep what the profile reported before.
+            refined.limits = self.limits;
+            *self = refined;
+        }
     }
 
     /// Newton iterations on the durations of the non-empty phases (jerks fixed) so that the
@@ -655,6 +648,19 @@ impl Profile {
                 }
                 total += t;
                 t_end[i] = total;
+            }
+            if iteration == 0 {
+                // Off by more than the trigger (relative to max(1, magnitude), like the target
+                // precisions)? Otherwise there is nothing to refine.
+                let off = |err: f64, target: f64, along: &[f64]| {
+                    err > REFINE_TRIGGER && err > REFINE_TRIGGER * magnitude(along, target)
+                };
+                if !off((a[7] - self.af).abs(), self.af, &a)
+                    && !off((v[7] - self.vf).abs(), self.vf, &v)
+                    && !(position && off((p[7] - self.pf).abs(), self.pf, &p))
+                {
+                    return false;
+                }
             }
             let sa = magnitude(&a, self.af).max(a_scale);
             let sv = magnitude_or_one(&v, self.vf);

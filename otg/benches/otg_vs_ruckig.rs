@@ -67,11 +67,12 @@ fn table_row(problems: &[Input], oracle: &mut RuckigOracle) -> ([f64; 2], [f64; 
     for input in problems {
         // Ruckig's input is filled once (its calculate() copies it into C++ on every call).
         oracle.set_input(input);
-        for r in 0..REPEATS {
-            samples[0][r] = time_batch(&mut || {
+        let [ours, theirs] = &mut samples;
+        for (s_ours, s_theirs) in ours.iter_mut().zip(theirs.iter_mut()) {
+            *s_ours = time_batch(&mut || {
                 let _ = black_box(otg.calculate(black_box(input), &mut traj));
             });
-            samples[1][r] = time_batch(&mut || {
+            *s_theirs = time_batch(&mut || {
                 let _ = black_box(oracle.otg.calculate(&mut oracle.input, &mut oracle.trajectory));
             });
         }

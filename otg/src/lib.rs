@@ -473,7 +473,7 @@ impl Otg {
         let p_lim = trajectory.profiles[lim_dof];
         let j_lim = p_lim.ramp_jerk();
         let mut profiles = trajectory.profiles;
-        for dof in 0..n {
+        for (dof, p) in profiles.iter_mut().enumerate().take(n) {
             if dof == lim_dof {
                 continue;
             }
@@ -483,7 +483,6 @@ impl Otg {
             if !collinear {
                 return false;
             }
-            let p = &mut profiles[dof];
             p.t = p_lim.t;
             let l = &input.limits[dof];
             let jf = j_lim * scale;

@@ -204,7 +204,7 @@ impl Step1<'_> {
                     - a_max * af_af * vf))
             / (3.0 * (a_max - a_min) * jj)
             + 4.0 * (a_max * self.vf_vf - a_min * self.v0_v0 - 2.0 * a_min * a_max * pd) / (a_max - a_min);
-        if !(h1 >= 0.0) {
+        if h1.is_nan() || h1 < 0.0 {
             return;
         }
         h1 = h1.sqrt() / 2.0;
@@ -656,9 +656,10 @@ pub(crate) fn calculate(
 mod tests {
     use super::*;
 
-    fn t_min(p0: f64, v0: f64, a0: f64, pf: f64, vf: f64, af: f64, v: f64, a: f64, j: f64) -> f64 {
+    /// Minimum duration from `[p0, v0, a0]` to `[pf, vf, af]` under symmetric limits `[v, a, j]`.
+    fn t_min(start: [f64; 3], target: [f64; 3], [v, a, j]: [f64; 3]) -> f64 {
         let mut profiles = [Profile::default(); MAX_PROFILES];
-        profiles[0].set_boundary(p0, v0, a0, pf, vf, af);
+        profiles[0].set_boundary(start[0], start[1], start[2], target[0], target[1], target[2]);
         let mut block = Block::default();
         assert!(calculate(&mut profiles, &mut block, v, -v, a, -a, j), "no profile");
         block.t_min
@@ -667,19 +668,19 @@ mod tests {
     #[test]
     fn rest_to_rest_textbook_durations() {
         // Long move: ramp 1 s (v reaches 1 exactly), cruise, mirrored: T = 4 + (10 - 2)/1.
-        assert!((t_min(0.0, 0.0, 0.0, 10.0, 0.0, 0.0, 1.0, 1.0, 1.0) - 12.0).abs() < 1e-12);
+        assert!((t_min([0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [1.0, 1.0, 1.0]) - 12.0).abs() < 1e-12);
         // No limit reached: d = 2 → T = 4.
-        assert!((t_min(0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 1.0, 1.0, 1.0) - 4.0).abs() < 1e-12);
-        assert!((t_min(0.0, 0.0, 0.0, -2.0, 0.0, 0.0, 1.0, 1.0, 1.0) - 4.0).abs() < 1e-12);
+        assert!((t_min([0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [1.0, 1.0, 1.0]) - 4.0).abs() < 1e-12);
+        assert!((t_min([0.0, 0.0, 0.0], [-2.0, 0.0, 0.0], [1.0, 1.0, 1.0]) - 4.0).abs() < 1e-12);
         // Tiny move: T = 4 (d/2)^(1/3).
         let d = 1e-9;
-        assert!((t_min(0.0, 0.0, 0.0, d, 0.0, 0.0, 1.0, 1.0, 1.0) - 4.0 * (d / 2.0f64).cbrt()).abs() < 1e-12);
+        assert!((t_min([0.0, 0.0, 0.0], [d, 0.0, 0.0], [1.0, 1.0, 1.0]) - 4.0 * (d / 2.0f64).cbrt()).abs() < 1e-12);
     }
 
     #[test]
     fn acceleration_limited_move() {
         // v_max large, a_max 1, j_max 10: trapezoidal acceleration, ramps of 0.1 s.
-        let t = t_min(0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 100.0, 1.0, 10.0);
+        let t = t_min([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [100.0, 1.0, 10.0]);
         // Each half: v_p = (t_h + 0.1), distance 1/2 = v_p (t_h + 0.2)/2.
         let th = (-0.3 + (0.09f64 - 4.0 * (0.02 - 1.0)).sqrt()) / 2.0;
         assert!((t - 2.0 * (th + 0.2)).abs() < 1e-12, "{t} vs {}", 2.0 * (th + 0.2));
@@ -687,6 +688,6 @@ mod tests {
 
     #[test]
     fn zero_motion_is_zero_duration() {
-        assert_eq!(t_min(3.0, 0.0, 0.0, 3.0, 0.0, 0.0, 1.0, 1.0, 1.0), 0.0);
+        assert_eq!(t_min([3.0, 0.0, 0.0], [3.0, 0.0, 0.0], [1.0, 1.0, 1.0]), 0.0);
     }
 }

@@ -81,7 +81,7 @@ impl Cruise {
     }
 
     /// From the start (v0, a0) to (vc, 0).
-    fn to_cruise(&self, vc: f64) -> Option<Change> {
+    fn reach_cruise(&self, vc: f64) -> Option<Change> {
         let v_stop = self.v0 + self.a0 * self.a0.abs() / (2.0 * self.j);
         let s = if vc >= v_stop { 1.0 } else { -1.0 };
         let v_scale = vc.abs().max(self.v0.abs());
@@ -95,7 +95,7 @@ impl Cruise {
     }
 
     /// From (vc, 0) to the target (vf, af).
-    fn from_cruise(&self, vc: f64) -> Option<Change> {
+    fn leave_cruise(&self, vc: f64) -> Option<Change> {
         let v_pre = self.vf - self.af * self.af.abs() / (2.0 * self.j);
         let s = if vc <= v_pre { 1.0 } else { -1.0 };
         let v_scale = vc.abs().max(self.vf.abs());
@@ -110,8 +110,8 @@ impl Cruise {
 
     /// The cruise time g and the position residual F at cruise velocity `vc`.
     fn eval(&self, vc: f64) -> Option<(f64, f64, Change, Change)> {
-        let first = self.to_cruise(vc)?;
-        let second = self.from_cruise(vc)?;
+        let first = self.reach_cruise(vc)?;
+        let second = self.leave_cruise(vc)?;
         let g = self.tf - first.dur - second.dur;
         Some((g, first.dist + second.dist + vc * g - self.pd, first, second))
     }

@@ -175,7 +175,7 @@ fn solve_small(jac: &[[f64; 7]; 7], rhs: &[f64; 7], m: usize, n: usize) -> Optio
     for k in 0..cols {
         // What is left of column k after removing its components along the previous ones.
         let norm = (k..rows).map(|r| qr[r][k] * qr[r][k]).sum::<f64>().sqrt();
-        if !(norm > RANK_TOLERANCE * column_norm[k]) {
+        if norm.is_nan() || norm <= RANK_TOLERANCE * column_norm[k] {
             return None;
         }
         let alpha = if qr[k][k] > 0.0 { -norm } else { norm };
@@ -184,8 +184,8 @@ fn solve_small(jac: &[[f64; 7]; 7], rhs: &[f64; 7], m: usize, n: usize) -> Optio
         for c in k + 1..cols {
             let dot: f64 = (k..rows).map(|r| qr[r][k] * qr[r][c]).sum();
             let f = 2.0 * dot / vnorm2;
-            for r in k..rows {
-                qr[r][c] -= f * qr[r][k];
+            for row in qr.iter_mut().take(rows).skip(k) {
+                row[c] -= f * row[k];
             }
         }
         diag[k] = alpha;
@@ -429,7 +429,7 @@ impl Profile {
         let a_upp = if up { c.a_max } else { c.a_min } + a_eps;
         let a_low = if up { c.a_min } else { c.a_max } - a_eps;
         let (a, v) = (&self.a, &self.v);
-        let accepted = within_precision(self.p[7], self.pf, P_PRECISION, &self.p)
+        within_precision(self.p[7], self.pf, P_PRECISION, &self.p)
             && within_precision(v[7], self.vf, V_PRECISION, v)
             && within_precision(a[7], self.af, A_PRECISION, a)
             && a[1] >= a_low
@@ -445,8 +445,7 @@ impl Profile {
             && v[3] >= v_low
             && v[4] >= v_low
             && v[5] >= v_low
-            && v[6] >= v_low;
-        accepted
+            && v[6] >= v_low
     }
 
     /// Velocity interface, step 1: like [`Profile::check`] without position and velocity limits.
@@ -507,15 +506,14 @@ impl Profile {
         let a_upp = if up { c.a_max } else { c.a_min } + a_eps;
         let a_low = if up { c.a_min } else { c.a_max } - a_eps;
         let a = &self.a;
-        let accepted = within_precision(self.v[7], self.vf, V_PRECISION, &self.v)
+        within_precision(self.v[7], self.vf, V_PRECISION, &self.v)
             && within_precision(a[7], self.af, A_PRECISION, a)
             && a[1] >= a_low
             && a[3] >= a_low
             && a[5] >= a_low
             && a[1] <= a_upp
             && a[3] <= a_upp
-            && a[5] <= a_upp;
-        accepted
+            && a[5] <= a_upp
     }
 
     /// Whether the velocity stays within [v_min, v_max] over the whole profile, including the
@@ -655,10 +653,10 @@ impl Profile {
                 let off = |err: f64, target: f64, along: &[f64]| {
                     err > REFINE_TRIGGER && err > REFINE_TRIGGER * magnitude(along, target)
                 };
-                if !off((a[7] - self.af).abs(), self.af, &a)
-                    && !off((v[7] - self.vf).abs(), self.vf, &v)
-                    && !(position && off((p[7] - self.pf).abs(), self.pf, &p))
-                {
+                let missed = off((a[7] - self.af).abs(), self.af, &a)
+                    || off((v[7] - self.vf).abs(), self.vf, &v)
+                    || (position && off((p[7] - self.pf).abs(), self.pf, &p));
+                if !missed {
                     return false;
                 }
             }
@@ -713,7 +711,7 @@ impl Profile {
             };
             for (col, &i) in active.iter().enumerate() {
                 self.t[i] += delta[col];
-                if !(self.t[i] >= 0.0) {
+                if self.t[i].is_nan() || self.t[i] < 0.0 {
                     return false;
                 }
             }

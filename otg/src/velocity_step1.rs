@@ -55,7 +55,7 @@ impl Step1<'_> {
     fn time_none(&mut self, a_max: f64, a_min: f64, j_max: f64, return_after_found: bool) {
         let (a0, af, vd) = (self.a0, self.af, self.vd);
         let h1 = (a0 * a0 + af * af) / 2.0 + j_max * vd;
-        if !(h1 >= 0.0) {
+        if h1.is_nan() || h1 < 0.0 {
             return;
         }
         let h1 = h1.sqrt();

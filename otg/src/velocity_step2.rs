@@ -102,9 +102,9 @@ impl Step2 {
 pub(crate) fn calculate(p: &mut Profile, tf: f64, a_max: f64, a_min: f64, j_max: f64) -> bool {
     let (a0, af) = (p.a[0], p.af);
     let s = Step2 { a0, af, tf, vd: p.vf - p.v[0], ad: af - a0 };
-    if s.vd > 0.0 {
-        s.check_all(p, a_max, a_min, j_max) || s.check_all(p, a_min, a_max, -j_max)
-    } else {
-        s.check_all(p, a_min, a_max, -j_max) || s.check_all(p, a_max, a_min, j_max)
-    }
+    // The direction of the velocity change first.
+    let up = (a_max, a_min, j_max);
+    let down = (a_min, a_max, -j_max);
+    let (first, second) = if s.vd > 0.0 { (up, down) } else { (down, up) };
+    s.check_all(p, first.0, first.1, first.2) || s.check_all(p, second.0, second.1, second.2)
 }

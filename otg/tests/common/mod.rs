@@ -389,7 +389,7 @@ pub fn validate_ours(input: &Input, traj: &Trajectory) -> Validation {
             v.target_err = err;
             v.worst_target_dof = dof;
         }
-        if !(err <= TARGET_TOL) {
+        if err.is_nan() || err > TARGET_TOL {
             fail(&mut v, "target not reached", dof);
         }
         // Limits at boundaries and extrema, then at dense samples, after the brake pre-phase.
@@ -417,7 +417,7 @@ pub fn validate_ours(input: &Input, traj: &Trajectory) -> Validation {
         } else {
             0.0
         });
-        if !(e_end <= TARGET_TOL) {
+        if e_end.is_nan() || e_end > TARGET_TOL {
             fail(&mut v, "sampled end state is not the target", dof);
         }
         v.limit_excess = v.limit_excess.max(excess);
@@ -505,7 +505,7 @@ pub fn validate_ruckig(input: &Input, oracle: &RuckigOracle, skip: &[f64]) -> Va
         }
         v.target_err = v.target_err.max(err);
     }
-    if !(v.target_err <= TARGET_TOL) {
+    if v.target_err.is_nan() || v.target_err > TARGET_TOL {
         v.ok = false;
         v.reason = "target not reached";
     }

@@ -57,9 +57,14 @@ pub enum Kind {
     Scaled,
     /// Like `Scaled` but the initial velocity and/or acceleration outside the limits.
     OutsideLimits,
-    /// Every limit independently log-uniform in [1e-3, 1e3].
+    /// Every limit independently log-uniform in [1e-3, 1e3]: time constants (a/j, v/a) whose
+    /// ratios reach 1e12, positions up to 1e10 and durations up to 1e8 s. Ruckig refuses
+    /// durations above 7.6e3 s and fails on many of the others; the test then compares with
+    /// Ruckig on the time-scaled problem.
     Independent,
-    /// Asymmetric limits (no oracle: the Rust bindings of Ruckig only take symmetric limits).
+    /// Asymmetric limits. The Rust bindings of Ruckig only take symmetric limits: each DoF's
+    /// minimum duration is checked against Ruckig's with the loosest and the tightest symmetric
+    /// limits around the asymmetric ones.
     Asymmetric,
     /// Velocity interface.
     Velocity,
@@ -67,9 +72,12 @@ pub enum Kind {
     Phase,
     /// Small integers (-1, 0, 1 for states, 1 or 2 for limits): exact ties and zero lengths.
     Discrete,
+    /// Like `Scaled`, with the duration rounded up to a multiple of a period (no oracle: the
+    /// bindings cannot set Ruckig's duration discretisation).
+    DiscreteDuration,
 }
 
-pub const KINDS: [Kind; 7] = [
+pub const KINDS: [Kind; 8] = [
     Kind::Scaled,
     Kind::OutsideLimits,
     Kind::Independent,
@@ -77,10 +85,11 @@ pub const KINDS: [Kind; 7] = [
     Kind::Velocity,
     Kind::Phase,
     Kind::Discrete,
+    Kind::DiscreteDuration,
 ];
 
 /// Velocity before arrival (see input validation): the target must be reachable inside limits.
-fn target_is_valid(t: &State, l: &Limits, position: bool) -> bool {
+pub fn target_is_valid(t: &State, l: &Limits, position: bool) -> bool {
     if t.a > l.a_max || t.a < l.a_min {
         return false;
     }
@@ -103,6 +112,9 @@ pub fn random_problem(rng: &mut Rng, kind: Kind, dofs: usize) -> Input {
     // One length and time scale per problem.
     let length = rng.log_uniform(-3.0, 3.0);
     let time = rng.log_uniform(-1.0, 1.0);
+    if kind == Kind::DiscreteDuration {
+        input.discrete_period_s = Some(time * rng.log_uniform(-2.0, -0.5));
+    }
     let mut reference: Option<[f64; 5]> = None;
     for dof in 0..dofs {
         loop {

@@ -18,36 +18,14 @@
 mod common;
 
 use common::{
-    KINDS, Kind, Rng, RuckigOracle, Validation, fmt_input, random_problem, target_is_valid, validate_ours,
-    validate_ruckig,
+    DURATION_REL_TOL, KINDS, Kind, Outcome, Rng, RuckigOracle, Validation, compare_with_ruckig, fmt_input,
+    random_problem, target_is_valid, validate_ours, validate_ruckig,
 };
-use interpd_otg::{Input, Limits, Otg, State, Trajectory};
+use interpd_otg::{Input, Limits, Otg, Trajectory};
 use std::collections::BTreeMap;
 
-const DURATION_REL_TOL: f64 = 1e-6;
-/// Ruckig refuses trajectories longer than this (`ErrorTrajectoryDuration`).
-const RUCKIG_MAX_DURATION_S: f64 = 7.6e3;
-/// Duration the time-scaled problem is given for Ruckig [s].
-const SCALED_DURATION_S: f64 = 1e3;
 /// A discrete duration is a multiple of its period within this (relative).
 const MULTIPLE_REL_TOL: f64 = 1e-9;
-
-/// How one problem went.
-#[derive(Debug)]
-enum Outcome {
-    /// Same duration as Ruckig (on the problem itself, or on the time-scaled problem).
-    Equal { scaled: bool, rel: f64 },
-    /// Ours is shorter and Ruckig's trajectory is valid: Ruckig missed the optimum.
-    OursShorterValid,
-    /// The durations differ and Ruckig's trajectory is invalid.
-    RuckigInvalid,
-    /// Ruckig returned an error (and the time-scaled problem did not help).
-    RuckigError(String),
-    /// No duration oracle (asymmetric limits, discrete durations); the checks of the kind held.
-    Checked,
-    /// A failure of ours: class and details.
-    Failed(String, String),
-}
 
 #[derive(Default, Debug)]
 struct Stats {
@@ -66,60 +44,6 @@ struct Stats {
 
 fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
     std::env::var(name).ok().and_then(|s| s.parse().ok()).unwrap_or(default)
-}
-
-/// The same problem `k` times faster: durations divided by k.
-fn time_scaled(input: &Input, k: f64) -> Input {
-    let mut out = *input;
-    let scale = |s: &State| State { p: s.p, v: s.v * k, a: s.a * k * k };
-    for d in 0..input.dofs {
-        out.current[d] = scale(&input.current[d]);
-        out.target[d] = scale(&input.target[d]);
-        let l = input.limits[d];
-        out.limits[d] = Limits {
-            v_max: l.v_max * k,
-            v_min: l.v_min * k,
-            a_max: l.a_max * k * k,
-            a_min: l.a_min * k * k,
-            j_max: l.j_max * k * k * k,
-        };
-    }
-    out
-}
-
-/// Compare our duration with Ruckig's; where they differ, validate Ruckig's trajectory.
-fn compare_with_ruckig(input: &Input, traj: &Trajectory, oracle: &mut RuckigOracle) -> Outcome {
-    let d_ours = traj.duration();
-    let brakes: Vec<f64> = traj.profiles().iter().map(|p| p.brake.duration).collect();
-    let (problem, k, d_ruckig) = match oracle.calculate(input) {
-        Ok(d) => (*input, 1.0, d),
-        Err(ruckig::Result::ErrorTrajectoryDuration) if d_ours > RUCKIG_MAX_DURATION_S => {
-            let k = d_ours / SCALED_DURATION_S;
-            let scaled = time_scaled(input, k);
-            match oracle.calculate(&scaled) {
-                Ok(d) => (scaled, k, d * k),
-                Err(e) => return Outcome::RuckigError(format!("{e:?} (time-scaled)")),
-            }
-        }
-        Err(e) => return Outcome::RuckigError(format!("{e:?}")),
-    };
-    let diff = (d_ours - d_ruckig).abs();
-    let rel = diff / d_ours.max(d_ruckig).max(f64::MIN_POSITIVE);
-    if rel <= DURATION_REL_TOL || diff < 1e-12 {
-        return Outcome::Equal { scaled: k != 1.0, rel };
-    }
-    let skip: Vec<f64> = brakes.iter().map(|b| b / k).collect();
-    let rv = validate_ruckig(&problem, oracle, &skip);
-    if !rv.ok {
-        Outcome::RuckigInvalid
-    } else if d_ours < d_ruckig {
-        Outcome::OursShorterValid
-    } else {
-        Outcome::Failed(
-            "not optimal".into(),
-            format!("ours {d_ours} > ruckig {d_ruckig} (valid, time scale {k}): {}", fmt_input(input)),
-        )
-    }
 }
 
 /// One DoF of `input` as a single-DoF problem with symmetric limits `(v, a)`.

@@ -1,6 +1,7 @@
 //! Subcommands of `interpd`.
 
 mod check;
+mod otg;
 mod plan;
 
 use clap::{Parser, Subcommand};
@@ -33,6 +34,8 @@ pub enum Command {
     },
     /// Plan a program offline and sample the motion in simulated time (CSV and/or JSON).
     Plan(plan::PlanArgs),
+    /// One online-trajectory calculation: time-optimal jerk-limited motion from state to state.
+    Otg(otg::OtgArgs),
 }
 
 /// A failed command: bad input (exit 2) or anything else (exit 1).
@@ -87,5 +90,6 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Check { program, machine } => check::run(&program, machine.as_deref()),
         Command::Plan(args) => plan::run(&args),
+        Command::Otg(args) => otg::run(&args),
     }
 }

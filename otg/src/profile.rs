@@ -537,7 +537,7 @@ impl Profile {
         })
     }
 
-    /// Refine the phase durations of a final profile (see [`Profile::refine`]) if integrating
+    /// Refine the phase durations of a final profile (see [`Profile::refined_durations`]) if integrating
     /// its phases from the start would miss the target by more than [`REFINE_TRIGGER`]: the
     /// closed forms and Ruckig's root refinement leave up to 1e-8, and a pinned plateau
     /// acceleration hides the drift its rounding causes. The refined profile replaces this one
@@ -547,10 +547,11 @@ impl Profile {
             Direction::Up => (lim.v_max, lim.v_min, lim.a_max, lim.a_min),
             Direction::Down => (lim.v_min, lim.v_max, lim.a_min, lim.a_max),
         };
-        let mut refined = *self;
-        if !refined.refine(duration, position, a_max, a_min) {
+        let Some(durations) = self.refined_durations(duration, position, a_max, a_min) else {
             return;
-        }
+        };
+        let mut refined = *self;
+        refined.t = durations;
         let c = Candidate {
             signs: self.control_signs,
             limits: self.limits,
@@ -572,9 +573,10 @@ impl Profile {
     /// Newton iterations on the durations of the non-empty phases (jerks fixed) so that the
     /// phases, integrated from the start without any pinning, end exactly on the target, last
     /// `duration` (step 2), and hold plateaus at the acceleration limit or at zero exactly.
-    /// Minimum-norm steps: the system is usually underdetermined. Returns false if it does not
-    /// converge below the rounding level or a duration turns negative.
-    fn refine(&mut self, duration: Option<f64>, position: bool, a_max: f64, a_min: f64) -> bool {
+    /// Minimum-norm steps: the system is usually underdetermined. Returns the new durations, or
+    /// `None` if nothing needs refining, it does not converge, or a duration turns negative.
+    fn refined_durations(&self, duration: Option<f64>, position: bool, a_max: f64, a_min: f64) -> Option<[f64; 7]> {
+        let mut durations = self.t;
         let mut active = [0usize; 7];
         let mut n = 0;
         for i in 0..7 {
@@ -584,7 +586,7 @@ impl Profile {
             }
         }
         if n == 0 {
-            return false;
+            return None;
         }
         let active = &active[..n];
         let a_scale = a_max.abs().max(a_min.abs());
@@ -622,7 +624,7 @@ impl Profile {
         let rows = &rows[..m];
 
         let mut first_residual = f64::INFINITY;
-        let mut best = (f64::INFINITY, self.t);
+        let mut best = (f64::INFINITY, durations);
         for iteration in 0..=REFINE_ITERATIONS {
             // Integrate without pinning, except that a pinned acceleration within rounding of its
             // value is that value (durations cannot resolve it any finer; a long plateau after it
@@ -633,7 +635,7 @@ impl Profile {
             let mut t_end = [0.0f64; 7];
             let mut total = 0.0;
             for i in 0..7 {
-                let (t, j) = (self.t[i], self.j[i]);
+                let (t, j) = (durations[i], self.j[i]);
                 (p[i + 1], v[i + 1], a[i + 1]) = integrate(t, p[i], v[i], a[i], j);
                 if let Some(&(_, value)) = pins.iter().find(|&&(k, _)| k == i + 1) {
                     let offset = a[i + 1] - value;
@@ -657,7 +659,7 @@ impl Profile {
                     || off((v[7] - self.vf).abs(), self.vf, &v)
                     || (position && off((p[7] - self.pf).abs(), self.pf, &p));
                 if !missed {
-                    return false;
+                    return None;
                 }
             }
             let sa = magnitude(&a, self.af).max(a_scale);
@@ -701,23 +703,22 @@ impl Profile {
             // Stop at the rounding floor: once an iteration no longer halves the residual.
             let progress = residual < REFINE_PROGRESS * best.0;
             if residual < best.0 {
-                best = (residual, self.t);
+                best = (residual, durations);
             }
             if residual <= REFINE_GOAL || !progress || iteration == REFINE_ITERATIONS {
                 break;
             }
             let Some(delta) = solve_small(&jac, &rhs, m, n) else {
-                return false;
+                return None;
             };
             for (col, &i) in active.iter().enumerate() {
-                self.t[i] += delta[col];
-                if self.t[i].is_nan() || self.t[i] < 0.0 {
-                    return false;
+                durations[i] += delta[col];
+                if durations[i].is_nan() || durations[i] < 0.0 {
+                    return None;
                 }
             }
         }
-        self.t = best.1;
-        best.0 < first_residual && best.0 <= REFINE_ACCEPT
+        (best.0 < first_residual && best.0 <= REFINE_ACCEPT).then_some(best.1)
     }
 
     /// Start state (after the brake) and target of the position interface.

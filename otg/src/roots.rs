@@ -21,6 +21,30 @@ const SHRINK_MAX_ITERATIONS: usize = 128;
 const COS_120: f64 = -0.50;
 const SIN_120: f64 = 0.866_025_403_784_438_6;
 
+/// Iterations of Halley's method in [`cbrt`]: from the ≤ 25 % of the exponent-bit guess, the
+/// error goes 25 % → 5e-3 → 4e-8 → rounding (cubic convergence).
+const CBRT_ITERATIONS: usize = 3;
+
+/// Cube root: an initial guess from dividing the exponent bits by 3, refined by Halley's method
+/// (within 2 ulps of `f64::cbrt`, about twice as fast: the solvers call it in every quartic).
+#[inline]
+pub(crate) fn cbrt(x: f64) -> f64 {
+    let ax = x.abs();
+    if !(ax >= f64::MIN_POSITIVE && ax.is_finite()) {
+        return x.cbrt();
+    }
+    // About (1023 - 1023/3)·2⁵²: the exponent bias divided by three, with a mantissa offset that
+    // centres the guess's error.
+    const EXPONENT_BIAS_THIRDS: u64 = 0x2A9F_7893_782D_A1CE;
+    let mut y = f64::from_bits(ax.to_bits() / 3 + EXPONENT_BIAS_THIRDS);
+    for _ in 0..CBRT_ITERATIONS {
+        let y3 = y * y * y;
+        // The ratio first: y·(y³ + 2x) alone would underflow or overflow at the ends of the range.
+        y *= (y3 + 2.0 * ax) / (2.0 * y3 + ax);
+    }
+    y.copysign(x)
+}
+
 /// Up to `N` non-negative roots, sorted ascending.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Roots<const N: usize> {
@@ -105,7 +129,7 @@ pub(crate) fn solve_cubic(a: f64, b: f64, c: f64, d: f64) -> Roots<3> {
         let uuu = -halfq + y;
         let vvv = -halfq - y;
         let www = if uuu.abs() > vvv.abs() { uuu } else { vvv };
-        let w = www.cbrt();
+        let w = cbrt(www);
         roots.insert(w - p / (3.0 * w) - bover3a);
     } else if yy < -EPS {
         // Three real roots: cube root in polar form.
@@ -120,7 +144,7 @@ pub(crate) fn solve_cubic(a: f64, b: f64, c: f64, d: f64) -> Roots<3> {
             r = y;
         }
         theta /= 3.0;
-        r = 2.0 * r.cbrt();
+        r = 2.0 * cbrt(r);
         let ux = theta.cos() * r;
         let uyi = theta.sin() * r;
         roots.insert(ux - bover3a);
@@ -128,7 +152,7 @@ pub(crate) fn solve_cubic(a: f64, b: f64, c: f64, d: f64) -> Roots<3> {
         roots.insert(ux * COS_120 + uyi * SIN_120 - bover3a);
     } else {
         // Double root.
-        let w = 2.0 * (-halfq).cbrt();
+        let w = 2.0 * cbrt(-halfq);
         roots.insert(w - bover3a);
         roots.insert(w * COS_120 - bover3a);
     }
@@ -157,7 +181,7 @@ fn solve_resolvent(x: &mut [f64; 3], a: f64, b: f64, c: f64) -> usize {
         x[2] = ux * COS_120 + uyi * SIN_120 - a;
         3
     } else {
-        let mut big_a = -(r.abs() + (r2 - q3).sqrt()).cbrt();
+        let mut big_a = -cbrt(r.abs() + (r2 - q3).sqrt());
         if r < 0.0 {
             big_a = -big_a;
         }
@@ -192,7 +216,7 @@ pub(crate) fn solve_quart_monic(a: f64, b: f64, c: f64, d: f64) -> Roots<4> {
         }
         if a.abs() < EPS && b.abs() < EPS {
             roots.insert(0.0);
-            roots.insert(-c.cbrt());
+            roots.insert(-cbrt(c));
             return roots.sorted();
         }
     }
@@ -337,7 +361,9 @@ pub(crate) fn shrink_interval(p: &[f64], l: f64, h: f64) -> f64 {
                 break;
             }
         }
-        if dx.abs() < TOLERANCE {
+        // Relative for roots above 1 (Ruckig: absolute), which an absolute 1e-14 cannot resolve:
+        // the iteration would otherwise run into the cap on long durations.
+        if dx.abs() < TOLERANCE * rts.abs().max(1.0) {
             break;
         }
         f = poly_eval(p, rts);
@@ -373,6 +399,19 @@ mod tests {
         // Degenerate to a quadratic: x² - 3x + 2.
         let r = solve_cubic(0.0, 1.0, -3.0, 2.0);
         assert!(close(r.as_slice(), &[1.0, 2.0], 1e-14));
+    }
+
+    #[test]
+    fn cube_root_within_two_ulps() {
+        for k in 0..20_000 {
+            let x = ((k as f64) * 0.731).sin() * 10f64.powi(k % 600 - 300);
+            let (ours, std) = (cbrt(x), x.cbrt());
+            assert!((ours - std).abs() <= 2.0 * f64::EPSILON * std.abs(), "{x}: {ours} vs {std}");
+        }
+        assert_eq!(cbrt(0.0), 0.0);
+        assert_eq!(cbrt(-8.0), -2.0);
+        assert!(cbrt(f64::NAN).is_nan() && cbrt(f64::INFINITY) == f64::INFINITY);
+        assert!((cbrt(1e-310) - 1e-310f64.cbrt()).abs() <= 2.0 * f64::EPSILON * 1e-310f64.cbrt());
     }
 
     #[test]

@@ -708,9 +708,7 @@ impl Profile {
             if residual <= REFINE_GOAL || !progress || iteration == REFINE_ITERATIONS {
                 break;
             }
-            let Some(delta) = solve_small(&jac, &rhs, m, n) else {
-                return None;
-            };
+            let delta = solve_small(&jac, &rhs, m, n)?;
             for (col, &i) in active.iter().enumerate() {
                 durations[i] += delta[col];
                 if durations[i].is_nan() || durations[i] < 0.0 {

@@ -2,14 +2,23 @@
 //!
 //! From any kinematic state (p, v, a) to any target state, under velocity, acceleration and jerk
 //! limits (asymmetric), for up to [`MAX_DOFS`] degrees of freedom that end together. The
-//! algorithm follows Ruckig (L. Berscheid, T. Kröger: "Jerk-limited Real-time Trajectory
-//! Generation with Arbitrary Target States", RSS 2021):
+//! algorithm is Ruckig's (L. Berscheid, T. Kröger: "Jerk-limited Real-time Trajectory Generation
+//! with Arbitrary Target States", RSS 2021), and its case analysis is ported from Ruckig's C++
+//! source (MIT licence, <https://github.com/pantor/ruckig>, version 0.19):
 //!
 //! 1. per DoF, bring an out-of-limit initial state back inside first ([`brake`] pre-phase);
-//! 2. step 1: all time-extremal profiles of each DoF, giving its minimum duration and the
-//!    blocked intervals of durations it cannot reach;
-//! 3. the synchronised duration: the smallest duration no DoF blocks;
-//! 4. step 2: for every other DoF a profile of exactly that duration.
+//! 2. step 1 (`position_step1`, `velocity_step1`): all time-extremal profiles of each DoF, giving
+//!    its minimum duration and the blocked intervals of durations it cannot reach (`block`);
+//! 3. the synchronised duration: the smallest duration no DoF blocks (optionally at least a
+//!    minimum duration, or rounded up to a multiple of a period);
+//! 4. step 2 (`position_step2`, `velocity_step2`): for every other DoF a profile of exactly that
+//!    duration, or the limiting DoF's timing scaled (phase synchronisation, straight lines).
+//!
+//! Beyond Ruckig, so that every problem over six decades of limits is solved: the precisions of
+//! the [`profile`] check are relative to the magnitudes instead of absolute, the profiles used are
+//! refined by Newton steps on their phase durations until they integrate onto the target, step 2
+//! has a fallback for durations far beyond the ramp times (`position_step2_cruise`), and there is
+//! no upper bound on the duration (Ruckig refuses more than 7.6e3 s).
 //!
 //! Everything is computed in fixed-size arrays: [`Otg::calculate`] and [`Trajectory::at_time`]
 //! never allocate, so they can run inside a real-time cycle.
@@ -648,6 +657,54 @@ mod tests {
             t.at_time(t.duration() * k as f64 / 20.0, &mut s);
             assert!((s[0].p - 4.0 * s[1].p).abs() < 1e-12);
         }
+    }
+
+    #[test]
+    fn discrete_durations_are_multiples_of_the_period() {
+        let mut input = Input::new(2);
+        input.target[0].p = 10.0;
+        input.target[1] = State { p: -3.0, v: 0.2, a: 0.0 };
+        input.discrete_period_s = Some(0.7);
+        let t = calc(&input).unwrap();
+        // 12 s continuous: the next multiple of 0.7 s is 12.6 s.
+        assert!((t.duration() - 12.6).abs() < 1e-9, "{}", t.duration());
+        let mut end = [State::default(); 2];
+        t.at_time(t.duration(), &mut end);
+        assert!((end[0].p - 10.0).abs() < 1e-9 && (end[1].p + 3.0).abs() < 1e-9 && (end[1].v - 0.2).abs() < 1e-9);
+        input.discrete_period_s = Some(0.0);
+        assert!(matches!(calc(&input), Err(OtgError::InvalidDiscretePeriod { .. })));
+    }
+
+    #[test]
+    fn without_synchronisation_each_dof_takes_its_own_time() {
+        let mut input = Input::new(2);
+        input.sync = Synchronization::None;
+        input.target[0].p = 10.0;
+        input.target[1].p = 2.0;
+        let t = calc(&input).unwrap();
+        assert!((t.duration() - 12.0).abs() < 1e-12);
+        assert!((t.profiles()[1].duration() - 4.0).abs() < 1e-12);
+        // DoF 1 rests at its target after 4 s.
+        let (s, j) = t.state_of(1, 8.0);
+        assert!((s.p - 2.0).abs() < 1e-12 && s.v == 0.0 && j == 0.0);
+    }
+
+    #[test]
+    fn initial_state_outside_the_limits_is_braked() {
+        let mut input = Input::new(1);
+        input.current[0] = State { p: 0.0, v: 3.0, a: 2.0 };
+        input.target[0].p = 1.0;
+        let t = calc(&input).unwrap();
+        let p = &t.profiles()[0];
+        assert!(p.brake.duration > 0.0);
+        // After the brake the state is inside the limits and stays there.
+        for k in 0..=100 {
+            let time = p.brake.duration + (t.duration() - p.brake.duration) * k as f64 / 100.0;
+            let (s, _) = t.state_of(0, time);
+            assert!(s.a.abs() <= 1.0 + 1e-9, "{time}: {s:?}");
+        }
+        let (end, _) = t.state_of(0, t.duration());
+        assert!((end.p - 1.0).abs() < 1e-9 && end.v.abs() < 1e-9);
     }
 
     #[test]

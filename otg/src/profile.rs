@@ -625,6 +625,7 @@ impl Profile {
 
         let mut first_residual = f64::INFINITY;
         let mut best = (f64::INFINITY, durations);
+        let mut stalled = 0;
         for iteration in 0..=REFINE_ITERATIONS {
             // Integrate without pinning, except that a pinned acceleration within rounding of its
             // value is that value (durations cannot resolve it any finer; a long plateau after it
@@ -700,12 +701,18 @@ impl Profile {
             if iteration == 0 {
                 first_residual = residual;
             }
-            // Stop at the rounding floor: once an iteration no longer halves the residual.
-            let progress = residual < REFINE_PROGRESS * best.0;
+            // Stop at the rounding floor: once two iterations in a row do not halve the best
+            // residual (one may not: the max over rows is no merit function for Newton, a step
+            // that fixes one row can raise another by its second-order terms).
+            if residual < REFINE_PROGRESS * best.0 {
+                stalled = 0;
+            } else {
+                stalled += 1;
+            }
             if residual < best.0 {
                 best = (residual, durations);
             }
-            if residual <= REFINE_GOAL || !progress || iteration == REFINE_ITERATIONS {
+            if residual <= REFINE_GOAL || stalled >= 2 || iteration == REFINE_ITERATIONS {
                 break;
             }
             let delta = solve_small(&jac, &rhs, m, n)?;

@@ -2,11 +2,12 @@
 //! run, on the same random problems (states inside and outside the limits, limits over six
 //! decades, position interface, time synchronisation), for 1, 3 and 6 DoFs.
 //!
-//! Criterion measures the mean time per calculation (cycling through the problem set); after it,
-//! a table is printed with the mean and the worst calculation time per problem set and the ratio
-//! ours/Ruckig, measured interleaved (ours, then Ruckig, problem by problem) so that both see the
-//! same machine load. The worst time is the largest over the problems of the per-problem median
-//! of several repetitions (a single sample may include a preemption on a shared machine).
+//! Criterion measures the mean time per calculation (cycling through the problem set, ours and
+//! Ruckig one after the other). After it, a table is printed from measurements interleaved
+//! problem by problem (ours, then Ruckig), so that both see the same machine load: per problem
+//! the median of its repetitions (a single sample may include a preemption on a shared machine),
+//! then the mean and the largest of these medians over the problem set, and the ratios
+//! ours/Ruckig.
 //!
 //! Ruckig's figures include its Rust wrapper's copy of the input into C++ `std::vector`s on
 //! every call (the wrapper offers no other way to call it).
@@ -57,7 +58,7 @@ fn time_batch(f: &mut impl FnMut()) -> f64 {
     start.elapsed().as_secs_f64() / BATCH as f64
 }
 
-/// (mean, worst) in seconds of ours and Ruckig's over `problems`, interleaved.
+/// (mean, worst) over `problems` of the per-problem median time [s], ours and Ruckig's, interleaved.
 fn table_row(problems: &[Input], oracle: &mut RuckigOracle) -> ([f64; 2], [f64; 2]) {
     let mut otg = Otg::new();
     let mut traj = Trajectory::default();
@@ -77,12 +78,13 @@ fn table_row(problems: &[Input], oracle: &mut RuckigOracle) -> ([f64; 2], [f64; 
             });
         }
         for k in 0..2 {
-            sums[k] += samples[k].iter().sum::<f64>();
             samples[k].sort_by(f64::total_cmp);
-            worst[k] = worst[k].max(samples[k][REPEATS / 2]);
+            let median = samples[k][REPEATS / 2];
+            sums[k] += median;
+            worst[k] = worst[k].max(median);
         }
     }
-    let n = (problems.len() * REPEATS) as f64;
+    let n = problems.len() as f64;
     ([sums[0] / n, sums[1] / n], worst)
 }
 
@@ -143,7 +145,10 @@ fn main() {
     criterion.final_summary();
 
     println!();
-    println!("calculation time per problem ({PROBLEMS} problems x {REPEATS} repetitions, interleaved, same run)");
+    println!(
+        "calculation time: median of {REPEATS} repetitions per problem, mean and largest over {PROBLEMS} problems \
+         (interleaved with Ruckig); last column: largest over every kind of the property test"
+    );
     println!(
         "{:>4}  {:>12} {:>12} {:>7}   {:>12} {:>12} {:>7}   {:>16}",
         "dofs", "ours mean", "ruckig mean", "ratio", "ours worst", "ruckig worst", "ratio", "ours worst (all)"

@@ -547,6 +547,9 @@ impl Profile {
             Direction::Up => (lim.v_max, lim.v_min, lim.a_max, lim.a_min),
             Direction::Down => (lim.v_min, lim.v_max, lim.a_min, lim.a_max),
         };
+        if self.integrates_onto_target(position) {
+            return;
+        }
         let Some(durations) = self.refined_durations(duration, position, a_max, a_min) else {
             return;
         };
@@ -568,6 +571,25 @@ impl Profile {
             refined.limits = self.limits;
             *self = refined;
         }
+    }
+
+    /// Cheap pre-check of [`Profile::polish`]: the stored boundary states equal the integration of
+    /// the phases (no acceleration was pinned by more than rounding) and end on the target within
+    /// [`REFINE_TRIGGER`].
+    fn integrates_onto_target(&self, position: bool) -> bool {
+        let unpinned = (0..7).all(|i| {
+            let step = self.t[i] * self.j[i];
+            let raw = self.a[i] + step;
+            (raw - self.a[i + 1]).abs() <= PIN_ROUNDING_ULPS * f64::EPSILON * (self.a[i].abs() + step.abs())
+        });
+        let near = |x: f64, target: f64, along: &[f64]| {
+            let err = (x - target).abs();
+            err <= REFINE_TRIGGER || err <= REFINE_TRIGGER * magnitude(along, target)
+        };
+        unpinned
+            && near(self.a[7], self.af, &self.a)
+            && near(self.v[7], self.vf, &self.v)
+            && (!position || near(self.p[7], self.pf, &self.p))
     }
 
     /// Newton iterations on the durations of the non-empty phases (jerks fixed) so that the

@@ -58,57 +58,67 @@ fn time_batch(f: &mut impl FnMut()) -> f64 {
     start.elapsed().as_secs_f64() / BATCH as f64
 }
 
-/// (mean, worst) over `problems` of the per-problem median time [s], ours and Ruckig's, interleaved.
+/// Median of each row.
+fn medians(samples: &mut [[f64; REPEATS]]) -> impl Iterator<Item = f64> + '_ {
+    samples.iter_mut().map(|s| {
+        s.sort_by(f64::total_cmp);
+        s[REPEATS / 2]
+    })
+}
+
+/// (mean, worst) over `problems` of the per-problem median time [s], ours and Ruckig's. The
+/// repetitions are passes over the whole set (a preemption hits one repetition of a problem, not
+/// all), ours and Ruckig interleaved problem by problem.
 fn table_row(problems: &[Input], oracle: &mut RuckigOracle) -> ([f64; 2], [f64; 2]) {
     let mut otg = Otg::new();
     let mut traj = Trajectory::default();
-    let mut sums = [0.0f64; 2];
-    let mut worst = [0.0f64; 2];
-    let mut samples = [[0.0f64; REPEATS]; 2];
-    for input in problems {
-        // Ruckig's input is filled once (its calculate() copies it into C++ on every call).
-        oracle.set_input(input);
-        let [ours, theirs] = &mut samples;
-        for (s_ours, s_theirs) in ours.iter_mut().zip(theirs.iter_mut()) {
-            *s_ours = time_batch(&mut || {
+    let mut inputs: Vec<ruckig::InputParameter> = problems.iter().map(|i| oracle.make_input(i)).collect();
+    let mut ours = vec![[0.0f64; REPEATS]; problems.len()];
+    let mut theirs = vec![[0.0f64; REPEATS]; problems.len()];
+    for r in 0..REPEATS {
+        for (k, input) in problems.iter().enumerate() {
+            ours[k][r] = time_batch(&mut || {
                 let _ = black_box(otg.calculate(black_box(input), &mut traj));
             });
-            *s_theirs = time_batch(&mut || {
-                let _ = black_box(oracle.otg.calculate(&mut oracle.input, &mut oracle.trajectory));
+            let ri = &mut inputs[k];
+            theirs[k][r] = time_batch(&mut || {
+                let _ = black_box(oracle.otg.calculate(ri, &mut oracle.trajectory));
             });
-        }
-        for k in 0..2 {
-            samples[k].sort_by(f64::total_cmp);
-            let median = samples[k][REPEATS / 2];
-            sums[k] += median;
-            worst[k] = worst[k].max(median);
         }
     }
     let n = problems.len() as f64;
-    ([sums[0] / n, sums[1] / n], worst)
-}
-
-/// Worst median time of ours over every kind of the property test (including asymmetric limits,
-/// velocity interface, phase synchronisation and the extreme independent limits).
-fn worst_over_all_kinds(dofs: usize) -> f64 {
-    let mut rng = Rng::new(0x5EED_0000 + dofs as u64);
-    let mut otg = Otg::new();
-    let mut traj = Trajectory::default();
-    let mut worst = 0.0f64;
-    let mut samples = [0.0f64; REPEATS];
-    for &kind in &common::KINDS {
-        for _ in 0..PROBLEMS / 4 {
-            let input = random_problem(&mut rng, kind, dofs);
-            for s in samples.iter_mut() {
-                *s = time_batch(&mut || {
-                    let _ = black_box(otg.calculate(black_box(&input), &mut traj));
-                });
-            }
-            samples.sort_by(f64::total_cmp);
-            worst = worst.max(samples[REPEATS / 2]);
+    let mut mean = [0.0f64; 2];
+    let mut worst = [0.0f64; 2];
+    for (k, samples) in [&mut ours, &mut theirs].into_iter().enumerate() {
+        for m in medians(samples) {
+            mean[k] += m / n;
+            worst[k] = worst[k].max(m);
         }
     }
-    worst
+    (mean, worst)
+}
+
+/// Worst per-problem median time of ours over every kind of the property test (including
+/// asymmetric limits, velocity interface, phase synchronisation and the extreme independent
+/// limits), repetitions as passes over the set.
+fn worst_over_all_kinds(dofs: usize) -> f64 {
+    let mut rng = Rng::new(0x5EED_0000 + dofs as u64);
+    let problems: Vec<Input> = common::KINDS
+        .iter()
+        .flat_map(|&kind| (0..PROBLEMS / 4).map(move |_| kind))
+        .map(|kind| random_problem(&mut rng, kind, dofs))
+        .collect();
+    let mut otg = Otg::new();
+    let mut traj = Trajectory::default();
+    let mut samples = vec![[0.0f64; REPEATS]; problems.len()];
+    for r in 0..REPEATS {
+        for (row, input) in samples.iter_mut().zip(&problems) {
+            row[r] = time_batch(&mut || {
+                let _ = black_box(otg.calculate(black_box(input), &mut traj));
+            });
+        }
+    }
+    medians(&mut samples).fold(0.0, f64::max)
 }
 
 fn main() {

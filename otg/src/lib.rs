@@ -385,7 +385,8 @@ impl Otg {
         let l = &input.limits[dof];
         let found = match input.control {
             ControlInterface::Position => {
-                position_step2::calculate(p, t_profile, l.v_max, l.v_min, l.a_max, l.a_min, l.j_max)
+                let t_min = block.t_min - p.brake.duration;
+                position_step2::calculate(p, t_profile, t_min, l.v_max, l.v_min, l.a_max, l.a_min, l.j_max)
             }
             ControlInterface::Velocity => velocity_step2::calculate(p, t_profile, l.a_max, l.a_min, l.j_max),
         };

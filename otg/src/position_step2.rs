@@ -20,6 +20,8 @@ use crate::roots::{
     solve_quart_monic_arr,
 };
 
+/// Durations beyond this multiple of the DoF's minimum duration try the cruise family first.
+const CRUISE_FIRST_RATIO: f64 = 100.0;
 /// Inputs and roots below this count as zero (Ruckig: ε).
 const EPS: f64 = f64::EPSILON;
 /// The second Newton step of a VEL-UDUD root runs only while the residual exceeds this
@@ -105,9 +107,20 @@ struct Step2 {
 }
 
 /// A profile of the main part lasting exactly `tf` [s]; `p` carries the boundary (braked start
-/// state, target, brake) and receives the profile. False if none is found.
+/// state, target, brake) and receives the profile. False if none is found. `t_min` is the DoF's
+/// minimum duration: for durations far beyond it the cruise family is tried first (the closed
+/// forms then usually all fail, after doing all their work).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn calculate(p: &mut Profile, tf: f64, v_max: f64, v_min: f64, a_max: f64, a_min: f64, j_max: f64) -> bool {
+pub(crate) fn calculate(
+    p: &mut Profile,
+    tf: f64,
+    t_min: f64,
+    v_max: f64,
+    v_min: f64,
+    a_max: f64,
+    a_min: f64,
+    j_max: f64,
+) -> bool {
     let (v0, a0, vf, af) = (p.v[0], p.a[0], p.vf, p.af);
     let pd = p.pf - p.p[0];
     let (tf_tf, a0_a0, af_af, vd, ad) = (tf * tf, a0 * a0, af * af, vf - v0, af - a0);
@@ -141,6 +154,10 @@ pub(crate) fn calculate(p: &mut Profile, tf: f64, v_max: f64, v_min: f64, a_max:
         g1: -pd + tf * v0,
         g2: -2.0 * pd + tf * (v0 + vf),
     };
+    let long = tf > CRUISE_FIRST_RATIO * t_min;
+    if long && crate::position_step2_cruise::calculate(p, tf, v_max, v_min, a_max, a_min, j_max) {
+        return true;
+    }
     // Guess the direction from the mean velocity and try it first.
     let up = Lim { v_max, v_min, a_max, a_min, j_max };
     let first = if pd > tf * v0 { up } else { up.mirrored() };
@@ -161,7 +178,7 @@ pub(crate) fn calculate(p: &mut Profile, tf: f64, v_max: f64, v_min: f64, a_max:
         || s.time_acc0(p, second)
         || s.time_acc1(p, second)
         || s.time_none(p, second)
-        || crate::position_step2_cruise::calculate(p, tf, v_max, v_min, a_max, a_min, j_max)
+        || (!long && crate::position_step2_cruise::calculate(p, tf, v_max, v_min, a_max, a_min, j_max))
 }
 
 impl Step2 {

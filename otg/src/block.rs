@@ -122,6 +122,18 @@ impl Block {
         }
     }
 
+    /// Whether duration `t` is not reachable by this DoF, where durations within `tol` of one
+    /// of the DoF's stored extremal profiles (the minimum, the right ends of the intervals) are
+    /// that profile's: two DoFs' equal extremal durations may differ by rounding.
+    #[inline]
+    pub(crate) fn is_blocked_within(&self, t: f64, tol: f64) -> bool {
+        let near = |x: f64| (t - x).abs() <= tol;
+        let stored = near(self.t_min)
+            || self.a.as_ref().is_some_and(|i| near(i.right))
+            || self.b.as_ref().is_some_and(|i| near(i.right));
+        !stored && self.is_blocked(t)
+    }
+
     /// Whether duration `t` is not reachable by this DoF.
     #[inline]
     pub(crate) fn is_blocked(&self, t: f64) -> bool {

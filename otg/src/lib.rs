@@ -437,7 +437,8 @@ impl Otg {
             if t < lower || !t.is_finite() || best.is_some_and(|(b, _)| t >= b) {
                 continue;
             }
-            if self.blocks[..n].iter().all(|b| !b.is_blocked(t)) {
+            let tol = SAME_DURATION_REL * t;
+            if self.blocks[..n].iter().all(|b| !b.is_blocked_within(t, tol)) {
                 best = Some((t, sources[k]));
             }
         }

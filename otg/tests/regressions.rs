@@ -850,3 +850,19 @@ fn dof_ending_one_ulp_before_the_duration() {
         ],
     ));
 }
+
+/// Two DoFs' minimum durations differ by an ulp (2.0 and 2.0000000000000004) and the larger
+/// falls just inside the other's blocked interval that starts at its minimum: within rounding,
+/// a DoF's extremal duration is reachable (Ruckig: 2 s; we once picked 4.2 s).
+#[test]
+fn minimum_durations_equal_up_to_rounding() {
+    let traj = check(case(
+        "Position/Time",
+        &[
+            [1.0, 0.0, 0.0, 1.0, 0.0, 0.0, -1.0, 1.0, -1.0, 1.0, 2.0],
+            [1.0, -1.0, 1.0, 0.0, 0.0, 1.0, -2.0, 2.0, -2.0, 2.0, 1.0],
+            [0.0, 1.0, 0.0, 1.0, 0.0, 0.0, -1.0, 1.0, -1.0, 1.0, 1.0],
+        ],
+    ));
+    assert!((traj.duration() - 2.0).abs() < 1e-12, "{}", traj.duration());
+}

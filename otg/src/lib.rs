@@ -44,6 +44,7 @@ mod position_step1;
 mod position_step2;
 mod position_step2_cruise;
 pub mod profile;
+mod refine;
 mod roots;
 mod trajectory;
 mod velocity_step1;

@@ -9,9 +9,9 @@
 
 use crate::profile::Profile;
 
-/// Two extremal profiles closer than this [s] are the same profile found twice (Ruckig: 8 ε).
+/// Two extremal profiles closer than this (s) are the same profile found twice (Ruckig: 8 ε).
 const SAME_PROFILE_S: f64 = 8.0 * f64::EPSILON;
-/// Tolerances [s] for pairing up "identical" profiles of opposite direction when four are found
+/// Tolerances (s) for pairing up "identical" profiles of opposite direction when four are found
 /// (Ruckig: 32 ε and 256 ε).
 const IDENTICAL_FIRST_S: f64 = 32.0 * f64::EPSILON;
 const IDENTICAL_OTHER_S: f64 = 256.0 * f64::EPSILON;

@@ -17,9 +17,9 @@ const BRAKE_EPS_S: f64 = 2.2e-14;
 /// Up to two phases of constant jerk that precede the main profile.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct BrakeProfile {
-    /// Total duration of the pre-phase [s] (0 when the initial state is already safe).
+    /// Total duration of the pre-phase (s) (0 when the initial state is already safe).
     pub duration: f64,
-    /// Phase durations [s].
+    /// Phase durations (s).
     pub t: [f64; 2],
     /// Jerk of each phase.
     pub j: [f64; 2],

@@ -152,9 +152,9 @@ pub struct Input {
     pub control: ControlInterface,
     /// Synchronisation of the DoFs.
     pub sync: Synchronization,
-    /// Optional lower bound of the trajectory duration [s].
+    /// Optional lower bound of the trajectory duration (s).
     pub min_duration_s: Option<f64>,
-    /// Optional period [s]: the (synchronised) duration becomes a multiple of it, so that the
+    /// Optional period (s): the (synchronised) duration becomes a multiple of it, so that the
     /// motion ends exactly on a control cycle. Ignored with `Synchronization::None`.
     pub discrete_period_s: Option<f64>,
 }

@@ -106,7 +106,7 @@ struct Step2 {
     g2: f64,
 }
 
-/// A profile of the main part lasting exactly `tf` [s]; `p` carries the boundary (braked start
+/// A profile of the main part lasting exactly `tf` (s); `p` carries the boundary (braked start
 /// state, target, brake) and receives the profile. False if none is found. `t_min` is the DoF's
 /// minimum duration: for durations far beyond it the cruise family is tried first (the closed
 /// forms then usually all fail, after doing all their work).

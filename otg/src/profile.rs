@@ -8,7 +8,7 @@
 //! Ruckig. Two deliberate differences: the limit margins are relative to the limits, and the
 //! target precisions are relative to max(1, magnitude of the quantity along the profile)
 //! (Ruckig's are absolute and tuned for SI units near 1; interpd's limits span six decades).
-//! The profiles finally used are refined afterwards ([`crate::refine`]).
+//! The profiles finally used are refined afterwards (module `refine`).
 
 use crate::brake::BrakeProfile;
 
@@ -22,9 +22,9 @@ const P_PRECISION: f64 = 1e-8;
 const V_PRECISION: f64 = 1e-8;
 /// Target precision of the acceleration, relative to max(1, |a| along the profile) (Ruckig: 1e-10).
 const A_PRECISION: f64 = 1e-10;
-/// Profiles longer than this are rejected as numerically meaningless [s] (Ruckig: 1e12).
+/// Profiles longer than this are rejected as numerically meaningless (s) (Ruckig: 1e12).
 const T_MAX_S: f64 = 1e12;
-/// Phases that must have a positive length (a plateau at a limit) must be longer than this [s].
+/// Phases that must have a positive length (a plateau at a limit) must be longer than this (s).
 const T_EPS_S: f64 = f64::EPSILON;
 /// Products a_i·a_{i+1} below -this mark a zero crossing of the acceleration inside a phase.
 const A_SIGN_CHANGE_EPS: f64 = f64::EPSILON;
@@ -83,9 +83,9 @@ pub enum ControlSigns {
 /// One DoF's motion: a brake pre-phase (possibly empty) followed by seven constant-jerk phases.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Profile {
-    /// Phase durations [s].
+    /// Phase durations (s).
     pub t: [f64; 7],
-    /// End time of each phase, measured from the end of the brake pre-phase [s].
+    /// End time of each phase, measured from the end of the brake pre-phase (s).
     pub t_sum: [f64; 7],
     /// Jerk of each phase.
     pub j: [f64; 7],
@@ -150,7 +150,7 @@ fn within_precision(x: f64, target: f64, precision: f64, along: &[f64]) -> bool 
 }
 
 impl Profile {
-    /// Duration of the brake pre-phase and the seven phases [s].
+    /// Duration of the brake pre-phase and the seven phases (s).
     #[inline]
     pub fn duration(&self) -> f64 {
         self.brake.duration + self.t_sum[6]

@@ -36,7 +36,7 @@ impl Trajectory {
         self.dofs
     }
 
-    /// Duration of the whole trajectory [s] (all DoFs have arrived).
+    /// Duration of the whole trajectory (s) (all DoFs have arrived).
     #[inline]
     pub fn duration(&self) -> f64 {
         self.duration
@@ -48,7 +48,7 @@ impl Trajectory {
         &self.profiles[..self.dofs]
     }
 
-    /// Minimum duration each DoF would need on its own [s].
+    /// Minimum duration each DoF would need on its own (s).
     #[inline]
     pub fn independent_min_durations(&self) -> &[f64] {
         &self.independent_min_durations[..self.dofs]
@@ -61,7 +61,7 @@ impl Trajectory {
         self.limiting_dof
     }
 
-    /// States of all DoFs at time `t` [s] from the start, written to `out[..dofs]`. Before 0 the
+    /// States of all DoFs at time `t` (s) from the start, written to `out[..dofs]`. Before 0 the
     /// start state is returned; after the end every DoF continues from its target state with
     /// constant acceleration (zero for a rest target).
     #[inline]
@@ -71,7 +71,7 @@ impl Trajectory {
         }
     }
 
-    /// State and jerk of one DoF at time `t` [s].
+    /// State and jerk of one DoF at time `t` (s).
     #[inline]
     pub fn state_of(&self, dof: usize, t: f64) -> (State, f64) {
         let Some(profile) = self.profiles[..self.dofs].get(dof) else {

@@ -98,7 +98,7 @@ impl Step2 {
     }
 }
 
-/// A profile lasting exactly `tf` [s]; `p` carries the boundary and receives the profile.
+/// A profile lasting exactly `tf` (s); `p` carries the boundary and receives the profile.
 pub(crate) fn calculate(p: &mut Profile, tf: f64, a_max: f64, a_min: f64, j_max: f64) -> bool {
     let (a0, af) = (p.a[0], p.af);
     let s = Step2 { a0, af, tf, vd: p.vf - p.v[0], ad: af - a0 };

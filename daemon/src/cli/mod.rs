@@ -2,6 +2,7 @@
 
 mod check;
 mod law;
+mod otg;
 mod plan;
 
 use clap::{Parser, Subcommand};
@@ -37,6 +38,8 @@ pub enum Command {
     /// Design a motion law from interpolation conditions (seed 003): degree, VDI 2143
     /// characteristic values, residuals, coefficients; CSV samples and a plot on request.
     Law(law::LawArgs),
+    /// One online-trajectory calculation: time-optimal jerk-limited motion from state to state.
+    Otg(otg::OtgArgs),
 }
 
 /// A failed command: bad input (exit 2) or anything else (exit 1).
@@ -92,5 +95,6 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Check { program, machine } => check::run(&program, machine.as_deref()),
         Command::Plan(args) => plan::run(&args),
         Command::Law(args) => law::run(&args),
+        Command::Otg(args) => otg::run(&args),
     }
 }

@@ -6,6 +6,7 @@
 
 pub mod control;
 pub mod interp;
+pub mod law;
 pub mod motion;
 pub mod path;
 pub mod planner;

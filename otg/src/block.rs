@@ -1,14 +1,20 @@
 //! The set of feasible durations of one DoF: `[t_min, ∞)` minus at most two open blocked
-//! intervals (Ruckig RSS 2021, Sec. IV-B, "blocked intervals"). Step 1 finds every extremal
-//! profile; their durations are the boundaries of this set, sorted: t_min, then pairs
-//! (left, right) of blocked intervals. A profile with duration exactly `right` is kept for each
-//! interval, so that the synchronised duration can land on it without running step 2.
+//! intervals (Berscheid & Kröger, RSS 2021, Sec. IV-B). Step 1 finds every time-extremal
+//! profile; their durations are the boundaries of this set. A profile whose duration is the right
+//! end of each interval is kept, so that the synchronised duration can land on it without
+//! running step 2.
+//!
+//! Ported from Ruckig's `block.hpp` (MIT licence, <https://github.com/pantor/ruckig>),
+//! including its handling of the profile counts that only numerical issues produce (2 and 4).
 
 use crate::profile::Profile;
 
-/// Two durations closer than this (relative) are the same extremal profile found twice, e.g.
-/// a profile on the border between two cases.
-const DUPLICATE_REL: f64 = 1e-12;
+/// Two extremal profiles closer than this (s) are the same profile found twice (Ruckig: 8 ε).
+const SAME_PROFILE_S: f64 = 8.0 * f64::EPSILON;
+/// Tolerances (s) for pairing up "identical" profiles of opposite direction when four are found
+/// (Ruckig: 32 ε and 256 ε).
+const IDENTICAL_FIRST_S: f64 = 32.0 * f64::EPSILON;
+const IDENTICAL_OTHER_S: f64 = 256.0 * f64::EPSILON;
 
 /// A blocked interval of durations (left, right) and the profile whose duration is `right`.
 #[derive(Clone, Copy, Debug, Default)]
@@ -16,6 +22,18 @@ pub(crate) struct Interval {
     pub left: f64,
     pub right: f64,
     pub profile: Profile,
+}
+
+impl Interval {
+    /// The interval between two extremal profiles (in either order).
+    fn between(x: &Profile, y: &Profile) -> Interval {
+        let (dx, dy) = (x.duration(), y.duration());
+        if dx < dy {
+            Interval { left: dx, right: dy, profile: *y }
+        } else {
+            Interval { left: dy, right: dx, profile: *x }
+        }
+    }
 }
 
 /// Feasible durations of one DoF and the profiles at their boundaries.
@@ -29,64 +47,91 @@ pub(crate) struct Block {
 
 impl Block {
     /// A block with only a minimum duration.
-    pub(crate) fn single(profile: Profile) -> Block {
-        Block { t_min: profile.duration(), p_min: profile, a: None, b: None }
+    pub(crate) fn set_min_profile(&mut self, profile: &Profile) {
+        self.p_min = *profile;
+        self.t_min = profile.duration();
+        self.a = None;
+        self.b = None;
     }
 
-    /// Build the block from all valid extremal profiles. Returns `None` if there are none.
-    pub(crate) fn from_profiles(profiles: &[Profile]) -> Option<Block> {
-        let n_all = profiles.len();
-        if n_all == 0 {
-            return None;
-        }
-        // Sort indices by duration (insertion sort: at most a handful of candidates).
-        let mut idx = [0usize; 16];
-        let n_all = n_all.min(idx.len());
-        for (k, slot) in idx.iter_mut().enumerate().take(n_all) {
-            *slot = k;
-        }
-        for k in 1..n_all {
-            let mut m = k;
-            while m > 0 && profiles[idx[m - 1]].duration() > profiles[idx[m]].duration() {
-                idx.swap(m - 1, m);
-                m -= 1;
-            }
-        }
-        // Drop duplicates.
-        let mut unique = [0usize; 16];
-        let mut n = 0;
-        for &k in &idx[..n_all] {
-            let d = profiles[k].duration();
-            if n > 0 {
-                let last = profiles[unique[n - 1]].duration();
-                if (d - last).abs() <= DUPLICATE_REL * d.abs().max(last.abs()) {
-                    continue;
-                }
-            }
-            unique[n] = k;
-            n += 1;
-        }
-        let interval = |lo: usize, hi: usize| Interval {
-            left: profiles[unique[lo]].duration(),
-            right: profiles[unique[hi]].duration(),
-            profile: profiles[unique[hi]],
-        };
-        let mut block = Block::single(profiles[unique[0]]);
+    /// Build the block from the valid extremal profiles (in the order step 1 found them).
+    /// Returns false if their number is inconsistent.
+    pub(crate) fn calculate(&mut self, profiles: &mut [Profile], count: usize) -> bool {
+        let mut n = count;
+        let total = |p: &Profile| p.t_sum[6];
         match n {
-            1 => {}
-            // An even count means an extremal profile was missed (numerically); block
-            // conservatively between the ones found so that every chosen duration is reachable.
-            2 => block.a = Some(interval(0, 1)),
-            3 => block.a = Some(interval(1, 2)),
-            4 => {
-                block.a = Some(interval(1, 3));
+            1 => {
+                self.set_min_profile(&profiles[0]);
+                return true;
             }
-            _ => {
-                block.a = Some(interval(1, 2));
-                block.b = Some(interval(3, n - 1));
+            2 => {
+                if (total(&profiles[0]) - total(&profiles[1])).abs() < SAME_PROFILE_S {
+                    self.set_min_profile(&profiles[0]);
+                    return true;
+                }
+                // An extremal profile was missed numerically: block everything between the two
+                // found, so that every chosen duration is reachable.
+                let idx_min = if total(&profiles[0]) < total(&profiles[1]) { 0 } else { 1 };
+                let other = 1 - idx_min;
+                self.set_min_profile(&profiles[idx_min]);
+                self.a = Some(Interval::between(&profiles[idx_min], &profiles[other]));
+                return true;
+            }
+            4 => {
+                // Numerical issues: one profile found twice (in both directions).
+                let d = |i: usize, k: usize| (total(&profiles[i]) - total(&profiles[k])).abs();
+                let opposite = |i: usize, k: usize| profiles[i].direction != profiles[k].direction;
+                let remove = if d(0, 1) < IDENTICAL_FIRST_S && opposite(0, 1) {
+                    1
+                } else if (d(2, 3) < IDENTICAL_OTHER_S && opposite(2, 3))
+                    || (d(0, 3) < IDENTICAL_OTHER_S && opposite(0, 3))
+                {
+                    3
+                } else {
+                    return false;
+                };
+                profiles.copy_within(remove + 1..n, remove);
+                n -= 1;
+            }
+            _ if n % 2 == 0 => return false,
+            _ => {}
+        }
+
+        let mut idx_min = 0;
+        for i in 1..n {
+            if total(&profiles[i]) < total(&profiles[idx_min]) {
+                idx_min = i;
             }
         }
-        Some(block)
+        self.set_min_profile(&profiles[idx_min]);
+        let at = |k: usize| &profiles[(idx_min + k) % n];
+        if n == 3 {
+            self.a = Some(Interval::between(at(1), at(2)));
+            true
+        } else if n == 5 {
+            if at(1).direction == at(2).direction {
+                self.a = Some(Interval::between(at(1), at(2)));
+                self.b = Some(Interval::between(at(3), at(4)));
+            } else {
+                self.a = Some(Interval::between(at(1), at(4)));
+                self.b = Some(Interval::between(at(2), at(3)));
+            }
+            true
+        } else {
+            false
+        }
+    }
+
+    /// Whether duration `t` is not reachable by this DoF, where durations within `tol` of one
+    /// of the DoF's stored extremal profiles (the minimum, the right ends of the intervals) are
+    /// that profile's: two DoFs' equal extremal durations may differ by rounding.
+    #[inline]
+    pub(crate) fn is_blocked_within(&self, t: f64, tol: f64) -> bool {
+        let near = |x: f64| (t - x).abs() <= tol;
+        let stored = near(self.t_min)
+            || self.a.as_ref().is_some_and(|i| near(i.right))
+            || self.b.as_ref().is_some_and(|i| near(i.right));
+        !stored && self.is_blocked(t)
     }
 
     /// Whether duration `t` is not reachable by this DoF.
@@ -104,27 +149,32 @@ mod tests {
 
     fn with_duration(d: f64) -> Profile {
         let mut p = Profile::default();
-        p.t_end[6] = d;
+        p.t_sum[6] = d;
         p
     }
 
     #[test]
     fn single_and_three_profiles() {
-        let b = Block::from_profiles(&[with_duration(2.0)]).unwrap();
+        let mut b = Block::default();
+        assert!(b.calculate(&mut [with_duration(2.0)], 1));
         assert_eq!(b.t_min, 2.0);
         assert!(b.a.is_none() && !b.is_blocked(5.0) && b.is_blocked(1.0));
-        let b = Block::from_profiles(&[with_duration(4.0), with_duration(1.0), with_duration(3.0)]).unwrap();
+        let mut ps = [with_duration(4.0), with_duration(1.0), with_duration(3.0)];
+        assert!(b.calculate(&mut ps, 3));
         assert_eq!(b.t_min, 1.0);
         assert!(b.is_blocked(3.5) && !b.is_blocked(2.0) && !b.is_blocked(4.0) && !b.is_blocked(3.0));
+        assert_eq!(b.a.unwrap().profile.duration(), 4.0);
     }
 
     #[test]
-    fn duplicates_are_merged_and_five_give_two_intervals() {
-        let b = Block::from_profiles(&[with_duration(1.0), with_duration(1.0 + 1e-15)]).unwrap();
+    fn duplicates_and_five_profiles() {
+        let mut b = Block::default();
+        assert!(b.calculate(&mut [with_duration(1.0), with_duration(1.0 + 1e-16)], 2));
         assert!(b.a.is_none());
-        let ds = [5.0, 1.0, 2.0, 3.0, 4.0];
-        let ps: Vec<Profile> = ds.iter().map(|&d| with_duration(d)).collect();
-        let b = Block::from_profiles(&ps).unwrap();
+        let mut ps =
+            [with_duration(1.0), with_duration(2.0), with_duration(3.0), with_duration(4.0), with_duration(5.0)];
+        assert!(b.calculate(&mut ps, 5));
         assert!(b.is_blocked(2.5) && b.is_blocked(4.5) && !b.is_blocked(3.5) && !b.is_blocked(1.5));
+        assert!(!b.calculate(&mut ps, 0));
     }
 }

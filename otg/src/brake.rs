@@ -1,155 +1,151 @@
-//! Brake pre-phase: brings an initial state that is outside the limits (or that will inevitably
-//! leave them, e.g. v below v_max but a > 0 so large that v overshoots) back inside, with at most
-//! two phases (a jerk ramp and an acceleration plateau). The time-optimal profile then starts from
-//! the braked state. This is Ruckig's strategy (Berscheid & Kröger, RSS 2021, Sec. V-A, "initial
-//! states outside the kinematic limits"); the durations computed here equal Ruckig's, so the
-//! overall durations can be compared directly.
+//! Brake pre-phase: brings an initial state that is outside the limits, or that will inevitably
+//! leave them (v below v_max but a > 0 so large that v overshoots), back inside with at most two
+//! constant-jerk phases (a jerk ramp, then an acceleration plateau). The time-optimal profile then
+//! starts from the braked state.
+//!
+//! This is Ruckig's strategy (Berscheid & Kröger, RSS 2021, Sec. V-A), ported from its
+//! `brake.cpp` (MIT licence, <https://github.com/pantor/ruckig>) with the same case analysis, so
+//! that the overall durations can be compared with Ruckig's directly. The limits are passed
+//! mirrored (v_max ↔ v_min, a_max ↔ a_min, -j) for the lower side, as in Ruckig.
 
 use crate::profile::integrate;
-use crate::{Limits, State};
+
+/// Safety margin added to brake phase durations so that the braked state lies strictly inside
+/// the limits despite rounding (Ruckig: 2.2e-14 s), scaled up for phases much longer than 1 s.
+const BRAKE_EPS_S: f64 = 2.2e-14;
 
 /// Up to two phases of constant jerk that precede the main profile.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct BrakeProfile {
-    /// Total duration of the pre-phase [s] (0 when the initial state is already safe).
+    /// Total duration of the pre-phase (s) (0 when the initial state is already safe).
     pub duration: f64,
-    /// Phase durations [s].
+    /// Phase durations (s).
     pub t: [f64; 2],
     /// Jerk of each phase.
     pub j: [f64; 2],
-    /// Position at the start of each phase.
-    pub p: [f64; 2],
-    /// Velocity at the start of each phase.
-    pub v: [f64; 2],
     /// Acceleration at the start of each phase.
     pub a: [f64; 2],
+    /// Velocity at the start of each phase.
+    pub v: [f64; 2],
+    /// Position at the start of each phase.
+    pub p: [f64; 2],
 }
 
-/// Velocity reached when the acceleration is ramped to zero with jerk of magnitude `j_max`.
+/// Margin for a phase of duration `t`.
 #[inline]
-fn velocity_at_zero_acceleration(v0: f64, a0: f64, j_max: f64) -> f64 {
-    v0 + a0 * a0.abs() / (2.0 * j_max)
+fn eps_for(t: f64) -> f64 {
+    BRAKE_EPS_S * t.abs().max(1.0)
+}
+
+/// Velocity after `t` seconds with jerk `j`.
+#[inline]
+fn v_at_t(v0: f64, a0: f64, j: f64, t: f64) -> f64 {
+    v0 + t * (a0 + j * t / 2.0)
+}
+
+/// Velocity reached when the acceleration is ramped to zero with jerk of magnitude |j|
+/// (sign convention of Ruckig: `j` is the jerk that brings `a0` back to zero, negated).
+#[inline]
+fn v_at_a_zero(v0: f64, a0: f64, j: f64) -> f64 {
+    v0 + (a0 * a0) / (2.0 * j)
 }
 
 impl BrakeProfile {
-    /// Brake for the position interface: acceleration outside [a_min, a_max], or velocity outside
-    /// [v_min, v_max] now or inevitably later.
-    pub(crate) fn for_position(v0: f64, a0: f64, lim: &Limits) -> BrakeProfile {
-        let j = lim.j_max;
-        if a0 > lim.a_max {
-            Self::from_upper(acceleration_brake(Upper::of(lim), v0, a0, j), 1.0)
-        } else if a0 < lim.a_min {
-            Self::from_upper(acceleration_brake(Upper::of(lim).mirrored(), -v0, -a0, j), -1.0)
-        } else if (v0 > lim.v_max && v0 - a0 * a0 / (2.0 * j) > lim.v_min)
-            || (a0 > 0.0 && velocity_at_zero_acceleration(v0, a0, j) > lim.v_max)
+    /// Brake for the position interface (Ruckig `get_position_brake_trajectory`).
+    pub(crate) fn position(v0: f64, a0: f64, v_max: f64, v_min: f64, a_max: f64, a_min: f64, j_max: f64) -> Self {
+        let mut b = BrakeProfile::default();
+        if a0 > a_max {
+            b.acceleration_brake(v0, a0, v_max, v_min, a_max, a_min, j_max);
+        } else if a0 < a_min {
+            b.acceleration_brake(v0, a0, v_min, v_max, a_min, a_max, -j_max);
+        } else if (v0 > v_max && v_at_a_zero(v0, a0, -j_max) > v_min)
+            || (a0 > 0.0 && v_at_a_zero(v0, a0, j_max) > v_max)
         {
-            Self::from_upper(velocity_brake(Upper::of(lim), v0, a0, j), 1.0)
-        } else if (v0 < lim.v_min && v0 + a0 * a0 / (2.0 * j) < lim.v_max)
-            || (a0 < 0.0 && velocity_at_zero_acceleration(v0, a0, j) < lim.v_min)
+            b.velocity_brake(v0, a0, v_max, v_min, a_max, a_min, j_max);
+        } else if (v0 < v_min && v_at_a_zero(v0, a0, j_max) < v_max)
+            || (a0 < 0.0 && v_at_a_zero(v0, a0, -j_max) < v_min)
         {
-            Self::from_upper(velocity_brake(Upper::of(lim).mirrored(), -v0, -a0, j), -1.0)
-        } else {
-            BrakeProfile::default()
+            b.velocity_brake(v0, a0, v_min, v_max, a_min, a_max, -j_max);
         }
+        b
     }
 
     /// Brake for the velocity interface: only the acceleration has limits.
-    pub(crate) fn for_velocity(a0: f64, lim: &Limits) -> BrakeProfile {
-        let mut brake = BrakeProfile::default();
-        if a0 > lim.a_max {
-            brake.j[0] = -lim.j_max;
-            brake.t[0] = (a0 - lim.a_max) / lim.j_max;
-        } else if a0 < lim.a_min {
-            brake.j[0] = lim.j_max;
-            brake.t[0] = (lim.a_min - a0) / lim.j_max;
+    pub(crate) fn velocity(a0: f64, a_max: f64, a_min: f64, j_max: f64) -> Self {
+        let mut b = BrakeProfile::default();
+        if a0 > a_max {
+            b.j[0] = -j_max;
+            let t = (a0 - a_max) / j_max;
+            b.t[0] = t + eps_for(t);
+        } else if a0 < a_min {
+            b.j[0] = j_max;
+            let t = -(a0 - a_min) / j_max;
+            b.t[0] = t + eps_for(t);
         }
-        brake
+        b
     }
 
-    fn from_upper(phases: [(f64, f64); 2], sign: f64) -> BrakeProfile {
-        let mut brake = BrakeProfile::default();
-        for (k, (t, j)) in phases.into_iter().enumerate() {
-            brake.t[k] = t.max(0.0);
-            brake.j[k] = sign * j;
+    /// a0 beyond the acceleration limit: ramp it down; continue as a velocity brake if the
+    /// velocity would still overshoot, or hold the limit if the velocity would undershoot.
+    #[allow(clippy::too_many_arguments)]
+    fn acceleration_brake(&mut self, v0: f64, a0: f64, v_max: f64, v_min: f64, a_max: f64, a_min: f64, j_max: f64) {
+        self.j[0] = -j_max;
+        let t_to_a_max = (a0 - a_max) / j_max;
+        let t_to_a_zero = a0 / j_max;
+        let v_at_a_max = v_at_t(v0, a0, -j_max, t_to_a_max);
+        let v_at_a_zero = v_at_t(v0, a0, -j_max, t_to_a_zero);
+
+        if (v_at_a_zero > v_max && j_max > 0.0) || (v_at_a_zero < v_max && j_max < 0.0) {
+            self.velocity_brake(v0, a0, v_max, v_min, a_max, a_min, j_max);
+        } else if (v_at_a_max < v_min && j_max > 0.0) || (v_at_a_max > v_min && j_max < 0.0) {
+            let t_to_v_min = -(v_at_a_max - v_min) / a_max;
+            let t_to_v_max = -a_max / (2.0 * j_max) - (v_at_a_max - v_max) / a_max;
+            self.t[0] = t_to_a_max + eps_for(t_to_a_max);
+            self.t[1] = t_to_v_min.min(t_to_v_max - eps_for(t_to_v_max)).max(0.0);
+        } else {
+            self.t[0] = t_to_a_max + eps_for(t_to_a_max);
         }
-        brake
     }
 
-    /// Record the start states of the phases and return the state after braking.
-    pub(crate) fn finalize(&mut self, start: State) -> State {
-        self.duration = 0.0;
-        let mut s = start;
-        for k in 0..2 {
-            self.p[k] = s.p;
-            self.v[k] = s.v;
-            self.a[k] = s.a;
-            if self.t[k] > 0.0 {
-                let (p, v, a) = integrate(self.t[k], s.p, s.v, s.a, self.j[k]);
-                s = State { p, v, a };
-                self.duration += self.t[k];
-            } else {
-                self.t[k] = 0.0;
-            }
+    /// The velocity is or will be beyond v_max: ramp the acceleration towards a_min until the
+    /// velocity can come back; hold a_min if it is reached first.
+    #[allow(clippy::too_many_arguments)]
+    fn velocity_brake(&mut self, v0: f64, a0: f64, v_max: f64, v_min: f64, _a_max: f64, a_min: f64, j_max: f64) {
+        self.j[0] = -j_max;
+        let t_to_a_min = (a0 - a_min) / j_max;
+        let t_to_v_max = a0 / j_max + (a0 * a0 + 2.0 * j_max * (v0 - v_max)).sqrt() / j_max.abs();
+        let t_to_v_min = a0 / j_max + (a0 * a0 / 2.0 + j_max * (v0 - v_min)).sqrt() / j_max.abs();
+        let t_min_to_v_max = t_to_v_max.min(t_to_v_min);
+
+        if t_to_a_min < t_min_to_v_max {
+            let v_at_a_min = v_at_t(v0, a0, -j_max, t_to_a_min);
+            let t_to_v_max_with_constant = -(v_at_a_min - v_max) / a_min;
+            let t_to_v_min_with_constant = a_min / (2.0 * j_max) - (v_at_a_min - v_min) / a_min;
+            self.t[0] = (t_to_a_min - eps_for(t_to_a_min)).max(0.0);
+            self.t[1] = t_to_v_max_with_constant.min(t_to_v_min_with_constant).max(0.0);
+        } else {
+            self.t[0] = (t_min_to_v_max - eps_for(t_min_to_v_max)).max(0.0);
         }
-        s
-    }
-}
-
-/// Limits seen from the side that is violated ("upper": velocity/acceleration too high).
-#[derive(Clone, Copy, Debug)]
-struct Upper {
-    v_hi: f64,
-    v_lo: f64,
-    a_hi: f64,
-    a_lo: f64,
-}
-
-impl Upper {
-    fn of(lim: &Limits) -> Upper {
-        Upper { v_hi: lim.v_max, v_lo: lim.v_min, a_hi: lim.a_max, a_lo: lim.a_min }
     }
 
-    /// The same limits for the mirrored motion (p, v, a negated).
-    fn mirrored(self) -> Upper {
-        Upper { v_hi: -self.v_lo, v_lo: -self.v_hi, a_hi: -self.a_lo, a_lo: -self.a_hi }
-    }
-}
-
-/// a0 > a_hi: ramp the acceleration down (jerk -j). If the velocity would still overshoot v_hi
-/// when a reaches zero, keep braking as a velocity brake; if ramping to a_hi already leaves the
-/// velocity below v_lo, hold a_hi until v is back inside.
-fn acceleration_brake(lim: Upper, v0: f64, a0: f64, j: f64) -> [(f64, f64); 2] {
-    let t_to_a_hi = (a0 - lim.a_hi) / j;
-    let t_to_a_zero = a0 / j;
-    let v_at_a_hi = v0 + t_to_a_hi * (a0 - 0.5 * j * t_to_a_hi);
-    let v_at_a_zero = v0 + t_to_a_zero * (a0 - 0.5 * j * t_to_a_zero);
-    if v_at_a_zero > lim.v_hi {
-        velocity_brake(lim, v0, a0, j)
-    } else if v_at_a_hi < lim.v_lo {
-        let t_to_v_lo = -(v_at_a_hi - lim.v_lo) / lim.a_hi;
-        let t_to_v_hi = -lim.a_hi / (2.0 * j) - (v_at_a_hi - lim.v_hi) / lim.a_hi;
-        [(t_to_a_hi, -j), (t_to_v_lo.min(t_to_v_hi).max(0.0), 0.0)]
-    } else {
-        [(t_to_a_hi, -j), (0.0, 0.0)]
-    }
-}
-
-/// The velocity is or will be above v_hi: ramp the acceleration down (jerk -j) until the velocity
-/// can come back inside; if a_lo is reached first, hold it.
-fn velocity_brake(lim: Upper, v0: f64, a0: f64, j: f64) -> [(f64, f64); 2] {
-    let t_to_a_lo = (a0 - lim.a_lo) / j;
-    // Time at which v, falling under jerk -j, crosses v_hi.
-    let t_to_v_hi = a0 / j + (a0 * a0 + 2.0 * j * (v0 - lim.v_hi)).max(0.0).sqrt() / j;
-    // Time after which ramping a back to zero (jerk +j) would end exactly at v_lo.
-    let t_to_v_lo = a0 / j + (0.5 * a0 * a0 + j * (v0 - lim.v_lo)).max(0.0).sqrt() / j;
-    let t_safe = t_to_v_hi.min(t_to_v_lo);
-    if t_to_a_lo < t_safe {
-        let v_at_a_lo = v0 + t_to_a_lo * (a0 - 0.5 * j * t_to_a_lo);
-        let hold_to_v_hi = -(v_at_a_lo - lim.v_hi) / lim.a_lo;
-        let hold_to_v_lo = lim.a_lo / (2.0 * j) - (v_at_a_lo - lim.v_lo) / lim.a_lo;
-        [(t_to_a_lo.max(0.0), -j), (hold_to_v_hi.min(hold_to_v_lo).max(0.0), 0.0)]
-    } else {
-        [(t_safe.max(0.0), -j), (0.0, 0.0)]
+    /// Record the start states of the phases and advance `(p, v, a)` to the braked state.
+    pub(crate) fn finalize(&mut self, p: &mut f64, v: &mut f64, a: &mut f64) {
+        if self.t[0] <= 0.0 && self.t[1] <= 0.0 {
+            self.duration = 0.0;
+            return;
+        }
+        self.duration = self.t[0];
+        self.p[0] = *p;
+        self.v[0] = *v;
+        self.a[0] = *a;
+        (*p, *v, *a) = integrate(self.t[0], *p, *v, *a, self.j[0]);
+        if self.t[1] > 0.0 {
+            self.duration += self.t[1];
+            self.p[1] = *p;
+            self.v[1] = *v;
+            self.a[1] = *a;
+            (*p, *v, *a) = integrate(self.t[1], *p, *v, *a, self.j[1]);
+        }
     }
 }
 
@@ -157,38 +153,35 @@ fn velocity_brake(lim: Upper, v0: f64, a0: f64, j: f64) -> [(f64, f64); 2] {
 mod tests {
     use super::*;
 
-    fn lim() -> Limits {
-        Limits { v_max: 1.0, v_min: -1.0, a_max: 1.0, a_min: -1.0, j_max: 1.0 }
-    }
-
-    fn braked(v0: f64, a0: f64) -> (BrakeProfile, State) {
-        let mut b = BrakeProfile::for_position(v0, a0, &lim());
-        let s = b.finalize(State { p: 0.0, v: v0, a: a0 });
-        (b, s)
+    fn braked(v0: f64, a0: f64) -> (BrakeProfile, (f64, f64, f64)) {
+        let mut b = BrakeProfile::position(v0, a0, 1.0, -1.0, 1.0, -1.0, 1.0);
+        let (mut p, mut v, mut a) = (0.0, v0, a0);
+        b.finalize(&mut p, &mut v, &mut a);
+        (b, (p, v, a))
     }
 
     #[test]
     fn no_brake_inside_limits() {
         let (b, s) = braked(0.5, 0.5);
         assert_eq!(b.duration, 0.0);
-        assert_eq!(s, State { p: 0.0, v: 0.5, a: 0.5 });
+        assert_eq!(s, (0.0, 0.5, 0.5));
     }
 
     #[test]
     fn acceleration_above_limit_is_ramped_down() {
-        let (b, s) = braked(-0.5, 1.5);
-        assert!((b.duration - 0.5).abs() < 1e-15);
-        assert!((s.a - 1.0).abs() < 1e-15);
+        let (b, (_, _, a)) = braked(-0.5, 1.5);
+        assert!((b.duration - 0.5).abs() < 1e-13);
+        assert!(a <= 1.0 && a > 1.0 - 1e-12);
     }
 
     #[test]
     fn velocity_above_limit_is_braked_into_range() {
-        let (b, s) = braked(2.0, 0.0);
+        let (b, (_, v, a)) = braked(2.0, 0.0);
         assert!(b.duration > 0.0);
-        assert!(s.a >= -1.0 - 1e-12);
+        assert!(a >= -1.0 - 1e-12);
         // After braking, ramping a to zero does not leave the velocity band.
-        let v_end = s.v + s.a * s.a.abs() / 2.0;
-        assert!(v_end <= 1.0 + 1e-12 && v_end >= -1.0 - 1e-12, "{s:?}");
+        let v_end = v + a * a.abs() / 2.0;
+        assert!((-1.0 - 1e-12..=1.0 + 1e-12).contains(&v_end), "{v} {a}");
     }
 
     #[test]
@@ -196,13 +189,14 @@ mod tests {
         let (b1, s1) = braked(1.8, 0.7);
         let (b2, s2) = braked(-1.8, -0.7);
         assert!((b1.duration - b2.duration).abs() < 1e-15);
-        assert!((s1.v + s2.v).abs() < 1e-14 && (s1.a + s2.a).abs() < 1e-14);
+        assert!((s1.1 + s2.1).abs() < 1e-14 && (s1.2 + s2.2).abs() < 1e-14);
     }
 
     #[test]
     fn velocity_interface_brake() {
-        let mut b = BrakeProfile::for_velocity(-3.0, &lim());
-        let s = b.finalize(State { p: 0.0, v: 0.0, a: -3.0 });
-        assert!((b.duration - 2.0).abs() < 1e-15 && (s.a + 1.0).abs() < 1e-15);
+        let mut b = BrakeProfile::velocity(-3.0, 1.0, -1.0, 1.0);
+        let (mut p, mut v, mut a) = (0.0, 0.0, -3.0);
+        b.finalize(&mut p, &mut v, &mut a);
+        assert!((b.duration - 2.0).abs() < 1e-13 && (a + 1.0).abs() < 1e-12);
     }
 }

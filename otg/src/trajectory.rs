@@ -1,8 +1,11 @@
 //! The result of a calculation: one profile per DoF, all ending together (time or phase
 //! synchronisation) or independently, and sampling at any time.
 
-use crate::profile::Profile;
+use crate::profile::{Profile, integrate};
 use crate::{MAX_DOFS, State};
+
+/// A DoF whose own duration is within this (relative) of the trajectory's ends with it.
+const SAME_END_REL: f64 = 64.0 * f64::EPSILON;
 
 /// A calculated multi-DoF trajectory (fixed capacity, no heap memory).
 #[derive(Clone, Copy, Debug)]
@@ -33,7 +36,7 @@ impl Trajectory {
         self.dofs
     }
 
-    /// Duration of the whole trajectory [s] (all DoFs have arrived).
+    /// Duration of the whole trajectory (s) (all DoFs have arrived).
     #[inline]
     pub fn duration(&self) -> f64 {
         self.duration
@@ -45,7 +48,7 @@ impl Trajectory {
         &self.profiles[..self.dofs]
     }
 
-    /// Minimum duration each DoF would need on its own [s].
+    /// Minimum duration each DoF would need on its own (s).
     #[inline]
     pub fn independent_min_durations(&self) -> &[f64] {
         &self.independent_min_durations[..self.dofs]
@@ -58,7 +61,7 @@ impl Trajectory {
         self.limiting_dof
     }
 
-    /// States of all DoFs at time `t` [s] from the start, written to `out[..dofs]`. Before 0 the
+    /// States of all DoFs at time `t` (s) from the start, written to `out[..dofs]`. Before 0 the
     /// start state is returned; after the end every DoF continues from its target state with
     /// constant acceleration (zero for a rest target).
     #[inline]
@@ -68,12 +71,23 @@ impl Trajectory {
         }
     }
 
-    /// State and jerk of one DoF at time `t` [s].
+    /// State and jerk of one DoF at time `t` (s).
     #[inline]
     pub fn state_of(&self, dof: usize, t: f64) -> (State, f64) {
-        let Some(profile) = self.profiles.get(dof) else {
+        let Some(profile) = self.profiles[..self.dofs].get(dof) else {
             return (State::default(), 0.0);
         };
+        if t >= self.duration {
+            // Every DoF has arrived: its end state, continued with its final acceleration from
+            // its own end. A synchronised DoF's own duration equals `duration` only up to the
+            // rounding of its phase sum: then the continuation starts at `duration`, so that
+            // every DoF is exactly at its target there.
+            let own_end = profile.duration();
+            let from =
+                if (own_end - self.duration).abs() <= SAME_END_REL * self.duration { self.duration } else { own_end };
+            let (p, v, a) = integrate((t - from).max(0.0), profile.p[7], profile.v[7], profile.a[7], 0.0);
+            return (State { p, v, a }, 0.0);
+        }
         let (p, v, a, j) = profile.state_at(t.max(0.0));
         (State { p, v, a }, j)
     }
@@ -91,7 +105,7 @@ impl Trajectory {
             }
             t -= p.brake.duration;
         }
-        match p.t_end.iter().position(|&end| t < end) {
+        match p.t_sum.iter().position(|&end| t < end) {
             Some(i) => 2 + i,
             None => 9,
         }

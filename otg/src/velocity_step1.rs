@@ -1,91 +1,126 @@
 //! Step 1, velocity interface: reach a target velocity and acceleration (position free) in
-//! minimum time; used for feed-override ramps and jogging. At most three phases: ramp, hold at
-//! the acceleration limit, ramp (Ruckig RSS 2021, Sec. V-B). In the normalised frame
-//! (j_max = a_max = 1) the peak acceleration of the ramp-up / ramp-down triangle is
-//! ±sqrt(Δv + (a0² + a_f²)/2); with a hold at the limit the hold length is linear in Δv.
+//! minimum time; used for feed-override ramps and jogging (Berscheid & Kröger, RSS 2021,
+//! Sec. V-B). At most three phases: ramp, hold at the acceleration limit (ACC0), ramp; or two
+//! ramps through a peak (NONE, two solutions). With a target acceleration other than zero there
+//! can be a blocked interval.
+//!
+//! Ported from Ruckig's `velocity-third-step1.cpp` (L. Berscheid, MIT licence,
+//! <https://github.com/pantor/ruckig>); the lower direction passes the mirrored limits.
 
 use crate::block::Block;
-use crate::brake::BrakeProfile;
-use crate::frame::{Candidate, Frame, Orientation, Polish};
-use crate::position_step1::{Collector, opposite};
-use crate::profile::{JerkSigns, PolishSpec, ReachedLimits};
-use crate::{Limits, State};
+use crate::position_step1::MAX_PROFILES;
+use crate::profile::{ControlSigns, Profile, ReachedLimits};
 
-/// Target accelerations below this (normalised) count as zero: then there is no blocked
-/// interval and the first valid profile is the optimum.
-const REST_EPS: f64 = f64::EPSILON;
-const JERKS: [f64; 7] = [1.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0];
-const ROWS: u8 = PolishSpec::END_A | PolishSpec::END_V;
+/// Inputs below this count as zero (Ruckig: ε).
+const ZERO: f64 = f64::EPSILON;
 
-/// Step 1 for one DoF from the (braked) start state.
-pub(crate) fn calculate(start: &State, target: &State, limits: &Limits, brake: &BrakeProfile) -> Option<Block> {
-    let mut col = Collector::new(*start, *target, limits, *brake, false);
-    let zero = col.add_zero();
-    let f_up = Frame::new(Orientation::Up, start, target, limits);
-    if f_up.af.abs() < REST_EPS {
-        if zero {
-            return col.fastest().map(Block::single);
+struct Step1<'a> {
+    a0: f64,
+    af: f64,
+    vd: f64,
+    profiles: &'a mut [Profile; MAX_PROFILES],
+    n: usize,
+}
+
+impl Step1<'_> {
+    /// Check the current candidate (phase durations `t`); keep it if valid.
+    fn accept(&mut self, t: [f64; 7], limits: ReachedLimits, a_max: f64, a_min: f64, j_max: f64) -> bool {
+        let p = &mut self.profiles[self.n];
+        p.t = t;
+        let ok = p.check_for_velocity(ControlSigns::Uddu, limits, j_max, a_max, a_min);
+        if ok && self.n + 1 < MAX_PROFILES {
+            self.n += 1;
+            let (done, next) = self.profiles.split_at_mut(self.n);
+            next[0].set_boundary_from(&done[self.n - 1]);
         }
-        let first = if target.v >= start.v { Orientation::Up } else { Orientation::Down };
-        for orientation in [first, opposite(first)] {
-            let frame =
-                if orientation == Orientation::Up { f_up } else { Frame::new(orientation, start, target, limits) };
-            if triangle(&frame, &mut col) || trapezoid(&frame, &mut col) {
-                return col.fastest().map(Block::single);
-            }
+        ok
+    }
+
+    /// Ramp to the acceleration limit, hold, ramp to a_f.
+    fn time_acc0(&mut self, a_max: f64, a_min: f64, j_max: f64) {
+        let (a0, af, vd) = (self.a0, self.af, self.vd);
+        let t = [
+            (-a0 + a_max) / j_max,
+            (a0 * a0 + af * af) / (2.0 * a_max * j_max) - a_max / j_max + vd / a_max,
+            (-af + a_max) / j_max,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+        ];
+        self.accept(t, ReachedLimits::Acc0, a_max, a_min, j_max);
+    }
+
+    /// Ramp to a peak and back to a_f (both roots of the peak).
+    fn time_none(&mut self, a_max: f64, a_min: f64, j_max: f64, return_after_found: bool) {
+        let (a0, af, vd) = (self.a0, self.af, self.vd);
+        let h1 = (a0 * a0 + af * af) / 2.0 + j_max * vd;
+        if h1.is_nan() || h1 < 0.0 {
+            return;
         }
-        None
+        let h1 = h1.sqrt();
+        let t = [-(a0 + h1) / j_max, 0.0, -(af + h1) / j_max, 0.0, 0.0, 0.0, 0.0];
+        if self.accept(t, ReachedLimits::None, a_max, a_min, j_max) && return_after_found {
+            return;
+        }
+        let t = [(-a0 + h1) / j_max, 0.0, (-af + h1) / j_max, 0.0, 0.0, 0.0, 0.0];
+        self.accept(t, ReachedLimits::None, a_max, a_min, j_max);
+    }
+}
+
+/// Step 1 for one DoF: `profiles[0]` carries the boundary (braked start state, target, brake).
+/// Fills `block`; false if no valid profile exists.
+pub(crate) fn calculate(
+    profiles: &mut [Profile; MAX_PROFILES],
+    block: &mut Block,
+    a_max: f64,
+    a_min: f64,
+    j_max: f64,
+) -> bool {
+    let first = &profiles[0];
+    let (a0, af, vd) = (first.a[0], first.af, first.vf - first.v[0]);
+    let mut s = Step1 { a0, af, vd, profiles, n: 0 };
+    if af.abs() < ZERO {
+        // No blocked interval when a_f = 0: the first valid profile, in the direction of the
+        // target velocity first.
+        let (hi, lo, j) = if vd >= 0.0 { (a_max, a_min, j_max) } else { (a_min, a_max, -j_max) };
+        s.time_none(hi, lo, j, true);
+        if s.n == 0 {
+            s.time_acc0(hi, lo, j);
+        }
+        if s.n == 0 {
+            s.time_none(lo, hi, -j, true);
+        }
+        if s.n == 0 {
+            s.time_acc0(lo, hi, -j);
+        }
     } else {
-        let f_down = Frame::new(Orientation::Down, start, target, limits);
-        for frame in [&f_up, &f_down] {
-            triangle(frame, &mut col);
-            trapezoid(frame, &mut col);
-        }
-        Block::from_profiles(col.found())
+        s.time_none(a_max, a_min, j_max, false);
+        s.time_none(a_min, a_max, -j_max, false);
+        s.time_acc0(a_max, a_min, j_max);
+        s.time_acc0(a_min, a_max, -j_max);
     }
+    let n = s.n;
+    block.calculate(&mut profiles[..], n)
 }
 
-/// Ramp up to a peak (either root), ramp down to a_f.
-fn triangle(f: &Frame, col: &mut Collector) -> bool {
-    let peak_sq = f.vf - f.v0 + 0.5 * (f.a0 * f.a0 + f.af * f.af);
-    if !(peak_sq >= 0.0) {
-        return false;
-    }
-    let mut found = false;
-    for peak in [peak_sq.sqrt(), -peak_sq.sqrt()] {
-        if peak > 1.0 || peak < f.a0 || peak < f.af {
-            continue;
-        }
-        let c = Candidate {
-            t: [peak - f.a0, 0.0, peak - f.af, 0.0, 0.0, 0.0, 0.0],
-            j: JERKS,
-            limits: ReachedLimits::None,
-            signs: JerkSigns::Uddu,
-            polish: Polish::new(&[0, 2], ROWS),
-        };
-        found |= col.add(f, &c);
-        if peak == 0.0 {
-            break;
-        }
-    }
-    found
-}
+#[cfg(test)]
+mod tests {
+    use super::*;
 
-/// Ramp up to the acceleration limit, hold, ramp down to a_f.
-fn trapezoid(f: &Frame, col: &mut Collector) -> bool {
-    if f.a0 > 1.0 || f.af > 1.0 {
-        return false;
+    #[test]
+    fn velocity_change_triangle_and_trapezoid() {
+        let mut profiles = [Profile::default(); MAX_PROFILES];
+        let mut block = Block::default();
+        // Δv = 0.5 with unit limits: triangle with peak sqrt(0.5).
+        profiles[0].v[0] = 0.0;
+        profiles[0].vf = 0.5;
+        assert!(calculate(&mut profiles, &mut block, 1.0, -1.0, 1.0));
+        assert!((block.t_min - 2.0 * 0.5f64.sqrt()).abs() < 1e-12);
+        // Δv = -3: trapezoid, 1 s ramps and 2 s hold.
+        let mut profiles = [Profile::default(); MAX_PROFILES];
+        profiles[0].vf = -3.0;
+        assert!(calculate(&mut profiles, &mut block, 1.0, -1.0, 1.0));
+        assert!((block.t_min - 4.0).abs() < 1e-12);
     }
-    let hold = f.vf - f.v0 + 0.5 * (f.a0 * f.a0 + f.af * f.af) - 1.0;
-    if hold < 0.0 {
-        return false;
-    }
-    let c = Candidate {
-        t: [1.0 - f.a0, hold, 1.0 - f.af, 0.0, 0.0, 0.0, 0.0],
-        j: JERKS,
-        limits: ReachedLimits::Acc0,
-        signs: JerkSigns::Uddu,
-        polish: Polish::new(&[1], PolishSpec::END_V),
-    };
-    col.add(f, &c)
 }

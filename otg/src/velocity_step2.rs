@@ -1,114 +1,110 @@
 //! Step 2, velocity interface: reach the target velocity and acceleration in exactly a given
-//! duration T. In the normalised frame (j_max = a_max = 1), with a ramp to a level a_p, a hold
-//! and a ramp to a_f:
+//! duration (Berscheid & Kröger, RSS 2021, Sec. V-B): a hold at an acceleration level between
+//! two ramps (ACC0: up-down or up-up), or a single ramp with the jerk reduced below the limit
+//! before or after a hold (NONE).
 //!
-//! - up then down: t0 = a_p - a0, t2 = a_p - a_f, hold T - t0 - t2; the velocity equation is
-//!   a_p² - (T + a0 + a_f) a_p + (a0² + a_f²)/2 + Δv = 0;
-//! - up then up (a0 ≤ a_p ≤ a_f): the hold is T - (a_f - a0) and a_p follows linearly;
-//! - a single ramp with reduced jerk, before or after a hold at a0 or a_f:
-//!   j = (a_f - a0)² / (2 (a_f T - Δv)) or (a_f - a0)² / (2 (Δv - a0 T)).
-//!
-//! Both directions by mirroring (Ruckig RSS 2021, Sec. V-B).
+//! Ported from Ruckig's `velocity-third-step2.cpp` (L. Berscheid, MIT licence,
+//! <https://github.com/pantor/ruckig>); the lower direction passes the mirrored limits.
 
-use crate::brake::BrakeProfile;
-use crate::frame::{Candidate, Frame, Orientation, Polish};
-use crate::position_step1::opposite;
-use crate::position_step2::Step2;
-use crate::profile::{JerkSigns, PolishSpec, Profile, ReachedLimits};
-use crate::roots::solve_quadratic;
-use crate::{Limits, State};
+use crate::profile::{ControlSigns, Profile, ReachedLimits};
 
-const ROWS: u8 = PolishSpec::END_A | PolishSpec::END_V | PolishSpec::DURATION;
+/// Inputs below this count as zero (Ruckig: ε).
+const ZERO: f64 = f64::EPSILON;
 
-/// A profile lasting exactly `duration` [s] from the braked start state.
-pub(crate) fn calculate(
-    duration: f64,
-    start: &State,
-    target: &State,
-    limits: &Limits,
-    brake: &BrakeProfile,
-) -> Option<Profile> {
-    if !(duration >= 0.0) {
-        return None;
-    }
-    let mut s2 = Step2::new(duration, *start, *target, limits, *brake, false);
-    let first = if target.v >= start.v { Orientation::Up } else { Orientation::Down };
-    for orientation in [first, opposite(first)] {
-        let f = Frame::new(orientation, start, target, limits);
-        let tt = f.time_to_frame(duration);
-        if up_down(&f, tt, &mut s2) || up_up(&f, tt, &mut s2) || reduced_jerk(&f, tt, &mut s2) {
-            return Some(s2.profile);
-        }
-    }
-    None
+struct Step2 {
+    a0: f64,
+    af: f64,
+    tf: f64,
+    vd: f64,
+    ad: f64,
 }
 
-fn candidate(t: [f64; 3], j: [f64; 3], limits: ReachedLimits, polish: Polish) -> Candidate {
-    Candidate {
-        t: [t[0], t[1], t[2], 0.0, 0.0, 0.0, 0.0],
-        j: [j[0], j[1], j[2], 0.0, 0.0, 0.0, 0.0],
-        limits,
-        signs: JerkSigns::Uddu,
-        polish,
-    }
-}
-
-fn up_down(f: &Frame, tt: f64, s2: &mut Step2) -> bool {
-    let vd = f.vf - f.v0;
-    let roots = solve_quadratic(1.0, -(tt + f.a0 + f.af), 0.5 * (f.a0 * f.a0 + f.af * f.af) + vd);
-    for &peak in roots.as_slice() {
-        let (t0, t2) = (peak - f.a0, peak - f.af);
-        let hold = tt - t0 - t2;
-        if t0 < 0.0 || t2 < 0.0 || hold < 0.0 || peak > 1.0 {
-            continue;
-        }
-        let limits = if peak >= 1.0 { ReachedLimits::Acc0 } else { ReachedLimits::None };
-        let c = candidate([t0, hold, t2], [1.0, 0.0, -1.0], limits, Polish::new(&[0, 1, 2], ROWS));
-        if s2.try_candidate(f, &c) {
+impl Step2 {
+    fn try_acc0(&self, p: &mut Profile, t: [f64; 7], a_max: f64, a_min: f64, j_max: f64) -> bool {
+        p.t = t;
+        if p.check_for_velocity_with_timing_and_jerk(
+            self.tf,
+            ControlSigns::Uddu,
+            ReachedLimits::Acc0,
+            j_max,
+            a_max,
+            a_min,
+            j_max,
+        ) {
+            p.pf = p.p[7];
             return true;
         }
+        false
     }
-    false
-}
 
-fn up_up(f: &Frame, tt: f64, s2: &mut Step2) -> bool {
-    let hold = tt - (f.af - f.a0);
-    if !(hold > 0.0) || f.af < f.a0 {
-        return false;
-    }
-    let peak = (f.vf - f.v0 - 0.5 * (f.af * f.af - f.a0 * f.a0)) / hold;
-    if peak < f.a0 || peak > f.af {
-        return false;
-    }
-    let c = candidate([peak - f.a0, hold, f.af - peak], [1.0, 0.0, 1.0], ReachedLimits::None, Polish::NONE);
-    s2.try_candidate(f, &c)
-}
-
-fn reduced_jerk(f: &Frame, tt: f64, s2: &mut Step2) -> bool {
-    let vd = f.vf - f.v0;
-    let ad = f.af - f.a0;
-    if ad == 0.0 {
-        // Hold the acceleration for the whole duration.
-        let c = candidate([0.0, tt, 0.0], [0.0, 0.0, 0.0], ReachedLimits::None, Polish::NONE);
-        return s2.try_candidate(f, &c);
-    }
-    // Ramp to a_f, then hold it.
-    let jf = ad * ad / (2.0 * (f.af * tt - vd));
-    if jf > 0.0 && jf <= 1.0 {
-        let ramp = ad / jf;
-        let c = candidate([ramp, tt - ramp, 0.0], [jf, 0.0, 0.0], ReachedLimits::None, Polish::NONE);
-        if s2.try_candidate(f, &c) {
+    fn time_acc0(&self, p: &mut Profile, a_max: f64, a_min: f64, j_max: f64) -> bool {
+        let Step2 { a0, af, tf, vd, ad } = *self;
+        // Up, hold, down.
+        let h1 = ((-ad * ad + 2.0 * j_max * ((a0 + af) * tf - 2.0 * vd)) / (j_max * j_max) + tf * tf).sqrt();
+        let t0 = ad / (2.0 * j_max) + (tf - h1) / 2.0;
+        if self.try_acc0(p, [t0, h1, tf - (t0 + h1), 0.0, 0.0, 0.0, 0.0], a_max, a_min, j_max) {
             return true;
         }
-    }
-    // Hold a0, then ramp to a_f.
-    let jf = ad * ad / (2.0 * (vd - f.a0 * tt));
-    if jf > 0.0 && jf <= 1.0 {
-        let ramp = ad / jf;
-        let c = candidate([0.0, tt - ramp, ramp], [0.0, 0.0, jf], ReachedLimits::None, Polish::NONE);
-        if s2.try_candidate(f, &c) {
+        // Up, hold, up.
+        let h1 = -ad + j_max * tf;
+        let t0 = -ad * ad / (2.0 * j_max * h1) + (vd - a0 * tf) / h1;
+        let t1 = -ad / j_max + tf;
+        if self.try_acc0(p, [t0, t1, 0.0, 0.0, 0.0, 0.0, tf - (t0 + t1)], a_max, a_min, j_max) {
             return true;
         }
+        // Hold, up (two steps).
+        self.try_acc0(p, [0.0, -ad / j_max + tf, 0.0, 0.0, 0.0, 0.0, ad / j_max], a_max, a_min, j_max)
     }
-    false
+
+    fn time_none(&self, p: &mut Profile, a_max: f64, a_min: f64, j_max: f64) -> bool {
+        let Step2 { a0, af, tf, vd, ad } = *self;
+        if a0.abs() < ZERO && af.abs() < ZERO && vd.abs() < ZERO {
+            p.t = [0.0, tf, 0.0, 0.0, 0.0, 0.0, 0.0];
+            if p.check_for_velocity_with_timing_and_jerk(
+                tf,
+                ControlSigns::Uddu,
+                ReachedLimits::None,
+                j_max,
+                a_max,
+                a_min,
+                j_max,
+            ) {
+                p.pf = p.p[7];
+                return true;
+            }
+        }
+        // A single ramp with reduced jerk, then a hold.
+        let h1 = 2.0 * (af * tf - vd);
+        let t0 = h1 / ad;
+        p.t = [t0, tf - t0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let jf = ad * ad / h1;
+        if p.check_for_velocity_with_timing_and_jerk(
+            tf,
+            ControlSigns::Uddu,
+            ReachedLimits::None,
+            jf,
+            a_max,
+            a_min,
+            j_max,
+        ) {
+            p.pf = p.p[7];
+            return true;
+        }
+        false
+    }
+
+    fn check_all(&self, p: &mut Profile, a_max: f64, a_min: f64, j_max: f64) -> bool {
+        self.time_acc0(p, a_max, a_min, j_max) || self.time_none(p, a_max, a_min, j_max)
+    }
+}
+
+/// A profile lasting exactly `tf` (s); `p` carries the boundary and receives the profile.
+pub(crate) fn calculate(p: &mut Profile, tf: f64, a_max: f64, a_min: f64, j_max: f64) -> bool {
+    let (a0, af) = (p.a[0], p.af);
+    let s = Step2 { a0, af, tf, vd: p.vf - p.v[0], ad: af - a0 };
+    // The direction of the velocity change first.
+    let up = (a_max, a_min, j_max);
+    let down = (a_min, a_max, -j_max);
+    let (first, second) = if s.vd > 0.0 { (up, down) } else { (down, up) };
+    s.check_all(p, first.0, first.1, first.2) || s.check_all(p, second.0, second.1, second.2)
 }

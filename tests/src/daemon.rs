@@ -174,7 +174,8 @@ impl Collector {
                 .max_nodes(ss::MAX_NODES)
                 .open_or_create()
                 .expect("setpoint service");
-            let sub = service.subscriber_builder().buffer_size(ss::SUBSCRIBER_MAX_BUFFER_SIZE).create().expect("subscriber");
+            let sub =
+                service.subscriber_builder().buffer_size(ss::SUBSCRIBER_MAX_BUFFER_SIZE).create().expect("subscriber");
             ready_tx.send(()).expect("ready");
             while !st2.load(Ordering::SeqCst) {
                 let mut got = Vec::new();

@@ -116,7 +116,12 @@ fn every_example_streams_within_limits_on_the_path_to_its_end() {
         let end = path.end_position();
         let last = sps.last().unwrap();
         for k in 0..path.n_axes {
-            assert!((last.pos[k] - end[k]).abs() < 1e-9, "{name}: axis {k} ends at {} instead of {}", last.pos[k], end[k]);
+            assert!(
+                (last.pos[k] - end[k]).abs() < 1e-9,
+                "{name}: axis {k} ends at {} instead of {}",
+                last.pos[k],
+                end[k]
+            );
         }
         assert!(last.flags & flags::FINISHED != 0, "{name}: last setpoint not flagged finished");
         eprintln!("{name}: {} setpoints, largest distance from the path {:.4} µm", sps.len(), worst * 1e3);

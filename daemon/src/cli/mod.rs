@@ -1,6 +1,8 @@
 //! Subcommands of `interpd`.
 
 mod check;
+mod law;
+mod otg;
 mod plan;
 mod run;
 
@@ -36,6 +38,11 @@ pub enum Command {
     Plan(plan::PlanArgs),
     /// The service: control socket, planner and real-time threads, setpoint sinks.
     Run(run::RunArgs),
+    /// Design a motion law from interpolation conditions (seed 003): degree, VDI 2143
+    /// characteristic values, residuals, coefficients; CSV samples and a plot on request.
+    Law(law::LawArgs),
+    /// One online-trajectory calculation: time-optimal jerk-limited motion from state to state.
+    Otg(otg::OtgArgs),
 }
 
 /// A failed command: bad input (exit 2) or anything else (exit 1).
@@ -91,5 +98,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Check { program, machine } => check::run(&program, machine.as_deref()),
         Command::Plan(args) => plan::run(&args),
         Command::Run(args) => run::run(&args),
+        Command::Law(args) => law::run(&args),
+        Command::Otg(args) => otg::run(&args),
     }
 }

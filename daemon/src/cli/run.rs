@@ -39,7 +39,9 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     if let Some(p) = &args.shm_prefix {
         config.sinks.shm_prefix = p.clone();
         // Validate the override like the file value.
-        let text = format!("[machine]\ncycle_ms = 4.0\n[[axis]]\nname = \"X\"\nkind = \"linear\"\nmax_vel = 1.0\nmax_acc = 1.0\nmax_jerk = 1.0\nmin = -1.0\nmax = 1.0\n[sinks]\nshm_prefix = {p:?}\n");
+        let text = format!(
+            "[machine]\ncycle_ms = 4.0\n[[axis]]\nname = \"X\"\nkind = \"linear\"\nmax_vel = 1.0\nmax_acc = 1.0\nmax_jerk = 1.0\nmin = -1.0\nmax = 1.0\n[sinks]\nshm_prefix = {p:?}\n"
+        );
         Config::from_toml_str(&text, "--shm-prefix").map_err(|e| CliError::BadInput(e.to_string()))?;
     }
     let stall = args.debug_stall_planner.as_deref().map(parse_stall).transpose()?;
@@ -71,7 +73,11 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         config.axes.len(),
         config.machine.cycle_ms,
         socket.display(),
-        if config.sinks.shm && !args.no_shm { format!("iceoryx2 {}/setpoints", config.sinks.shm_prefix) } else { "no sink".into() }
+        if config.sinks.shm && !args.no_shm {
+            format!("iceoryx2 {}/setpoints", config.sinks.shm_prefix)
+        } else {
+            "no sink".into()
+        }
     );
 
     let signal = wait_for_termination_signal();
@@ -136,4 +142,3 @@ fn wait_for_termination_signal() -> &'static str {
         }
     }
 }
-

@@ -78,7 +78,8 @@ impl<'a> CoarseBuilder<'a> {
         let (mut right, mut left) = (AxisDerivs::default(), AxisDerivs::default());
         self.path.eval(st.s_mm, &mut right);
         self.path.eval_left(st.s_mm, &mut left);
-        let mut p = CoarsePoint { t_s, s_mm: st.s_mm, v_mm_s: st.v, a_mm_s2: st.a, line: seg.line, ..Default::default() };
+        let mut p =
+            CoarsePoint { t_s, s_mm: st.s_mm, v_mm_s: st.v, a_mm_s2: st.a, line: seg.line, ..Default::default() };
         for k in 0..self.n_axes {
             p.pos[k] = right.pos[k];
             p.vel[k] = right.d1[k] * st.v;
@@ -105,7 +106,8 @@ impl<'a> CoarseBuilder<'a> {
             let mut k = i + 1;
             let mut dur = segments[i].dt_s;
             let dwell = is_dwell(&segments[i]);
-            while k < segments.len() && !dwell && !is_dwell(&segments[k]) && dur + segments[k].dt_s <= self.max_piece_s {
+            while k < segments.len() && !dwell && !is_dwell(&segments[k]) && dur + segments[k].dt_s <= self.max_piece_s
+            {
                 dur += segments[k].dt_s;
                 k += 1;
             }
@@ -132,7 +134,15 @@ impl<'a> CoarseBuilder<'a> {
     }
 
     /// Bisects `seg` on [τa, τb] until each half fits; pushes the points after the start.
-    fn split_segment(&mut self, seg: &Segment, ta: f64, tb: f64, t_base: f64, depth: usize, out: &mut Vec<CoarsePoint>) {
+    fn split_segment(
+        &mut self,
+        seg: &Segment,
+        ta: f64,
+        tb: f64,
+        t_base: f64,
+        depth: usize,
+        out: &mut Vec<CoarsePoint>,
+    ) {
         let mid = 0.5 * (ta + tb);
         for (a, b) in [(ta, mid), (mid, tb)] {
             let start = *out.last().expect("a start point");
@@ -176,7 +186,12 @@ impl<'a> CoarseBuilder<'a> {
 
     /// Largest deviation at the interior check points of the piece start → end, where
     /// `at(τ)` gives the segment and local time of piece time τ.
-    fn error_between<'s>(&mut self, start: &CoarsePoint, end: &CoarsePoint, at: impl Fn(f64) -> (&'s Segment, f64)) -> f64 {
+    fn error_between<'s>(
+        &mut self,
+        start: &CoarsePoint,
+        end: &CoarsePoint,
+        at: impl Fn(f64) -> (&'s Segment, f64),
+    ) -> f64 {
         let h = end.t_s - start.t_s;
         let mut worst: f64 = 0.0;
         let mut exact = AxisDerivs::default();

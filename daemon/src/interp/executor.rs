@@ -239,7 +239,13 @@ impl Executor {
 
     /// Comes to rest at `end` and gives the chunk back.
     fn stand(&mut self, io: &Io, end: CoarsePoint) {
-        self.rest = CoarsePoint { v_mm_s: 0.0, a_mm_s2: 0.0, vel: [0.0; crate::path::MAX_AXES], acc: [0.0; crate::path::MAX_AXES], ..end };
+        self.rest = CoarsePoint {
+            v_mm_s: 0.0,
+            a_mm_s2: 0.0,
+            vel: [0.0; crate::path::MAX_AXES],
+            acc: [0.0; crate::path::MAX_AXES],
+            ..end
+        };
         self.phase = Phase::Standing;
         self.t_s = 0.0;
         if let Some(chunk) = self.chunk.take() {

@@ -33,7 +33,15 @@ pub fn next_stop_s(path: &Path, s_mm: f64) -> f64 {
 /// The fastest stop from (s, v ≥ 0, a) that keeps every axis limit in `lim` along `path`
 /// and ends before `s_limit_mm`; segments from time 0. Empty at rest; `None` if none of the
 /// tried path limits gives one.
-pub fn brake_along(path: &Path, s_mm: f64, v: f64, a: f64, lim: &Limits, s_limit_mm: f64, line: u32) -> Option<Vec<Segment>> {
+pub fn brake_along(
+    path: &Path,
+    s_mm: f64,
+    v: f64,
+    a: f64,
+    lim: &Limits,
+    s_limit_mm: f64,
+    line: u32,
+) -> Option<Vec<Segment>> {
     if v <= 1e-9 && a.abs() <= 1e-9 {
         return Some(Vec::new());
     }
@@ -86,7 +94,11 @@ fn segments_of(s_mm: f64, v: f64, a: f64, phases: [(f64, f64); 3], line: u32) ->
 fn keeps_limits(path: &Path, segments: &[Segment], lim: &Limits) -> bool {
     let mut d = AxisDerivs::default();
     let mut check = |s: f64, v: f64, a: f64, j: f64, left: bool, d: &mut AxisDerivs| {
-        if left { path.eval_left(s, d) } else { path.eval(s, d) }
+        if left {
+            path.eval_left(s, d)
+        } else {
+            path.eval(s, d)
+        }
         (0..lim.n_axes).all(|k| {
             let vel = d.d1[k] * v;
             let acc = d.d2[k] * v * v + d.d1[k] * a;
@@ -103,7 +115,9 @@ fn keeps_limits(path: &Path, segments: &[Segment], lim: &Limits) -> bool {
         let n = (seg.dt_s / CHECK_STEP_S).ceil().max(1.0) as usize;
         for i in 0..=n {
             let st = seg.at(seg.dt_s * i as f64 / n as f64);
-            if !check(st.s_mm, st.v.max(0.0), st.a, seg.j, false, &mut d) || !check(st.s_mm, st.v.max(0.0), st.a, seg.j, true, &mut d) {
+            if !check(st.s_mm, st.v.max(0.0), st.a, seg.j, false, &mut d)
+                || !check(st.s_mm, st.v.max(0.0), st.a, seg.j, true, &mut d)
+            {
                 return false;
             }
         }
@@ -150,9 +164,20 @@ mod tests {
 
     #[test]
     fn all_cases_end_at_rest() {
-        for &(v, a) in &[(200.0, 0.0), (200.0, 2000.0), (5.0, 0.0), (50.0, -1500.0), (2.0, -400.0), (57.6, -2400.0), (250.0, -2500.0)] {
+        for &(v, a) in &[
+            (200.0, 0.0),
+            (200.0, 2000.0),
+            (5.0, 0.0),
+            (50.0, -1500.0),
+            (2.0, -400.0),
+            (57.6, -2400.0),
+            (250.0, -2500.0),
+        ] {
             let (ve, ae, t) = end_state(v, a, 2500.0, 50_000.0);
-            assert!(ve.abs() < 1e-9 * v.max(1.0) + 1e-9 && ae.abs() < 1e-9, "from ({v}, {a}): ends ({ve}, {ae}) after {t}");
+            assert!(
+                ve.abs() < 1e-9 * v.max(1.0) + 1e-9 && ae.abs() < 1e-9,
+                "from ({v}, {a}): ends ({ve}, {ae}) after {t}"
+            );
         }
     }
 

@@ -5,10 +5,10 @@
 //! and restarts after a hold or an underrun (replanning from rest where the machine stands).
 //! See [`crate::interp`] for the contract with the real-time thread.
 
+use super::brake::{brake_along, next_stop_s};
 use crate::interp::coarse::{CoarseBuilder, CoarsePoint, split};
 use crate::interp::{Chunk, DivertCause};
 use crate::path::{Feed, Path};
-use super::brake::{brake_along, next_stop_s};
 use crate::planner::resume::{STANDSTILL_A_MM_S2, STANDSTILL_V_MM_S};
 use crate::planner::{PlanError, Planner, Segment};
 use crossbeam::channel::{Receiver, Sender};
@@ -35,19 +35,33 @@ const IDLE_WAIT: Duration = Duration::from_millis(2);
 #[derive(Debug, Clone)]
 pub enum FeederCommand {
     /// Plan and queue `path` from its start, at rest, as epoch `epoch`.
-    Start { path: Arc<Path>, epoch: u64, feed_override: f64 },
+    Start {
+        path: Arc<Path>,
+        epoch: u64,
+        feed_override: f64,
+    },
     /// New feed override factor (> 0).
     Override(f64),
     /// The executor left the planned motion (it runs a tail).
-    Diverted { epoch: u64, cause: DivertCause },
+    Diverted {
+        epoch: u64,
+        cause: DivertCause,
+    },
     /// The executor stands at `s_mm` after a tail.
-    Stood { epoch: u64, cause: DivertCause, s_mm: f64 },
+    Stood {
+        epoch: u64,
+        cause: DivertCause,
+        s_mm: f64,
+    },
     /// Continue after a hold.
     Resume,
     /// Abandon the program.
     Abort,
     /// Stall once for `for_s` after `after_s` seconds of motion were queued (underrun tests).
-    DebugStall { after_s: f64, for_s: f64 },
+    DebugStall {
+        after_s: f64,
+        for_s: f64,
+    },
     Shutdown,
 }
 
@@ -69,7 +83,10 @@ pub struct Queues {
 
 impl Queues {
     pub fn new() -> Self {
-        Self { chunks: Arc::new(ArrayQueue::new(QUEUE_CAPACITY)), recycle: Arc::new(ArrayQueue::new(QUEUE_CAPACITY * 2)) }
+        Self {
+            chunks: Arc::new(ArrayQueue::new(QUEUE_CAPACITY)),
+            recycle: Arc::new(ArrayQueue::new(QUEUE_CAPACITY * 2)),
+        }
     }
 }
 
@@ -156,7 +173,16 @@ impl Feeder {
             );
             config.planner.lookahead_mm = bounded;
         }
-        Self { config, chunk_s, queues, pool: Vec::new(), run: None, reports, stall: None, stats: FeederStats::default() }
+        Self {
+            config,
+            chunk_s,
+            queues,
+            pool: Vec::new(),
+            run: None,
+            reports,
+            stall: None,
+            stats: FeederStats::default(),
+        }
     }
 
     /// The thread's loop: commands in, chunks out, until `Shutdown` or the channel closes.
@@ -171,7 +197,8 @@ impl Feeder {
                 self.command(cmd);
                 continue;
             }
-            if commands.is_empty() && matches!(commands.try_recv(), Err(crossbeam::channel::TryRecvError::Disconnected)) {
+            if commands.is_empty() && matches!(commands.try_recv(), Err(crossbeam::channel::TryRecvError::Disconnected))
+            {
                 return self.stats;
             }
             self.reclaim();
@@ -186,7 +213,8 @@ impl Feeder {
         match cmd {
             FeederCommand::Start { path, epoch, feed_override } => {
                 self.abort();
-                let start = CoarsePoint::at_rest(0.0, 0.0, path.elements.first().map_or(0, |e| e.source.line), path.start);
+                let start =
+                    CoarsePoint::at_rest(0.0, 0.0, path.elements.first().map_or(0, |e| e.source.line), path.start);
                 self.run = Some(Run::new(&self.config, path, feed_override, epoch, 0.0, start));
             }
             FeederCommand::Override(factor) => self.set_override(factor),
@@ -508,4 +536,3 @@ pub fn scaled(path: &Path, factor: f64) -> Path {
     }
     p
 }
-

@@ -11,8 +11,8 @@
 //! atomic flags the real-time thread reads (hold, stop) and commands to the planner thread.
 
 pub mod approach;
-pub mod feeder;
 pub mod brake;
+pub mod feeder;
 pub mod live;
 
 use crate::control::{Motion, MotionError, ProgramSource};
@@ -153,7 +153,8 @@ impl MotionService {
             timing: ArrayQueue::new(TIMING_CAPACITY),
             publish_errors: AtomicU64::new(0),
         });
-        let thread_err = |what: &'static str| move |e: std::io::Error| StartError::Thread { what, message: e.to_string() };
+        let thread_err =
+            |what: &'static str| move |e: std::io::Error| StartError::Thread { what, message: e.to_string() };
 
         let feeder = Feeder::new(opts.config.clone(), queues, report_tx);
         let feeder = std::thread::Builder::new()
@@ -482,7 +483,8 @@ impl Motion for MotionCore {
         let Some((_, path)) = ctl.program.clone() else {
             return Err(Inner::not_allowed(ctl.state, "motion.start"));
         };
-        if !matches!(ctl.state, State::Idle | State::Finished) || ctl.state == State::Finished && ctl.program.is_none() {
+        if !matches!(ctl.state, State::Idle | State::Finished) || ctl.state == State::Finished && ctl.program.is_none()
+        {
             return Err(Inner::not_allowed(ctl.state, "motion.start"));
         }
         let here = inner.live.load().pos;

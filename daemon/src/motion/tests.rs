@@ -77,7 +77,9 @@ impl Sim {
         while let Some(n) = self.notices.pop() {
             match n {
                 Notice::Diverted { epoch, cause, .. } => self.feeder.command(FeederCommand::Diverted { epoch, cause }),
-                Notice::Stood { epoch, cause, s_mm, .. } => self.feeder.command(FeederCommand::Stood { epoch, cause, s_mm }),
+                Notice::Stood { epoch, cause, s_mm, .. } => {
+                    self.feeder.command(FeederCommand::Stood { epoch, cause, s_mm })
+                }
                 _ => {}
             }
             self.seen.push(n);
@@ -201,7 +203,13 @@ fn override_changes_apply_within_the_limits() {
     }
     let t = std::time::Instant::now();
     sim.run_to_end(60_000);
-    eprintln!("override sim: {} cycles, {:?}, worst cycle incl. planning {:.1} ms, {:?}", sim.cycle, t.elapsed(), worst_chunk_s * 1e3, sim.feeder.stats);
+    eprintln!(
+        "override sim: {} cycles, {:?}, worst cycle incl. planning {:.1} ms, {:?}",
+        sim.cycle,
+        t.elapsed(),
+        worst_chunk_s * 1e3,
+        sim.feeder.stats
+    );
     let v_at = |c: usize| sim.out[c].v_mm_s;
     eprintln!("v at 140: {:.1}, 290: {:.1}, 580: {:.1}, 900: {:.1}", v_at(140), v_at(290), v_at(580), v_at(900));
     let r = stream_ratios(&config, &sim.out);

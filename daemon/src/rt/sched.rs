@@ -38,7 +38,11 @@ impl fmt::Display for SchedReport {
 
 /// Applies `cfg` to the calling thread (and, for mlockall, the process).
 pub fn apply(cfg: &RtConfig) -> SchedReport {
-    SchedReport { fifo_priority: set_fifo(cfg.priority), memory_locked: lock_memory(cfg.lock_memory), pinned_cpu: pin(cfg.cpu) }
+    SchedReport {
+        fifo_priority: set_fifo(cfg.priority),
+        memory_locked: lock_memory(cfg.lock_memory),
+        pinned_cpu: pin(cfg.cpu),
+    }
 }
 
 fn os_error() -> String {

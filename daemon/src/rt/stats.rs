@@ -54,7 +54,12 @@ impl CycleHistograms {
 
     /// The `status` form.
     pub fn cycle_stats(&self) -> CycleStats {
-        CycleStats { wakeup_us: self.wakeup_us(), compute_us: self.compute_us(), overruns: self.overruns, late: self.late_cycles }
+        CycleStats {
+            wakeup_us: self.wakeup_us(),
+            compute_us: self.compute_us(),
+            overruns: self.overruns,
+            late: self.late_cycles,
+        }
     }
 }
 

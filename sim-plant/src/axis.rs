@@ -13,6 +13,8 @@ use interpd_config::{AxisKind, AxisLetter};
 pub struct AxisOutput {
     /// Commanded (coarse) setpoint position this output answers.
     pub setpoint: f64,
+    /// Commanded velocity of that setpoint, unit/s.
+    pub setpoint_vel: f64,
     /// Motor position as the (quantised) encoder reads it.
     pub motor_pos: f64,
     /// True motor velocity, unit/s.
@@ -166,6 +168,7 @@ impl Axis {
         let ct = self.mech.crosstalk();
         AxisOutput {
             setpoint,
+            setpoint_vel: self.target.vel / s,
             motor_pos,
             motor_vel: self.mech.motor_vel() / s,
             load_pos,

@@ -73,8 +73,10 @@ pub struct Plant {
     apply_crosstalk: bool,
     h_ns: u64,
     h_s: f64,
-    /// Time of the current state, ns.
+    /// Time of the current state, ns (a whole number of servo periods after the last reset).
     t_ns: u64,
+    /// Time of the last target, ns (the state time is within half a servo period of it).
+    t_target_ns: u64,
     /// Time of the first reset (origin of [`Plant::time_s`]), ns.
     origin_ns: u64,
     started: bool,
@@ -125,6 +127,7 @@ impl Plant {
             h_ns,
             h_s,
             t_ns: 0,
+            t_target_ns: 0,
             origin_ns: 0,
             started: false,
             stats: InputStats::default(),
@@ -184,6 +187,7 @@ impl Plant {
             self.origin_ns = t_ns;
         }
         self.t_ns = t_ns;
+        self.t_target_ns = t_ns;
         self.started = true;
         let t_s = self.time_s();
         for (a, &p) in self.axes.iter_mut().zip(positions) {
@@ -208,7 +212,7 @@ impl Plant {
             return self.reset(t_ns, &pos[..targets.len()]);
         }
         let half = self.h_ns / 2;
-        if t_ns + half <= self.t_ns {
+        if t_ns <= self.t_target_ns {
             // Time did not advance: take the new target without motion.
             self.stats.time_anomalies += 1;
             for (a, t) in self.axes.iter_mut().zip(targets) {
@@ -226,6 +230,7 @@ impl Plant {
             }
             return self.reset(t_ns, &pos[..targets.len()]);
         }
+        self.t_target_ns = t_ns;
         let dur_s = gap_ns as f64 * 1e-9;
         for (a, t) in self.axes.iter_mut().zip(targets) {
             a.set_target(t.pos, t.vel, t.acc, dur_s);
@@ -244,12 +249,14 @@ impl Plant {
         Ok(&self.outputs)
     }
 
-    /// [`Plant::advance_to`] `dt_s` after the current state.
-    pub fn advance(&mut self, dt_s: f64, targets: &[AxisTarget]) -> Result<&[AxisOutput], PlantError> {
-        if !(dt_s.is_finite() && dt_s >= 0.0) {
-            return Err(PlantError::Input(format!("bad time step {dt_s}")));
+    /// One setpoint `dt_s` after the previous one: the drives interpolate from the previous
+    /// targets to `targets` (axis units) over `dt_s` and the plant integrates at the servo rate
+    /// (see [`Plant::advance_to`]). Returns the state at the new setpoint's time.
+    pub fn step(&mut self, targets: &[AxisTarget], dt_s: f64) -> Result<&[AxisOutput], PlantError> {
+        if !(dt_s.is_finite() && dt_s > 0.0 && dt_s <= MAX_GAP_S) {
+            return Err(PlantError::Input(format!("time step must lie in (0, {MAX_GAP_S}] s, got {dt_s}")));
         }
-        let t = self.t_ns + (dt_s * 1e9).round() as u64;
+        let t = self.t_target_ns + (dt_s * 1e9).round() as u64;
         self.advance_to(t, targets)
     }
 

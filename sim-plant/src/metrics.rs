@@ -54,13 +54,19 @@ pub fn spectrum(x: &[f64], dt_s: f64) -> Vec<(f64, f64)> {
 }
 
 /// Frequency of the largest spectral peak within [`f_lo`, `f_hi`] Hz, refined by a parabola
-/// through the three bins around it.
+/// through the three bins around it; `None` for an empty band or a zero signal.
 pub fn peak_frequency(spec: &[(f64, f64)], f_lo: f64, f_hi: f64) -> Option<f64> {
-    let (k, _) = spec
+    let (k, (_, amp)) = spec
         .iter()
         .enumerate()
         .filter(|(_, (f, _))| *f >= f_lo && *f <= f_hi)
         .max_by(|a, b| a.1.1.total_cmp(&b.1.1))?;
+    // Only a local maximum is a peak: a spectrum falling from the band edge (a decay, not an
+    // oscillation) has none.
+    let rises_to = |j: usize| spec.get(j).is_none_or(|s| s.1 < *amp);
+    if *amp <= 0.0 || (k > 0 && !rises_to(k - 1)) || !rises_to(k + 1) {
+        return None;
+    }
     if k == 0 || k + 1 >= spec.len() {
         return Some(spec[k].0);
     }
@@ -289,6 +295,11 @@ impl Metrics {
             run.max_force = run.max_force.max(o.motor_force.abs());
             run.saturated += u64::from(o.saturated);
         }
+    }
+
+    /// Records the plant's current outputs at its time ([`crate::Plant::time_s`]).
+    pub fn record_plant(&mut self, plant: &crate::Plant) {
+        self.record(plant.time_s(), plant.outputs());
     }
 
     pub fn axis_names(&self) -> &[AxisLetter] {

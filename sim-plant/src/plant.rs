@@ -10,7 +10,7 @@ use crate::axis::{Axis, AxisOutput};
 use interpd_config::Config;
 use interpd_config::plant::{PlantConfig, PlantModel, ResolvedAxisPlant};
 use interpd_protocol::MAX_AXES;
-use interpd_protocol::shm::{Feedback, PAYLOAD_VERSION, Setpoints};
+use interpd_protocol::shm::{Feedback, PAYLOAD_VERSION, Setpoints, feedback_flags};
 use thiserror::Error;
 
 /// A longer silence than this between two setpoints restarts the plant at the new setpoint
@@ -80,6 +80,8 @@ pub struct Plant {
     /// Time of the first reset (origin of [`Plant::time_s`]), ns.
     origin_ns: u64,
     started: bool,
+    /// The last call placed the plant at rest instead of moving it.
+    was_reset: bool,
     outputs: Vec<AxisOutput>,
     stats: InputStats,
     last_cycle: Option<u64>,
@@ -130,6 +132,7 @@ impl Plant {
             t_target_ns: 0,
             origin_ns: 0,
             started: false,
+            was_reset: false,
             stats: InputStats::default(),
             last_cycle: None,
         })
@@ -189,6 +192,7 @@ impl Plant {
         self.t_ns = t_ns;
         self.t_target_ns = t_ns;
         self.started = true;
+        self.was_reset = true;
         let t_s = self.time_s();
         for (a, &p) in self.axes.iter_mut().zip(positions) {
             a.reset(p, t_s);
@@ -215,6 +219,7 @@ impl Plant {
         if t_ns <= self.t_target_ns {
             // Time did not advance: take the new target without motion.
             self.stats.time_anomalies += 1;
+            self.was_reset = false;
             for (a, t) in self.axes.iter_mut().zip(targets) {
                 a.set_target(t.pos, t.vel, t.acc, 0.0);
             }
@@ -231,6 +236,7 @@ impl Plant {
             return self.reset(t_ns, &pos[..targets.len()]);
         }
         self.t_target_ns = t_ns;
+        self.was_reset = false;
         let dur_s = gap_ns as f64 * 1e-9;
         for (a, t) in self.axes.iter_mut().zip(targets) {
             a.set_target(t.pos, t.vel, t.acc, dur_s);
@@ -309,12 +315,18 @@ impl Plant {
 
     /// Writes the feedback answering `sp` from the current outputs.
     pub fn fill_feedback(&self, sp: &Setpoints, fb: &mut Feedback) {
+        let any = |f: fn(&AxisOutput) -> bool| self.outputs.iter().any(f);
+        let bit = |on: bool, flag: u32| if on { flag } else { 0 };
+        let flags = bit(any(|o| o.saturated), feedback_flags::SATURATED)
+            | bit(any(|o| !o.contact), feedback_flags::GAP_OPEN)
+            | bit(self.was_reset, feedback_flags::RESYNC);
         *fb = Feedback {
             version: PAYLOAD_VERSION,
             n_axes: self.axes.len() as u32,
             cycle: sp.cycle,
             time_ns: self.t_ns,
             setpoint_publish_ns: sp.publish_ns,
+            flags,
             ..Feedback::default()
         };
         for (i, o) in self.outputs.iter().enumerate() {

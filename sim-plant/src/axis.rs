@@ -163,7 +163,8 @@ impl Axis {
         let q = self.drive.params().encoder_step;
         let x_m = self.mech.motor_pos();
         let enc = if q > 0.0 { (x_m / q).round() * q } else { x_m };
-        let motor_pos = enc / s;
+        // + 0.0 turns the −0 of a reading rounded from below zero into 0 (tidier CSV columns).
+        let motor_pos = enc / s + 0.0;
         let load_pos = self.mech.load_pos() / s;
         let ct = self.mech.crosstalk();
         AxisOutput {

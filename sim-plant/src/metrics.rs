@@ -439,16 +439,16 @@ impl fmt::Display for MetricsSummary {
             "axis", "preset", "max|FE|", "rms FE", "max|LE|", "rms LE", "max|F|", "residual", "f_res"
         )?;
         for a in &self.axes {
-            // µm for linear axes, µrad-like mdeg for rotary axes.
-            let (k, unit) = match a.kind {
-                AxisKind::Linear => (1e3, "um"),
-                AxisKind::Rotary => (1e3, "mdeg"),
+            // µm for linear axes, mdeg for rotary axes; force or torque.
+            let (k, unit, force_unit) = match a.kind {
+                AxisKind::Linear => (1e3, "um", "N "),
+                AxisKind::Rotary => (1e3, "mdeg", "Nm"),
             };
             let res = a.residual_amplitude.map_or("-".to_string(), |r| format!("{:.3} {unit}", r * k));
             let fres = a.residual_peak_hz.map_or("-".to_string(), |h| format!("{h:.2} Hz"));
             writeln!(
                 f,
-                "{:<4} {:<17} {:>9.3} {unit:<2} {:>9.3} {unit:<2} {:>9.3} {unit:<2} {:>9.3} {unit:<2} {:>8.1} N {:>12} {:>9}",
+                "{:<4} {:<17} {:>9.3} {unit:<2} {:>9.3} {unit:<2} {:>9.3} {unit:<2} {:>9.3} {unit:<2} {:>8.1} {force_unit} {:>12} {:>9}",
                 a.name.to_string(),
                 a.preset,
                 a.max_following_error * k,

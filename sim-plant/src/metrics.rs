@@ -90,6 +90,11 @@ pub struct SampledPath {
     pub t_s: Vec<f64>,
 }
 
+/// Path searched for the nearest point to each load point, ± s around its instant: the load
+/// lags the setpoint by the position-loop time constant 1/Kv (≤ 0.1 s for Kv ≥ 10/s) plus
+/// vibration, so ±0.5 s covers it while keeping the search linear in the recording length.
+const CONTOUR_WINDOW_S: f64 = 0.5;
+
 /// Sub-chords per Hermite span in the contour search: the sag of a sub-chord is 1/256 of the
 /// span's chord sag.
 const HERMITE_SUBDIVISIONS: usize = 16;
@@ -372,8 +377,7 @@ impl Metrics {
             t_s: self.times(),
         };
         let load: Vec<Vec<f64>> = (0..n).map(|k| pt(k, |s| s.load)).collect();
-        // ±2 s of path around each instant covers any realistic lag.
-        let window = ((2.0 / self.dt().max(1e-6)) as usize).max(4);
+        let window = ((CONTOUR_WINDOW_S / self.dt().max(1e-6)) as usize).max(4);
         contour_errors(&load, &path, window)
     }
 

@@ -21,11 +21,16 @@ use tracing::{debug, warn};
 
 /// Rejected setpoints logged individually; later ones are only counted.
 const LOGGED_REJECTIONS: u64 = 10;
+/// Without a setpoint for this long the node polls at [`IDLE_POLL`] instead of
+/// [`RunOptions::poll`] (an idle plant should not cost a tenth of a core).
+const IDLE_AFTER: Duration = Duration::from_millis(100);
+/// Poll period while idle: delays only the first feedback of a new motion, by at most this.
+const IDLE_POLL: Duration = Duration::from_millis(2);
 
 /// How [`ShmPlant::run`] behaves.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunOptions {
-    /// Sleep between polls of the subscriber.
+    /// Sleep between polls of the subscriber while setpoints arrive (idle: [`IDLE_POLL`]).
     pub poll: Duration,
     /// Stop after the first setpoint flagged FINISHED, once the plant has settled for
     /// `settle_s` more (simulated in-process, holding the last setpoint; not published).
@@ -165,8 +170,10 @@ impl ShmPlant {
         let mut feedback = Feedback::default();
         let mut finished: Option<Setpoints> = None;
         let mut last_interval_ns = 0u64;
+        let mut last_receive: Option<Instant> = None;
         'serve: loop {
-            if self.node.wait(options.poll).is_err() {
+            let active = last_receive.is_some_and(|t| t.elapsed() < IDLE_AFTER);
+            if self.node.wait(if active { options.poll } else { IDLE_POLL.max(options.poll) }).is_err() {
                 break 'serve;
             }
             loop {
@@ -175,6 +182,7 @@ impl ShmPlant {
                     .receive()
                     .map_err(|e| PlantError::Transport(format!("receive on {}: {e:?}", self.setpoints_name)))?;
                 let Some(sample) = sample else { break };
+                last_receive = Some(Instant::now());
                 let sp: Setpoints = *sample;
                 drop(sample);
                 let prev_ns = plant.time_ns();

@@ -88,10 +88,16 @@ fn check_modal(preset: &str, f_hz: f64) {
     let no_backlash = scenario::modal_check(preset, 0.0, false).unwrap();
     println!("T3 {preset} preloaded: {preloaded:?}\nT3 {preset} without backlash: {no_backlash:?}");
     for m in [preloaded, no_backlash] {
-        assert!(rel(m.peak_hz, f_hz) <= T3_TOL, "peak {} Hz, expected {f_hz}", m.peak_hz);
+        let peak = m.peak_hz.expect("the load rings after the move");
+        assert!(rel(peak, f_hz) <= T3_TOL, "peak {peak} Hz, expected {f_hz}");
         // seed 004 Tab. 3.1: free-motion amplitude of the order of ±0.07 mm.
         assert!(m.residual_amplitude > 0.005 && m.residual_amplitude < 0.2, "amplitude {}", m.residual_amplitude);
     }
+    // Why the preload: with the gap open the load drifts inside it after the move and stops on
+    // its friction; it does not ring, so there is no modal peak to find.
+    let open = scenario::modal_check(preset, 0.0, true).unwrap();
+    println!("T3 {preset} with the gap open, no preload: {open:?}");
+    assert!(open.peak_hz.is_none() && open.residual_amplitude < BACKLASH_MM, "{open:?}");
 }
 
 #[test]

@@ -70,6 +70,19 @@ pub struct RunReport {
     pub compute_s: f64,
 }
 
+/// Running figures of [`ShmPlant::run`].
+#[derive(Debug, Default)]
+struct Progress {
+    /// Plant time of the first accepted setpoint, ns.
+    first_ns: Option<u64>,
+    /// Time between the last two accepted setpoints, ns (the settling step).
+    last_interval_ns: u64,
+    compute: Duration,
+    published: u64,
+    /// Reused feedback payload.
+    feedback: Feedback,
+}
+
 /// The iceoryx2 node with its setpoint subscriber and feedback publisher.
 pub struct ShmPlant {
     node: Node<ipc::Service>,
@@ -164,64 +177,28 @@ impl ShmPlant {
         options: &RunOptions,
     ) -> Result<RunReport, PlantError> {
         let start = Instant::now();
-        let mut first_ns = plant.started().then(|| plant.time_ns());
-        let mut compute = Duration::ZERO;
-        let mut published = 0u64;
-        let mut feedback = Feedback::default();
-        let mut finished: Option<Setpoints> = None;
-        let mut last_interval_ns = 0u64;
+        let mut run = Progress { first_ns: plant.started().then(|| plant.time_ns()), ..Progress::default() };
         let mut last_receive: Option<Instant> = None;
-        'serve: loop {
+        let finished = 'serve: loop {
             let active = last_receive.is_some_and(|t| t.elapsed() < IDLE_AFTER);
             if self.node.wait(if active { options.poll } else { IDLE_POLL.max(options.poll) }).is_err() {
-                break 'serve;
+                break 'serve None;
             }
-            loop {
-                let sample = self
-                    .subscriber
-                    .receive()
-                    .map_err(|e| PlantError::Transport(format!("receive on {}: {e:?}", self.setpoints_name)))?;
-                let Some(sample) = sample else { break };
+            while let Some(sp) = self.receive()? {
                 last_receive = Some(Instant::now());
-                let sp: Setpoints = *sample;
-                drop(sample);
-                let prev_ns = plant.time_ns();
-                let was_started = plant.started();
-                let t = Instant::now();
-                let result = plant.step_setpoint(&sp).map(|_| ());
-                compute += t.elapsed();
-                if let Err(e) = result {
-                    let n = plant.stats().rejected();
-                    if n <= LOGGED_REJECTIONS {
-                        warn!(
-                            "setpoint cycle {} rejected: {e}{}",
-                            sp.cycle,
-                            if n == LOGGED_REJECTIONS { " (further rejections only counted)" } else { "" }
-                        );
-                    }
-                    continue;
-                }
-                if was_started && plant.time_ns() > prev_ns {
-                    last_interval_ns = plant.time_ns() - prev_ns;
-                }
-                first_ns.get_or_insert(plant.time_ns());
-                plant.fill_feedback(&sp, &mut feedback);
-                self.publish(&feedback)?;
-                published += 1;
-                if let Some(m) = metrics.as_deref_mut() {
-                    m.record_plant(plant);
-                }
-                if options.exit_on_finish && sp.flags & flags::FINISHED != 0 {
-                    finished = Some(sp);
-                    break 'serve;
+                if self.serve(plant, metrics.as_deref_mut(), &sp, &mut run)?
+                    && options.exit_on_finish
+                    && sp.flags & flags::FINISHED != 0
+                {
+                    break 'serve Some(sp);
                 }
             }
-        }
+        };
         let stop = match finished {
             Some(sp) => {
                 let t = Instant::now();
-                settle(plant, metrics, &sp, last_interval_ns, options.settle_s)?;
-                compute += t.elapsed();
+                settle(plant, metrics, &sp, run.last_interval_ns, options.settle_s)?;
+                run.compute += t.elapsed();
                 StopReason::Finished
             }
             None => StopReason::Signal,
@@ -229,11 +206,53 @@ impl ShmPlant {
         Ok(RunReport {
             stop,
             stats: *plant.stats(),
-            published,
+            published: run.published,
             wall_s: start.elapsed().as_secs_f64(),
-            simulated_s: first_ns.map_or(0.0, |t| plant.time_ns().saturating_sub(t) as f64 * 1e-9),
-            compute_s: compute.as_secs_f64(),
+            simulated_s: run.first_ns.map_or(0.0, |t| plant.time_ns().saturating_sub(t) as f64 * 1e-9),
+            compute_s: run.compute.as_secs_f64(),
         })
+    }
+
+    /// The next setpoint waiting in the subscriber queue.
+    fn receive(&self) -> Result<Option<Setpoints>, PlantError> {
+        let sample = self
+            .subscriber
+            .receive()
+            .map_err(|e| PlantError::Transport(format!("receive on {}: {e:?}", self.setpoints_name)))?;
+        Ok(sample.map(|s| *s))
+    }
+
+    /// Steps the plant to `sp` and publishes the answer; `false` if `sp` was rejected.
+    fn serve(
+        &self,
+        plant: &mut Plant,
+        metrics: Option<&mut Metrics>,
+        sp: &Setpoints,
+        run: &mut Progress,
+    ) -> Result<bool, PlantError> {
+        let (prev_ns, was_started) = (plant.time_ns(), plant.started());
+        let t = Instant::now();
+        let result = plant.step_setpoint(sp).map(|_| ());
+        run.compute += t.elapsed();
+        if let Err(e) = result {
+            let n = plant.stats().rejected();
+            if n <= LOGGED_REJECTIONS {
+                let more = if n == LOGGED_REJECTIONS { " (further rejections only counted)" } else { "" };
+                warn!("setpoint cycle {} rejected: {e}{more}", sp.cycle);
+            }
+            return Ok(false);
+        }
+        if was_started && plant.time_ns() > prev_ns {
+            run.last_interval_ns = plant.time_ns() - prev_ns;
+        }
+        run.first_ns.get_or_insert(plant.time_ns());
+        plant.fill_feedback(sp, &mut run.feedback);
+        self.publish(&run.feedback)?;
+        run.published += 1;
+        if let Some(m) = metrics {
+            m.record_plant(plant);
+        }
+        Ok(true)
     }
 
     fn publish(&self, feedback: &Feedback) -> Result<(), PlantError> {

@@ -7,6 +7,7 @@
 pub mod control;
 pub mod path;
 pub mod planner;
+pub mod prep;
 pub mod program;
 
 pub use interpd_config as config;

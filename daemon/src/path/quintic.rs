@@ -41,11 +41,7 @@ impl QuinticSpan {
             ck[0] = a.pos[k];
             ck[1] = a.d1[k];
             ck[2] = 0.5 * a.d2[k];
-            let r = [
-                b.pos[k] - (ck[0] + ck[1] + ck[2]),
-                b.d1[k] - (ck[1] + 2.0 * ck[2]),
-                b.d2[k] - 2.0 * ck[2],
-            ];
+            let r = [b.pos[k] - (ck[0] + ck[1] + ck[2]), b.d1[k] - (ck[1] + 2.0 * ck[2]), b.d2[k] - 2.0 * ck[2]];
             for (i, row) in END_INV.iter().enumerate() {
                 ck[3 + i] = row[0] * r[0] + row[1] * r[1] + row[2] * r[2];
             }

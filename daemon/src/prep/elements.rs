@@ -17,9 +17,22 @@ pub struct RunElem {
     /// Tangent turn at the vertex before this element (0 for the first of a run), rad.
     pub turn_in_rad: f64,
     pub tol_mm: f64,
+    /// Start and unit direction of a straight element (the common case, measured fast).
+    line: Option<(AxisVec, AxisVec)>,
 }
 
 impl RunElem {
+    /// Distance from `p` to the element over the first `n` axes.
+    pub fn distance(&self, p: &AxisVec, n: usize) -> f64 {
+        match &self.line {
+            Some((a, dir)) => {
+                let along = (0..n).map(|k| (p[k] - a[k]) * dir[k]).sum::<f64>().clamp(0.0, self.len_mm);
+                (0..n).map(|k| (p[k] - a[k] - along * dir[k]).powi(2)).sum::<f64>().sqrt()
+            }
+            None => distance_to(&self.element.geometry, p, n),
+        }
+    }
+
     pub fn s1_mm(&self) -> f64 {
         self.s0_mm + self.len_mm
     }
@@ -34,6 +47,14 @@ impl RunElem {
         self.eval(s_mm, &mut d);
         d.pos
     }
+}
+
+/// Cosine of the angle between two tangents over `n` axes.
+pub fn cos_between(a: &AxisVec, b: &AxisVec, n: usize) -> f64 {
+    let dot: f64 = (0..n).map(|k| a[k] * b[k]).sum();
+    let na = (0..n).map(|k| a[k] * a[k]).sum::<f64>().sqrt();
+    let nb = (0..n).map(|k| b[k] * b[k]).sum::<f64>().sqrt();
+    (dot / (na * nb)).clamp(-1.0, 1.0)
 }
 
 /// Angle between two tangents over `n` axes, rad.
@@ -67,7 +88,14 @@ impl RunElems {
         let t_end = d.d1;
         let turn_in_rad = self.items.back().map_or(0.0, |p| angle_between(&p.t_end, &t_start, self.n_axes));
         let s0_mm = element.s_start_mm;
-        self.items.push_back(RunElem { element, s0_mm, len_mm, t_start, t_end, turn_in_rad, tol_mm });
+        let line = match element.geometry {
+            Geometry::Line(_) => {
+                element.geometry.eval(0.0, &mut d);
+                Some((d.pos, d.d1))
+            }
+            _ => None,
+        };
+        self.items.push_back(RunElem { element, s0_mm, len_mm, t_start, t_end, turn_in_rad, tol_mm, line });
     }
 
     /// One past the last global index.
@@ -114,7 +142,7 @@ impl RunElems {
     /// Distance from `p` to the elements `from..=to` (clamped to those held), over `n` axes.
     pub fn distance(&self, p: &AxisVec, from: usize, to: usize) -> f64 {
         let (from, to) = (from.max(self.base), to.min(self.end() - 1));
-        (from..=to).map(|i| distance_to(&self.get(i).element.geometry, p, self.n_axes)).fold(f64::INFINITY, f64::min)
+        (from..=to).map(|i| self.get(i).distance(p, self.n_axes)).fold(f64::INFINITY, f64::min)
     }
 
     /// The point of elements `from..=to` nearest to `p`: (global s, position).

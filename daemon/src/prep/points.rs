@@ -8,7 +8,7 @@
 //! a point sits on it and the spacing halves towards it down to a few tolerances, so the QP
 //! can place the blend within the band. Every ~`segment_mm` a point closes a window segment.
 
-use super::elements::{RunElems, angle_between};
+use super::elements::{RunElems, cos_between};
 use super::settings::{CORNER_FIRST_STEP_PER_TOL, Settings};
 use crate::path::{AxisDerivs, AxisVec, MAX_AXES};
 
@@ -139,7 +139,7 @@ impl Placer {
                 h = h.min(0.5 * dist);
                 break;
             }
-            if dist <= h && angle_between(&self.tangent, &e.t_start, n) > st.max_turn_rad {
+            if dist <= h && cos_between(&self.tangent, &e.t_start, n) < st.max_turn_rad.cos() {
                 return (e.s0_mm, i, true);
             }
             i += 1;

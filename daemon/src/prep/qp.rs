@@ -67,14 +67,15 @@ pub enum QpFailure {
 /// Iteration cap of one solve; a well-posed window needs 10–30.
 const MAX_ITER: u32 = 200;
 
-/// Triplets in a fixed generation order, and the permutation that sorts them into CSC order.
+/// Entries generated in a fixed order (repeats allowed, they add up) and where each lands in
+/// the CSC storage.
 struct Pattern {
     rows: usize,
     cols: usize,
     colptr: Vec<usize>,
     rowval: Vec<usize>,
-    /// `order[i]` = generation index of the i-th stored entry.
-    order: Vec<usize>,
+    /// `slot[i]` = stored position of the i-th generated entry.
+    slot: Vec<usize>,
 }
 
 impl Pattern {
@@ -82,23 +83,70 @@ impl Pattern {
         let mut order: Vec<usize> = (0..entries.len()).collect();
         order.sort_by_key(|&i| (entries[i].1, entries[i].0));
         let mut colptr = vec![0; cols + 1];
-        for &(_, c) in entries {
-            colptr[c + 1] += 1;
+        let mut rowval = Vec::with_capacity(entries.len());
+        let mut slot = vec![0; entries.len()];
+        let mut last = None;
+        for &i in &order {
+            let (r, c) = entries[i];
+            if last != Some((r, c)) {
+                rowval.push(r);
+                colptr[c + 1] += 1;
+                last = Some((r, c));
+            }
+            slot[i] = rowval.len() - 1;
         }
         for c in 0..cols {
             colptr[c + 1] += colptr[c];
         }
-        let rowval = order.iter().map(|&i| entries[i].0).collect();
-        Self { rows, cols, colptr, rowval, order }
+        Self { rows, cols, colptr, rowval, slot }
     }
 
     fn values(&self, generated: &[f64]) -> Vec<f64> {
-        self.order.iter().map(|&i| generated[i]).collect()
+        let mut v = vec![0.0; self.rowval.len()];
+        for (i, g) in generated.iter().enumerate() {
+            v[self.slot[i]] += g;
+        }
+        v
     }
 
     fn matrix(&self, generated: &[f64]) -> CscMatrix<f64> {
         CscMatrix::new(self.rows, self.cols, self.colptr.clone(), self.rowval.clone(), self.values(generated))
     }
+}
+
+/// ∫₀¹ P‴(t)² dt = cᵀMc for P‴ = 6c₃ + 24c₄t + 60c₅t².
+const JERK_GRAM: [[f64; 3]; 3] = [[36.0, 72.0, 120.0], [72.0, 192.0, 360.0], [120.0, 360.0, 720.0]];
+/// c₃…c₅ of the quintic Hermite piece from its end residuals (as in `path::QuinticSpan`).
+const QUINTIC_END_INV: [[f64; 3]; 3] = [[10.0, -4.0, 0.5], [-15.0, 7.0, -1.0], [6.0, -3.0, 0.5]];
+
+/// The matrix K with ∫ x‴(τ)² dτ = zᵀKz over the quintic piece of length Δ (in τ) between two
+/// points, z = (x₀, x′₀, x″₀, x₁, x′₁, x″₁): what the pieces actually do between the points.
+fn piece_jerk_matrix(delta: f64) -> [[f64; 6]; 6] {
+    let (d, d2) = (delta, delta * delta);
+    // End residuals r = R z with per-t derivatives Δx′ and Δ²x″.
+    let r: [[f64; 6]; 3] =
+        [[-1.0, -d, -0.5 * d2, 1.0, 0.0, 0.0], [0.0, -d, -d2, 0.0, d, 0.0], [0.0, 0.0, -d2, 0.0, 0.0, d2]];
+    let mut er = [[0.0; 6]; 3];
+    for i in 0..3 {
+        for j in 0..6 {
+            er[i][j] = (0..3).map(|l| QUINTIC_END_INV[i][l] * r[l][j]).sum();
+        }
+    }
+    // x‴ in τ is P‴/Δ³ and dτ = Δ dt: the integral carries 1/Δ⁵.
+    let scale = 1.0 / d.powi(5);
+    let mut k = [[0.0; 6]; 6];
+    for a in 0..6 {
+        for b in 0..6 {
+            let mut sum = 0.0;
+            for i in 0..3 {
+                for j in 0..3 {
+                    sum += er[i][a] * JERK_GRAM[i][j] * er[j][b];
+                }
+            }
+            k[a][b] = sum * scale;
+        }
+    }
+    k
 }
 
 /// A reusable solver for one window shape.
@@ -121,11 +169,20 @@ impl WindowQp {
     pub fn new(shape: Shape, time_limit_s: f64) -> Self {
         let (a_entries, _) = a_entries(&shape, &vec![1.0; shape.n_points - 1]);
         let n = shape.n_vars();
-        let p_entries: Vec<(usize, usize)> = (0..n).map(|i| (i, i)).collect();
+        // Diagonal (point weights), then per piece the upper triangle of its jerk matrix.
+        let mut p_entries: Vec<(usize, usize)> = (0..n).map(|i| (i, i)).collect();
+        for j in 0..shape.n_points - 1 {
+            let z = piece_vars(&shape, j);
+            for a in 0..6 {
+                for b in a..6 {
+                    p_entries.push((z[a].min(z[b]), z[a].max(z[b])));
+                }
+            }
+        }
         Self {
             p_pattern: Pattern::new(n, n, &p_entries),
             a_pattern: Pattern::new(shape.n_rows(), n, &a_entries),
-            p_gen: vec![0.0; n],
+            p_gen: vec![0.0; p_entries.len()],
             a_gen: Vec::new(),
             cones: vec![
                 SupportedConeT::ZeroConeT(shape.n_eq()),
@@ -144,9 +201,10 @@ impl WindowQp {
         &self.shape
     }
 
-    /// Sets the spacing Δ_j (in τ) between the points and the objective weights per level
-    /// (already scaled to τ): P = diag(q_j·w_k) with the trapezoid quadrature weight q_j.
-    pub fn load(&mut self, deltas: &[f64], weights: &[f64]) {
+    /// Sets the spacing Δ_j (in τ) between the points and the objective weights (already
+    /// scaled to τ): ½Σ_j q_j Σ_k w_k z_{j,k}² at the points (seed 000 eq. 3.9, with the
+    /// trapezoid quadrature weight q_j), plus ½w_jerk ∫x‴² over the quintic pieces between them.
+    pub fn load(&mut self, deltas: &[f64], weights: &[f64], w_jerk: f64) {
         debug_assert_eq!(deltas.len(), self.shape.n_points - 1);
         let s = self.shape;
         for j in 0..s.n_points {
@@ -154,6 +212,17 @@ impl WindowQp {
             for k in 0..s.levels {
                 self.p_gen[s.var(j, k)] = q * weights[k];
             }
+        }
+        let mut i = s.n_vars();
+        for (j, &d) in deltas.iter().enumerate() {
+            let k = piece_jerk_matrix(d);
+            for a in 0..6 {
+                for b in a..6 {
+                    self.p_gen[i] = w_jerk * k[a][b];
+                    i += 1;
+                }
+            }
+            debug_assert!(j < s.n_points - 1);
         }
         self.a_gen = a_entries(&s, deltas).1;
         self.dirty = true;
@@ -201,6 +270,11 @@ fn settings(time_limit_s: f64) -> DefaultSettings<f64> {
         time_limit: time_limit_s,
         ..DefaultSettings::default()
     }
+}
+
+/// Variables (x, x′, x″) of the two points of piece j.
+fn piece_vars(s: &Shape, j: usize) -> [usize; 6] {
+    [s.var(j, 0), s.var(j, 1), s.var(j, 2), s.var(j + 1, 0), s.var(j + 1, 1), s.var(j + 1, 2)]
 }
 
 /// Trapezoid quadrature weight of point j for spacings `deltas`.
@@ -283,7 +357,7 @@ mod tests {
         // x linear in τ and x′ constant, which the trapezoid coupling reproduces exactly.
         let shape = Shape { n_points: 11, levels: 3, left_fixed: 1, right_fixed: 1 };
         let mut qp = WindowQp::new(shape, f64::INFINITY);
-        qp.load(&[1.0; 10], &[0.0, 1.0, 1.0]);
+        qp.load(&[1.0; 10], &[0.0, 1.0, 1.0], 0.0);
         let bands: Vec<(f64, f64)> = shape.bounded().map(|_| (-100.0, 100.0)).collect();
         let mut b = Vec::new();
         shape.rhs(&Rhs { left: &[0.0], right: &[5.0], bands: &bands }, &mut b);
@@ -301,7 +375,7 @@ mod tests {
         let mut qp = WindowQp::new(shape, f64::INFINITY);
         let mut b = Vec::new();
         for delta in [1.0, 0.5] {
-            qp.load(&[delta; 4], &[0.0, 1e-2, 1e-4, 1e-6]);
+            qp.load(&[delta; 4], &[0.0, 1e-2, 1e-4, 1e-6], 1e-8);
             // Start moving up fast; the band caps the middle points at 0.1.
             let bands = [(-0.1, 0.1); 3];
             shape.rhs(&Rhs { left: &[0.0, 1.0, 0.0, 0.0], right: &[0.0], bands: &bands }, &mut b);
@@ -327,7 +401,7 @@ mod tests {
         let (n, m) = (30, 0.866);
         let shape = Shape { n_points: n, levels: 4, left_fixed: 4, right_fixed: 1 };
         let mut qp = WindowQp::new(shape, f64::INFINITY);
-        qp.load(&vec![1.0; n - 1], &[0.0, 0.0016, 0.04, 1.0]);
+        qp.load(&vec![1.0; n - 1], &[0.0, 0.0016, 0.04, 1.0], 1.0);
         let bands: Vec<(f64, f64)> = shape.bounded().map(|j| (m * j as f64 - 0.0045, m * j as f64 + 0.0045)).collect();
         let mut b = Vec::new();
         shape.rhs(&Rhs { left: &[0.0, m, 0.0, 0.0], right: &[m * (n - 1) as f64], bands: &bands }, &mut b);
@@ -338,13 +412,44 @@ mod tests {
     }
 
     #[test]
+    fn piece_jerk_matrix_is_the_integral_of_the_quintic_third_derivative() {
+        use crate::path::{HermiteEnd, QuinticSpan};
+        let delta = 0.7;
+        let z = [0.3, 1.1, -0.4, 1.2, 0.8, 0.9];
+        let k = piece_jerk_matrix(delta);
+        let quad: f64 = (0..6).map(|a| (0..6).map(|b| z[a] * k[a][b] * z[b]).sum::<f64>()).sum();
+        // The same piece as a path element: P(t) with per-t derivatives, x‴(τ) = P‴(t)/Δ³.
+        let end = |x: f64, v: f64, a: f64| {
+            let mut e = HermiteEnd::default();
+            e.pos[0] = x;
+            e.d1[0] = v * delta;
+            e.d2[0] = a * delta * delta;
+            e.d1[1] = 1.0; // a second axis keeps the piece regular
+            e.pos[1] = 0.0;
+            e
+        };
+        let (a, mut b) = (end(z[0], z[1], z[2]), end(z[3], z[4], z[5]));
+        b.pos[1] = 1.0;
+        let q = QuinticSpan::hermite(&a, &b, &[true, true]).unwrap();
+        let n = 20_000;
+        let h = 1e-3;
+        let third = |t: f64| {
+            let p = |t: f64| q.point_at_t(t)[0];
+            (p(t + 2.0 * h) - 2.0 * p(t + h) + 2.0 * p(t - h) - p(t - 2.0 * h)) / (2.0 * h * h * h)
+        };
+        let integral: f64 =
+            (0..n).map(|i| third((i as f64 + 0.5) / n as f64).powi(2)).sum::<f64>() / n as f64 / delta.powi(5);
+        assert!((integral - quad).abs() < 1e-4 * quad.abs(), "{integral} vs {quad}");
+    }
+
+    #[test]
     fn conflicting_ends_are_infeasible() {
         // Left fixed at 0 with x′ = 0, x″ = 0 on a 2-point chain, right fixed at 1: the
         // trapezoid rows force x′₁ = 2 and x″₁ = 4; with band-free ends that is feasible, so
         // pin x′ at the right as well to make it infeasible.
         let shape = Shape { n_points: 2, levels: 3, left_fixed: 3, right_fixed: 2 };
         let mut qp = WindowQp::new(shape, f64::INFINITY);
-        qp.load(&[1.0], &[0.0, 1.0, 1.0]);
+        qp.load(&[1.0], &[0.0, 1.0, 1.0], 0.0);
         let mut b = Vec::new();
         shape.rhs(&Rhs { left: &[0.0, 0.0, 0.0], right: &[1.0, 0.0], bands: &[] }, &mut b);
         assert!(qp.solve(&[0.0; 6], &b).is_err());

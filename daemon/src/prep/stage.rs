@@ -207,6 +207,14 @@ impl Prep {
         let run = self.run.as_ref().expect("advance checked");
         let ends: Vec<usize> = run.segment_ends().take_while(|&i| i <= last).collect();
         let first_end = ends[0];
+        tracing::debug!(
+            s_mm = run.points[0].s_mm,
+            first_end_mm = run.points[first_end].s_mm,
+            last_mm = run.points[last].s_mm,
+            points = last + 1,
+            is_final,
+            "window"
+        );
         let final_right = match run.end {
             RunEnd::Join(s) => RightEnd::Join(s),
             _ => RightEnd::Position,

@@ -7,9 +7,10 @@
 //! level, then the fixed values at the left and right end. Inequality rows: the band of every
 //! point whose position is not fixed.
 //!
-//! The matrices of one window shape (point count, levels, fixed ends) are built once and
-//! reused: later windows overwrite only their values (the spacing of the points), and the axes
-//! of one window share P and A and differ only in b.
+//! The sparsity patterns of one window shape (point count, levels, fixed ends) are built once
+//! and reused: later windows only refill the values (the spacing of the points), and the axes
+//! of one window share one solver (P, A, its scaling and its symbolic factorisation) and
+//! change only q and b.
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
@@ -64,6 +65,9 @@ pub enum QpFailure {
     Numerical,
 }
 
+/// Pieces shorter than this (in τ, i.e. point spacings) have their jerk energy scaled down by
+/// (Δ/cap)⁵, which bounds it by that of a piece of this length.
+const JERK_CAP_DELTA: f64 = std::f64::consts::FRAC_1_SQRT_2;
 /// Iteration cap of one solve; a well-posed window needs 10–30.
 const MAX_ITER: u32 = 200;
 
@@ -159,8 +163,6 @@ pub struct WindowQp {
     cones: Vec<SupportedConeT<f64>>,
     time_limit_s: f64,
     solver: Option<DefaultSolver<f64>>,
-    /// P or A changed since the solver last saw them.
-    dirty: bool,
     pub solution: Vec<f64>,
     pub iterations: u32,
 }
@@ -190,7 +192,6 @@ impl WindowQp {
             ],
             time_limit_s,
             solver: None,
-            dirty: true,
             shape,
             solution: vec![0.0; n],
             iterations: 0,
@@ -216,16 +217,22 @@ impl WindowQp {
         let mut i = s.n_vars();
         for (j, &d) in deltas.iter().enumerate() {
             let k = piece_jerk_matrix(d);
+            // The energy of a piece grows like 1/Δ⁵; on the short pieces at corners (where the
+            // jerk is needed anyway) it is capped so the problem stays well conditioned.
+            let w = w_jerk * (d / JERK_CAP_DELTA).min(1.0).powi(5);
             for a in 0..6 {
                 for b in a..6 {
-                    self.p_gen[i] = w_jerk * k[a][b];
+                    self.p_gen[i] = w * k[a][b];
                     i += 1;
                 }
             }
             debug_assert!(j < s.n_points - 1);
         }
         self.a_gen = a_entries(&s, deltas).1;
-        self.dirty = true;
+        // A new window gets a new solver: its equilibration is computed for these values (a
+        // window through a corner scales nothing like one on a straight line). The axes of the
+        // window share it and change only q and b.
+        self.solver = None;
     }
 
     /// Solves with linear term `q` and right-hand side `b`; the solution is in `self.solution`.
@@ -236,14 +243,8 @@ impl WindowQp {
             let solver = DefaultSolver::new(&p, q, &a, b, &self.cones, settings(self.time_limit_s))
                 .map_err(|_| QpFailure::Numerical)?;
             self.solver = Some(solver);
-            self.dirty = false;
         }
         let solver = self.solver.as_mut().expect("created above");
-        if self.dirty {
-            solver.update_P(&self.p_pattern.values(&self.p_gen)).map_err(|_| QpFailure::Numerical)?;
-            solver.update_A(&self.a_pattern.values(&self.a_gen)).map_err(|_| QpFailure::Numerical)?;
-            self.dirty = false;
-        }
         solver.update_q(&q.to_vec()).map_err(|_| QpFailure::Numerical)?;
         solver.update_b(&b.to_vec()).map_err(|_| QpFailure::Numerical)?;
         solver.solve();

@@ -188,10 +188,14 @@ impl Prep {
                 }
                 last_end = i;
             }
+            if run.points.len() <= 1 {
+                return Ok(());
+            }
             let at_end = run.reached_end();
             if at_end && count >= 1 && count <= w {
+                // The run's last windows: solved to its end (a fallback may commit less).
                 self.commit_window(last_end, true)?;
-                return Ok(());
+                continue;
             }
             if count >= w && w_end > 0 {
                 self.commit_window(w_end, false)?;

@@ -3,9 +3,9 @@
 //! G64 against exact stops (G61) on the dense CAM program and the staircase.
 //!
 //! ```sh
-//! cargo bench -p interpd --bench prep_smoothing                       # the full dense program
-//! PREP_BENCH_SEGMENTS=5000 cargo bench -p interpd --bench prep_smoothing   # its first 5000 segments
-//! PREP_BENCH_MACHINE=my.toml cargo bench -p interpd --bench prep_smoothing  # other limits or [prep] keys
+//! cargo bench -p interpd --bench prep_throughput                       # the full dense program
+//! PREP_BENCH_SEGMENTS=5000 cargo bench -p interpd --bench prep_throughput   # its first 5000 segments
+//! PREP_BENCH_MACHINE=my.toml cargo bench -p interpd --bench prep_throughput  # other limits or [prep] keys
 //! ```
 
 use interpd::config::Config;

@@ -4,7 +4,10 @@
 //! z holds, per point j, the position and its derivatives z_{j,0} … z_{j,r} with respect to the
 //! normalised path parameter τ = s / h (h = `prep.point_spacing_mm`, so the entries are of
 //! order one). Equality rows: the trapezoid coupling between neighbouring points at every
-//! level, then the fixed values at the left and right end. Inequality rows: the band of every
+//! level, with its Euler–Maclaurin end correction where the level two above exists (plain
+//! trapezoid data are consistent with a smooth curve only to O(Δ³), and the quintic pieces
+//! turn that error into a sawtooth in A‴ that the planner must crawl through), then the fixed
+//! values at the left and right end. Inequality rows: the band of every
 //! point whose position is not fixed.
 //!
 //! The sparsity patterns of one window shape (point count, levels, fixed ends) are built once
@@ -67,7 +70,7 @@ pub enum QpFailure {
 
 /// Pieces shorter than this (in τ, i.e. point spacings) have their jerk energy scaled down by
 /// (Δ/cap)⁵, which bounds it by that of a piece of this length.
-const JERK_CAP_DELTA: f64 = std::f64::consts::FRAC_1_SQRT_2;
+const JERK_CAP_DELTA: f64 = 0.2;
 /// Iteration cap of one solve; a well-posed window needs 10–30.
 const MAX_ITER: u32 = 200;
 
@@ -303,6 +306,14 @@ fn a_entries(s: &Shape, deltas: &[f64]) -> (Vec<(usize, usize)>, Vec<f64>) {
                 (row, s.var(j + 1, k + 1)),
             ]);
             val.extend([1.0, -1.0, -half, -half]);
+            if k + 2 <= r {
+                // Euler–Maclaurin end correction of the trapezoid rule, + (Δ²/12)(z_{j+1,k+2} −
+                // z_{j,k+2}): the rule becomes exact for quartic z and the points' data
+                // consistent with a smooth curve to O(Δ⁵) instead of O(Δ³).
+                let c = deltas[j] * deltas[j] / 12.0;
+                idx.extend([(row, s.var(j + 1, k + 2)), (row, s.var(j, k + 2))]);
+                val.extend([c, -c]);
+            }
         }
     }
     let mut row = s.n_trapezoid();
@@ -355,7 +366,8 @@ mod tests {
     #[test]
     fn unconstrained_chain_is_a_straight_ramp() {
         // 11 points, position fixed at both ends, wide bands: minimising Σ x′² (+ x″²) gives
-        // x linear in τ and x′ constant, which the trapezoid coupling reproduces exactly.
+        // x linear in τ and x′ nearly constant (the end correction lets the free x″ at the
+        // ends shave the mean of x′ a little).
         let shape = Shape { n_points: 11, levels: 3, left_fixed: 1, right_fixed: 1 };
         let mut qp = WindowQp::new(shape, f64::INFINITY);
         qp.load(&[1.0; 10], &[0.0, 1.0, 1.0], 0.0);
@@ -366,7 +378,7 @@ mod tests {
         for j in 0..11 {
             let x = qp.solution[j * 3];
             assert!((x - 0.5 * j as f64).abs() < 1e-6, "x_{j} = {x}");
-            assert!((qp.solution[j * 3 + 1] - 0.5).abs() < 1e-6);
+            assert!((qp.solution[j * 3 + 1] - 0.5).abs() < 2e-2, "x′_{j} = {}", qp.solution[j * 3 + 1]);
         }
     }
 
@@ -389,7 +401,10 @@ mod tests {
             for j in 0..4 {
                 for k in 0..3 {
                     let z = |jj: usize, kk: usize| qp.solution[jj * 4 + kk];
-                    let res = z(j + 1, k) - z(j, k) - 0.5 * delta * (z(j, k + 1) + z(j + 1, k + 1));
+                    let mut res = z(j + 1, k) - z(j, k) - 0.5 * delta * (z(j, k + 1) + z(j + 1, k + 1));
+                    if k + 2 < 4 {
+                        res += delta * delta / 12.0 * (z(j + 1, k + 2) - z(j, k + 2));
+                    }
                     assert!(res.abs() < 1e-7, "residual {res}");
                 }
             }
@@ -408,7 +423,10 @@ mod tests {
         shape.rhs(&Rhs { left: &[0.0, m, 0.0, 0.0], right: &[m * (n - 1) as f64], bands: &bands }, &mut b);
         qp.solve(&vec![0.0; shape.n_vars()], &b).unwrap();
         for j in 0..n {
-            assert!((qp.solution[j * 4] - m * j as f64).abs() < 1e-7 && (qp.solution[j * 4 + 1] - m).abs() < 1e-7);
+            // The free end lets x′ relax a little (its weight favours a slower parameter speed),
+            // within the band.
+            let x = qp.solution[j * 4];
+            assert!((x - m * j as f64).abs() <= 0.0045 + 1e-9 && (qp.solution[j * 4 + 1] - m).abs() < 2e-3, "{j}: {x}");
         }
     }
 

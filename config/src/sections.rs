@@ -94,11 +94,9 @@ pub struct PrepConfig {
     /// Derivatives per point the QP carries and makes continuous between windows: 2 (x, x′, x″)
     /// or 3 (x … x‴). The pieces are quintic, C² either way.
     pub continuity_degree: u32,
-    /// Weights of x, x′, x″, x‴ in the QP objective (seed 000 §3.3, variant 1), with the
-    /// derivatives taken with respect to s / `weight_length_mm`. x′ and x″ (and x‴ at degree 3)
-    /// are weighted at the points; the x‴ weight also weights ∫x‴² over the quintic pieces
-    /// between them, at both degrees. A position weight pulls the points towards the
-    /// programmed path.
+    /// Weights of x, x′, x″, x‴ in the QP objective (seed 000 §3.3, variant 1; x‴ unused at
+    /// degree 2), with the derivatives taken with respect to s / `weight_length_mm`. A position
+    /// weight pulls the points towards the programmed path.
     pub weights: [f64; 4],
     /// Length that normalises the path parameter for the weights, mm (the thesis normalised s
     /// over the optimised piece; the default is one window).

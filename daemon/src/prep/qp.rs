@@ -68,9 +68,8 @@ pub enum QpFailure {
     Numerical,
 }
 
-/// Pieces shorter than this (in τ, i.e. point spacings) have their jerk energy scaled down by
-/// (Δ/cap)⁵, which bounds it by that of a piece of this length.
-const JERK_CAP_DELTA: f64 = 0.2;
+/// Gap and feasibility tolerance of the solver.
+const SOLVER_TOL: f64 = 1e-7;
 /// Iteration cap of one solve; a well-posed window needs 10–30.
 const MAX_ITER: u32 = 200;
 
@@ -121,41 +120,6 @@ impl Pattern {
     }
 }
 
-/// ∫₀¹ P‴(t)² dt = cᵀMc for P‴ = 6c₃ + 24c₄t + 60c₅t².
-const JERK_GRAM: [[f64; 3]; 3] = [[36.0, 72.0, 120.0], [72.0, 192.0, 360.0], [120.0, 360.0, 720.0]];
-/// c₃…c₅ of the quintic Hermite piece from its end residuals (as in `path::QuinticSpan`).
-const QUINTIC_END_INV: [[f64; 3]; 3] = [[10.0, -4.0, 0.5], [-15.0, 7.0, -1.0], [6.0, -3.0, 0.5]];
-
-/// The matrix K with ∫ x‴(τ)² dτ = zᵀKz over the quintic piece of length Δ (in τ) between two
-/// points, z = (x₀, x′₀, x″₀, x₁, x′₁, x″₁): what the pieces actually do between the points.
-fn piece_jerk_matrix(delta: f64) -> [[f64; 6]; 6] {
-    let (d, d2) = (delta, delta * delta);
-    // End residuals r = R z with per-t derivatives Δx′ and Δ²x″.
-    let r: [[f64; 6]; 3] =
-        [[-1.0, -d, -0.5 * d2, 1.0, 0.0, 0.0], [0.0, -d, -d2, 0.0, d, 0.0], [0.0, 0.0, -d2, 0.0, 0.0, d2]];
-    let mut er = [[0.0; 6]; 3];
-    for i in 0..3 {
-        for j in 0..6 {
-            er[i][j] = (0..3).map(|l| QUINTIC_END_INV[i][l] * r[l][j]).sum();
-        }
-    }
-    // x‴ in τ is P‴/Δ³ and dτ = Δ dt: the integral carries 1/Δ⁵.
-    let scale = 1.0 / d.powi(5);
-    let mut k = [[0.0; 6]; 6];
-    for a in 0..6 {
-        for b in 0..6 {
-            let mut sum = 0.0;
-            for i in 0..3 {
-                for j in 0..3 {
-                    sum += er[i][a] * JERK_GRAM[i][j] * er[j][b];
-                }
-            }
-            k[a][b] = sum * scale;
-        }
-    }
-    k
-}
-
 /// A reusable solver for one window shape.
 pub struct WindowQp {
     shape: Shape,
@@ -174,16 +138,7 @@ impl WindowQp {
     pub fn new(shape: Shape, time_limit_s: f64) -> Self {
         let (a_entries, _) = a_entries(&shape, &vec![1.0; shape.n_points - 1]);
         let n = shape.n_vars();
-        // Diagonal (point weights), then per piece the upper triangle of its jerk matrix.
-        let mut p_entries: Vec<(usize, usize)> = (0..n).map(|i| (i, i)).collect();
-        for j in 0..shape.n_points - 1 {
-            let z = piece_vars(&shape, j);
-            for a in 0..6 {
-                for b in a..6 {
-                    p_entries.push((z[a].min(z[b]), z[a].max(z[b])));
-                }
-            }
-        }
+        let p_entries: Vec<(usize, usize)> = (0..n).map(|i| (i, i)).collect();
         Self {
             p_pattern: Pattern::new(n, n, &p_entries),
             a_pattern: Pattern::new(shape.n_rows(), n, &a_entries),
@@ -205,10 +160,10 @@ impl WindowQp {
         &self.shape
     }
 
-    /// Sets the spacing Δ_j (in τ) between the points and the objective weights (already
-    /// scaled to τ): ½Σ_j q_j Σ_k w_k z_{j,k}² at the points (seed 000 eq. 3.9, with the
-    /// trapezoid quadrature weight q_j), plus ½w_jerk ∫x‴² over the quintic pieces between them.
-    pub fn load(&mut self, deltas: &[f64], weights: &[f64], w_jerk: f64) {
+    /// Sets the spacing Δ_j (in τ) between the points and the objective weights per level
+    /// (already scaled to τ): P = diag(q_j·w_k) with the trapezoid quadrature weight q_j
+    /// (seed 000 eq. 3.9: H = blockdiag(diag(w_x, w_x′, …))).
+    pub fn load(&mut self, deltas: &[f64], weights: &[f64]) {
         debug_assert_eq!(deltas.len(), self.shape.n_points - 1);
         let s = self.shape;
         for j in 0..s.n_points {
@@ -216,20 +171,6 @@ impl WindowQp {
             for k in 0..s.levels {
                 self.p_gen[s.var(j, k)] = q * weights[k];
             }
-        }
-        let mut i = s.n_vars();
-        for (j, &d) in deltas.iter().enumerate() {
-            let k = piece_jerk_matrix(d);
-            // The energy of a piece grows like 1/Δ⁵; on the short pieces at corners (where the
-            // jerk is needed anyway) it is capped so the problem stays well conditioned.
-            let w = w_jerk * (d / JERK_CAP_DELTA).min(1.0).powi(5);
-            for a in 0..6 {
-                for b in a..6 {
-                    self.p_gen[i] = w * k[a][b];
-                    i += 1;
-                }
-            }
-            debug_assert!(j < s.n_points - 1);
         }
         self.a_gen = a_entries(&s, deltas).1;
         // A new window gets a new solver: its equilibration is computed for these values (a
@@ -272,13 +213,15 @@ fn settings(time_limit_s: f64) -> DefaultSettings<f64> {
         input_sparse_dropzeros: false,
         max_iter: MAX_ITER,
         time_limit: time_limit_s,
+        // Positions to ~1e-7 of the window's scale are far inside the micrometre budget; each
+        // further digit costs IPM iterations, and refinement steps cost back-solves (the check
+        // after the solve catches a solution that is off).
+        tol_gap_abs: SOLVER_TOL,
+        tol_gap_rel: SOLVER_TOL,
+        tol_feas: SOLVER_TOL,
+        iterative_refinement_enable: false,
         ..DefaultSettings::default()
     }
-}
-
-/// Variables (x, x′, x″) of the two points of piece j.
-fn piece_vars(s: &Shape, j: usize) -> [usize; 6] {
-    [s.var(j, 0), s.var(j, 1), s.var(j, 2), s.var(j + 1, 0), s.var(j + 1, 1), s.var(j + 1, 2)]
 }
 
 /// Trapezoid quadrature weight of point j for spacings `deltas`.
@@ -370,7 +313,7 @@ mod tests {
         // ends shave the mean of x′ a little).
         let shape = Shape { n_points: 11, levels: 3, left_fixed: 1, right_fixed: 1 };
         let mut qp = WindowQp::new(shape, f64::INFINITY);
-        qp.load(&[1.0; 10], &[0.0, 1.0, 1.0], 0.0);
+        qp.load(&[1.0; 10], &[0.0, 1.0, 1.0]);
         let bands: Vec<(f64, f64)> = shape.bounded().map(|_| (-100.0, 100.0)).collect();
         let mut b = Vec::new();
         shape.rhs(&Rhs { left: &[0.0], right: &[5.0], bands: &bands }, &mut b);
@@ -388,7 +331,7 @@ mod tests {
         let mut qp = WindowQp::new(shape, f64::INFINITY);
         let mut b = Vec::new();
         for delta in [1.0, 0.5] {
-            qp.load(&[delta; 4], &[0.0, 1e-2, 1e-4, 1e-6], 1e-8);
+            qp.load(&[delta; 4], &[0.0, 1e-2, 1e-4, 1e-6]);
             // Start moving up fast; the band caps the middle points at 0.1.
             let bands = [(-0.1, 0.1); 3];
             shape.rhs(&Rhs { left: &[0.0, 1.0, 0.0, 0.0], right: &[0.0], bands: &bands }, &mut b);
@@ -417,7 +360,7 @@ mod tests {
         let (n, m) = (30, 0.866);
         let shape = Shape { n_points: n, levels: 4, left_fixed: 4, right_fixed: 1 };
         let mut qp = WindowQp::new(shape, f64::INFINITY);
-        qp.load(&vec![1.0; n - 1], &[0.0, 0.0016, 0.04, 1.0], 1.0);
+        qp.load(&vec![1.0; n - 1], &[0.0, 0.0016, 0.04, 1.0]);
         let bands: Vec<(f64, f64)> = shape.bounded().map(|j| (m * j as f64 - 0.0045, m * j as f64 + 0.0045)).collect();
         let mut b = Vec::new();
         shape.rhs(&Rhs { left: &[0.0, m, 0.0, 0.0], right: &[m * (n - 1) as f64], bands: &bands }, &mut b);
@@ -431,44 +374,13 @@ mod tests {
     }
 
     #[test]
-    fn piece_jerk_matrix_is_the_integral_of_the_quintic_third_derivative() {
-        use crate::path::{HermiteEnd, QuinticSpan};
-        let delta = 0.7;
-        let z = [0.3, 1.1, -0.4, 1.2, 0.8, 0.9];
-        let k = piece_jerk_matrix(delta);
-        let quad: f64 = (0..6).map(|a| (0..6).map(|b| z[a] * k[a][b] * z[b]).sum::<f64>()).sum();
-        // The same piece as a path element: P(t) with per-t derivatives, x‴(τ) = P‴(t)/Δ³.
-        let end = |x: f64, v: f64, a: f64| {
-            let mut e = HermiteEnd::default();
-            e.pos[0] = x;
-            e.d1[0] = v * delta;
-            e.d2[0] = a * delta * delta;
-            e.d1[1] = 1.0; // a second axis keeps the piece regular
-            e.pos[1] = 0.0;
-            e
-        };
-        let (a, mut b) = (end(z[0], z[1], z[2]), end(z[3], z[4], z[5]));
-        b.pos[1] = 1.0;
-        let q = QuinticSpan::hermite(&a, &b, &[true, true]).unwrap();
-        let n = 20_000;
-        let h = 1e-3;
-        let third = |t: f64| {
-            let p = |t: f64| q.point_at_t(t)[0];
-            (p(t + 2.0 * h) - 2.0 * p(t + h) + 2.0 * p(t - h) - p(t - 2.0 * h)) / (2.0 * h * h * h)
-        };
-        let integral: f64 =
-            (0..n).map(|i| third((i as f64 + 0.5) / n as f64).powi(2)).sum::<f64>() / n as f64 / delta.powi(5);
-        assert!((integral - quad).abs() < 1e-4 * quad.abs(), "{integral} vs {quad}");
-    }
-
-    #[test]
     fn conflicting_ends_are_infeasible() {
         // Left fixed at 0 with x′ = 0, x″ = 0 on a 2-point chain, right fixed at 1: the
         // trapezoid rows force x′₁ = 2 and x″₁ = 4; with band-free ends that is feasible, so
         // pin x′ at the right as well to make it infeasible.
         let shape = Shape { n_points: 2, levels: 3, left_fixed: 3, right_fixed: 2 };
         let mut qp = WindowQp::new(shape, f64::INFINITY);
-        qp.load(&[1.0], &[0.0, 1.0, 1.0], 0.0);
+        qp.load(&[1.0], &[0.0, 1.0, 1.0]);
         let mut b = Vec::new();
         shape.rhs(&Rhs { left: &[0.0, 0.0, 0.0], right: &[1.0, 0.0], bands: &[] }, &mut b);
         assert!(qp.solve(&[0.0; 6], &b).is_err());

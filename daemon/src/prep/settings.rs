@@ -14,8 +14,6 @@ pub struct Settings {
     /// Objective weights per level for derivatives in τ = s / point_spacing_mm, normalised to
     /// a largest weight of 1.
     pub weights_tau: Vec<f64>,
-    /// Weight of ∫x‴² over the quintic pieces (the x‴ weight), same scale.
-    pub weight_jerk_tau: f64,
     pub segment_mm: f64,
     pub window_segments: usize,
     pub spacing_mm: f64,
@@ -34,14 +32,12 @@ impl Settings {
         let levels = p.continuity_degree as usize + 1;
         // A derivative of order k in σ = s/L is (L/h)^k times the one in τ = s/h.
         let ratio = p.weight_length_mm / p.point_spacing_mm;
-        let raw: Vec<f64> = (0..4).map(|k| p.weights[k] * ratio.powi(2 * k as i32)).collect();
-        let max = raw[..levels].iter().copied().fold(raw[3], f64::max);
-        let weights_tau: Vec<f64> = raw[..levels].iter().map(|w| w / max).collect();
-        let weight_jerk_tau = raw[3] / max;
+        let mut weights_tau: Vec<f64> = (0..levels).map(|k| p.weights[k] * ratio.powi(2 * k as i32)).collect();
+        let max = weights_tau.iter().copied().fold(0.0, f64::max);
+        weights_tau.iter_mut().for_each(|w| *w /= max);
         Self {
             levels,
             weights_tau,
-            weight_jerk_tau,
             segment_mm: p.segment_mm,
             window_segments: p.window_segments,
             spacing_mm: p.point_spacing_mm,

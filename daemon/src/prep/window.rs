@@ -75,7 +75,7 @@ impl Solvers {
         let qp = self.by_shape.entry(shape).or_insert_with(|| WindowQp::new(shape, time_limit));
         self.deltas.clear();
         self.deltas.extend(pts.windows(2).map(|p| (p[1].s_mm - p[0].s_mm) / st.spacing_mm));
-        qp.load(&self.deltas, &st.weights_tau, st.weight_jerk_tau);
+        qp.load(&self.deltas, &st.weights_tau);
 
         let active = active_axes(st, w);
         let origin = pts[0].pos;

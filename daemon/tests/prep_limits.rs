@@ -34,19 +34,25 @@ fn with_mode(text: &str, word: &str, max_moves: usize) -> String {
 }
 
 /// Runs `interpd plan` on `text`; returns the CSV rows (if `period_ms`) and the JSON summary.
-fn plan(tag: &str, text: &str, period_ms: Option<f64>) -> (Vec<Vec<f64>>, serde_json::Value) {
+fn plan(tag: &str, text: &str, period_ms: Option<f64>, machine: Option<&str>) -> (Vec<Vec<f64>>, serde_json::Value) {
     let dir = std::env::temp_dir();
     let prog = dir.join(format!("interpd-prep-{}-{tag}.ngc", std::process::id()));
     let csv = dir.join(format!("interpd-prep-{}-{tag}.csv", std::process::id()));
     std::fs::write(&prog, text).expect("write program");
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_interpd"));
     cmd.arg("plan").arg(&prog).arg("--json");
+    let machine_file = dir.join(format!("interpd-prep-{}-{tag}.toml", std::process::id()));
+    if let Some(m) = machine {
+        std::fs::write(&machine_file, m).expect("write machine");
+        cmd.arg("--machine").arg(&machine_file);
+    }
 
     if let Some(p) = period_ms {
         cmd.arg("--period-ms").arg(p.to_string()).arg("--out").arg(&csv);
     }
     let out = cmd.output().expect("run interpd plan");
     std::fs::remove_file(&prog).ok();
+    std::fs::remove_file(&machine_file).ok();
     assert!(out.status.success(), "{tag}: {}", String::from_utf8_lossy(&out.stderr));
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
     let rows = if period_ms.is_some() {
@@ -80,7 +86,9 @@ fn fd_ratios(rows: &[Vec<f64>], cfg: &Config) -> [f64; 3] {
 fn check_limits(name: &str, tol: &str) -> [f64; 3] {
     let cfg = Config::default_machine();
     let text = with_mode(&repo_file(&format!("examples/{name}.ngc")), &format!("G64 P{tol}"), usize::MAX);
-    let (rows, json) = plan(&format!("{name}-{tol}"), &text, Some(0.25));
+    // Smooth every corner of the shapes (the default leaves turns above 90° exact).
+    let machine = format!("{}\n[prep]\nmax_corner_deg = 170.0\n", interpd::config::DEFAULT_MACHINE_TOML);
+    let (rows, json) = plan(&format!("{name}-{tol}"), &text, Some(0.25), Some(&machine));
     let r = fd_ratios(&rows, &cfg);
     eprintln!(
         "{name:>14} P{tol}: {:.4} s; finite differences vel {:.4} acc {:.4} jerk {:.4}; planner's report {}",
@@ -109,8 +117,8 @@ fn smoothed_shapes_keep_the_axis_limits() {
 fn dense_slice_is_5x_faster_smoothed_and_keeps_the_limits() {
     let cfg = Config::default_machine();
     let dense = repo_file("examples/dense_freeform.ngc");
-    let (rows, smooth) = plan("dense-g64", &with_mode(&dense, "G64 P0.01", 5000), Some(0.25));
-    let (_, exact) = plan("dense-g61", &with_mode(&dense, "G61", 5000), None);
+    let (rows, smooth) = plan("dense-g64", &with_mode(&dense, "G64 P0.01", 5000), Some(0.25), None);
+    let (_, exact) = plan("dense-g61", &with_mode(&dense, "G61", 5000), None, None);
     let (t_s, t_e) = (smooth["duration_s"].as_f64().unwrap(), exact["duration_s"].as_f64().unwrap());
     let [v, a, j] = fd_ratios(&rows, &cfg);
     eprintln!(

@@ -8,6 +8,7 @@ pub mod control;
 pub mod law;
 pub mod path;
 pub mod planner;
+pub mod prep;
 pub mod program;
 
 pub use interpd_config as config;

@@ -67,7 +67,9 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
         None => config.cycle_s(),
     };
     let program = program::load(&args.program, &config)?;
-    let path = &program.path;
+    // G64 runs are smoothed within their tolerance before planning (seed 000).
+    let prepared = interpd::prep::prepare_path(&config, &program.path).map_err(|e| CliError::Failure(e.to_string()))?;
+    let path = &prepared.path;
     if path.elements.is_empty() {
         return Err(CliError::BadInput(format!("{}: the program has no motion", args.program.display())));
     }
@@ -185,6 +187,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             },
             "lookahead_mm": config.planner.lookahead_mm,
             "plant": plant.as_ref().map(PlantRun::json),
+            "prep": { "wall_ms": prepared.wall_s * 1e3, "stats": prepared.stats },
         });
         writeln!(stdout, "{json}").map_err(write_err)?;
     } else {

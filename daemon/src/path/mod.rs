@@ -8,12 +8,14 @@ mod arc;
 pub mod arclength;
 mod cubic;
 mod line;
+mod quintic;
 mod septic;
 pub mod spline;
 
 pub use arc::Helix;
 pub use cubic::{CubicSpan, MIN_CURVATURE_RADIUS_MM, SpanError};
 pub use line::Line;
+pub use quintic::{HermiteEnd, QuinticSpan};
 pub use septic::SepticSpan;
 
 pub use interpd_config::MAX_AXES;
@@ -37,6 +39,8 @@ pub enum Geometry {
     Helix(Helix),
     Cubic(Box<CubicSpan>),
     Septic(Box<SepticSpan>),
+    /// A smoothed piece from the tolerance-band preparation (seed 000).
+    Quintic(Box<QuinticSpan>),
 }
 
 impl Geometry {
@@ -47,6 +51,7 @@ impl Geometry {
             Geometry::Helix(g) => g.length_mm(),
             Geometry::Cubic(g) => g.length_mm(),
             Geometry::Septic(g) => g.length_mm(),
+            Geometry::Quintic(g) => g.length_mm(),
         }
     }
 
@@ -58,6 +63,7 @@ impl Geometry {
             Geometry::Helix(g) => g.eval(s, out),
             Geometry::Cubic(g) => g.eval(s, out),
             Geometry::Septic(g) => g.eval(s, out),
+            Geometry::Quintic(g) => g.eval(s, out),
         }
     }
 
@@ -68,6 +74,7 @@ impl Geometry {
             Geometry::Helix(_) => "arc",
             Geometry::Cubic(_) => "spline",
             Geometry::Septic(_) => "table",
+            Geometry::Quintic(_) => "smoothed",
         }
     }
 }

@@ -73,6 +73,10 @@ pub struct PlantConfig {
     pub record_s: f64,
     /// Per-axis overrides, `[[plant.axis]]` with `name` and any model parameter.
     pub axis: Vec<PlantAxisConfig>,
+    /// Presets read from files ([`PlantConfig::select`]), by the name `preset` uses for them;
+    /// looked up before the embedded ones.
+    #[serde(skip)]
+    pub file_presets: Vec<(String, PresetFile)>,
 }
 
 impl Default for PlantConfig {
@@ -86,6 +90,7 @@ impl Default for PlantConfig {
             apply_crosstalk: true,
             record_s: 600.0,
             axis: Vec::new(),
+            file_presets: Vec::new(),
         }
     }
 }
@@ -504,7 +509,7 @@ impl PlantConfig {
     fn resolve_with(&self, v: &Validator, axes: &[AxisConfig]) -> Result<Vec<ResolvedAxisPlant>, ConfigError> {
         for name in [("plant.preset", &self.preset), ("plant.rotary_preset", &self.rotary_preset)] {
             if let (key, Some(p)) = name {
-                if preset(p).is_none() {
+                if self.find_preset(p).is_none() {
                     return Err(v.err(key, &format!("unknown preset `{p}`; known: {}", preset_names())));
                 }
             }
@@ -554,7 +559,7 @@ impl PlantConfig {
                 ),
             },
         };
-        let Some(file) = preset(&preset_name) else {
+        let Some(file) = self.find_preset(&preset_name) else {
             return Err(v.err(&preset_key, &format!("unknown preset `{preset_name}`; known: {}", preset_names())));
         };
         if file.kind != axis.kind {
@@ -743,6 +748,85 @@ impl PlantConfig {
     }
 }
 
+/// The `[plant]` section of a TOML file; other sections (a whole machine file) are ignored.
+#[derive(Deserialize)]
+struct PlantSectionFile {
+    plant: PlantConfig,
+}
+
+impl PlantConfig {
+    /// A preset read from a file or embedded, by name.
+    fn find_preset(&self, name: &str) -> Option<PresetFile> {
+        match self.file_presets.iter().find(|(n, _)| n == name) {
+            Some((_, f)) => Some(f.clone()),
+            None => preset(name),
+        }
+    }
+
+    /// The plant for `interpd plan --plant [PRESET|FILE]` and similar options, validated for
+    /// `axes`: `""` keeps this section; an embedded preset name becomes the preset of every
+    /// axis of its kind (per-axis overrides of this section stay); a file is either a preset
+    /// file in the format of `config/plants/*.toml` (used like a preset name) or a TOML file
+    /// with a `[plant]` section (a machine file works) that replaces this section. Errors name
+    /// `option` (e.g. `--plant`) or the file and key.
+    pub fn select(&self, choice: &str, axes: &[AxisConfig], option: &str) -> Result<PlantConfig, ConfigError> {
+        let v = Validator { file: option };
+        if choice.is_empty() {
+            return Ok(self.clone());
+        }
+        if let Some(file) = preset(choice) {
+            let mut c = self.clone();
+            c.use_preset(choice, file.kind);
+            c.validate(&v, axes)?;
+            return Ok(c);
+        }
+        let path = std::path::Path::new(choice);
+        if !path.is_file() {
+            return Err(
+                v.err(choice, &format!("neither a plant preset (known: {}) nor an existing file", preset_names()))
+            );
+        }
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| ConfigError::Io { file: choice.to_string(), message: e.to_string() })?;
+        let fv = Validator { file: choice };
+        let table: toml::Table = toml::from_str(&text).map_err(|e| ConfigError::from_toml(choice, &text, &e))?;
+        if table.contains_key("plant") {
+            let section: PlantSectionFile =
+                toml::from_str(&text).map_err(|e| ConfigError::from_toml(choice, &text, &e))?;
+            section.plant.validate(&fv, axes)?;
+            return Ok(section.plant);
+        }
+        let file: PresetFile = toml::from_str(&text).map_err(|e| ConfigError::from_toml(choice, &text, &e))?;
+        let allowed = allowed_keys(file.model, file.kind);
+        if let Some((key, _)) = file.params.numeric().into_iter().find(|(k, x)| x.is_some() && !allowed.contains(k)) {
+            return Err(fv.err(
+                &format!("params.{key}"),
+                &format!("not a parameter of the {} model on a {} axis", model_word(file.model), kind_word(file.kind)),
+            ));
+        }
+        if file.params.name.is_some() || file.params.preset.is_some() || file.params.crosstalk_targets.is_some() {
+            return Err(
+                fv.err("params", "a preset file sets model parameters only (no name, preset or crosstalk_targets)")
+            );
+        }
+        let mut c = self.clone();
+        let kind = file.kind;
+        c.file_presets.retain(|(n, _)| n != choice);
+        c.file_presets.push((choice.to_string(), file));
+        c.use_preset(choice, kind);
+        c.validate(&fv, axes)?;
+        Ok(c)
+    }
+
+    /// `name` for every axis of `kind`.
+    fn use_preset(&mut self, name: &str, kind: AxisKind) {
+        match kind {
+            AxisKind::Linear => self.preset = Some(name.to_string()),
+            AxisKind::Rotary => self.rotary_preset = Some(name.to_string()),
+        }
+    }
+}
+
 fn finite(v: &Validator, look: &Lookup, key: &str, axis_key: &str) -> Result<f64, ConfigError> {
     let (x, k) = look.value(v, key, axis_key)?;
     if !x.is_finite() {
@@ -816,6 +900,44 @@ mod tests {
             let r = c.plant.resolve(&c.axes, "m.toml").unwrap();
             assert_eq!(r[0].preset, name);
         }
+    }
+
+    #[test]
+    fn select_takes_a_preset_a_preset_file_or_a_plant_section() {
+        let c = parse("").unwrap();
+        let same = c.plant.select("", &c.axes, "--plant").unwrap();
+        assert_eq!(same, c.plant);
+        let soft = c.plant.select("schneider-soft", &c.axes, "--plant").unwrap();
+        assert_eq!(soft.resolve(&c.axes, "m").unwrap()[0].preset, "schneider-soft");
+        let e = c.plant.select("nope", &c.axes, "--plant").unwrap_err().to_string();
+        assert!(e.contains("--plant: nope: neither a plant preset"), "{e}");
+
+        let dir = std::env::temp_dir().join(format!("interpd-config-select-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        // A preset file: the embedded soft preset with a different load mass.
+        let preset_path = dir.join("heavy.toml");
+        let text = PRESETS[0].1.replace("load_mass_kg = 381.0", "load_mass_kg = 500.0");
+        std::fs::write(&preset_path, text).unwrap();
+        let p = preset_path.to_str().unwrap();
+        let heavy = c.plant.select(p, &c.axes, "--plant").unwrap();
+        let r = heavy.resolve(&c.axes, "m").unwrap();
+        let PlantModel::TwoMass(m) = r[0].model else { panic!("two-mass") };
+        assert_eq!((r[0].preset.as_str(), m.load_mass), (p, 500.0));
+        assert_eq!(r[1].preset, DEFAULT_ROTARY_PRESET, "rotary axes keep theirs");
+        // A bad key in a preset file names the file and key.
+        std::fs::write(&preset_path, PRESETS[0].1.replace("load_mass_kg", "m1_kg")).unwrap();
+        let e = c.plant.select(p, &c.axes, "--plant").unwrap_err().to_string();
+        assert!(e.contains("heavy.toml: params.m1_kg: not a parameter of the two-mass model"), "{e}");
+        // A file with a [plant] section replaces the section.
+        let section = dir.join("plant.toml");
+        std::fs::write(&section, "[machine]\n[plant]\npreset = \"schneider-stiff\"\nservo_rate_hz = 20000.0\n")
+            .unwrap();
+        let s = c.plant.select(section.to_str().unwrap(), &c.axes, "--plant").unwrap();
+        assert_eq!((s.preset.as_deref(), s.servo_rate_hz), (Some("schneider-stiff"), 20000.0));
+        std::fs::write(&section, "[plant]\nservo_rate_hz = 5.0\n").unwrap();
+        let e = c.plant.select(section.to_str().unwrap(), &c.axes, "--plant").unwrap_err().to_string();
+        assert!(e.contains("plant.toml: plant.servo_rate_hz"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

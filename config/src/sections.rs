@@ -82,7 +82,8 @@ pub enum PrepMode {
     Smooth,
 }
 
-/// `[prep]`: path preparation (tolerance-band smoothing, seed 000).
+/// `[prep]`: path preparation (tolerance-band smoothing, seed 000): a windowed per-axis QP moves
+/// the points of the path inside a lateral band, then quintic Hermite pieces join them C².
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct PrepConfig {
@@ -90,17 +91,84 @@ pub struct PrepConfig {
     pub mode: PrepMode,
     /// Lateral tolerance for G64 without P, mm.
     pub tolerance_mm: f64,
+    /// Derivatives per point the QP carries and makes continuous between windows: 2 (x, x′, x″)
+    /// or 3 (x … x‴). The pieces are quintic, C² either way.
+    pub continuity_degree: u32,
+    /// Weights of x, x′, x″, x‴ in the QP objective (seed 000 §3.3, variant 1; x‴ unused at
+    /// degree 2), with the derivatives taken with respect to s / `weight_length_mm`. A position
+    /// weight pulls the points towards the programmed path.
+    pub weights: [f64; 4],
+    /// Length that normalises the path parameter for the weights, mm (the thesis normalised s
+    /// over the optimised piece; the default is one window).
+    pub weight_length_mm: f64,
+    /// Length of one window segment (the unit that is committed), mm (seed 000 §3.6.3: 10 mm).
+    pub segment_mm: f64,
+    /// Segments per window (seed 000 §3.6.3: 5); one is committed per solve.
+    pub window_segments: usize,
+    /// Largest spacing of the QP points along the path, mm (seed 000 §4.8: ≥ 0.926 points/mm).
+    pub point_spacing_mm: f64,
+    /// Largest tangent turn between two QP points on curves, degrees.
+    pub max_turn_deg: f64,
+    /// Vertices that turn the tangent by more than this are corners: a point sits on the vertex
+    /// and the spacing shrinks towards it (down to the tolerance).
+    pub corner_deg: f64,
+    /// Corners that turn by more than this are not smoothed: exact stop. Within tolerances of
+    /// 0.01–0.1 mm a sharper corner is jerk-bound at a few mm/s however it is blended, and the
+    /// blend is slower than stopping (the zigzag's 120° turns: +30 … +60 % motion time).
+    pub max_corner_deg: f64,
+    /// Share of the tolerance kept back from the QP band for the pieces between the points.
+    pub band_margin: f64,
+    /// A window solve slower than this counts as failed and takes the fallback, ms.
+    pub max_solve_ms: f64,
 }
 
 impl Default for PrepConfig {
     fn default() -> Self {
-        Self { mode: PrepMode::Exact, tolerance_mm: 0.01 }
+        Self {
+            mode: PrepMode::Exact,
+            tolerance_mm: 0.01,
+            continuity_degree: 3,
+            weights: [0.0, 1e-2, 1e-4, 1e-6],
+            weight_length_mm: 50.0,
+            segment_mm: 10.0,
+            window_segments: 5,
+            point_spacing_mm: 1.0,
+            max_turn_deg: 5.0,
+            corner_deg: 2.0,
+            max_corner_deg: 90.0,
+            band_margin: 0.1,
+            max_solve_ms: 50.0,
+        }
     }
 }
 
 impl PrepConfig {
     pub(crate) fn validate(&self, v: &Validator) -> Result<(), ConfigError> {
-        v.in_range("prep.tolerance_mm", self.tolerance_mm, 1e-6, 10.0)
+        v.in_range("prep.tolerance_mm", self.tolerance_mm, 1e-6, 10.0)?;
+        if !(2..=3).contains(&self.continuity_degree) {
+            return Err(v.err("prep.continuity_degree", &format!("must be 2 or 3, got {}", self.continuity_degree)));
+        }
+        for (i, w) in self.weights.iter().enumerate() {
+            v.non_negative(&format!("prep.weights[{i}]"), *w)?;
+        }
+        let used = &self.weights[1..=self.continuity_degree as usize];
+        if used.iter().all(|w| *w == 0.0) {
+            return Err(v.err("prep.weights", "at least one derivative weight in use must be positive"));
+        }
+        v.in_range("prep.weight_length_mm", self.weight_length_mm, 1e-3, 1e5)?;
+        v.in_range("prep.segment_mm", self.segment_mm, 1e-2, 1e4)?;
+        if !(1..=50).contains(&self.window_segments) {
+            return Err(v.err("prep.window_segments", &format!("must lie in 1..=50, got {}", self.window_segments)));
+        }
+        v.in_range("prep.point_spacing_mm", self.point_spacing_mm, 1e-3, 100.0)?;
+        if self.point_spacing_mm > self.segment_mm {
+            return Err(v.err("prep.point_spacing_mm", "must not exceed prep.segment_mm"));
+        }
+        v.in_range("prep.max_turn_deg", self.max_turn_deg, 0.1, 45.0)?;
+        v.in_range("prep.corner_deg", self.corner_deg, 0.01, 90.0)?;
+        v.in_range("prep.max_corner_deg", self.max_corner_deg, self.corner_deg, 180.0)?;
+        v.in_range("prep.band_margin", self.band_margin, 0.0, 0.9)?;
+        v.in_range("prep.max_solve_ms", self.max_solve_ms, 0.0, 1e5)
     }
 }
 
@@ -160,5 +228,43 @@ impl RtConfig {
             return Err(v.err("rt.priority", &format!("must lie in 0..=99, got {}", self.priority)));
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod prep_tests {
+    use crate::Config;
+
+    const MACHINE: &str = "[machine]\n[[axis]]\nname = \"X\"\nkind = \"linear\"\nmax_vel = 100.0\nmax_acc = 1000.0\n\
+                           max_jerk = 10000.0\nmin = -10.0\nmax = 10.0\n";
+
+    fn prep(keys: &str) -> Result<Config, String> {
+        Config::from_toml_str(&format!("{MACHINE}[prep]\n{keys}\n"), "m.toml").map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn defaults_are_valid_and_keys_parse() {
+        let c = prep("mode = \"smooth\"\ncontinuity_degree = 2\nweights = [0.0, 1.0, 1.0, 0.0]\nwindow_segments = 3")
+            .unwrap();
+        assert_eq!(c.prep.continuity_degree, 2);
+        assert_eq!(c.prep.window_segments, 3);
+        assert_eq!(c.prep.segment_mm, 10.0);
+    }
+
+    #[test]
+    fn bad_values_name_the_key() {
+        for (text, key) in [
+            ("continuity_degree = 4", "prep.continuity_degree"),
+            ("weights = [0.0, -1.0, 0.0, 0.0]", "prep.weights[1]"),
+            ("weights = [1.0, 0.0, 0.0, 5.0]\ncontinuity_degree = 2", "prep.weights"),
+            ("window_segments = 0", "prep.window_segments"),
+            ("point_spacing_mm = 20.0", "prep.point_spacing_mm"),
+            ("band_margin = 1.0", "prep.band_margin"),
+            ("segment_mm = nan", "prep.segment_mm"),
+            ("max_corner_deg = 1.0", "prep.max_corner_deg"),
+        ] {
+            let e = prep(text).expect_err(text);
+            assert!(e.contains(key), "{text}: {e}");
+        }
     }
 }

@@ -10,6 +10,7 @@ pub mod law;
 pub mod motion;
 pub mod path;
 pub mod planner;
+pub mod prep;
 pub mod program;
 pub mod rt;
 pub mod sinks;

@@ -18,23 +18,64 @@ pub const FEEDBACK_SERVICE: &str = "interpd/feedback";
 /// Layout version carried in every payload; bumped on any change of the structs below.
 pub const PAYLOAD_VERSION: u32 = 1;
 
-/// Service settings every participant uses with `open_or_create`, so that whichever process
-/// comes first creates the service the others can open (iceoryx2 refuses to open a service
-/// whose settings are below what the opener asks for).
-pub mod service_settings {
-    /// Samples a late subscriber receives on connecting (DESIGN.md: the latest one).
+/// Prefix of the default service names ([`SETPOINTS_SERVICE`], [`FEEDBACK_SERVICE`]).
+pub const DEFAULT_SERVICE_PREFIX: &str = "interpd";
+/// Environment variable that replaces [`DEFAULT_SERVICE_PREFIX`] for every interpd process
+/// started with it (daemon, sim-plant, tests), so parallel instances do not share services.
+/// A `--service-prefix` option takes precedence where a program has one.
+pub const SERVICE_PREFIX_ENV: &str = "INTERPD_SERVICE_PREFIX";
+/// Longest accepted service prefix, in bytes (iceoryx2 service names are bounded).
+pub const MAX_SERVICE_PREFIX_LEN: usize = 128;
+
+/// Service settings both sides use, so whichever process starts first creates a service the
+/// other can open (iceoryx2 refuses to open a service whose settings are below the request).
+pub mod qos {
+    /// Samples a publisher keeps for subscribers that connect later: one, the latest
+    /// ("a subscriber that joins late gets the latest sample").
     pub const HISTORY_SIZE: usize = 1;
-    /// Samples a subscriber can hold unread (a recorder polls every few cycles).
-    pub const SUBSCRIBER_MAX_BUFFER_SIZE: usize = 512;
-    pub const MAX_SUBSCRIBERS: usize = 16;
+    /// Samples a subscriber can queue: 64 cycles (256 ms at 4 ms) before the oldest are
+    /// overwritten (safe overflow: a slow subscriber never blocks the real-time publisher).
+    pub const SUBSCRIBER_BUFFER_SIZE: usize = 64;
+    /// Publishers per service (one producer, plus one for a replay or test tool).
     pub const MAX_PUBLISHERS: usize = 2;
-    pub const MAX_NODES: usize = 32;
+    /// Subscribers per service (plant, recorder, monitors, tests).
+    pub const MAX_SUBSCRIBERS: usize = 8;
 }
 
-/// The full service name of `service` ("setpoints", "feedback") under `prefix` ("interpd"
-/// by default; tests use their own prefixes to run side by side).
-pub fn service_name(prefix: &str, service: &str) -> String {
-    format!("{prefix}/{service}")
+/// Bits of [`Feedback::flags`].
+pub mod feedback_flags {
+    /// At least one axis's drive hit its force (torque) limit in the last servo step.
+    pub const SATURATED: u32 = 1 << 0;
+    /// At least one axis has its backlash gap open: the load is not driven.
+    pub const GAP_OPEN: u32 = 1 << 1;
+    /// The plant was (re)started at this setpoint instead of moving to it (first setpoint, or
+    /// after a silence longer than the plant's resynchronisation limit).
+    pub const RESYNC: u32 = 1 << 2;
+}
+
+/// Checks a service prefix: 1..=[`MAX_SERVICE_PREFIX_LEN`] bytes of ASCII letters, digits and
+/// `_ - . /`, not starting or ending with `/`. The error says what is wrong.
+pub fn check_service_prefix(prefix: &str) -> Result<(), String> {
+    if prefix.is_empty() || prefix.len() > MAX_SERVICE_PREFIX_LEN {
+        return Err(format!("service prefix must have 1 to {MAX_SERVICE_PREFIX_LEN} characters, got {}", prefix.len()));
+    }
+    if let Some(c) = prefix.chars().find(|c| !(c.is_ascii_alphanumeric() || "_-./".contains(*c))) {
+        return Err(format!("service prefix `{prefix}`: character {c:?} not allowed (use letters, digits, _ - . /)"));
+    }
+    if prefix.starts_with('/') || prefix.ends_with('/') {
+        return Err(format!("service prefix `{prefix}` must not start or end with `/`"));
+    }
+    Ok(())
+}
+
+/// The setpoint service name for `prefix` (`interpd` gives [`SETPOINTS_SERVICE`]).
+pub fn setpoints_service(prefix: &str) -> String {
+    format!("{prefix}/setpoints")
+}
+
+/// The feedback service name for `prefix` (`interpd` gives [`FEEDBACK_SERVICE`]).
+pub fn feedback_service(prefix: &str) -> String {
+    format!("{prefix}/feedback")
 }
 
 /// Bits of [`Setpoints::flags`].
@@ -128,7 +169,7 @@ pub struct Feedback {
     pub time_ns: u64,
     /// `publish_ns` of the setpoint this feedback answers (round-trip measurements).
     pub setpoint_publish_ns: u64,
-    /// Plant status bits (reserved, 0).
+    /// Plant status bits, [`feedback_flags`].
     pub flags: u32,
     /// Reserved, 0.
     pub reserved: u32,
@@ -222,6 +263,18 @@ mod tests {
         assert_eq!(Setpoints::from_bytes(&s.as_bytes()[1..]), None);
         let f = Feedback { n_axes: 2, ..Feedback::default() };
         assert_eq!(Feedback::from_bytes(f.as_bytes()), Some(f));
+    }
+
+    #[test]
+    fn service_names_and_prefixes() {
+        assert_eq!(setpoints_service(DEFAULT_SERVICE_PREFIX), SETPOINTS_SERVICE);
+        assert_eq!(feedback_service(DEFAULT_SERVICE_PREFIX), FEEDBACK_SERVICE);
+        assert!(check_service_prefix("interpd").is_ok());
+        assert!(check_service_prefix("test/e2e-123_a.b").is_ok());
+        assert!(check_service_prefix("").is_err());
+        assert!(check_service_prefix("a b").unwrap_err().contains("' '"));
+        assert!(check_service_prefix("/abs").is_err());
+        assert!(check_service_prefix(&"x".repeat(MAX_SERVICE_PREFIX_LEN + 1)).is_err());
     }
 
     #[test]

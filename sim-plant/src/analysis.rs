@@ -85,7 +85,7 @@ pub fn closed_loop_continuous(r: &ResolvedAxisPlant) -> Result<Vec<Complex<f64>>
     for (i, bi) in b.iter().enumerate() {
         if *bi != 0.0 {
             m[(i, ix)] += bi * d.kp * (-d.kv_per_s);
-            m[(i, iv)] += bi * d.kp * (-1.0);
+            m[(i, iv)] -= bi * d.kp;
             m[(i, n)] += bi * d.kp;
         }
     }

@@ -13,6 +13,8 @@ use interpd_config::{AxisKind, AxisLetter};
 pub struct AxisOutput {
     /// Commanded (coarse) setpoint position this output answers.
     pub setpoint: f64,
+    /// Commanded velocity of that setpoint, unit/s.
+    pub setpoint_vel: f64,
     /// Motor position as the (quantised) encoder reads it.
     pub motor_pos: f64,
     /// True motor velocity, unit/s.
@@ -161,11 +163,13 @@ impl Axis {
         let q = self.drive.params().encoder_step;
         let x_m = self.mech.motor_pos();
         let enc = if q > 0.0 { (x_m / q).round() * q } else { x_m };
-        let motor_pos = enc / s;
+        // + 0.0 turns the −0 of a reading rounded from below zero into 0 (tidier CSV columns).
+        let motor_pos = enc / s + 0.0;
         let load_pos = self.mech.load_pos() / s;
         let ct = self.mech.crosstalk();
         AxisOutput {
             setpoint,
+            setpoint_vel: self.target.vel / s,
             motor_pos,
             motor_vel: self.mech.motor_vel() / s,
             load_pos,

@@ -115,8 +115,8 @@ mod tests {
     #[test]
     fn oscillator_matches_closed_form() {
         // m ẍ = −k x + u: Φ = [[cos, sin/ω], [−ω sin, cos]], Γ = [(1−cos)/k, sin/(mω)].
-        let (m, k) = (200.0, 3.5e7);
-        let w = (k / m as f64).sqrt();
+        let (m, k) = (200.0_f64, 3.5e7);
+        let w = (k / m).sqrt();
         let a = Matrix2::new(0.0, 1.0, -k / m, 0.0);
         let b = Vector2::new(0.0, 1.0 / m);
         let h = 1e-4;

@@ -10,6 +10,42 @@
 //!   evaluation; [`shm`] runs the plant as an iceoryx2 node (the `sim-plant` binary).
 //! - [`analysis`]: modes and closed-loop eigenvalues; [`scenario`]: jerk-limited test moves
 //!   and the acceptance scenarios T1–T3 and the Haas positioning move.
+//!
+//! # In-process use
+//!
+//! One [`Plant`] per machine, built from the validated configuration (`[[axis]]` and
+//! `[plant]`); one [`Plant::step`] per setpoint with the targets of all axes in the axis unit
+//! (mm or deg) and the time since the previous setpoint. The first step places the plant at
+//! rest at its targets. [`Metrics`] accumulates the outputs; [`plot::write_png`] draws them.
+//!
+//! ```
+//! use interpd_config::Config;
+//! use sim_plant::plot::{self, PlotOptions};
+//! use sim_plant::scenario::SCurve;
+//! use sim_plant::{AxisTarget, Metrics, Plant};
+//!
+//! # fn main() -> Result<(), sim_plant::PlantError> {
+//! let config = Config::default_machine(); // X Y Z on the haas-laser preset
+//! let mut plant = Plant::from_config(&config)?;
+//! let mut metrics = Metrics::new(&plant, 1000);
+//! let dt_s = config.cycle_s(); // one setpoint per 4 ms interpolation cycle
+//! // X: a jerk-limited move 0 → 20 mm (100 mm/s, 1000 mm/s², 20000 mm/s³); Y, Z stand still.
+//! let mv = SCurve::new(0.0, 20.0, 100.0, 1000.0, 20_000.0);
+//! for k in 0..=150 {
+//!     let (pos, vel, acc) = mv.eval(k as f64 * dt_s);
+//!     let x = AxisTarget { pos, vel, acc };
+//!     let out = plant.step(&[x, AxisTarget::default(), AxisTarget::default()], dt_s)?;
+//!     assert!(out[0].load_error.abs() < 0.05); // mm: setpoint − load
+//!     metrics.record_plant(&plant);
+//! }
+//! let summary = metrics.summary();
+//! assert!(summary.axes[0].max_following_error > 0.0 && summary.max_contour_error.is_some());
+//! let png = std::env::temp_dir().join(format!("sim-plant-doc-{}.png", std::process::id()));
+//! plot::write_png(&png, &metrics, &PlotOptions { title: "ramp".into(), ..PlotOptions::default() })?;
+//! # std::fs::remove_file(&png).ok();
+//! # Ok(())
+//! # }
+//! ```
 
 pub mod analysis;
 pub mod axis;
@@ -25,6 +61,7 @@ pub mod shm;
 pub use axis::AxisOutput;
 pub use metrics::{Metrics, MetricsSummary};
 pub use plant::{AxisTarget, InputStats, Plant, SetpointError};
+pub use plot::{PlotOptions, write_png};
 
 use thiserror::Error;
 

@@ -1,1 +1,197 @@
-fn main() {}
+//! `sim-plant [--config FILE] [--source shm] [--plot FILE.png] [--service-prefix P] ...`:
+//! the simulated axis plant as a process (DESIGN.md "Command line").
+//!
+//! Subscribes to `P/setpoints` over iceoryx2, steps the axis models to each setpoint and
+//! publishes `P/feedback`; on SIGINT/SIGTERM (or after a FINISHED setpoint with
+//! `--exit-on-finish`) prints a summary on stderr, writes the plot and exits 0. Exit 2 for bad
+//! arguments or configuration, 1 for transport or output failures.
+
+use clap::Parser;
+use interpd_config::Config;
+use sim_plant::metrics::Metrics;
+use sim_plant::plot::{self, PlotOptions};
+use sim_plant::shm::{self, RunOptions, RunReport, ShmPlant, StopReason};
+use sim_plant::{Plant, PlantError};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "sim-plant",
+    version,
+    about = "Simulated elastic axis plant: interpd setpoints in over iceoryx2, drive and mechanics feedback out"
+)]
+struct Args {
+    /// Machine configuration (TOML, its [[axis]] and [plant] sections); default: the embedded XYZ machine.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Setpoint source: `shm` (iceoryx2). `can:IFACE` is reserved for the CAN work.
+    #[arg(long, default_value = "shm")]
+    source: String,
+    /// Write a PNG plot of the run (setpoint vs load, errors, spectrum) at exit.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    /// Service prefix: services PREFIX/setpoints and PREFIX/feedback [default: $INTERPD_SERVICE_PREFIX, else interpd].
+    #[arg(long)]
+    service_prefix: Option<String>,
+    /// Poll period of the setpoint subscriber, µs.
+    #[arg(long, default_value_t = 200, value_parser = clap::value_parser!(u64).range(10..=100_000))]
+    poll_us: u64,
+    /// Exit after the first setpoint flagged FINISHED (after simulating --settle-s of standstill).
+    #[arg(long)]
+    exit_on_finish: bool,
+    /// Standstill simulated after FINISHED for the residual-vibration figures, s.
+    #[arg(long, default_value_t = 1.0)]
+    settle_s: f64,
+    /// More log output on stderr (-v debug, -vv trace). RUST_LOG overrides.
+    #[arg(short, long, action = clap::ArgAction::Count)]
+    verbose: u8,
+}
+
+/// A failure with its exit code: 2 bad input, 1 anything else.
+struct Failure {
+    code: u8,
+    message: String,
+}
+
+impl Failure {
+    fn bad_input(message: impl Into<String>) -> Self {
+        Self { code: 2, message: message.into() }
+    }
+}
+
+impl From<PlantError> for Failure {
+    fn from(e: PlantError) -> Self {
+        let code = match e {
+            PlantError::Config(_) | PlantError::Input(_) => 2,
+            _ => 1,
+        };
+        Self { code, message: e.to_string() }
+    }
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    init_logging(args.verbose);
+    match run(&args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(f) => {
+            eprintln!("sim-plant: {}", f.message);
+            ExitCode::from(f.code)
+        }
+    }
+}
+
+fn run(args: &Args) -> Result<(), Failure> {
+    match args.source.as_str() {
+        "shm" => {}
+        s if s.starts_with("can:") => {
+            return Err(Failure::bad_input(format!(
+                "--source {s}: the CAN source is not yet supported; use --source shm"
+            )));
+        }
+        s => return Err(Failure::bad_input(format!("--source {s}: expected `shm` or `can:IFACE`"))),
+    }
+    if !(args.settle_s.is_finite() && (0.0..=600.0).contains(&args.settle_s)) {
+        return Err(Failure::bad_input(format!("--settle-s must lie in [0, 600], got {}", args.settle_s)));
+    }
+    if let Some(p) = &args.plot {
+        check_plot_path(p)?;
+    }
+    let config = Config::load_or_default(args.config.as_deref()).map_err(PlantError::from)?;
+    let mut plant = Plant::from_config(&config)?;
+    let capacity = (config.plant.record_s / config.cycle_s()).ceil() as usize;
+    let mut metrics = Metrics::new(&plant, capacity);
+    let prefix = args.service_prefix.clone().unwrap_or_else(shm::prefix_from_env);
+    interpd_protocol::shm::check_service_prefix(&prefix)
+        .map_err(|e| Failure::bad_input(format!("--service-prefix: {e}")))?;
+    let node = ShmPlant::open(&prefix)?;
+    let axes: Vec<String> = plant.axes().iter().map(|a| format!("{} {}", a.name, a.preset)).collect();
+    eprintln!(
+        "sim-plant: ready: {} axes ({}), servo {:.0} Hz, subscribed to {}, publishing {}",
+        plant.n_axes(),
+        axes.join(", "),
+        1.0 / plant.servo_period_s(),
+        node.setpoints_service(),
+        node.feedback_service()
+    );
+    let options = RunOptions {
+        poll: Duration::from_micros(args.poll_us),
+        exit_on_finish: args.exit_on_finish,
+        settle_s: args.settle_s,
+    };
+    let report = node.run(&mut plant, Some(&mut metrics), &options)?;
+    print_summary(&report, &metrics);
+    if let Some(p) = &args.plot {
+        if metrics.count() < 2 {
+            eprintln!("sim-plant: no plot written to {}: fewer than 2 setpoints received", p.display());
+        } else {
+            let title = format!("sim-plant: {} setpoints, {}", metrics.count(), axes.join(", "));
+            plot::write_png(p, &metrics, &PlotOptions { title, ..PlotOptions::default() })?;
+            eprintln!("sim-plant: plot written to {}", p.display());
+        }
+    }
+    Ok(())
+}
+
+/// The plot goes into an existing directory and is a .png file (checked before the run, so a
+/// long run does not end in an unwritable path).
+fn check_plot_path(p: &std::path::Path) -> Result<(), Failure> {
+    if p.extension().and_then(|e| e.to_str()).is_none_or(|e| !e.eq_ignore_ascii_case("png")) {
+        return Err(Failure::bad_input(format!("--plot {}: the plot is a PNG file, name it *.png", p.display())));
+    }
+    let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
+    if !dir.is_dir() {
+        return Err(Failure::bad_input(format!("--plot {}: directory {} does not exist", p.display(), dir.display())));
+    }
+    Ok(())
+}
+
+fn print_summary(report: &RunReport, metrics: &Metrics) {
+    let s = &report.stats;
+    let why = match report.stop {
+        StopReason::Signal => "stopped by signal",
+        StopReason::Finished => "program finished",
+    };
+    let rtf = if report.compute_s > 0.0 { report.simulated_s / report.compute_s } else { 0.0 };
+    eprintln!(
+        "sim-plant: {why} after {:.3} s: {} setpoints received, {} used, {} rejected (version {}, axis count {}, \
+         non-finite {}), {} cycles missed, {} time anomalies, {} resyncs; {} feedback published; {:.3} s simulated \
+         in {:.3} s compute (real-time factor {:.0})",
+        report.wall_s,
+        s.received,
+        s.accepted,
+        s.rejected(),
+        s.bad_version,
+        s.bad_axis_count,
+        s.non_finite,
+        s.missed_cycles,
+        s.time_anomalies,
+        s.resyncs,
+        report.published,
+        report.simulated_s,
+        report.compute_s,
+        rtf
+    );
+    if metrics.count() > 0 {
+        eprint!("{}", metrics.summary());
+    }
+}
+
+fn init_logging(verbose: u8) {
+    let default = match verbose {
+        0 => "warn",
+        1 => "debug",
+        _ => "trace",
+    };
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
+    tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).init();
+    // iceoryx2 logs on its own; its start-up notice about the missing config file is noise.
+    iceoryx2::prelude::set_log_level(match verbose {
+        0 => iceoryx2::prelude::LogLevel::Error,
+        1 => iceoryx2::prelude::LogLevel::Info,
+        _ => iceoryx2::prelude::LogLevel::Debug,
+    });
+}

@@ -36,7 +36,7 @@ pub fn detrend(x: &[f64]) -> Vec<f64> {
 /// least 16× the length (power of two). Returns (frequency Hz, amplitude in the unit of x).
 pub fn spectrum(x: &[f64], dt_s: f64) -> Vec<(f64, f64)> {
     let n = x.len();
-    if n < 4 || !(dt_s > 0.0) {
+    if n < 4 || dt_s.is_nan() || dt_s <= 0.0 {
         return Vec::new();
     }
     let n_fft = (16 * n).next_power_of_two();
@@ -54,13 +54,19 @@ pub fn spectrum(x: &[f64], dt_s: f64) -> Vec<(f64, f64)> {
 }
 
 /// Frequency of the largest spectral peak within [`f_lo`, `f_hi`] Hz, refined by a parabola
-/// through the three bins around it.
+/// through the three bins around it; `None` for an empty band or a zero signal.
 pub fn peak_frequency(spec: &[(f64, f64)], f_lo: f64, f_hi: f64) -> Option<f64> {
-    let (k, _) = spec
+    let (k, (_, amp)) = spec
         .iter()
         .enumerate()
         .filter(|(_, (f, _))| *f >= f_lo && *f <= f_hi)
         .max_by(|a, b| a.1.1.total_cmp(&b.1.1))?;
+    // Only a local maximum is a peak: a spectrum falling from the band edge (a decay, not an
+    // oscillation) has none.
+    let rises_to = |j: usize| spec.get(j).is_none_or(|s| s.1 < *amp);
+    if *amp <= 0.0 || (k > 0 && !rises_to(k - 1)) || !rises_to(k + 1) {
+        return None;
+    }
     if k == 0 || k + 1 >= spec.len() {
         return Some(spec[k].0);
     }
@@ -71,10 +77,58 @@ pub fn peak_frequency(spec: &[(f64, f64)], f_lo: f64, f_hi: f64) -> Option<f64> 
     Some(spec[k].0 + offset.clamp(-0.5, 0.5) * df)
 }
 
-/// A programmed path as a polyline of points (in the axes of the contour).
+/// The programmed path as the setpoints sampled it: points, and optionally the velocity at each
+/// point with the sample times, which make the path between two points the cubic Hermite
+/// curve the drives' fine interpolation follows (instead of the chord, whose sag on an arc of
+/// radius r is Δs²/8r: 12 µm for 1 mm per cycle on r = 10 mm).
 #[derive(Debug, Clone, Default)]
 pub struct SampledPath {
     pub points: Vec<Vec<f64>>,
+    /// Velocity at each point (unit/s); empty for straight chords between the points.
+    pub velocities: Vec<Vec<f64>>,
+    /// Time of each point, s (needed with `velocities`).
+    pub t_s: Vec<f64>,
+}
+
+/// Path searched for the nearest point to each load point, ± s around its instant: the load
+/// lags the setpoint by the position-loop time constant 1/Kv (≤ 0.1 s for Kv ≥ 10/s) plus
+/// vibration, so ±0.5 s covers it while keeping the search linear in the recording length.
+const CONTOUR_WINDOW_S: f64 = 0.5;
+
+/// Sub-chords per Hermite span in the contour search: the sag of a sub-chord is 1/256 of the
+/// span's chord sag.
+const HERMITE_SUBDIVISIONS: usize = 16;
+
+impl SampledPath {
+    fn has_tangents(&self) -> bool {
+        self.velocities.len() == self.points.len() && self.t_s.len() == self.points.len()
+    }
+
+    /// Point at fraction `u` ∈ [0, 1] of span `i` (cubic Hermite from positions and velocities).
+    fn span_point(&self, i: usize, u: f64, out: &mut [f64]) {
+        let h = self.t_s[i + 1] - self.t_s[i];
+        let (u2, u3) = (u * u, u * u * u);
+        let (h00, h10, h01, h11) = (2.0 * u3 - 3.0 * u2 + 1.0, u3 - 2.0 * u2 + u, -2.0 * u3 + 3.0 * u2, u3 - u2);
+        for (d, o) in out.iter_mut().enumerate() {
+            *o = h00 * self.points[i][d]
+                + h10 * h * self.velocities[i][d]
+                + h01 * self.points[i + 1][d]
+                + h11 * h * self.velocities[i + 1][d];
+        }
+    }
+
+    /// Distance from `p` to span `i`, through [`HERMITE_SUBDIVISIONS`] sub-chords.
+    fn span_distance(&self, p: &[f64], i: usize) -> f64 {
+        let mut a = self.points[i].clone();
+        let mut b = vec![0.0; p.len()];
+        let mut best = f64::INFINITY;
+        for j in 1..=HERMITE_SUBDIVISIONS {
+            self.span_point(i, j as f64 / HERMITE_SUBDIVISIONS as f64, &mut b);
+            best = best.min(segment_distance(p, &a, &b));
+            std::mem::swap(&mut a, &mut b);
+        }
+        best
+    }
 }
 
 /// Distance from `p` to the segment `a`–`b`.
@@ -94,11 +148,13 @@ fn segment_distance(p: &[f64], a: &[f64], b: &[f64]) -> f64 {
     d2.sqrt()
 }
 
-/// Contour error of each load point: the distance to the nearest point of `path` within
-/// `window` path segments of the same index (the path sampled at the same instants as the
-/// load points, as the setpoint stream is).
+/// Contour error of each load point: its distance to the programmed path, searched within
+/// `window` spans of the same index (the path sampled at the same instants as the load points,
+/// as the setpoint stream is). The nearest chord is found first; with tangents the spans
+/// around it are then measured along the Hermite curve.
 pub fn contour_errors(load: &[Vec<f64>], path: &SampledPath, window: usize) -> Vec<f64> {
     let n = path.points.len();
+    let curved = path.has_tangents();
     load.iter()
         .enumerate()
         .map(|(k, p)| {
@@ -110,14 +166,16 @@ pub fn contour_errors(load: &[Vec<f64>], path: &SampledPath, window: usize) -> V
             }
             let lo = k.saturating_sub(window).min(n - 2);
             let hi = (k + window).min(n - 2);
-            (lo..=hi).map(|i| segment_distance(p, &path.points[i], &path.points[i + 1])).fold(f64::INFINITY, f64::min)
+            let (nearest, chord) = (lo..=hi)
+                .map(|i| (i, segment_distance(p, &path.points[i], &path.points[i + 1])))
+                .fold((lo, f64::INFINITY), |best, c| if c.1 < best.1 { c } else { best });
+            if !curved {
+                return chord;
+            }
+            let (a, b) = (nearest.saturating_sub(1), (nearest + 1).min(n - 2));
+            (a..=b).map(|i| path.span_distance(p, i)).fold(f64::INFINITY, f64::min)
         })
         .collect()
-}
-
-/// Contour error with a caller-supplied distance to the programmed path.
-pub fn contour_errors_with(load: &[Vec<f64>], mut distance: impl FnMut(&[f64]) -> f64) -> Vec<f64> {
-    load.iter().map(|p| distance(p)).collect()
 }
 
 /// Per-axis figures of a run, in the axis unit (mm or deg).
@@ -169,6 +227,8 @@ struct Running {
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Sample {
     pub setpoint: f64,
+    /// Setpoint velocity, unit/s.
+    pub setpoint_vel: f64,
     pub motor: f64,
     pub load: f64,
     pub following_error: f64,
@@ -227,6 +287,7 @@ impl Metrics {
         for ((r, run), o) in self.rec.iter_mut().zip(&mut self.running).zip(outputs) {
             r.push_back(Sample {
                 setpoint: o.setpoint,
+                setpoint_vel: o.setpoint_vel,
                 motor: o.motor_pos,
                 load: o.load_pos,
                 following_error: o.following_error,
@@ -239,6 +300,11 @@ impl Metrics {
             run.max_force = run.max_force.max(o.motor_force.abs());
             run.saturated += u64::from(o.saturated);
         }
+    }
+
+    /// Records the plant's current outputs at its time ([`crate::Plant::time_s`]).
+    pub fn record_plant(&mut self, plant: &crate::Plant) {
+        self.record(plant.time_s(), plant.outputs());
     }
 
     pub fn axis_names(&self) -> &[AxisLetter] {
@@ -305,10 +371,13 @@ impl Metrics {
         }
         let n = self.t.len();
         let pt = |k: usize, f: fn(&Sample) -> f64| lin.iter().map(|&i| f(&self.rec[i][k])).collect::<Vec<f64>>();
-        let path = SampledPath { points: (0..n).map(|k| pt(k, |s| s.setpoint)).collect() };
+        let path = SampledPath {
+            points: (0..n).map(|k| pt(k, |s| s.setpoint)).collect(),
+            velocities: (0..n).map(|k| pt(k, |s| s.setpoint_vel)).collect(),
+            t_s: self.times(),
+        };
         let load: Vec<Vec<f64>> = (0..n).map(|k| pt(k, |s| s.load)).collect();
-        // ±2 s of path around each instant covers any realistic lag.
-        let window = ((2.0 / self.dt().max(1e-6)) as usize).max(4);
+        let window = ((CONTOUR_WINDOW_S / self.dt().max(1e-6)) as usize).max(4);
         contour_errors(&load, &path, window)
     }
 
@@ -374,16 +443,16 @@ impl fmt::Display for MetricsSummary {
             "axis", "preset", "max|FE|", "rms FE", "max|LE|", "rms LE", "max|F|", "residual", "f_res"
         )?;
         for a in &self.axes {
-            // µm for linear axes, µrad-like mdeg for rotary axes.
-            let (k, unit) = match a.kind {
-                AxisKind::Linear => (1e3, "um"),
-                AxisKind::Rotary => (1e3, "mdeg"),
+            // µm for linear axes, mdeg for rotary axes; force or torque.
+            let (k, unit, force_unit) = match a.kind {
+                AxisKind::Linear => (1e3, "um", "N "),
+                AxisKind::Rotary => (1e3, "mdeg", "Nm"),
             };
             let res = a.residual_amplitude.map_or("-".to_string(), |r| format!("{:.3} {unit}", r * k));
             let fres = a.residual_peak_hz.map_or("-".to_string(), |h| format!("{h:.2} Hz"));
             writeln!(
                 f,
-                "{:<4} {:<17} {:>9.3} {unit:<2} {:>9.3} {unit:<2} {:>9.3} {unit:<2} {:>9.3} {unit:<2} {:>8.1} N {:>12} {:>9}",
+                "{:<4} {:<17} {:>9.3} {unit:<2} {:>9.3} {unit:<2} {:>9.3} {unit:<2} {:>9.3} {unit:<2} {:>8.1} {force_unit} {:>12} {:>9}",
                 a.name.to_string(),
                 a.preset,
                 a.max_following_error * k,
@@ -428,9 +497,29 @@ mod tests {
 
     #[test]
     fn contour_error_of_a_parallel_offset() {
-        let path = SampledPath { points: (0..100).map(|i| vec![i as f64, 0.0]).collect() };
+        let path = SampledPath { points: (0..100).map(|i| vec![i as f64, 0.0]).collect(), ..Default::default() };
         let load: Vec<Vec<f64>> = (0..100).map(|i| vec![i as f64 - 0.5, 0.01]).collect();
         let e = contour_errors(&load, &path, 3);
         assert!(e[10..].iter().all(|x| (x - 0.01).abs() < 1e-12));
+    }
+
+    #[test]
+    fn contour_error_on_a_circle_follows_the_arc_not_the_chords() {
+        // r = 10 mm at 250 mm/s sampled every 4 ms: 1 mm chords sag 12.5 µm.
+        let (r, w, dt) = (10.0, 25.0, 0.004);
+        let n = 300;
+        let t_s: Vec<f64> = (0..n).map(|k| k as f64 * dt).collect();
+        let at = |t: f64, rr: f64| vec![rr * (w * t).cos(), rr * (w * t).sin()];
+        let path = SampledPath {
+            points: t_s.iter().map(|&t| at(t, r)).collect(),
+            velocities: t_s.iter().map(|&t| vec![-r * w * (w * t).sin(), r * w * (w * t).cos()]).collect(),
+            t_s: t_s.clone(),
+        };
+        // Load points 5 µm inside the circle, half a cycle late.
+        let load: Vec<Vec<f64>> = t_s.iter().map(|&t| at(t - dt / 2.0, r - 0.005)).collect();
+        let e = contour_errors(&load, &path, 10);
+        assert!(e[5..].iter().all(|x| (x - 0.005).abs() < 1e-5), "{:?}", &e[5..10]);
+        let chords = contour_errors(&load, &SampledPath { points: path.points.clone(), ..Default::default() }, 10);
+        assert!(chords[5..].iter().all(|x| (x - 0.005).abs() > 2e-3), "chords sag: {:?}", &chords[5..10]);
     }
 }

@@ -10,7 +10,7 @@ use crate::axis::{Axis, AxisOutput};
 use interpd_config::Config;
 use interpd_config::plant::{PlantConfig, PlantModel, ResolvedAxisPlant};
 use interpd_protocol::MAX_AXES;
-use interpd_protocol::shm::{Feedback, PAYLOAD_VERSION, Setpoints};
+use interpd_protocol::shm::{Feedback, PAYLOAD_VERSION, Setpoints, feedback_flags};
 use thiserror::Error;
 
 /// A longer silence than this between two setpoints restarts the plant at the new setpoint
@@ -73,11 +73,15 @@ pub struct Plant {
     apply_crosstalk: bool,
     h_ns: u64,
     h_s: f64,
-    /// Time of the current state, ns.
+    /// Time of the current state, ns (a whole number of servo periods after the last reset).
     t_ns: u64,
+    /// Time of the last target, ns (the state time is within half a servo period of it).
+    t_target_ns: u64,
     /// Time of the first reset (origin of [`Plant::time_s`]), ns.
     origin_ns: u64,
     started: bool,
+    /// The last call placed the plant at rest instead of moving it.
+    was_reset: bool,
     outputs: Vec<AxisOutput>,
     stats: InputStats,
     last_cycle: Option<u64>,
@@ -125,8 +129,10 @@ impl Plant {
             h_ns,
             h_s,
             t_ns: 0,
+            t_target_ns: 0,
             origin_ns: 0,
             started: false,
+            was_reset: false,
             stats: InputStats::default(),
             last_cycle: None,
         })
@@ -184,7 +190,9 @@ impl Plant {
             self.origin_ns = t_ns;
         }
         self.t_ns = t_ns;
+        self.t_target_ns = t_ns;
         self.started = true;
+        self.was_reset = true;
         let t_s = self.time_s();
         for (a, &p) in self.axes.iter_mut().zip(positions) {
             a.reset(p, t_s);
@@ -208,9 +216,10 @@ impl Plant {
             return self.reset(t_ns, &pos[..targets.len()]);
         }
         let half = self.h_ns / 2;
-        if t_ns + half <= self.t_ns {
+        if t_ns <= self.t_target_ns {
             // Time did not advance: take the new target without motion.
             self.stats.time_anomalies += 1;
+            self.was_reset = false;
             for (a, t) in self.axes.iter_mut().zip(targets) {
                 a.set_target(t.pos, t.vel, t.acc, 0.0);
             }
@@ -226,6 +235,8 @@ impl Plant {
             }
             return self.reset(t_ns, &pos[..targets.len()]);
         }
+        self.t_target_ns = t_ns;
+        self.was_reset = false;
         let dur_s = gap_ns as f64 * 1e-9;
         for (a, t) in self.axes.iter_mut().zip(targets) {
             a.set_target(t.pos, t.vel, t.acc, dur_s);
@@ -244,12 +255,14 @@ impl Plant {
         Ok(&self.outputs)
     }
 
-    /// [`Plant::advance_to`] `dt_s` after the current state.
-    pub fn advance(&mut self, dt_s: f64, targets: &[AxisTarget]) -> Result<&[AxisOutput], PlantError> {
-        if !(dt_s.is_finite() && dt_s >= 0.0) {
-            return Err(PlantError::Input(format!("bad time step {dt_s}")));
+    /// One setpoint `dt_s` after the previous one: the drives interpolate from the previous
+    /// targets to `targets` (axis units) over `dt_s` and the plant integrates at the servo rate
+    /// (see [`Plant::advance_to`]). Returns the state at the new setpoint's time.
+    pub fn step(&mut self, targets: &[AxisTarget], dt_s: f64) -> Result<&[AxisOutput], PlantError> {
+        if !(dt_s.is_finite() && dt_s > 0.0 && dt_s <= MAX_GAP_S) {
+            return Err(PlantError::Input(format!("time step must lie in (0, {MAX_GAP_S}] s, got {dt_s}")));
         }
-        let t = self.t_ns + (dt_s * 1e9).round() as u64;
+        let t = self.t_target_ns + (dt_s * 1e9).round() as u64;
         self.advance_to(t, targets)
     }
 
@@ -302,12 +315,18 @@ impl Plant {
 
     /// Writes the feedback answering `sp` from the current outputs.
     pub fn fill_feedback(&self, sp: &Setpoints, fb: &mut Feedback) {
+        let any = |f: fn(&AxisOutput) -> bool| self.outputs.iter().any(f);
+        let bit = |on: bool, flag: u32| if on { flag } else { 0 };
+        let flags = bit(any(|o| o.saturated), feedback_flags::SATURATED)
+            | bit(any(|o| !o.contact), feedback_flags::GAP_OPEN)
+            | bit(self.was_reset, feedback_flags::RESYNC);
         *fb = Feedback {
             version: PAYLOAD_VERSION,
             n_axes: self.axes.len() as u32,
             cycle: sp.cycle,
             time_ns: self.t_ns,
             setpoint_publish_ns: sp.publish_ns,
+            flags,
             ..Feedback::default()
         };
         for (i, o) in self.outputs.iter().enumerate() {

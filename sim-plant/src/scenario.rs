@@ -299,8 +299,9 @@ pub fn backlash_reversal(preset: &str) -> Result<Reversal, PlantError> {
 /// T3 result: residual vibration after a jerk-limited move.
 #[derive(Debug, Clone, Copy)]
 pub struct Modal {
-    /// Peak of the load-error spectrum after the move, Hz.
-    pub peak_hz: f64,
+    /// Peak of the load-error spectrum after the move, Hz; `None` when the load does not ring
+    /// (with the backlash open and no preload it drifts inside the gap and stops).
+    pub peak_hz: Option<f64>,
     /// Locked-motor antiresonance √(k/m_L)/2π of the preset, Hz.
     pub expected_hz: f64,
     /// Largest |detrended load error| after the move, axis unit.
@@ -342,7 +343,7 @@ pub fn modal_check(preset: &str, preload: f64, backlash: bool) -> Result<Modal, 
     let d = metrics::detrend(tail);
     let residual_amplitude = d.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
     let spec = metrics::spectrum(&d, 0.004);
-    let peak_hz = metrics::peak_frequency(&spec, 1.0, 100.0).unwrap_or(f64::NAN);
+    let peak_hz = metrics::peak_frequency(&spec, 1.0, 100.0);
     Ok(Modal { peak_hz, expected_hz, residual_amplitude })
 }
 

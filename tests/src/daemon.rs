@@ -3,7 +3,7 @@
 //! stream over iceoryx2.
 
 use iceoryx2::prelude::*;
-use interpd_protocol::shm::{Setpoints, service_settings as ss};
+use interpd_protocol::shm::{Setpoints, qos};
 use serde_json::{Value, json};
 use std::io::{BufRead, BufReader, Write};
 use std::os::unix::net::UnixStream;
@@ -37,7 +37,7 @@ impl Daemon {
         let socket = dir.join("control.sock");
         let prefix = format!("interpd-test/{name}");
         let mut cmd = Command::new(crate::binary("interpd"));
-        cmd.arg("run").arg("--socket").arg(&socket).arg("--shm-prefix").arg(&prefix).args(extra);
+        cmd.arg("run").arg("--socket").arg(&socket).arg("--service-prefix").arg(&prefix).args(extra);
         cmd.stdout(Stdio::null()).stderr(Stdio::from(std::fs::File::create(dir.join("stderr.log")).expect("log file")));
         let child = cmd.spawn().expect("start interpd run");
         let d = Daemon { child: Some(child), socket, prefix, dir };
@@ -167,15 +167,14 @@ impl Collector {
             let service = node
                 .service_builder(&name)
                 .publish_subscribe::<Setpoints>()
-                .history_size(ss::HISTORY_SIZE)
-                .subscriber_max_buffer_size(ss::SUBSCRIBER_MAX_BUFFER_SIZE)
-                .max_subscribers(ss::MAX_SUBSCRIBERS)
-                .max_publishers(ss::MAX_PUBLISHERS)
-                .max_nodes(ss::MAX_NODES)
+                .history_size(qos::HISTORY_SIZE)
+                .subscriber_max_buffer_size(qos::SUBSCRIBER_BUFFER_SIZE)
+                .max_publishers(qos::MAX_PUBLISHERS)
+                .max_subscribers(qos::MAX_SUBSCRIBERS)
                 .open_or_create()
                 .expect("setpoint service");
             let sub =
-                service.subscriber_builder().buffer_size(ss::SUBSCRIBER_MAX_BUFFER_SIZE).create().expect("subscriber");
+                service.subscriber_builder().buffer_size(qos::SUBSCRIBER_BUFFER_SIZE).create().expect("subscriber");
             ready_tx.send(()).expect("ready");
             while !st2.load(Ordering::SeqCst) {
                 let mut got = Vec::new();

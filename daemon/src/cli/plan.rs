@@ -36,6 +36,13 @@ pub struct PlanArgs {
     /// used and its profile at the nodes as JSON, for an independent optimiser (benches/reference/).
     #[arg(long)]
     pub export_nodes: Option<PathBuf>,
+    /// Run the simulated plant (sim-plant) on the sampled setpoints, one setpoint per row, and
+    /// add the columns <axis>_motor,<axis>_load,<axis>_following_error,<axis>_load_error. No
+    /// value: the machine's [plant] section; PRESET: that preset for all axes of its kind; FILE:
+    /// a preset file or a TOML file with a [plant] section. Put it after PROGRAM or write
+    /// --plant=VALUE.
+    #[arg(long, num_args = 0..=1, default_missing_value = "", value_name = "PRESET|FILE")]
+    pub plant: Option<String>,
 }
 
 /// Largest |value| / limit per quantity over all axes and samples.
@@ -60,7 +67,9 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
         None => config.cycle_s(),
     };
     let program = program::load(&args.program, &config)?;
-    let path = &program.path;
+    // G64 runs are smoothed within their tolerance before planning (seed 000).
+    let prepared = interpd::prep::prepare_path(&config, &program.path).map_err(|e| CliError::Failure(e.to_string()))?;
+    let path = &prepared.path;
     if path.elements.is_empty() {
         return Err(CliError::BadInput(format!("{}: the program has no motion", args.program.display())));
     }
@@ -83,7 +92,9 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
         for name in &path.axis_names {
             write!(w, ",{name}").map_err(write_err)?;
         }
-        writeln!(w).map_err(write_err)?;
+        if args.plant.is_none() {
+            writeln!(w).map_err(write_err)?;
+        }
     }
     let lim = planner.limits();
     let n = path.n_axes;
@@ -94,6 +105,13 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
     let mut cursor = Cursor::default();
     let mut d = AxisDerivs::default();
     let samples = (duration / period_s).ceil() as u64 + 1;
+    let mut plant = match &args.plant {
+        Some(choice) => Some(PlantRun::new(&config, choice, period_s, samples)?),
+        None => None,
+    };
+    if let (Some(w), Some(p)) = (out.as_mut(), plant.as_ref()) {
+        p.write_header(w).map_err(write_err)?;
+    }
     for k in 0..samples {
         // Uniform time steps, also past the end (the machine rests there), so finite
         // differences of the output are exact in their spacing.
@@ -113,17 +131,29 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             ratios.vel = ratios.vel.max(vel.abs() / lim.configured_vel[i]);
             ratios.acc = ratios.acc.max(acc.abs() / lim.configured_acc[i]);
             ratios.jerk = ratios.jerk.max(jerk.abs() / lim.configured_jerk[i]);
+            if let Some(p) = plant.as_mut() {
+                p.targets[i] = sim_plant::AxisTarget { pos: d.pos[i], vel, acc };
+            }
+        }
+        if let Some(p) = plant.as_mut() {
+            p.step()?;
         }
         if let Some(w) = out.as_mut() {
             write!(w, "{},{},{},{},{}", t, st.s_mm, st.v, st.a, st.j).map_err(write_err)?;
             for p in &d.pos[..n] {
                 write!(w, ",{p}").map_err(write_err)?;
             }
+            if let Some(p) = plant.as_ref() {
+                p.write_columns(w).map_err(write_err)?;
+            }
             writeln!(w).map_err(write_err)?;
         }
     }
     if let Some(mut w) = out {
         w.flush().map_err(write_err)?;
+    }
+    if let Some(p) = plant.as_mut() {
+        p.settle()?;
     }
     if !ratios.vel.is_finite() || !ratios.acc.is_finite() || !ratios.jerk.is_finite() || !duration.is_finite() {
         return Err(CliError::Failure("internal error: the planned motion is not finite".into()));
@@ -156,6 +186,8 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
                 "cap_tries": stats.work.cap_tries,
             },
             "lookahead_mm": config.planner.lookahead_mm,
+            "plant": plant.as_ref().map(PlantRun::json),
+            "prep": { "wall_ms": prepared.wall_s * 1e3, "stats": prepared.stats },
         });
         writeln!(stdout, "{json}").map_err(write_err)?;
     } else {
@@ -175,8 +207,91 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             args.out.as_ref().map_or(String::new(), |p| format!("; {samples} samples in {}", p.display()))
         )
         .map_err(write_err)?;
+        if let Some(p) = &plant {
+            write!(stdout, "{}", p.summary()).map_err(write_err)?;
+        }
     }
     Ok(())
+}
+
+/// Standstill simulated after the motion end for the plant summary's residual vibration, s.
+const PLANT_SETTLE_S: f64 = 1.0;
+
+/// `--plant`: the simulated axes (sim-plant, in-process) driven by the sampled setpoints.
+struct PlantRun {
+    plant: sim_plant::Plant,
+    metrics: sim_plant::metrics::Metrics,
+    /// The current row's setpoint per axis.
+    targets: Vec<sim_plant::AxisTarget>,
+    period_s: f64,
+    names: Vec<String>,
+}
+
+impl PlantRun {
+    fn new(config: &Config, choice: &str, period_s: f64, samples: u64) -> Result<Self, CliError> {
+        let plant_config = config.plant.select(choice, &config.axes, "--plant")?;
+        let resolved = plant_config.resolve(&config.axes, "--plant")?;
+        let plant =
+            sim_plant::Plant::new(&resolved, &plant_config).map_err(|e| CliError::BadInput(format!("--plant: {e}")))?;
+        let settle_rows = (PLANT_SETTLE_S / period_s).ceil() as u64;
+        let metrics = sim_plant::metrics::Metrics::new(&plant, (samples + settle_rows).min(1 << 24) as usize);
+        let targets = vec![sim_plant::AxisTarget::default(); plant.n_axes()];
+        Ok(Self { plant, metrics, targets, period_s, names: config.axis_names() })
+    }
+
+    /// The first row places the plant at rest at its setpoint; each further row is one
+    /// setpoint `period_s` later.
+    fn step(&mut self) -> Result<(), CliError> {
+        self.plant
+            .step(&self.targets, self.period_s)
+            .map_err(|e| CliError::Failure(format!("internal error: plant step: {e}")))?;
+        self.metrics.record_plant(&self.plant);
+        Ok(())
+    }
+
+    /// Holds the last setpoint for [`PLANT_SETTLE_S`] more (not written to the CSV), so the
+    /// summary has the residual vibration after the motion end.
+    fn settle(&mut self) -> Result<(), CliError> {
+        for t in &mut self.targets {
+            *t = sim_plant::AxisTarget { pos: t.pos, vel: 0.0, acc: 0.0 };
+        }
+        for _ in 0..(PLANT_SETTLE_S / self.period_s).ceil() as u64 {
+            self.step()?;
+        }
+        Ok(())
+    }
+
+    fn write_header(&self, w: &mut impl Write) -> std::io::Result<()> {
+        for n in &self.names {
+            write!(w, ",{n}_motor,{n}_load,{n}_following_error,{n}_load_error")?;
+        }
+        writeln!(w)
+    }
+
+    fn write_columns(&self, w: &mut impl Write) -> std::io::Result<()> {
+        for o in self.plant.outputs() {
+            write!(w, ",{},{},{},{}", o.motor_pos, o.load_pos, o.following_error, o.load_error)?;
+        }
+        Ok(())
+    }
+
+    fn json(&self) -> serde_json::Value {
+        let s = self.metrics.summary();
+        let per_axis =
+            |f: fn(&sim_plant::metrics::AxisSummary) -> serde_json::Value| s.axes.iter().map(f).collect::<Vec<_>>();
+        serde_json::json!({
+            "presets": per_axis(|a| a.preset.clone().into()),
+            "max_following_error": per_axis(|a| a.max_following_error.into()),
+            "max_load_error": per_axis(|a| a.max_load_error.into()),
+            "residual_vibration": per_axis(|a| a.residual_amplitude.into()),
+            "residual_peak_hz": per_axis(|a| a.residual_peak_hz.into()),
+            "max_contour_error_mm": s.max_contour_error,
+        })
+    }
+
+    fn summary(&self) -> String {
+        self.metrics.summary().to_string()
+    }
 }
 
 /// Plans the path the way the daemon does: elements pushed one by one, planned online.

@@ -25,9 +25,10 @@ pub struct RunArgs {
     /// Do not publish setpoints over iceoryx2 (overrides `[sinks] shm`).
     #[arg(long)]
     pub no_shm: bool,
-    /// iceoryx2 service prefix (overrides `[sinks] shm_prefix`; services `<prefix>/setpoints`).
+    /// iceoryx2 service prefix (services `<prefix>/setpoints`, `<prefix>/feedback`); default:
+    /// $INTERPD_SERVICE_PREFIX, else `[sinks] shm_prefix`, else "interpd".
     #[arg(long)]
-    pub shm_prefix: Option<String>,
+    pub service_prefix: Option<String>,
     /// Testing aid: the planner thread stalls once for FOR_S seconds after AFTER_S seconds of
     /// motion were queued, to provoke an underrun. Format AFTER_S:FOR_S.
     #[arg(long, value_name = "AFTER_S:FOR_S")]
@@ -36,13 +37,12 @@ pub struct RunArgs {
 
 pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let mut config = Config::load_or_default(args.config.as_deref())?;
-    if let Some(p) = &args.shm_prefix {
-        config.sinks.shm_prefix = p.clone();
-        // Validate the override like the file value.
-        let text = format!(
-            "[machine]\ncycle_ms = 4.0\n[[axis]]\nname = \"X\"\nkind = \"linear\"\nmax_vel = 1.0\nmax_acc = 1.0\nmax_jerk = 1.0\nmin = -1.0\nmax = 1.0\n[sinks]\nshm_prefix = {p:?}\n"
-        );
-        Config::from_toml_str(&text, "--shm-prefix").map_err(|e| CliError::BadInput(e.to_string()))?;
+    // The iceoryx2 service prefix: --service-prefix, else INTERPD_SERVICE_PREFIX, else the
+    // configuration (`[sinks] shm_prefix`, default "interpd").
+    let env_prefix = std::env::var(interpd_protocol::shm::SERVICE_PREFIX_ENV).ok().filter(|p| !p.is_empty());
+    if let Some(p) = args.service_prefix.clone().or(env_prefix) {
+        interpd_protocol::shm::check_service_prefix(&p).map_err(|e| CliError::BadInput(format!("--service-prefix: {e}")))?;
+        config.sinks.shm_prefix = p;
     }
     let stall = args.debug_stall_planner.as_deref().map(parse_stall).transpose()?;
     let socket = args.socket.clone().unwrap_or_else(|| PathBuf::from(config.control.socket_path()));

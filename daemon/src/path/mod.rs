@@ -8,6 +8,7 @@ mod arc;
 pub mod arclength;
 mod cubic;
 mod line;
+mod quintic;
 mod septic;
 pub mod spline;
 mod suffix;
@@ -15,6 +16,7 @@ mod suffix;
 pub use arc::Helix;
 pub use cubic::{CubicSpan, MIN_CURVATURE_RADIUS_MM, SpanError};
 pub use line::Line;
+pub use quintic::{HermiteEnd, QuinticSpan};
 pub use septic::SepticSpan;
 pub use suffix::Suffix;
 
@@ -41,6 +43,8 @@ pub enum Geometry {
     Septic(Box<SepticSpan>),
     /// The rest of an element from a point inside it (replanning from a stop or hand-over).
     Suffix(Box<Suffix>),
+    /// A smoothed piece from the tolerance-band preparation (seed 000).
+    Quintic(Box<QuinticSpan>),
 }
 
 impl Geometry {
@@ -52,6 +56,7 @@ impl Geometry {
             Geometry::Cubic(g) => g.length_mm(),
             Geometry::Septic(g) => g.length_mm(),
             Geometry::Suffix(g) => g.length_mm(),
+            Geometry::Quintic(g) => g.length_mm(),
         }
     }
 
@@ -64,6 +69,7 @@ impl Geometry {
             Geometry::Cubic(g) => g.eval(s, out),
             Geometry::Septic(g) => g.eval(s, out),
             Geometry::Suffix(g) => g.eval(s, out),
+            Geometry::Quintic(g) => g.eval(s, out),
         }
     }
 
@@ -75,6 +81,7 @@ impl Geometry {
             Geometry::Cubic(_) => "spline",
             Geometry::Septic(_) => "table",
             Geometry::Suffix(g) => g.inner().kind_name(),
+            Geometry::Quintic(_) => "smoothed",
         }
     }
 }

@@ -4,7 +4,7 @@
 
 use super::{SetpointSink, SinkError};
 use iceoryx2::prelude::*;
-use interpd_protocol::shm::{Setpoints, service_name, service_settings as ss};
+use interpd_protocol::shm::{Setpoints, qos};
 
 /// Publishes setpoints on `<prefix>/setpoints`.
 pub struct ShmSink {
@@ -33,15 +33,14 @@ pub fn open_service<T: std::fmt::Debug + ZeroCopySend + 'static>(
     prefix: &str,
     service: &str,
 ) -> Result<iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, T, ()>, String> {
-    let full = service_name(prefix, service);
+    let full = format!("{prefix}/{service}");
     let name: ServiceName = full.as_str().try_into().map_err(|e| format!("service name {full:?}: {e:?}"))?;
     node.service_builder(&name)
         .publish_subscribe::<T>()
-        .history_size(ss::HISTORY_SIZE)
-        .subscriber_max_buffer_size(ss::SUBSCRIBER_MAX_BUFFER_SIZE)
-        .max_subscribers(ss::MAX_SUBSCRIBERS)
-        .max_publishers(ss::MAX_PUBLISHERS)
-        .max_nodes(ss::MAX_NODES)
+        .history_size(qos::HISTORY_SIZE)
+        .subscriber_max_buffer_size(qos::SUBSCRIBER_BUFFER_SIZE)
+        .max_publishers(qos::MAX_PUBLISHERS)
+        .max_subscribers(qos::MAX_SUBSCRIBERS)
         .open_or_create()
         .map_err(|e| format!("cannot open or create the iceoryx2 service {full:?}: {e:?}"))
 }

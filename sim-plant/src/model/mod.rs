@@ -12,6 +12,9 @@ pub use two_mass::TwoMass;
 
 /// The mechanics of one axis, in SI base units (m or rad).
 #[derive(Debug, Clone)]
+// Both variants hold their discretised matrices inline (about 1 kB): boxing would add a pointer
+// chase to every servo step of every axis.
+#[allow(clippy::large_enum_variant)]
 pub enum Mechanics {
     TwoMass(TwoMass),
     ThreeMass(ThreeMass),

@@ -1,0 +1,388 @@
+//! The per-axis QP of one window (seed 000 §3.3, eq. 3.8–3.12) as a sparse problem for
+//! Clarabel: min ½zᵀPz + qᵀz s.t. A z + s = b, s ∈ {0}ᵐ¹ × ℝ₊ᵐ².
+//!
+//! z holds, per point j, the position and its derivatives z_{j,0} … z_{j,r} with respect to the
+//! normalised path parameter τ = s / h (h = `prep.point_spacing_mm`, so the entries are of
+//! order one). Equality rows: the trapezoid coupling between neighbouring points at every
+//! level, with its Euler–Maclaurin end correction where the level two above exists (plain
+//! trapezoid data are consistent with a smooth curve only to O(Δ³), and the quintic pieces
+//! turn that error into a sawtooth in A‴ that the planner must crawl through), then the fixed
+//! values at the left and right end. Inequality rows: the band of every
+//! point whose position is not fixed.
+//!
+//! The sparsity patterns of one window shape (point count, levels, fixed ends) are built once
+//! and reused: later windows only refill the values (the spacing of the points), and the axes
+//! of one window share one solver (P, A, its scaling and its symbolic factorisation) and
+//! change only q and b.
+
+use clarabel::algebra::CscMatrix;
+use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
+
+/// The structure of a window problem.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Shape {
+    pub n_points: usize,
+    /// Values per point: position and `levels − 1` derivatives.
+    pub levels: usize,
+    /// Leading levels fixed at the first point (1 = position only).
+    pub left_fixed: usize,
+    /// Leading levels fixed at the last point; 0 = the last point only keeps its band.
+    pub right_fixed: usize,
+}
+
+impl Shape {
+    pub fn n_vars(&self) -> usize {
+        self.n_points * self.levels
+    }
+
+    fn var(&self, j: usize, k: usize) -> usize {
+        j * self.levels + k
+    }
+
+    /// Trapezoid rows: (n − 1) per coupled level pair.
+    fn n_trapezoid(&self) -> usize {
+        (self.n_points - 1) * (self.levels - 1)
+    }
+
+    pub fn n_eq(&self) -> usize {
+        self.n_trapezoid() + self.left_fixed + self.right_fixed
+    }
+
+    /// Points whose position is bounded by the band (all but fixed ends).
+    pub fn bounded(&self) -> std::ops::Range<usize> {
+        1..if self.right_fixed == 0 { self.n_points } else { self.n_points - 1 }
+    }
+
+    pub fn n_rows(&self) -> usize {
+        self.n_eq() + 2 * self.bounded().len()
+    }
+}
+
+/// Why a window solve gave no usable result.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum QpFailure {
+    Infeasible,
+    /// Stopped by the time limit (`prep.max_solve_ms`).
+    Slow,
+    /// Iteration limit, numerical trouble or a solver set-up error.
+    Numerical,
+}
+
+/// Gap and feasibility tolerance of the solver.
+const SOLVER_TOL: f64 = 1e-7;
+/// Iteration cap of one solve; a well-posed window needs 10–30.
+const MAX_ITER: u32 = 200;
+
+/// Entries generated in a fixed order (repeats allowed, they add up) and where each lands in
+/// the CSC storage.
+struct Pattern {
+    rows: usize,
+    cols: usize,
+    colptr: Vec<usize>,
+    rowval: Vec<usize>,
+    /// `slot[i]` = stored position of the i-th generated entry.
+    slot: Vec<usize>,
+}
+
+impl Pattern {
+    fn new(rows: usize, cols: usize, entries: &[(usize, usize)]) -> Self {
+        let mut order: Vec<usize> = (0..entries.len()).collect();
+        order.sort_by_key(|&i| (entries[i].1, entries[i].0));
+        let mut colptr = vec![0; cols + 1];
+        let mut rowval = Vec::with_capacity(entries.len());
+        let mut slot = vec![0; entries.len()];
+        let mut last = None;
+        for &i in &order {
+            let (r, c) = entries[i];
+            if last != Some((r, c)) {
+                rowval.push(r);
+                colptr[c + 1] += 1;
+                last = Some((r, c));
+            }
+            slot[i] = rowval.len() - 1;
+        }
+        for c in 0..cols {
+            colptr[c + 1] += colptr[c];
+        }
+        Self { rows, cols, colptr, rowval, slot }
+    }
+
+    fn values(&self, generated: &[f64]) -> Vec<f64> {
+        let mut v = vec![0.0; self.rowval.len()];
+        for (i, g) in generated.iter().enumerate() {
+            v[self.slot[i]] += g;
+        }
+        v
+    }
+
+    fn matrix(&self, generated: &[f64]) -> CscMatrix<f64> {
+        CscMatrix::new(self.rows, self.cols, self.colptr.clone(), self.rowval.clone(), self.values(generated))
+    }
+}
+
+/// A reusable solver for one window shape.
+pub struct WindowQp {
+    shape: Shape,
+    p_pattern: Pattern,
+    a_pattern: Pattern,
+    p_gen: Vec<f64>,
+    a_gen: Vec<f64>,
+    cones: Vec<SupportedConeT<f64>>,
+    time_limit_s: f64,
+    solver: Option<DefaultSolver<f64>>,
+    pub solution: Vec<f64>,
+    pub iterations: u32,
+}
+
+impl WindowQp {
+    pub fn new(shape: Shape, time_limit_s: f64) -> Self {
+        let (a_entries, _) = a_entries(&shape, &vec![1.0; shape.n_points - 1]);
+        let n = shape.n_vars();
+        let p_entries: Vec<(usize, usize)> = (0..n).map(|i| (i, i)).collect();
+        Self {
+            p_pattern: Pattern::new(n, n, &p_entries),
+            a_pattern: Pattern::new(shape.n_rows(), n, &a_entries),
+            p_gen: vec![0.0; p_entries.len()],
+            a_gen: Vec::new(),
+            cones: vec![
+                SupportedConeT::ZeroConeT(shape.n_eq()),
+                SupportedConeT::NonnegativeConeT(2 * shape.bounded().len()),
+            ],
+            time_limit_s,
+            solver: None,
+            shape,
+            solution: vec![0.0; n],
+            iterations: 0,
+        }
+    }
+
+    pub fn shape(&self) -> &Shape {
+        &self.shape
+    }
+
+    /// Sets the spacing Δ_j (in τ) between the points and the objective weights per level
+    /// (already scaled to τ): P = diag(q_j·w_k) with the trapezoid quadrature weight q_j
+    /// (seed 000 eq. 3.9: H = blockdiag(diag(w_x, w_x′, …))).
+    pub fn load(&mut self, deltas: &[f64], weights: &[f64]) {
+        debug_assert_eq!(deltas.len(), self.shape.n_points - 1);
+        let s = self.shape;
+        for j in 0..s.n_points {
+            let q = quadrature_weight(deltas, j);
+            for k in 0..s.levels {
+                self.p_gen[s.var(j, k)] = q * weights[k];
+            }
+        }
+        self.a_gen = a_entries(&s, deltas).1;
+        // A new window gets a new solver: its equilibration is computed for these values (a
+        // window through a corner scales nothing like one on a straight line). The axes of the
+        // window share it and change only q and b.
+        self.solver = None;
+    }
+
+    /// Solves with linear term `q` and right-hand side `b`; the solution is in `self.solution`.
+    pub fn solve(&mut self, q: &[f64], b: &[f64]) -> Result<(), QpFailure> {
+        if self.solver.is_none() {
+            let p = self.p_pattern.matrix(&self.p_gen);
+            let a = self.a_pattern.matrix(&self.a_gen);
+            let solver = DefaultSolver::new(&p, q, &a, b, &self.cones, settings(self.time_limit_s))
+                .map_err(|_| QpFailure::Numerical)?;
+            self.solver = Some(solver);
+        }
+        let solver = self.solver.as_mut().expect("created above");
+        solver.update_q(&q.to_vec()).map_err(|_| QpFailure::Numerical)?;
+        solver.update_b(&b.to_vec()).map_err(|_| QpFailure::Numerical)?;
+        solver.solve();
+        self.iterations = solver.info.iterations;
+        match solver.solution.status {
+            SolverStatus::Solved | SolverStatus::AlmostSolved => {
+                self.solution.copy_from_slice(&solver.solution.x);
+                if self.solution.iter().all(|v| v.is_finite()) { Ok(()) } else { Err(QpFailure::Numerical) }
+            }
+            SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => Err(QpFailure::Infeasible),
+            SolverStatus::MaxTime => Err(QpFailure::Slow),
+            _ => Err(QpFailure::Numerical),
+        }
+    }
+}
+
+fn settings(time_limit_s: f64) -> DefaultSettings<f64> {
+    DefaultSettings {
+        verbose: false,
+        // Data updates need the problem as given: no presolve, no dropped structural zeros.
+        presolve_enable: false,
+        input_sparse_dropzeros: false,
+        max_iter: MAX_ITER,
+        time_limit: time_limit_s,
+        // Positions to ~1e-7 of the window's scale are far inside the micrometre budget; each
+        // further digit costs IPM iterations, and refinement steps cost back-solves (the check
+        // after the solve catches a solution that is off).
+        tol_gap_abs: SOLVER_TOL,
+        tol_gap_rel: SOLVER_TOL,
+        tol_feas: SOLVER_TOL,
+        iterative_refinement_enable: false,
+        ..DefaultSettings::default()
+    }
+}
+
+/// Trapezoid quadrature weight of point j for spacings `deltas`.
+fn quadrature_weight(deltas: &[f64], j: usize) -> f64 {
+    let left = if j > 0 { deltas[j - 1] } else { 0.0 };
+    let right = deltas.get(j).copied().unwrap_or(0.0);
+    0.5 * (left + right)
+}
+
+/// The entries of A in a fixed order: (row, column) and value.
+fn a_entries(s: &Shape, deltas: &[f64]) -> (Vec<(usize, usize)>, Vec<f64>) {
+    let mut idx = Vec::new();
+    let mut val = Vec::new();
+    let r = s.levels - 1;
+    // seed 000 eq. 3.11 with the digest's sign fix (the sum of the derivatives):
+    // z_{j+1,k} − z_{j,k} − (Δ_j/2)(z_{j,k+1} + z_{j+1,k+1}) = 0, at every level k < r.
+    for j in 0..s.n_points - 1 {
+        for k in 0..r {
+            let row = j * r + k;
+            let half = 0.5 * deltas[j];
+            idx.extend([
+                (row, s.var(j + 1, k)),
+                (row, s.var(j, k)),
+                (row, s.var(j, k + 1)),
+                (row, s.var(j + 1, k + 1)),
+            ]);
+            val.extend([1.0, -1.0, -half, -half]);
+            if k + 2 <= r {
+                // Euler–Maclaurin end correction of the trapezoid rule, + (Δ²/12)(z_{j+1,k+2} −
+                // z_{j,k+2}): the rule becomes exact for quartic z and the points' data
+                // consistent with a smooth curve to O(Δ⁵) instead of O(Δ³).
+                let c = deltas[j] * deltas[j] / 12.0;
+                idx.extend([(row, s.var(j + 1, k + 2)), (row, s.var(j, k + 2))]);
+                val.extend([c, -c]);
+            }
+        }
+    }
+    let mut row = s.n_trapezoid();
+    for k in 0..s.left_fixed {
+        idx.push((row, s.var(0, k)));
+        val.push(1.0);
+        row += 1;
+    }
+    for k in 0..s.right_fixed {
+        idx.push((row, s.var(s.n_points - 1, k)));
+        val.push(1.0);
+        row += 1;
+    }
+    for j in s.bounded() {
+        // z ≤ upper, −z ≤ −lower
+        idx.extend([(row, s.var(j, 0)), (row + 1, s.var(j, 0))]);
+        val.extend([1.0, -1.0]);
+        row += 2;
+    }
+    (idx, val)
+}
+
+/// Right-hand side rows for one axis.
+pub struct Rhs<'a> {
+    pub left: &'a [f64],
+    pub right: &'a [f64],
+    /// (lower, upper) per bounded point, in `Shape::bounded` order.
+    pub bands: &'a [(f64, f64)],
+}
+
+impl Shape {
+    /// Fills `b` (length `n_rows`) from the boundary values and bands.
+    pub fn rhs(&self, rhs: &Rhs<'_>, b: &mut Vec<f64>) {
+        b.clear();
+        b.resize(self.n_trapezoid(), 0.0);
+        b.extend_from_slice(&rhs.left[..self.left_fixed]);
+        b.extend_from_slice(&rhs.right[..self.right_fixed]);
+        for &(lo, hi) in rhs.bands {
+            b.push(hi);
+            b.push(-lo);
+        }
+        debug_assert_eq!(b.len(), self.n_rows());
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unconstrained_chain_is_a_straight_ramp() {
+        // 11 points, position fixed at both ends, wide bands: minimising Σ x′² (+ x″²) gives
+        // x nearly linear in τ and x′ nearly constant (the end correction lets the free x″ at the
+        // ends shave the mean of x′ a little).
+        let shape = Shape { n_points: 11, levels: 3, left_fixed: 1, right_fixed: 1 };
+        let mut qp = WindowQp::new(shape, f64::INFINITY);
+        qp.load(&[1.0; 10], &[0.0, 1.0, 1.0]);
+        let bands: Vec<(f64, f64)> = shape.bounded().map(|_| (-100.0, 100.0)).collect();
+        let mut b = Vec::new();
+        shape.rhs(&Rhs { left: &[0.0], right: &[5.0], bands: &bands }, &mut b);
+        qp.solve(&vec![0.0; shape.n_vars()], &b).unwrap();
+        for j in 0..11 {
+            let x = qp.solution[j * 3];
+            assert!((x - 0.5 * j as f64).abs() < 1e-2, "x_{j} = {x}");
+            assert!((qp.solution[j * 3 + 1] - 0.5).abs() < 5e-2, "x′_{j} = {}", qp.solution[j * 3 + 1]);
+        }
+    }
+
+    #[test]
+    fn band_is_kept_and_values_can_be_reloaded() {
+        let shape = Shape { n_points: 5, levels: 4, left_fixed: 4, right_fixed: 1 };
+        let mut qp = WindowQp::new(shape, f64::INFINITY);
+        let mut b = Vec::new();
+        for delta in [1.0, 0.5] {
+            qp.load(&[delta; 4], &[0.0, 1e-2, 1e-4, 1e-6]);
+            // Start moving up fast; the band caps the middle points at 0.1.
+            let bands = [(-0.1, 0.1); 3];
+            shape.rhs(&Rhs { left: &[0.0, 1.0, 0.0, 0.0], right: &[0.0], bands: &bands }, &mut b);
+            qp.solve(&vec![0.0; shape.n_vars()], &b).unwrap();
+            for j in 1..4 {
+                let x = qp.solution[j * 4];
+                assert!((-0.1 - 1e-7..=0.1 + 1e-7).contains(&x), "Δ = {delta}: x_{j} = {x}");
+            }
+            // Trapezoid rows hold.
+            for j in 0..4 {
+                for k in 0..3 {
+                    let z = |jj: usize, kk: usize| qp.solution[jj * 4 + kk];
+                    let mut res = z(j + 1, k) - z(j, k) - 0.5 * delta * (z(j, k + 1) + z(j + 1, k + 1));
+                    if k + 2 < 4 {
+                        res += delta * delta / 12.0 * (z(j + 1, k + 2) - z(j, k + 2));
+                    }
+                    assert!(res.abs() < 1e-7, "residual {res}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn straight_line_stays_straight() {
+        // A line with a narrow band, entered with its own slope: nothing to smooth.
+        let (n, m) = (30, 0.866);
+        let shape = Shape { n_points: n, levels: 4, left_fixed: 4, right_fixed: 1 };
+        let mut qp = WindowQp::new(shape, f64::INFINITY);
+        qp.load(&vec![1.0; n - 1], &[0.0, 0.0016, 0.04, 1.0]);
+        let bands: Vec<(f64, f64)> = shape.bounded().map(|j| (m * j as f64 - 0.0045, m * j as f64 + 0.0045)).collect();
+        let mut b = Vec::new();
+        shape.rhs(&Rhs { left: &[0.0, m, 0.0, 0.0], right: &[m * (n - 1) as f64], bands: &bands }, &mut b);
+        qp.solve(&vec![0.0; shape.n_vars()], &b).unwrap();
+        for j in 0..n {
+            // The free end lets x′ relax a little (its weight favours a slower parameter speed),
+            // within the band.
+            let x = qp.solution[j * 4];
+            assert!((x - m * j as f64).abs() <= 0.0045 + 1e-9 && (qp.solution[j * 4 + 1] - m).abs() < 2e-3, "{j}: {x}");
+        }
+    }
+
+    #[test]
+    fn conflicting_ends_are_infeasible() {
+        // Left fixed at 0 with x′ = 0, x″ = 0 on a 2-point chain, right fixed at 1: the
+        // trapezoid rows force x′₁ = 2 and x″₁ = 4; with band-free ends that is feasible, so
+        // pin x′ at the right as well to make it infeasible.
+        let shape = Shape { n_points: 2, levels: 3, left_fixed: 3, right_fixed: 2 };
+        let mut qp = WindowQp::new(shape, f64::INFINITY);
+        qp.load(&[1.0], &[0.0, 1.0, 1.0]);
+        let mut b = Vec::new();
+        shape.rhs(&Rhs { left: &[0.0, 0.0, 0.0], right: &[1.0, 0.0], bands: &[] }, &mut b);
+        assert!(qp.solve(&[0.0; 6], &b).is_err());
+    }
+}

@@ -1,0 +1,47 @@
+//! Counters and timings of the smoothing stage, for logs, `interpd plan --json` and the bench.
+
+use serde::Serialize;
+
+/// Totals over a preparation run.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct PrepStats {
+    /// Runs of G64 elements smoothed.
+    pub runs: u64,
+    /// Window solves that were committed (after any retries).
+    pub windows: u64,
+    /// Solve attempts, including retries and fallbacks.
+    pub solves: u64,
+    pub points: u64,
+    /// Smoothed pieces emitted.
+    pub pieces: u64,
+    /// Programmed path length that went through the smoothing, mm.
+    pub smoothed_mm: f64,
+    /// Wall time in window solves (all axes, all attempts), s.
+    pub solve_s_total: f64,
+    /// Slowest single window solve (all axes), s.
+    pub solve_s_max: f64,
+    pub iterations: u64,
+    /// Re-solves with a narrower band after the check found a piece outside the tolerance.
+    pub verify_retries: u64,
+    /// Fallback: a smaller window.
+    pub fallback_smaller: u64,
+    /// Fallback: the window's end only kept in its band.
+    pub fallback_looser: u64,
+    /// Fallback: exact stop and the programmed path.
+    pub fallback_exact: u64,
+    /// Solver outcomes that caused a fallback.
+    pub infeasible: u64,
+    pub slow: u64,
+    pub numerical: u64,
+    /// Largest distance of a checked sample to the programmed path, mm.
+    pub max_deviation_mm: f64,
+    /// Largest (distance − tolerance) over the checked samples, mm (≤ 0: inside).
+    pub max_excess_mm: f64,
+}
+
+impl PrepStats {
+    /// Mean wall time per solve attempt, s.
+    pub fn solve_s_mean(&self) -> f64 {
+        if self.solves == 0 { 0.0 } else { self.solve_s_total / self.solves as f64 }
+    }
+}

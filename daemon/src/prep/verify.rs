@@ -1,0 +1,30 @@
+//! The check after each window: the committed pieces, sampled, must stay within the
+//! tolerance of the programmed elements (seed 000 §4.8: the interpolant, not only the QP
+//! points, must keep the band).
+
+use super::elements::RunElems;
+use super::points::Point;
+use crate::path::QuinticSpan;
+
+/// Samples per piece (uniform in the piece parameter).
+pub const SAMPLES_PER_PIECE: usize = 32;
+
+/// Largest distance of the sampled piece between points `a` and `b` to the programmed path,
+/// and that distance minus the tolerance allowed there (> 0: outside).
+pub fn piece_excess(piece: &QuinticSpan, a: &Point, b: &Point, elems: &RunElems, spacing_mm: f64) -> (f64, f64) {
+    // The piece stays near the programmed path between its ends, shifted along it by at most
+    // how far its ends moved: only the elements there can be nearest.
+    let tol = a.tol_mm.min(b.tol_mm);
+    let p0 = piece.point_at_t(0.0);
+    let p1 = piece.point_at_t(1.0);
+    let moved = |p: &[f64], q: &Point| p.iter().zip(&q.pos).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt();
+    let reach = (moved(&p0, a).max(moved(&p1, b)) + 2.0 * tol).min(2.0 * spacing_mm);
+    let from = elems.index_at(a.s_mm - reach, a.elem);
+    let to = elems.index_at(b.s_mm + reach, b.elem);
+    let mut worst: f64 = 0.0;
+    for i in 1..SAMPLES_PER_PIECE {
+        let p = piece.point_at_t(i as f64 / SAMPLES_PER_PIECE as f64);
+        worst = worst.max(elems.distance(&p, from, to));
+    }
+    (worst, worst - tol)
+}

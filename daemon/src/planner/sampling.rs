@@ -63,7 +63,7 @@ impl Sharpness {
         let len = e.geometry.length_mm();
         let mut d = AxisDerivs::default();
         // (span parameter → (s, derivatives)) without arc-length inversion where possible.
-        let mut at = |x: f64, d: &mut AxisDerivs| -> f64 {
+        let at = |x: f64, d: &mut AxisDerivs| -> f64 {
             match &e.geometry {
                 crate::path::Geometry::Cubic(c) => {
                     c.eval_at_u(x, d);

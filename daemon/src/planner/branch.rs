@@ -18,7 +18,7 @@ use super::view::View;
 /// Bisection steps when the greedy choice is not viable.
 const VIABLE_SEARCH_ITERS: usize = 40;
 /// Relative bracket width at which the viable search stops.
-const VIABLE_SEARCH_REL_TOL: f64 = 1e-6;
+const VIABLE_SEARCH_REL_TOL: f64 = 1e-4;
 /// Backward branches brake with this share of the jerk the axes allow, the forward branch
 /// with all of it: where the forward branch crosses a backward branch its braking is the
 /// steeper, which leaves jerk for the exact join.
@@ -220,6 +220,13 @@ pub fn backward_branch(
         let v_max = nodes[i_next].vbar_mm_s.min(cap);
         let iv = match greedy_step(&view, t, v, a, v_max, &ceiling, &lim_b, work) {
             Some(iv) => iv,
+            None if v > v_max && view.index(t) > stop + 1 && i_next > 0 && cap.is_infinite() => {
+                // The ceiling ahead falls faster than the branch can brake: a minimum of v̄
+                // lies further on, and the branch from it covers the nodes from here. This
+                // branch ends; the forward branch passes under it (it runs under v̄).
+                tracing::trace!(from = m, node = i_next, v, a, v_max, "backward branch ends under a falling ceiling");
+                break;
+            }
             None => {
                 tracing::trace!(from = m, node = i_next, v, a, v_max, "backward branch stuck: backing off");
                 // Bounded: a branch that keeps getting stuck gives up (its caller lowers the

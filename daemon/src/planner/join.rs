@@ -64,7 +64,7 @@ pub fn join_two(
         } else {
             0.5 * (lo + hi)
         };
-        let Some((f, i1, i2)) = mismatch(x, work) else { return None };
+        let (f, i1, i2) = mismatch(x, work)?;
         best = Some((f, i1, i2));
         if f.abs() <= JOIN_ACC_REL_TOL * 1e-3 * (at.abs() + 1.0) || (hi - lo).abs() <= 1e-14 * hi.abs().max(1e-12) {
             break;

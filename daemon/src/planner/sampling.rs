@@ -45,7 +45,7 @@ impl SamplingParams {
 /// Samples per span when profiling how sharply a spline or table span turns.
 const SHARPNESS_SAMPLES: usize = 32;
 /// Golden-section steps refining each local maximum of the sharpness.
-const SHARPNESS_REFINE: usize = 30;
+const SHARPNESS_REFINE: usize = 24;
 
 /// How sharply a curved span turns along its length, so a step is bounded by the sharpest
 /// point it covers and not only by where it starts (a narrow tight spot would be stepped
@@ -61,64 +61,49 @@ impl Sharpness {
     /// Profile of a spline span; `None` for lines and arcs (constant sharpness) and path-table
     /// spans (the table brings its own sample points).
     fn of(e: &Element, lim: &Limits, params: &SamplingParams) -> Option<Self> {
-        let len = e.geometry.length_mm();
+        let crate::path::Geometry::Cubic(c) = &e.geometry else { return None };
         let mut d = AxisDerivs::default();
-        // (span parameter → (s, derivatives)) without arc-length inversion where possible.
-        let at = |x: f64, d: &mut AxisDerivs| -> f64 {
-            match &e.geometry {
-                crate::path::Geometry::Cubic(c) => {
-                    c.eval_at_u(x, d);
-                    c.s_at(x)
-                }
-                g => {
-                    g.eval(x * len, d);
-                    x * len
-                }
-            }
-        };
-        if !matches!(e.geometry, crate::path::Geometry::Cubic(_)) {
-            return None;
-        }
         let measure = |d: &AxisDerivs| sharpness_at(d, lim, params);
-        let mut pts: Vec<(f64, f64, (f64, f64, f64))> = (0..=SHARPNESS_SAMPLES)
+        // The derivatives at span parameter x are cheap; its arc length (a quadrature) is
+        // computed only for the points kept, not inside the refining searches.
+        let mut sharp_at = |x: f64| {
+            c.eval_at_u(x, &mut d);
+            measure(&d)
+        };
+        let mut pts: Vec<(f64, (f64, f64, f64))> = (0..=SHARPNESS_SAMPLES)
             .map(|i| {
                 let x = i as f64 / SHARPNESS_SAMPLES as f64;
-                let s = at(x, &mut d);
-                (x, s, measure(&d))
+                (x, sharp_at(x))
             })
             .collect();
         // Refine every local maximum of each criterion by golden-section search in x.
         let mut extra = Vec::new();
-        for c in 0..3 {
-            let get = |v: &(f64, f64, f64)| [v.0, v.1, v.2][c];
+        for crit in 0..3 {
+            let get = |v: &(f64, f64, f64)| [v.0, v.1, v.2][crit];
             for i in 0..pts.len() {
-                let here = get(&pts[i].2);
-                let left = if i > 0 { get(&pts[i - 1].2) } else { f64::NEG_INFINITY };
-                let right = if i + 1 < pts.len() { get(&pts[i + 1].2) } else { f64::NEG_INFINITY };
+                let here = get(&pts[i].1);
+                let left = if i > 0 { get(&pts[i - 1].1) } else { f64::NEG_INFINITY };
+                let right = if i + 1 < pts.len() { get(&pts[i + 1].1) } else { f64::NEG_INFINITY };
                 if here > 0.0 && here >= left && here >= right {
                     let h = 1.0 / SHARPNESS_SAMPLES as f64;
                     let (mut a, mut b) = ((pts[i].0 - h).max(0.0), (pts[i].0 + h).min(1.0));
                     let g = 0.5 * (5f64.sqrt() - 1.0);
                     for _ in 0..SHARPNESS_REFINE {
                         let (p, q) = (b - g * (b - a), a + g * (b - a));
-                        let (mut dp, mut dq) = (AxisDerivs::default(), AxisDerivs::default());
-                        at(p, &mut dp);
-                        at(q, &mut dq);
-                        if get(&measure(&dp)) > get(&measure(&dq)) {
+                        if get(&sharp_at(p)) > get(&sharp_at(q)) {
                             b = q;
                         } else {
                             a = p;
                         }
                     }
                     let x = 0.5 * (a + b);
-                    let s = at(x, &mut d);
-                    extra.push((x, s, measure(&d)));
+                    extra.push((x, sharp_at(x)));
                 }
             }
         }
         pts.extend(extra);
         pts.sort_by(|p, q| p.0.total_cmp(&q.0));
-        Some(Self { s: pts.iter().map(|p| p.1).collect(), value: pts.iter().map(|p| p.2).collect() })
+        Some(Self { s: pts.iter().map(|p| c.s_at(p.0)).collect(), value: pts.iter().map(|p| p.1).collect() })
     }
 
     /// The sharpest values over [a, b] (including the samples just outside, since the

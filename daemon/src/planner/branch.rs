@@ -158,7 +158,7 @@ pub fn back_off(
         let mut ramp = Vec::new();
         let ok = loop {
             if a <= 0.0 && !ramp.is_empty() {
-                break true;
+                break pos + 1 >= view.len() || super::ramp::can_leave(view, pos, v, a, lim);
             }
             if pos + 1 >= view.len() {
                 break false;
@@ -220,10 +220,12 @@ pub fn backward_branch(
         let v_max = nodes[i_next].vbar_mm_s.min(cap);
         let iv = match greedy_step(&view, t, v, a, v_max, &ceiling, &lim_b, work) {
             Some(iv) => iv,
-            None if v > v_max && view.index(t) > stop + 1 && i_next > 0 && cap.is_infinite() => {
-                // The ceiling ahead falls faster than the branch can brake: a minimum of v̄
-                // lies further on, and the branch from it covers the nodes from here. This
-                // branch ends; the forward branch passes under it (it runs under v̄).
+            None if (v > v_max || v_max < nodes[view.index(t)].vbar_mm_s) && i_next > stop && cap.is_infinite() => {
+                // The ceiling ahead falls faster than the branch can follow (it is above the
+                // next bound, or the curvature rising into the next interval takes more
+                // acceleration than its jerk can give up): a minimum of v̄ lies further on,
+                // and the branch from it covers the nodes from here. This branch ends; the
+                // forward branch passes under it (it runs under v̄).
                 tracing::trace!(from = m, node = i_next, v, a, v_max, "backward branch ends under a falling ceiling");
                 break;
             }

@@ -84,7 +84,7 @@ pub fn ramp_interval(view: &View, t: usize, v: f64, a: f64, lim: &Limits, check:
     if jlo > jhi {
         return None;
     }
-    let (alo, _) = acc_range(g, sign, v, lim);
+    let (alo, ahi0) = acc_range(g, sign, v, lim);
     let ig = view.interval_geom(t);
     let feasible = |iv: &Interval| !violates(iv, &ig, lim);
     if a > alo && jlo < 0.0 {
@@ -95,7 +95,7 @@ pub fn ramp_interval(view: &View, t: usize, v: f64, a: f64, lim: &Limits, check:
             let (v1, a1) = (iv.v1(), iv.a1());
             let g1 = view.end_geom(t + 1);
             let (jlo1, jhi1) = jerk_range(g1, sign, v1, a1, lim);
-            let (alo1, _) = acc_range(g1, sign, v1, lim);
+            let (alo1, ahi1) = acc_range(g1, sign, v1, lim);
             let mut j_next = j;
             if jlo1 <= jhi1 && j < jlo1 {
                 j_next = RAMP_JERK_STEPS[0] * jlo1;
@@ -112,8 +112,6 @@ pub fn ramp_interval(view: &View, t: usize, v: f64, a: f64, lim: &Limits, check:
                 // between the nodes (a state on the bound whose axis jerk points outwards
                 // passes both node checks and breaks the bound inside), and a viability
                 // estimate that misses this leads a branch into a dead end.
-                let (_, ahi0) = acc_range(g, sign, v, lim);
-                let (_, ahi1) = acc_range(g1, sign, v1, lim);
                 let inside = |x: f64, lo: f64, hi: f64| {
                     let band = ACC_NEAR_BOUND_FRACTION * (hi - lo);
                     x > lo + band && x < hi - band
@@ -163,6 +161,17 @@ fn landing_ramp_interval(view: &View, t: usize, v: f64, a: f64, lim: &Limits) ->
         Some(land) if !violates(&land, &ig, lim) => Some((land, true)),
         _ => Some((steep, false)),
     }
+}
+
+/// Whether the state (v, a) at traversal position `t` keeps the limits on the side of the
+/// interval it leaves into: some jerk keeps every axis within its jerk limit there, and the
+/// acceleration is inside its range (eq. 1b–1c). At an element joint A″ and A‴ jump, so a
+/// state that kept the limits arriving may have none left for the next side.
+pub fn can_leave(view: &View, t: usize, v: f64, a: f64, lim: &Limits) -> bool {
+    let g = view.start_geom(t);
+    let (jlo, jhi) = jerk_range(g, view.sign(), v, a, lim);
+    let (alo, ahi) = acc_range(g, view.sign(), v, lim);
+    jlo <= jhi && a >= alo && a <= ahi
 }
 
 /// Nodes a viability ramp simulates interval by interval; beyond them (dense nodes, where an
@@ -228,8 +237,13 @@ pub fn ramp_margin(
     let mut margin = v / ceiling.velocity(t0) - 1.0;
     let mut j_last = 0.0;
     for t in (t0..).take(MAX_RAMP_NODES) {
-        if a <= 0.0 || margin > MARGIN_GIVE_UP {
+        if margin > MARGIN_GIVE_UP {
             return Some(margin);
+        }
+        if a <= 0.0 {
+            // Flat, but it must be able to go on: at an element joint A‴ (and A″) can jump,
+            // and a state that kept the limits arriving can leave no jerk for the next side.
+            return (t >= last || can_leave(view, t, v, a, lim)).then_some(margin);
         }
         if t >= last {
             return None;

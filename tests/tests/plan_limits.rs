@@ -188,7 +188,7 @@ fn spline_setpoints_lie_on_the_hermite_spans() {
     let mut tans: Vec<(f64, f64)> = Vec::new();
     let word = |line: &str, l: char| -> Option<f64> {
         let i = line.find(l)?;
-        line[i + 1..].split(|c: char| c == ' ' || c == ';').next()?.parse().ok()
+        line[i + 1..].split([' ', ';']).next()?.parse().ok()
     };
     for line in text.lines() {
         if line.starts_with('(') {

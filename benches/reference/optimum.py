@@ -69,7 +69,9 @@ def geom_at(start, end, ds, sigma, k, m):
 
 
 def ipopt_block(data, i0, i1, verbose):
-    """Time-optimal constant-jerk profile over nodes i0..i1 (rest at both ends)."""
+    """Time-optimal constant-jerk profile over nodes i0..i1 (rest at both ends).
+
+    Built as one SX expression graph (scalar operations, exact sparse Hessian) for Ipopt."""
     nodes, lim, prof = data["nodes"], data["limits"], data["profile"]
     n_ax = len(data["axes"])
     fracs = data["check_fractions"]
@@ -81,26 +83,30 @@ def ipopt_block(data, i0, i1, verbose):
     ts = float(np.median([t for t in ours_T if t])) if any(ours_T) else sum(ds) / vs / m
     as_, js = vs / ts, vs / ts / ts
 
-    opti = ca.Opti()
-    V = opti.variable(m + 1)
-    A = opti.variable(m + 1)
-    J = opti.variable(m)
-    T = opti.variable(m)
-    v, a, j, t = V * vs, A * as_, J * js, T * ts
-    opti.minimize(ca.sum1(T))
-    opti.subject_to(V[0] == 0)
-    opti.subject_to(A[0] == 0)
-    opti.subject_to(V[m] == 0)
-    opti.subject_to(A[m] == 0)
-    opti.subject_to(V >= 0)
-    opti.subject_to(T >= 1e-6)
+    V, A = ca.SX.sym("V", m + 1), ca.SX.sym("A", m + 1)
+    J, T = ca.SX.sym("J", m), ca.SX.sym("T", m)
+    x = ca.vertcat(V, A, J, T)
+    inf = ca.inf
+    lbx = [0.0] * (m + 1) + [-inf] * (m + 1) + [-inf] * m + [1e-6] * m
+    ubx = [inf] * (m + 1) + [inf] * (m + 1) + [inf] * m + [inf] * m
+    for idx in (0, m):  # rest at both ends
+        lbx[idx] = ubx[idx] = 0.0
+        lbx[m + 1 + idx] = ubx[m + 1 + idx] = 0.0
+    g, lbg, ubg = [], [], []
+
+    def add(expr, lo, hi):
+        if not expr.is_constant():  # an axis that does not move
+            g.append(expr)
+            lbg.append(lo)
+            ubg.append(hi)
+
     for q in range(m):
         i = i0 + q
-        vq, aq, jq, tq = v[q], a[q], j[q], t[q]
+        vq, aq, jq, tq = V[q] * vs, A[q] * as_, J[q] * js, T[q] * ts
         # seed 001 eq. 2 over the interval: end state and covered distance.
-        opti.subject_to((vq + aq * tq + jq * tq**2 / 2 - v[q + 1]) / vs == 0)
-        opti.subject_to((aq + jq * tq - a[q + 1]) / as_ == 0)
-        opti.subject_to((vq * tq + aq * tq**2 / 2 + jq * tq**3 / 6) / ds[q] == 1)
+        add((vq + aq * tq + jq * tq**2 / 2) / vs - V[q + 1], 0.0, 0.0)
+        add((aq + jq * tq) / as_ - A[q + 1], 0.0, 0.0)
+        add((vq * tq + aq * tq**2 / 2 + jq * tq**3 / 6) / ds[q], 1.0, 1.0)
         start, end = nodes[i]["right"], nodes[i + 1]["left"]
         feed = nodes[i]["feed"]
         for f in fracs:
@@ -110,19 +116,15 @@ def ipopt_block(data, i0, i1, verbose):
             aa = aq + jq * tau
             sigma = 0.0 if f == 0 else (1.0 if f == 1 else s_loc / ds[q])
             if feed < 1e300:
-                opti.subject_to(vv <= feed)
+                add(vv / feed, -inf, 1.0)
             for k in range(n_ax):
                 d1, d2, d3 = geom_at(start, end, ds[q], sigma, k, ca)
                 vel = d1 * vv  # eq. 1a
                 acc = d2 * vv**2 + d1 * aa  # eq. 1b
                 jerk = d3 * vv**3 + 3 * d2 * vv * aa + d1 * jq  # eq. 1c
-                for lo, expr, hi in (
-                    (-1, vel / lim["vel"][k], 1),
-                    (lim["acc_min"][k] / lim["acc_max"][k], acc / lim["acc_max"][k], 1),
-                    (-1, jerk / lim["jerk"][k], 1),
-                ):
-                    if not (isinstance(expr, float) or expr.is_constant()):  # an axis that does not move
-                        opti.subject_to(opti.bounded(lo, expr, hi))
+                add(ca.SX(vel / lim["vel"][k]), -1.0, 1.0)
+                add(ca.SX(acc / lim["acc_max"][k]), lim["acc_min"][k] / lim["acc_max"][k], 1.0)
+                add(ca.SX(jerk / lim["jerk"][k]), -1.0, 1.0)
     # Curvature jumps (G1 joints without G2): the axis acceleration steps by dA''.v^2 at the
     # node; the planner keeps that step within what the jerk limit moves in curvature_jump_s
     # (daemon/src/planner/node.rs curvature_jump_cap), part of the same problem.
@@ -132,30 +134,19 @@ def ipopt_block(data, i0, i1, verbose):
         for k in range(n_ax):
             jump = abs(nd["left"]["d2"][k] - nd["right"]["d2"][k])
             if jump > 0 and not nd["stop"]:
-                opti.subject_to(jump * v[q] ** 2 <= lim["jerk"][k] * step_s)
+                add(jump * (V[q] * vs) ** 2 / (lim["jerk"][k] * step_s), -inf, 1.0)
     # Start from our profile.
-    for q in range(m + 1):
-        p = prof[i0 + q] if q < m else None
-        if p:
-            opti.set_initial(V[q], p[0] / vs)
-            opti.set_initial(A[q], p[1] / as_)
+    x0 = [0.0] * (m + 1) + [0.0] * (m + 1) + [0.0] * m + [1.0] * m
     for q in range(m):
         p = prof[i0 + q]
         if p:
-            opti.set_initial(J[q], p[2] / js)
-            opti.set_initial(T[q], p[3] / ts)
-        else:
-            opti.set_initial(T[q], 1.0)
+            x0[q], x0[m + 1 + q] = p[0] / vs, p[1] / as_
+            x0[2 * (m + 1) + q], x0[2 * (m + 1) + m + q] = p[2] / js, p[3] / ts
     opts = {"ipopt.max_iter": 3000, "ipopt.tol": 1e-9, "ipopt.print_level": 5 if verbose else 0, "print_time": False}
-    opti.solver("ipopt", opts)
-    try:
-        sol = opti.solve()
-        status = "optimal"
-    except RuntimeError:
-        sol = opti.debug
-        status = opti.return_status()
-    total = float(np.sum(sol.value(t)))
-    return total, status
+    solver = ca.nlpsol("ref", "ipopt", {"x": x, "f": ca.sum1(T) * ts, "g": ca.vertcat(*g)}, opts)
+    sol = solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+    status = solver.stats()["return_status"]
+    return float(sol["f"]), ("optimal" if status == "Solve_Succeeded" else status)
 
 
 # ------------------------------------------------------------------ acceleration-only bound

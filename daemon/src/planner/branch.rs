@@ -290,6 +290,7 @@ pub fn build_envelope(nodes: &[Node], lim: &Limits, work: &mut Work) -> Result<E
         if m != n - 1 && (env.on_curve(m) || env.v[m] < nodes[m].vbar_mm_s) {
             continue; // a branch from further on already lies lower here
         }
+        let evals_before = work.evals;
         let id = env.starts.len() as u32;
         debug_assert!(m != n - 1 || id == END_CURVE);
         let mut built = None;
@@ -307,6 +308,15 @@ pub fn build_envelope(nodes: &[Node], lim: &Limits, work: &mut Work) -> Result<E
         let Some((v_start, branch)) = built else {
             return Err(Stuck { node: m, reason: "no backward branch leaves this section end" });
         };
+        let branch_nodes = branch.len();
+        tracing::debug!(
+            s_end_mm = nodes[m].s_mm,
+            s_from_mm = branch.last().map_or(nodes[m].s_mm, |b| nodes[b.0].s_mm),
+            nodes = branch_nodes,
+            evals = work.evals - evals_before,
+            evals_per_node = (work.evals - evals_before) as f64 / branch_nodes.max(1) as f64,
+            "backward branch of a section"
+        );
         env.starts.push(CurveStart { node: m, v: v_start, a: 0.0 });
         env.v[m] = v_start;
         env.a[m] = 0.0;

@@ -323,13 +323,10 @@ fn ramp_to_branch(
                 ivs.push(i2);
                 return RampToBranch::Joined(ivs);
             }
-            if k + 3 < n && env.curve[k + 3] == c {
-                if let Some(three) = join_three(view, k, v, a, (env.v[k + 3], env.a[k + 3]), lim, work) {
-                    work.joins += 1;
-                    ivs.extend(three);
-                    return RampToBranch::Joined(ivs);
-                }
-            }
+            // No three-interval join here: a ramp passes many nodes near the branch, and
+            // one per node (17 two-interval joins each) cost most of a join's work. The
+            // blend in `brake_join` makes the ramp touch the branch, where two suffice;
+            // `direct_join` still tries three.
         }
         if env.curve[k] == c && a < env.a[k] && v < env.v[k] {
             return RampToBranch::Below; // braking harder below the branch: it moves away

@@ -188,7 +188,7 @@ fn spline_setpoints_lie_on_the_hermite_spans() {
     let mut tans: Vec<(f64, f64)> = Vec::new();
     let word = |line: &str, l: char| -> Option<f64> {
         let i = line.find(l)?;
-        line[i + 1..].split(|c: char| c == ' ' || c == ';').next()?.parse().ok()
+        line[i + 1..].split([' ', ';']).next()?.parse().ok()
     };
     for line in text.lines() {
         if line.starts_with('(') {
@@ -228,4 +228,54 @@ fn spline_setpoints_lie_on_the_hermite_spans() {
     }
     // Chord error of the dense polyline is < 1e-7 mm; the setpoints must be within 1 µm.
     assert!(worst <= 0.001, "spline setpoints {worst:.3e} mm off the spans");
+}
+
+/// Runs `interpd plan` on a program text and machine text written to temporary files:
+/// (exit code, stdout, stderr).
+fn plan_raw(name: &str, program: &str, machine: Option<&str>) -> (i32, String, String) {
+    let dir = std::env::temp_dir().join(format!("interpd-plan-bad-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let prog = dir.join("p.ngc");
+    std::fs::write(&prog, program).expect("write program");
+    let mut cmd = Command::new(binary("interpd"));
+    cmd.arg("plan").arg(&prog).arg("--json");
+    if let Some(m) = machine {
+        let file = dir.join("m.toml");
+        std::fs::write(&file, m).expect("write machine");
+        cmd.arg("--machine").arg(&file);
+    }
+    let out = cmd.output().expect("run interpd plan");
+    std::fs::remove_dir_all(&dir).ok();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn infeasible_requests_give_a_clear_error_and_no_nan() {
+    let axis = |acc: &str| {
+        format!(
+            "[[axis]]\nname = \"X\"\nkind = \"linear\"\nmax_vel = 100\nmax_acc = {acc}\nmax_jerk = 10000\nmin = -1000\nmax = 1000\n\
+             [[axis]]\nname = \"Y\"\nkind = \"linear\"\nmax_vel = 100\nmax_acc = 1000\nmax_jerk = 10000\nmin = -1000\nmax = 1000\n"
+        )
+    };
+    // A limit of zero: refused with the key named, before any planning.
+    let (code, out, err) = plan_raw("zero", "G1 X10 F600\n", Some(&format!("[machine]\n{}", axis("0"))));
+    assert_eq!(code, 2, "stderr: {err}");
+    assert!(err.contains("max_acc") && out.is_empty(), "stderr: {err}");
+    // A feed the axes can never carry out in reasonable time (1e-7 mm/min over 10 mm).
+    let (code, out, err) = plan_raw("slow", "G1 X10 F0.0000001\n", None);
+    assert_eq!(code, 2, "stderr: {err}");
+    assert!(err.contains("feed") && out.is_empty(), "stderr: {err}");
+    // A feed far above what the axes can reach is capped, not an error: finite figures.
+    let (code, out, err) = plan_raw("fast", "G1 X10 Y5 F9000000\nG2 X20 Y5 I5 J0\n", None);
+    assert_eq!(code, 0, "stderr: {err}");
+    assert!(!out.contains("NaN") && !out.contains("null"), "{out}");
+    let json: serde_json::Value = serde_json::from_str(&out).expect("json");
+    assert!(json["duration_s"].as_f64().is_some_and(f64::is_finite), "{out}");
+    for q in ["vel", "acc", "jerk"] {
+        assert!(json["max_ratio"][q].as_f64().is_some_and(|r| r.is_finite() && r <= 1.0 + 1e-9), "{out}");
+    }
 }

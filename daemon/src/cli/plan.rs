@@ -45,6 +45,10 @@ pub struct PlanArgs {
     pub plant: Option<String>,
 }
 
+/// Most output samples `plan` produces (10⁸: 7 hours of motion at 0.25 ms); a longer motion is
+/// almost surely a mistyped feed or limit, and sampling it would not finish.
+const MAX_SAMPLES: u64 = 100_000_000;
+
 /// Largest |value| / limit per quantity over all axes and samples.
 #[derive(Debug, Default, Clone, Copy)]
 struct Ratios {
@@ -104,7 +108,16 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
     let mut ratios = Ratios::default();
     let mut cursor = Cursor::default();
     let mut d = AxisDerivs::default();
-    let samples = (duration / period_s).ceil() as u64 + 1;
+    let samples_f = (duration / period_s).ceil() + 1.0;
+    if !(samples_f <= MAX_SAMPLES as f64) {
+        return Err(CliError::BadInput(format!(
+            "{}: the planned motion lasts {duration:.6e} s, {samples_f:.3e} samples at {} ms (at most {MAX_SAMPLES}); \
+             is the feed (F, mm/min) or an axis limit far too low?",
+            args.program.display(),
+            period_s * 1e3
+        )));
+    }
+    let samples = samples_f as u64;
     let mut plant = match &args.plant {
         Some(choice) => Some(PlantRun::new(&config, choice, period_s, samples)?),
         None => None,
@@ -343,8 +356,12 @@ fn export_nodes(
             "vel": &lim.vel[..n], "acc_max": &lim.acc_max[..n], "acc_min": &lim.acc_min[..n], "jerk": &lim.jerk[..n],
         },
         "check_fractions": interpd::planner::check::CHECK_FRACTIONS,
+        // At a curvature jump the axis acceleration steps by ΔA″·v²; the planner caps v there
+        // so the step is what the jerk limit moves in this time (planner.curvature_jump_ms).
+        "curvature_jump_s": config.planner.curvature_jump_ms * 1e-3,
         "nodes": nodes.iter().map(|nd| serde_json::json!({
-            "s": nd.s_mm, "vbar": nd.vbar_mm_s, "stop": nd.stop, "left": geom(&nd.left), "right": geom(&nd.right),
+            "s": nd.s_mm, "vbar": nd.vbar_mm_s, "feed": if nd.feed_mm_s.is_finite() { nd.feed_mm_s } else { f64::MAX },
+            "stop": nd.stop, "left": geom(&nd.left), "right": geom(&nd.right),
         })).collect::<Vec<_>>(),
         "profile": states,
         "duration_s": interpd::planner::profile::duration_s(segments),

@@ -49,7 +49,12 @@ pub fn plan_block(nodes: &mut [Node], start: (f64, f64), end_is_stop: bool, lim:
             }
             Err(stuck) => {
                 work.repairs += 1;
-                let k = stuck.node.clamp(1, nodes.len() - 1);
+                // Never the block end itself (a stop): lowering there changes nothing, and
+                // its zero would spread to the node before it.
+                if nodes.len() < 3 {
+                    return Err(stuck);
+                }
+                let k = stuck.node.clamp(1, nodes.len() - 2);
                 let count = match repairs_at.iter_mut().find(|(n, _)| *n == k) {
                     Some((_, c)) => {
                         *c += 1;

@@ -18,7 +18,7 @@ use super::view::View;
 /// Bisection steps when the greedy choice is not viable.
 const VIABLE_SEARCH_ITERS: usize = 40;
 /// Relative bracket width at which the viable search stops.
-const VIABLE_SEARCH_REL_TOL: f64 = 1e-6;
+const VIABLE_SEARCH_REL_TOL: f64 = 1e-4;
 /// Backward branches brake with this share of the jerk the axes allow, the forward branch
 /// with all of it: where the forward branch crosses a backward branch its braking is the
 /// steeper, which leaves jerk for the exact join.
@@ -158,7 +158,7 @@ pub fn back_off(
         let mut ramp = Vec::new();
         let ok = loop {
             if a <= 0.0 && !ramp.is_empty() {
-                break true;
+                break pos + 1 >= view.len() || super::ramp::can_leave(view, pos, v, a, lim);
             }
             if pos + 1 >= view.len() {
                 break false;
@@ -220,6 +220,15 @@ pub fn backward_branch(
         let v_max = nodes[i_next].vbar_mm_s.min(cap);
         let iv = match greedy_step(&view, t, v, a, v_max, &ceiling, &lim_b, work) {
             Some(iv) => iv,
+            None if (v > v_max || v_max < nodes[view.index(t)].vbar_mm_s) && i_next > stop && cap.is_infinite() => {
+                // The ceiling ahead falls faster than the branch can follow (it is above the
+                // next bound, or the curvature rising into the next interval takes more
+                // acceleration than its jerk can give up): a minimum of v̄ lies further on,
+                // and the branch from it covers the nodes from here. This branch ends; the
+                // forward branch passes under it (it runs under v̄).
+                tracing::trace!(from = m, node = i_next, v, a, v_max, "backward branch ends under a falling ceiling");
+                break;
+            }
             None => {
                 tracing::trace!(from = m, node = i_next, v, a, v_max, "backward branch stuck: backing off");
                 // Bounded: a branch that keeps getting stuck gives up (its caller lowers the
@@ -281,6 +290,7 @@ pub fn build_envelope(nodes: &[Node], lim: &Limits, work: &mut Work) -> Result<E
         if m != n - 1 && (env.on_curve(m) || env.v[m] < nodes[m].vbar_mm_s) {
             continue; // a branch from further on already lies lower here
         }
+        let evals_before = work.evals;
         let id = env.starts.len() as u32;
         debug_assert!(m != n - 1 || id == END_CURVE);
         let mut built = None;
@@ -298,6 +308,15 @@ pub fn build_envelope(nodes: &[Node], lim: &Limits, work: &mut Work) -> Result<E
         let Some((v_start, branch)) = built else {
             return Err(Stuck { node: m, reason: "no backward branch leaves this section end" });
         };
+        let branch_nodes = branch.len();
+        tracing::debug!(
+            s_end_mm = nodes[m].s_mm,
+            s_from_mm = branch.last().map_or(nodes[m].s_mm, |b| nodes[b.0].s_mm),
+            nodes = branch_nodes,
+            evals = work.evals - evals_before,
+            evals_per_node = (work.evals - evals_before) as f64 / branch_nodes.max(1) as f64,
+            "backward branch of a section"
+        );
         env.starts.push(CurveStart { node: m, v: v_start, a: 0.0 });
         env.v[m] = v_start;
         env.a[m] = 0.0;

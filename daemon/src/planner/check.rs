@@ -135,7 +135,8 @@ pub fn jerk_range(g: &NodeGeom, sign: f64, v: f64, a: f64, lim: &Limits) -> (f64
             }
             continue;
         }
-        let (x, y) = ((-jl - c) / d1, (jl - c) / d1);
+        let r = 1.0 / d1;
+        let (x, y) = ((-jl - c) * r, (jl - c) * r);
         lo = lo.max(x.min(y));
         hi = hi.min(x.max(y));
     }
@@ -154,7 +155,8 @@ pub fn acc_range(g: &NodeGeom, sign: f64, v: f64, lim: &Limits) -> (f64, f64) {
             }
             continue;
         }
-        let (x, y) = ((lim.acc_min[k] - c) / d1, (lim.acc_max[k] - c) / d1);
+        let r = 1.0 / d1;
+        let (x, y) = ((lim.acc_min[k] - c) * r, (lim.acc_max[k] - c) * r);
         lo = lo.max(x.min(y));
         hi = hi.min(x.max(y));
     }

@@ -89,6 +89,7 @@ pub fn forward_branch(
     let free = FlattenUnder { view, cap: f64::INFINITY };
     let mut run = Run::new(0, start);
     let mut anchor = 0;
+    let mut evals_at_anchor = work.evals;
     let mut final_before = n - 1;
     let mut backoffs = 0;
     while run.last() + 1 < n {
@@ -158,6 +159,15 @@ pub fn forward_branch(
             }
             run.push(env.iv[i]);
         }
+        tracing::debug!(
+            s_from_mm = nodes[anchor].s_mm,
+            s_to_mm = nodes[run.last()].s_mm,
+            nodes = run.last() - anchor,
+            evals = work.evals - evals_at_anchor,
+            evals_per_node = (work.evals - evals_at_anchor) as f64 / (run.last() - anchor).max(1) as f64,
+            "forward branch: section joined"
+        );
+        evals_at_anchor = work.evals;
         anchor = run.last();
     }
     let (v, a) = run.state(n - 1);
@@ -313,13 +323,10 @@ fn ramp_to_branch(
                 ivs.push(i2);
                 return RampToBranch::Joined(ivs);
             }
-            if k + 3 < n && env.curve[k + 3] == c {
-                if let Some(three) = join_three(view, k, v, a, (env.v[k + 3], env.a[k + 3]), lim, work) {
-                    work.joins += 1;
-                    ivs.extend(three);
-                    return RampToBranch::Joined(ivs);
-                }
-            }
+            // No three-interval join here: a ramp passes many nodes near the branch, and
+            // one per node (17 two-interval joins each) cost most of a join's work. The
+            // blend in `brake_join` makes the ramp touch the branch, where two suffice;
+            // `direct_join` still tries three.
         }
         if env.curve[k] == c && a < env.a[k] && v < env.v[k] {
             return RampToBranch::Below; // braking harder below the branch: it moves away

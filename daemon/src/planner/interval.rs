@@ -93,6 +93,23 @@ impl Interval {
         (t > 0.0 && t.is_finite()).then_some(Interval { v0, a0, j, t_s: t, ds_mm: ds })
     }
 
+    /// The interval from (v0, a0) over `ds` that ends with zero acceleration (j = −a₀/T):
+    /// s = v₀T + a₀T²/3 = Δs, solved in the cancellation-free form
+    /// T = 2Δs / (v₀ + √(v₀² + 4a₀Δs/3)). `None` if no such interval moves forward.
+    pub fn landing(v0: f64, a0: f64, ds: f64) -> Option<Interval> {
+        let disc = v0 * v0 + 4.0 * a0 * ds / 3.0;
+        if disc.is_nan() || disc < 0.0 {
+            return None;
+        }
+        let den = v0 + disc.sqrt();
+        let t = 2.0 * ds / den;
+        if !(t > 0.0 && t.is_finite()) {
+            return None;
+        }
+        let iv = Interval { v0, a0, j: -a0 / t, t_s: t, ds_mm: ds };
+        iv.velocity_stays_non_negative().then_some(iv)
+    }
+
     pub fn v1(&self) -> f64 {
         self.v0 + self.a0 * self.t_s + 0.5 * self.j * self.t_s * self.t_s
     }
@@ -187,6 +204,15 @@ mod tests {
         let back = Interval::with_jerk(8.0, 30.0, 0.7, iv.j).unwrap();
         assert!((back.t_s - iv.t_s).abs() < 1e-12);
         assert!(Interval::with_jerk(1.0, -10.0, 5.0, 0.0).is_none(), "stops before the end");
+    }
+
+    #[test]
+    fn landing_ends_flat() {
+        for &(v0, a0, ds) in &[(10.0, 500.0, 0.02), (3.0, -200.0, 0.01), (0.0, 1000.0, 0.001)] {
+            let iv = Interval::landing(v0, a0, ds).expect("lands");
+            let (s, _, a) = iv.state_at(iv.t_s);
+            assert!((s - ds).abs() < 1e-12 && a.abs() < 1e-9 * a0.abs(), "s {s} a {a}");
+        }
     }
 
     #[test]

@@ -77,8 +77,11 @@ impl Cursor {
             self.index += 1;
         }
         let seg = &segments[self.index];
-        let tau = t - seg.t0_s;
-        Some(Sample { state: seg.at(tau), line: seg.line, at_start: tau <= 0.0 })
+        let state = seg.at(t - seg.t0_s);
+        // Decided by position, not time: just after a stop at a corner the path has moved less
+        // than one ulp of s, so s still equals the joint while the motion is already on the
+        // element after it (its jerk belongs to that element's direction).
+        Some(Sample { state, line: seg.line, at_start: state.s_mm <= seg.s0_mm })
     }
 }
 
@@ -87,7 +90,8 @@ impl Cursor {
 pub struct Sample {
     pub state: PathState,
     pub line: u32,
-    /// The state is the segment's start: at a joint, the geometry after it applies.
+    /// The state lies at the segment's start position (s = s₀, also when time has moved on
+    /// by less than s can resolve): at a joint, the geometry after it applies.
     pub at_start: bool,
 }
 

@@ -26,6 +26,9 @@ const RAMP_END_CORRECTIONS: usize = 3;
 pub const MAX_RAMP_NODES: usize = 20_000;
 /// Relative tolerance on velocities compared with the ceiling.
 pub const CEILING_REL_TOL: f64 = 1e-9;
+/// Accelerations within this fraction of their allowed range from a bound count as binding
+/// for the node-only ramp check (the full interval check runs there).
+const ACC_NEAR_BOUND_FRACTION: f64 = 0.05;
 /// A ramp rising this far (relative) above the ceiling is stopped early: clearly not viable.
 const MARGIN_GIVE_UP: f64 = 0.05;
 
@@ -81,7 +84,7 @@ pub fn ramp_interval(view: &View, t: usize, v: f64, a: f64, lim: &Limits, check:
     if jlo > jhi {
         return None;
     }
-    let (alo, _) = acc_range(g, sign, v, lim);
+    let (alo, ahi0) = acc_range(g, sign, v, lim);
     let ig = view.interval_geom(t);
     let feasible = |iv: &Interval| !violates(iv, &ig, lim);
     if a > alo && jlo < 0.0 {
@@ -92,7 +95,7 @@ pub fn ramp_interval(view: &View, t: usize, v: f64, a: f64, lim: &Limits, check:
             let (v1, a1) = (iv.v1(), iv.a1());
             let g1 = view.end_geom(t + 1);
             let (jlo1, jhi1) = jerk_range(g1, sign, v1, a1, lim);
-            let (alo1, _) = acc_range(g1, sign, v1, lim);
+            let (alo1, ahi1) = acc_range(g1, sign, v1, lim);
             let mut j_next = j;
             if jlo1 <= jhi1 && j < jlo1 {
                 j_next = RAMP_JERK_STEPS[0] * jlo1;
@@ -104,15 +107,20 @@ pub fn ramp_interval(view: &View, t: usize, v: f64, a: f64, lim: &Limits, check:
                 // Jerk and acceleration are inside both nodes' ranges; the peak velocity is
                 // checked against the ceiling by the caller. Between the nodes only the
                 // interpolated geometry changes, second order over one interval, so the full
-                // check runs only where a node range was binding.
-                let (_, ahi0) = acc_range(g, sign, v, lim);
-                let (_, ahi1) = acc_range(g1, sign, v1, lim);
+                // check runs only where a node range was binding. An acceleration close to
+                // its bound at either node counts as binding: the axis acceleration bulges
+                // between the nodes (a state on the bound whose axis jerk points outwards
+                // passes both node checks and breaks the bound inside), and a viability
+                // estimate that misses this leads a branch into a dead end.
+                let inside = |x: f64, lo: f64, hi: f64| {
+                    let band = ACC_NEAR_BOUND_FRACTION * (hi - lo);
+                    x > lo + band && x < hi - band
+                };
                 let nodes_ok = jlo1 <= jhi1
                     && j <= jhi1
                     && j > jlo1 * RAMP_JERK_STEPS[0] * (1.0 - 1e-9)
-                    && a1 > alo1
-                    && a <= ahi0
-                    && a1 <= ahi1;
+                    && inside(a, alo, ahi0)
+                    && inside(a1, alo1, ahi1);
                 if (check == Check::Nodes && nodes_ok) || feasible(&iv) {
                     return Some(iv);
                 }
@@ -136,6 +144,80 @@ pub fn ramp_interval(view: &View, t: usize, v: f64, a: f64, lim: &Limits, check:
     None
 }
 
+/// The viability ramp's interval: the braking ramp's, except where that would take the
+/// acceleration below zero within the interval; then the interval that lands exactly at
+/// a = 0 at the next node, if it keeps the limits. A state counts as viable only if it can
+/// flatten *smoothly* under the ceiling: a greedy branch that reaches the ceiling by
+/// overshooting into braking would chatter along it (seed 001 §3.2: α = 1 alone makes the
+/// jerk bang-bang), and near stops, where nodes are few, get stuck.
+/// Returns the interval and whether it landed (ends flat).
+fn landing_ramp_interval(view: &View, t: usize, v: f64, a: f64, lim: &Limits) -> Option<(Interval, bool)> {
+    let steep = ramp_interval(view, t, v, a, lim, Check::Nodes)?;
+    if a <= 0.0 || steep.a1() >= 0.0 {
+        return Some((steep, false));
+    }
+    let ig = view.interval_geom(t);
+    match Interval::landing(v, a, ig.ds_mm) {
+        Some(land) if !violates(&land, &ig, lim) => Some((land, true)),
+        _ => Some((steep, false)),
+    }
+}
+
+/// Whether the state (v, a) at traversal position `t` keeps the limits on the side of the
+/// interval it leaves into: some jerk keeps every axis within its jerk limit there, and the
+/// acceleration is inside its range (eq. 1b–1c). At an element joint A″ and A‴ jump, so a
+/// state that kept the limits arriving may have none left for the next side.
+pub fn can_leave(view: &View, t: usize, v: f64, a: f64, lim: &Limits) -> bool {
+    let g = view.start_geom(t);
+    let (jlo, jhi) = jerk_range(g, view.sign(), v, a, lim);
+    let (alo, ahi) = acc_range(g, view.sign(), v, lim);
+    jlo <= jhi && a >= alo && a <= ahi
+}
+
+/// Nodes a viability ramp simulates interval by interval; beyond them (dense nodes, where an
+/// interval lasts a tiny fraction of the braking time) the rest of the ramp is taken in
+/// closed form, so the work per ramp is bounded whatever the node density.
+pub const RAMP_SIMULATED_NODES: usize = 48;
+/// The closed-form tail brakes with this share of the jerk the simulated ramp reached last
+/// (later nodes may allow less; the estimate errs on the high side).
+const RAMP_TAIL_JERK_SHARE: f64 = 0.8;
+
+/// The rest of a braking ramp from (v, a) at traversal position `t`, with constant jerk
+/// `RAMP_TAIL_JERK_SHARE · j_last` until a = 0: its peak velocity v + a²/(2|j|) against the
+/// lowest ceiling over the distance it covers (seed 001 eq. 2 with τ = a/|j|). `None` if the
+/// ramp was not braking or the block ends first.
+fn ramp_tail_margin(
+    view: &View,
+    t: usize,
+    v: f64,
+    a: f64,
+    j_last: f64,
+    ceiling: &FlattenUnder,
+    work: &mut Work,
+) -> Option<f64> {
+    let j = RAMP_TAIL_JERK_SHARE * j_last;
+    if j >= 0.0 {
+        return None;
+    }
+    let tau = -a / j;
+    let dist = v * tau + 0.5 * a * tau * tau + j * tau * tau * tau / 6.0;
+    let peak = v - a * a / (2.0 * j);
+    let s0 = view.node(t).s_mm;
+    let mut lowest = ceiling.velocity(t);
+    let mut k = t + 1;
+    while k < view.len() && (view.node(k).s_mm - s0).abs() <= dist {
+        lowest = lowest.min(ceiling.velocity(k));
+        k += 1;
+    }
+    work.ramp_nodes += 1;
+    if k >= view.len() {
+        return None;
+    }
+    // The node after the distance bounds the interval the ramp flattens in.
+    lowest = lowest.min(ceiling.velocity(k));
+    Some(peak / lowest - 1.0)
+}
+
 /// How far a braking ramp from (v0, a0) at traversal position `t0` rises above the ceiling
 /// before it has flattened: the largest v / ceiling − 1 at its nodes and velocity peaks.
 /// ≤ `CEILING_REL_TOL` means viable. `None` if the axes allow no braking on the way or the
@@ -153,19 +235,30 @@ pub fn ramp_margin(
     let last = view.len() - 1;
     let (mut v, mut a) = (v0, a0);
     let mut margin = v / ceiling.velocity(t0) - 1.0;
+    let mut j_last = 0.0;
     for t in (t0..).take(MAX_RAMP_NODES) {
-        if a <= 0.0 || margin > MARGIN_GIVE_UP {
+        if margin > MARGIN_GIVE_UP {
             return Some(margin);
+        }
+        if a <= 0.0 {
+            // Flat, but it must be able to go on: at an element joint A‴ (and A″) can jump,
+            // and a state that kept the limits arriving can leave no jerk for the next side.
+            return (t >= last || can_leave(view, t, v, a, lim)).then_some(margin);
         }
         if t >= last {
             return None;
         }
-        let iv = ramp_interval(view, t, v, a, lim, Check::Nodes)?;
+        if t - t0 >= RAMP_SIMULATED_NODES {
+            return ramp_tail_margin(view, t, v, a, j_last, ceiling, work).map(|m| margin.max(m));
+        }
+        let (iv, landed) = landing_ramp_interval(view, t, v, a, lim)?;
+        j_last = iv.j;
         work.ramp_nodes += 1;
         let cap = ceiling.velocity(t).min(ceiling.velocity(t + 1));
         margin = margin.max(peak_velocity(&iv) / cap - 1.0).max(iv.v1() / ceiling.velocity(t + 1) - 1.0);
         v = iv.v1();
-        a = iv.a1();
+        // A landed ramp is flat: its a₁ is zero up to rounding, which must not keep it going.
+        a = if landed { 0.0 } else { iv.a1() };
     }
     None
 }

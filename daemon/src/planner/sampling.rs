@@ -7,6 +7,7 @@
 //! the distance from the last stop, so planning a program element by element gives the same
 //! nodes as planning it whole.
 
+use super::check::{IntervalGeom, geom_at};
 use super::limits::Limits;
 use super::node::{Node, NodeGeom, curvature_jump_cap, velocity_bound};
 use crate::path::{AxisDerivs, Element, Feed, JointKind};
@@ -44,7 +45,7 @@ impl SamplingParams {
 /// Samples per span when profiling how sharply a spline or table span turns.
 const SHARPNESS_SAMPLES: usize = 32;
 /// Golden-section steps refining each local maximum of the sharpness.
-const SHARPNESS_REFINE: usize = 30;
+const SHARPNESS_REFINE: usize = 24;
 
 /// How sharply a curved span turns along its length, so a step is bounded by the sharpest
 /// point it covers and not only by where it starts (a narrow tight spot would be stepped
@@ -60,64 +61,49 @@ impl Sharpness {
     /// Profile of a spline span; `None` for lines and arcs (constant sharpness) and path-table
     /// spans (the table brings its own sample points).
     fn of(e: &Element, lim: &Limits, params: &SamplingParams) -> Option<Self> {
-        let len = e.geometry.length_mm();
+        let crate::path::Geometry::Cubic(c) = &e.geometry else { return None };
         let mut d = AxisDerivs::default();
-        // (span parameter → (s, derivatives)) without arc-length inversion where possible.
-        let mut at = |x: f64, d: &mut AxisDerivs| -> f64 {
-            match &e.geometry {
-                crate::path::Geometry::Cubic(c) => {
-                    c.eval_at_u(x, d);
-                    c.s_at(x)
-                }
-                g => {
-                    g.eval(x * len, d);
-                    x * len
-                }
-            }
-        };
-        if !matches!(e.geometry, crate::path::Geometry::Cubic(_)) {
-            return None;
-        }
         let measure = |d: &AxisDerivs| sharpness_at(d, lim, params);
-        let mut pts: Vec<(f64, f64, (f64, f64, f64))> = (0..=SHARPNESS_SAMPLES)
+        // The derivatives at span parameter x are cheap; its arc length (a quadrature) is
+        // computed only for the points kept, not inside the refining searches.
+        let mut sharp_at = |x: f64| {
+            c.eval_at_u(x, &mut d);
+            measure(&d)
+        };
+        let mut pts: Vec<(f64, (f64, f64, f64))> = (0..=SHARPNESS_SAMPLES)
             .map(|i| {
                 let x = i as f64 / SHARPNESS_SAMPLES as f64;
-                let s = at(x, &mut d);
-                (x, s, measure(&d))
+                (x, sharp_at(x))
             })
             .collect();
         // Refine every local maximum of each criterion by golden-section search in x.
         let mut extra = Vec::new();
-        for c in 0..3 {
-            let get = |v: &(f64, f64, f64)| [v.0, v.1, v.2][c];
+        for crit in 0..3 {
+            let get = |v: &(f64, f64, f64)| [v.0, v.1, v.2][crit];
             for i in 0..pts.len() {
-                let here = get(&pts[i].2);
-                let left = if i > 0 { get(&pts[i - 1].2) } else { f64::NEG_INFINITY };
-                let right = if i + 1 < pts.len() { get(&pts[i + 1].2) } else { f64::NEG_INFINITY };
+                let here = get(&pts[i].1);
+                let left = if i > 0 { get(&pts[i - 1].1) } else { f64::NEG_INFINITY };
+                let right = if i + 1 < pts.len() { get(&pts[i + 1].1) } else { f64::NEG_INFINITY };
                 if here > 0.0 && here >= left && here >= right {
                     let h = 1.0 / SHARPNESS_SAMPLES as f64;
                     let (mut a, mut b) = ((pts[i].0 - h).max(0.0), (pts[i].0 + h).min(1.0));
                     let g = 0.5 * (5f64.sqrt() - 1.0);
                     for _ in 0..SHARPNESS_REFINE {
                         let (p, q) = (b - g * (b - a), a + g * (b - a));
-                        let (mut dp, mut dq) = (AxisDerivs::default(), AxisDerivs::default());
-                        at(p, &mut dp);
-                        at(q, &mut dq);
-                        if get(&measure(&dp)) > get(&measure(&dq)) {
+                        if get(&sharp_at(p)) > get(&sharp_at(q)) {
                             b = q;
                         } else {
                             a = p;
                         }
                     }
                     let x = 0.5 * (a + b);
-                    let s = at(x, &mut d);
-                    extra.push((x, s, measure(&d)));
+                    extra.push((x, sharp_at(x)));
                 }
             }
         }
         pts.extend(extra);
         pts.sort_by(|p, q| p.0.total_cmp(&q.0));
-        Some(Self { s: pts.iter().map(|p| p.1).collect(), value: pts.iter().map(|p| p.2).collect() })
+        Some(Self { s: pts.iter().map(|p| c.s_at(p.0)).collect(), value: pts.iter().map(|p| p.1).collect() })
     }
 
     /// The sharpest values over [a, b] (including the samples just outside, since the
@@ -273,6 +259,18 @@ pub fn sample_element(
                 ds = bound;
             }
         }
+        // And the node data must describe the geometry between the nodes: the limit checks
+        // interpolate it (`check::geom_at`), so the step halves until the interpolation
+        // error, weighed at the fastest motion possible there, is a small share of a limit.
+        if !matches!(e.geometry, crate::path::Geometry::Line(_)) {
+            for _ in 0..INTERP_HALVINGS {
+                let h = ds.min(len - s);
+                if h <= GEOMETRY_MIN_STEP_MM || interpolation_error(e, s, h, feed, lim) <= INTERP_ERROR_TOL {
+                    break;
+                }
+                ds *= 0.5;
+            }
+        }
         let remaining = len - s;
         if remaining <= 1.5 * ds {
             if remaining > ds {
@@ -285,6 +283,50 @@ pub fn sample_element(
         push_interior(e, s, &mut d, feed, lim, out);
     }
     *since_stop_mm += len;
+}
+
+/// Halvings of a step at most for the interpolation error (a factor of 2⁻¹² in length).
+const INTERP_HALVINGS: usize = 12;
+/// Largest interpolation error of the node geometry inside an interval, as a share of an axis
+/// limit at the velocity bound (the planner keeps `1 − limit_fraction` of headroom).
+const INTERP_ERROR_TOL: f64 = 1e-3;
+
+/// How far the geometry the limit checks interpolate between nodes at `s` and `s + h` misses
+/// the element's own at the middle, as the largest share of an axis limit it can cost: the
+/// errors of A′, A″, A‴ times v, v², v³ (and the cross terms of eq. 1b–1c with the path
+/// acceleration and jerk the axes allow along A′), v at the velocity bound.
+fn interpolation_error(e: &Element, s: f64, h: f64, feed: f64, lim: &Limits) -> f64 {
+    let (mut d0, mut d1, mut dm) = (AxisDerivs::default(), AxisDerivs::default(), AxisDerivs::default());
+    e.geometry.eval(s, &mut d0);
+    e.geometry.eval(s + h, &mut d1);
+    e.geometry.eval(s + 0.5 * h, &mut dm);
+    let (a, b, m) = (NodeGeom::from(&d0), NodeGeom::from(&d1), NodeGeom::from(&dm));
+    let v = velocity_bound(&a, lim).max(velocity_bound(&b, lim)).max(velocity_bound(&m, lim)).min(feed);
+    if !v.is_finite() {
+        return 0.0;
+    }
+    // Path acceleration and jerk the axes allow along the tangent alone.
+    let (mut acc_p, mut jerk_p) = (f64::INFINITY, f64::INFINITY);
+    for k in 0..lim.n_axes {
+        let t = m.d1[k].abs();
+        if t > 0.0 {
+            acc_p = acc_p.min(lim.acc_max[k].min(-lim.acc_min[k]) / t);
+            jerk_p = jerk_p.min(lim.jerk[k] / t);
+        }
+    }
+    let g = IntervalGeom { start: &a, end: &b, ds_mm: h, sign: 1.0 };
+    let mut worst = 0.0f64;
+    for k in 0..lim.n_axes {
+        let (i1, i2, i3) = geom_at(&g, 0.5, k);
+        let (e1, e2, e3) = ((i1 - m.d1[k]).abs(), (i2 - m.d2[k]).abs(), (i3 - m.d3[k]).abs());
+        let inv_acc = lim.inv_acc_max[k].max(-lim.inv_acc_min[k]);
+        let r_vel = e1 * v * lim.inv_vel[k];
+        let r_acc = (e2 * v * v + e1 * acc_p.min(f64::MAX)) * inv_acc;
+        let r_jerk =
+            (e3 * v * v * v + 3.0 * e2 * v * acc_p.min(f64::MAX) + e1 * jerk_p.min(f64::MAX)) * lim.inv_jerk[k];
+        worst = worst.max(r_vel).max(r_acc).max(r_jerk);
+    }
+    if worst.is_nan() { f64::INFINITY } else { worst }
 }
 
 fn push_interior(e: &Element, s_local: f64, d: &mut AxisDerivs, feed: f64, lim: &Limits, out: &mut Vec<Node>) {
@@ -345,7 +387,8 @@ fn table_step(
         .min(speed_from_rest(from_start_mm.max(0.0), j_path, a_path))
         .min(speed_from_rest(to_end_mm.max(0.0), j_path, a_path));
     let ds = v * params.max_interval_s * TABLE_INTERVAL_FACTOR;
-    if ds.is_finite() { ds.max(params.min_step_mm) } else { e.geometry.length_mm() }
+    let ds = if ds.is_finite() { ds.max(params.min_step_mm) } else { e.geometry.length_mm() };
+    ds.min(stop_grading_step(from_start_mm, to_end_mm, params))
 }
 
 /// Step length at local position `s` of element `e`.
@@ -374,8 +417,20 @@ fn step_at(
     let ds_geometry = ds.max(GEOMETRY_MIN_STEP_MM);
     let ds_speed =
         if v_nom.is_finite() { (v_nom * params.max_interval_s).max(params.min_step_mm) } else { f64::INFINITY };
-    ds_geometry.min(ds_speed)
+    ds_geometry.min(ds_speed).min(stop_grading_step(from_start_mm, to_end_mm, params))
 }
+
+/// Near a stop the nodes are graded geometrically: a step at most `STOP_GRADING` times the
+/// distance to the stop. Leaving or approaching rest, the time from the stop grows only as
+/// the cube root of the distance, so steps of `v · max_interval_ms` would put the whole jerk
+/// phase of a slow approach into one or two intervals, where one constant jerk each cannot
+/// shape it (the branches then arrive with a ≠ 0 and cannot join).
+fn stop_grading_step(from_start_mm: f64, to_end_mm: f64, params: &SamplingParams) -> f64 {
+    (STOP_GRADING * from_start_mm.min(to_end_mm).max(0.0)).max(params.min_step_mm)
+}
+
+/// Largest step near a stop, as a fraction of the distance to it.
+const STOP_GRADING: f64 = 0.5;
 
 /// Rounds of shrinking a step to the sharpest point it covers.
 const SHARPNESS_ITERS: usize = 4;

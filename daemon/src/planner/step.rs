@@ -11,7 +11,7 @@ use super::limits::Limits;
 /// Evaluations of the violation function per step, at most.
 pub const MAX_SEARCH_EVALS: u32 = 48;
 /// The search stops when the bracket is this narrow relative to the velocity.
-pub const SEARCH_REL_TOL: f64 = 1e-7;
+pub const SEARCH_REL_TOL: f64 = 1e-5;
 /// Fractions of the upper bound tried first when the jerk-free continuation is infeasible;
 /// after them the probe halves down to `MIN_PROBE_FRACTION` (near a stop the feasible end
 /// velocities can be many orders of magnitude below v̄).

@@ -115,13 +115,8 @@ fn every_example_streams_within_limits_on_the_path_to_its_end() {
         let worst = check_stream(name, &config, &path, &sps);
         let end = path.end_position();
         let last = sps.last().unwrap();
-        for k in 0..path.n_axes {
-            assert!(
-                (last.pos[k] - end[k]).abs() < 1e-9,
-                "{name}: axis {k} ends at {} instead of {}",
-                last.pos[k],
-                end[k]
-            );
+        for (k, (got, want)) in last.pos.iter().zip(end.iter()).take(path.n_axes).enumerate() {
+            assert!((got - want).abs() < 1e-9, "{name}: axis {k} ends at {got} instead of {want}");
         }
         assert!(last.flags & flags::FINISHED != 0, "{name}: last setpoint not flagged finished");
         eprintln!("{name}: {} setpoints, largest distance from the path {:.4} µm", sps.len(), worst * 1e3);

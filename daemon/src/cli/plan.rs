@@ -109,7 +109,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
     let mut cursor = Cursor::default();
     let mut d = AxisDerivs::default();
     let samples_f = (duration / period_s).ceil() + 1.0;
-    if !(samples_f <= MAX_SAMPLES as f64) {
+    if samples_f.is_nan() || samples_f > MAX_SAMPLES as f64 {
         return Err(CliError::BadInput(format!(
             "{}: the planned motion lasts {duration:.6e} s, {samples_f:.3e} samples at {} ms (at most {MAX_SAMPLES}); \
              is the feed (F, mm/min) or an axis limit far too low?",

@@ -41,7 +41,8 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     // configuration (`[sinks] shm_prefix`, default "interpd").
     let env_prefix = std::env::var(interpd_protocol::shm::SERVICE_PREFIX_ENV).ok().filter(|p| !p.is_empty());
     if let Some(p) = args.service_prefix.clone().or(env_prefix) {
-        interpd_protocol::shm::check_service_prefix(&p).map_err(|e| CliError::BadInput(format!("--service-prefix: {e}")))?;
+        interpd_protocol::shm::check_service_prefix(&p)
+            .map_err(|e| CliError::BadInput(format!("--service-prefix: {e}")))?;
         config.sinks.shm_prefix = p;
     }
     let stall = args.debug_stall_planner.as_deref().map(parse_stall).transpose()?;

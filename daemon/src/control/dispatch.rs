@@ -105,14 +105,11 @@ impl Context {
             self.counters.errors.fetch_add(1, Ordering::Relaxed);
             tracing::debug!(conn = session.id, method = %excerpt(&req.method), code = e.code, error = %e.message, "request refused");
         }
-        match req.id {
-            // Notifications are never answered, not even with an error (JSON-RPC 2.0 §4.1).
-            None => None,
-            Some(id) => Some(match outcome {
-                Ok(v) => Response::result(id, v),
-                Err(e) => Response::error(id, e),
-            }),
-        }
+        // Notifications are never answered, not even with an error (JSON-RPC 2.0 §4.1).
+        req.id.map(|id| match outcome {
+            Ok(v) => Response::result(id, v),
+            Err(e) => Response::error(id, e),
+        })
     }
 
     fn execute(&self, session: &mut Session, call: Call) -> Result<Value, ErrorObject> {

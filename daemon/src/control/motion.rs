@@ -4,7 +4,7 @@
 //! into a JSON-RPC error object ([`MotionError::to_error_object`]). Parameters arrive already
 //! checked: types, presence, and the override range 0.0..=2.0.
 
-use interpd_protocol::rpc::{self, ErrorObject, Event, ProgramInfo, State, Status, codes};
+use interpd_protocol::rpc::{ErrorObject, Event, ProgramInfo, State, Status, codes};
 use std::path::PathBuf;
 
 /// Where `program.load` takes the program from.
@@ -155,7 +155,7 @@ mod tests {
 
     #[test]
     fn every_refusal_has_a_hint() {
-        for m in rpc::Method::ALL {
+        for m in interpd_protocol::rpc::Method::ALL {
             for s in State::ALL {
                 assert!(!hint(m.name(), s).is_empty());
             }

@@ -93,7 +93,7 @@ fn segments_of(s_mm: f64, v: f64, a: f64, phases: [(f64, f64); 3], line: u32) ->
 /// `CHECK_STEP_S` and at segment ends, on both sides of element joints).
 fn keeps_limits(path: &Path, segments: &[Segment], lim: &Limits) -> bool {
     let mut d = AxisDerivs::default();
-    let mut check = |s: f64, v: f64, a: f64, j: f64, left: bool, d: &mut AxisDerivs| {
+    let check = |s: f64, v: f64, a: f64, j: f64, left: bool, d: &mut AxisDerivs| {
         if left {
             path.eval_left(s, d)
         } else {

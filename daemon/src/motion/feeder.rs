@@ -127,7 +127,9 @@ struct Run {
     last_tail: Vec<Segment>,
     /// The last chunk of the program is queued.
     complete: bool,
-    /// Chunks of a new epoch held back until the queue start is deep enough.
+    /// Chunks of a new epoch held back until the queue start is deep enough. Boxed: a chunk
+    /// moves between threads as one pointer.
+    #[allow(clippy::vec_box)]
     staged: Vec<Box<Chunk>>,
     wait: Wait,
     /// Seconds of motion queued in this run (for the debug stall).
@@ -139,6 +141,8 @@ pub struct Feeder {
     config: Config,
     chunk_s: f64,
     queues: Queues,
+    /// Chunks ready for reuse (boxed: they move through the queues as pointers).
+    #[allow(clippy::vec_box)]
     pool: Vec<Box<Chunk>>,
     run: Option<Run>,
     reports: Sender<FeederReport>,
@@ -290,7 +294,7 @@ impl Feeder {
         let end = run.end;
         let floor = run.last_tail.clone();
         let moving = end.v_mm_s > STANDSTILL_V_MM_S || end.a_mm_s2.abs() > STANDSTILL_A_MM_S2;
-        let mut planner = if moving {
+        let planner = if moving {
             Planner::with_start_state_and_floor(&self.config, end.v_mm_s, end.a_mm_s2, floor)
         } else {
             Planner::new(&self.config)
@@ -517,14 +521,6 @@ pub fn bounded_lookahead_mm(config: &Config) -> f64 {
 /// See [`bounded_lookahead_mm`].
 const LOOKAHEAD_STOPS: f64 = 3.0;
 const MIN_LOOKAHEAD_MM: f64 = 20.0;
-
-/// The programmed feed at `s_mm` (mm/s; ∞ for rapid moves).
-fn feed_at(path: &Path, s_mm: f64) -> f64 {
-    match path.elements.get(path.element_index_at(s_mm)).map(|e| e.feed) {
-        Some(Feed::Programmed { mm_per_s }) => mm_per_s,
-        _ => f64::INFINITY,
-    }
-}
 
 /// `path` with programmed feeds scaled by the override `factor` (rapid moves unchanged).
 pub fn scaled(path: &Path, factor: f64) -> Path {

@@ -5,19 +5,14 @@
 //! carries the fastest stop from the piece's end, which the interpolator runs on a feed hold,
 //! a stop or an underrun. Both start at a node that is no stop, with a given (v, a).
 
+use super::Planner;
 use super::node::Node;
 use super::profile::Segment;
-use super::{PlanError, Planner};
 use interpd_config::Config;
 
 /// Below these the machine counts as standing: no stop needs planning.
 pub const STANDSTILL_V_MM_S: f64 = 1e-9;
 pub const STANDSTILL_A_MM_S2: f64 = 1e-9;
-/// The first guess of the stopping distance is multiplied by this before more path is
-/// sampled (curvature lowers the path limits below the axis limits).
-const STOP_DISTANCE_MARGIN: f64 = 4.0;
-/// Path sampled at least this far ahead for a stop, mm.
-const MIN_STOP_LOOKAHEAD_MM: f64 = 1.0;
 
 impl Planner {
     /// A planner for a path whose first element starts with path velocity `v_mm_s` and

@@ -151,8 +151,8 @@ fn circle_runs_to_the_end_within_limits_and_on_the_path() {
     eprintln!("simulated {} cycles in {:?}; {:?}", sim.cycle, t.elapsed(), sim.feeder.stats);
     let end = path.end_position();
     let last = sim.out.last().unwrap();
-    for k in 0..3 {
-        assert!((last.pos[k] - end[k]).abs() < 1e-9, "axis {k} ends at {} not {}", last.pos[k], end[k]);
+    for (k, (got, want)) in last.pos.iter().zip(end.iter()).take(3).enumerate() {
+        assert!((got - want).abs() < 1e-9, "axis {k} ends at {got} not {want}");
     }
     let r = stream_ratios(&config, &sim.out);
     assert!(r[0] <= 1.001 && r[1] <= 1.001 && r[2] <= 1.02, "limits: {r:?}");

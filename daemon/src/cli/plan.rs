@@ -199,9 +199,13 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
                 "cap_tries": stats.work.cap_tries,
             },
             "lookahead_mm": config.planner.lookahead_mm,
-            "plant": plant.as_ref().map(PlantRun::json),
             "prep": { "wall_ms": prepared.wall_s * 1e3, "stats": prepared.stats },
         });
+        // The plant figures only when a plant ran (no null members in the output).
+        let mut json = json;
+        if let Some(p) = plant.as_ref() {
+            json["plant"] = p.json();
+        }
         writeln!(stdout, "{json}").map_err(write_err)?;
     } else {
         writeln!(

@@ -123,15 +123,19 @@ fn every_example_streams_within_limits_on_the_path_to_its_end() {
     }
 }
 
+/// Lines and arcs at 100 mm/s, a few seconds long.
+const LOOP: &str = "G21 G90 G17\nG1 X0 Y0 F6000\nG1 X100 Y0\nG3 X110 Y10 I0 J10\nG1 X110 Y60\nG3 X100 Y70 I-10 J0\n\
+G1 X0 Y70\nG3 X-10 Y60 I0 J-10\nG1 X-10 Y10\nG3 X0 Y0 I10 J0\nG1 X100 Y0\nG3 X110 Y10 I0 J10\nG1 X110 Y60\nM30\n";
+
 #[test]
 fn override_hold_resume_and_stop_keep_the_limits_and_the_path() {
     let config = Config::default_machine();
-    let name = "staircase.ngc";
+    let name = "loop.ngc";
     let daemon = Daemon::start(&[]);
     let collector = Collector::start(&daemon.prefix);
     let mut c = daemon.client();
     c.ok("subscribe", Value::Null);
-    load(&mut c, &example(name));
+    c.ok("program.load", json!({ "text": LOOP, "name": name }));
     c.ok("motion.start", Value::Null);
     let pause = |ms| std::thread::sleep(Duration::from_millis(ms));
     pause(300);
@@ -152,11 +156,17 @@ fn override_hold_resume_and_stop_keep_the_limits_and_the_path() {
     assert!(st["s_mm"].as_f64().unwrap() > 0.0);
     pause(100);
     let sps = collector.finish();
-    let text = std::fs::read_to_string(example(name)).unwrap();
-    let path = program::parse(&text, name, &config).unwrap().path;
+    let path = program::parse(LOOP, name, &config).unwrap().path;
     let worst = check_stream(name, &config, &path, &sps);
     let last = sps.last().unwrap();
     assert!(last.v_mm_s.abs() < 1e-9 && last.flags & flags::IDLE != 0, "not standing after stop");
+    // The override took effect: the path speed reached 150 % and later 30 % of the feed.
+    let v_max = sps.iter().map(|s| s.v_mm_s).fold(0.0, f64::max);
+    assert!(v_max > 140.0, "150 % never reached: {v_max} mm/s");
+    let names: Vec<&str> = c.events.iter().filter_map(|e| e["event"].as_str()).collect();
+    for want in ["started", "held", "resumed", "stopped"] {
+        assert!(names.contains(&want), "event {want} missing: {names:?}");
+    }
     let overrides: Vec<f64> = sps.iter().map(|s| s.feed_override).collect();
     assert!(overrides.contains(&1.5) && overrides.contains(&0.3), "overrides never took effect");
     let (code, _) = daemon.terminate();

@@ -101,6 +101,12 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         report.feeder.max_coarse_error_mm * 1e3,
         report.publish_errors
     );
+    for p in &report.publishers {
+        eprintln!(
+            "interpd: shared memory: {} setpoints published, {} dropped, {} failed",
+            p.published, p.dropped, p.failed
+        );
+    }
     Ok(())
 }
 

@@ -20,6 +20,7 @@ use crate::interp::{DivertCause, Executor, Io, Notice};
 use crate::path::Path;
 use crate::program;
 use crate::rt::{self, LoopTotals, TimingSample, sched::SchedReport, stats::CycleHistograms};
+use crate::sinks::deferred::{self, DeferredStats, DeferredWorker};
 use crate::sinks::{SetpointSink, shm::ShmSink};
 use crossbeam::channel::{self, Receiver, Sender};
 use crossbeam::queue::ArrayQueue;
@@ -71,6 +72,8 @@ pub struct ShutdownReport {
     pub feeder: FeederStats,
     pub publish_errors: u64,
     pub executor_faults: crate::interp::executor::ExecutorFaults,
+    /// Per deferred publisher (shared memory): published, dropped, failed.
+    pub publishers: Vec<DeferredStats>,
 }
 
 /// The control-side state.
@@ -114,6 +117,7 @@ pub struct MotionService {
     core: MotionCore,
     sched: SchedReport,
     rt: Option<JoinHandle<(LoopTotals, crate::interp::executor::ExecutorFaults)>>,
+    publishers: Vec<DeferredWorker>,
     feeder: Option<JoinHandle<FeederStats>>,
     supervisor: Option<JoinHandle<()>>,
 }
@@ -162,12 +166,21 @@ impl MotionService {
             .spawn(move || feeder.run(feeder_rx))
             .map_err(thread_err("planner"))?;
 
+        // Sinks: iceoryx2 publishes from a thread of its own (its loan allocates).
+        let mut sinks: Vec<Box<dyn SetpointSink + Send>> = Vec::new();
+        let mut publishers = Vec::new();
+        if opts.shm {
+            let prefix = opts.config.sinks.shm_prefix.clone();
+            let priority = (opts.config.rt.priority - 1).max(0);
+            let (sink, worker) = deferred::spawn("shm", priority, move || ShmSink::create(&prefix))?;
+            sinks.push(Box::new(sink));
+            publishers.push(worker);
+        }
         let (ready_tx, ready_rx) = channel::bounded(1);
         let rt_inner = inner.clone();
-        let shm = opts.shm;
         let rt = std::thread::Builder::new()
             .name("interpd-rt".into())
-            .spawn(move || rt_thread(rt_inner, shm, ready_tx))
+            .spawn(move || rt_thread(rt_inner, sinks, ready_tx))
             .map_err(thread_err("real-time"))?;
         let sched = match ready_rx.recv() {
             Ok(Ok(sched)) => sched,
@@ -189,6 +202,7 @@ impl MotionService {
             core: MotionCore { inner },
             sched,
             rt: Some(rt),
+            publishers,
             feeder: Some(feeder),
             supervisor: Some(supervisor),
         })
@@ -214,6 +228,7 @@ impl MotionService {
             let _ = h.join();
         }
         drain_timing(inner);
+        let publishers = self.publishers.drain(..).map(DeferredWorker::stop).collect();
         ShutdownReport {
             sched: self.sched.clone(),
             totals,
@@ -221,27 +236,18 @@ impl MotionService {
             feeder,
             publish_errors: inner.publish_errors.load(Ordering::Relaxed),
             executor_faults,
+            publishers,
         }
     }
 }
 
-/// The real-time thread: scheduling, sinks, then the loop.
+/// The real-time thread: scheduling, then the loop over the executor and the sinks.
 fn rt_thread(
     inner: Arc<Inner>,
-    shm: bool,
+    mut sinks: Vec<Box<dyn SetpointSink + Send>>,
     ready: Sender<Result<SchedReport, StartError>>,
 ) -> (LoopTotals, crate::interp::executor::ExecutorFaults) {
     let sched = rt::sched::apply(&inner.config.rt);
-    let mut sinks: Vec<Box<dyn SetpointSink>> = Vec::new();
-    if shm {
-        match ShmSink::create(&inner.config.sinks.shm_prefix) {
-            Ok(s) => sinks.push(Box::new(s)),
-            Err(e) => {
-                let _ = ready.send(Err(e.into()));
-                return Default::default();
-            }
-        }
-    }
     let _ = ready.send(Ok(sched));
     let n_axes = inner.config.axes.len();
     let mut executor = Executor::new(n_axes, [0.0; crate::path::MAX_AXES]);

@@ -11,7 +11,14 @@ pub mod sched;
 pub mod stats;
 
 use crossbeam::queue::ArrayQueue;
+use std::cell::Cell;
 use std::sync::atomic::{AtomicBool, Ordering};
+
+thread_local! {
+    /// Set while the calling thread computes a real-time cycle. A test's counting allocator
+    /// reads it to prove that the cycle never allocates (daemon/tests/rt_no_alloc.rs).
+    pub static IN_CYCLE: Cell<bool> = const { Cell::new(false) };
+}
 
 /// One wake-up of the loop.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -59,7 +66,9 @@ pub fn run_loop(
             let begin = clock::now_ns();
             // Late: computed after the next deadline had passed.
             let late = begin > start_ns + (cycle + 1) * period_ns;
+            IN_CYCLE.with(|c| c.set(true));
             go_on = body(cycle, start_ns + cycle * period_ns, late);
+            IN_CYCLE.with(|c| c.set(false));
             let end = clock::now_ns();
             if sample.compute_ns == 0 {
                 sample.compute_ns = end - begin;

@@ -3,6 +3,7 @@
 //! A sink's `publish` runs inside the real-time cycle: it must not allocate, lock, block or
 //! log. Failures are counted and reported outside the cycle.
 
+pub mod deferred;
 pub mod shm;
 
 use interpd_protocol::shm::Setpoints;
@@ -18,7 +19,9 @@ pub enum SinkError {
     Publish,
 }
 
-/// A destination of setpoints.
+/// A destination of setpoints. Sinks called in the cycle must be allocation-free and
+/// non-blocking; a sink that cannot be (iceoryx2's loan allocates) runs behind
+/// [`deferred::spawn`].
 pub trait SetpointSink {
     /// Publishes one setpoint. Runs in the real-time cycle.
     fn publish(&mut self, setpoint: &Setpoints) -> Result<(), SinkError>;

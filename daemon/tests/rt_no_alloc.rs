@@ -1,0 +1,98 @@
+//! Proof that the real-time cycle never allocates: a counting global allocator counts every
+//! allocation, reallocation and free made while a thread is inside a cycle (the loop marks
+//! that in `interpd::rt::IN_CYCLE`), while the real service runs programs with a hold, a
+//! resume, feed override changes, a stop and an underrun, publishing over real iceoryx2.
+
+use interpd::config::Config;
+use interpd::control::{Motion, ProgramSource};
+use interpd::motion::{MotionOptions, MotionService};
+use interpd_protocol::rpc::State;
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
+
+struct Counting;
+static IN_CYCLE_ALLOCS: AtomicU64 = AtomicU64::new(0);
+static ALL_ALLOCS: AtomicU64 = AtomicU64::new(0);
+
+fn note() {
+    ALL_ALLOCS.fetch_add(1, Ordering::Relaxed);
+    // try_with: the thread-local may be gone while a thread shuts down.
+    if interpd::rt::IN_CYCLE.try_with(|c| c.get()).unwrap_or(false) {
+        IN_CYCLE_ALLOCS.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+// SAFETY: forwards to the system allocator; counting has no effect on the memory handed out.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        note();
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        note();
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        note();
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+const PROGRAM: &str =
+    "G21 G90 G17\nG1 X20 F6000\nG2 X40 Y0 I10 J0\nG1 X40 Y30\nG3 X20 Y30 I-10 J0\nG1 X0 Y0\nG4 P0.1\nG1 X10 Y10\nM30\n";
+
+fn run(core: &interpd::motion::MotionCore, steps: &[(&str, u64)]) {
+    core.load(ProgramSource::Text { name: "alloc.ngc".into(), text: PROGRAM.into() }).expect("load");
+    core.start().expect("start");
+    for &(what, after_ms) in steps {
+        std::thread::sleep(Duration::from_millis(after_ms));
+        match what {
+            "hold" => core.hold().expect("hold"),
+            "resume" => core.resume().expect("resume"),
+            "stop" => core.stop().expect("stop"),
+            "fast" => core.set_override(1.5).expect("override"),
+            "slow" => core.set_override(0.4).expect("override"),
+            _ => unreachable!(),
+        }
+    }
+    let s = core.wait_for(&[State::Finished, State::Idle, State::Error], Duration::from_secs(30));
+    assert!(matches!(s, State::Finished | State::Idle), "ended in {s}");
+}
+
+#[test]
+fn the_cycle_never_allocates() {
+    // The probe works: an allocation inside a (pretended) cycle is counted.
+    interpd::rt::IN_CYCLE.with(|c| c.set(true));
+    let probe = std::hint::black_box(vec![1u8; 64]);
+    drop(probe);
+    interpd::rt::IN_CYCLE.with(|c| c.set(false));
+    assert!(
+        IN_CYCLE_ALLOCS.swap(0, Ordering::Relaxed) >= 1,
+        "the counting allocator does not see in-cycle allocations"
+    );
+    let mut config = Config::default_machine();
+    config.sinks.shm_prefix = format!("interpd-test/alloc{}", std::process::id());
+    let service = MotionService::start(MotionOptions { config, shm: true }).expect("service");
+    let core = service.core();
+    // A whole program; one with hold, resume and override changes; one stopped midway; one
+    // with a stalled planner (underrun).
+    run(&core, &[]);
+    run(&core, &[("fast", 150), ("hold", 150), ("resume", 300), ("slow", 100)]);
+    run(&core, &[("stop", 250)]);
+    core.debug_stall_planner(0.2, 0.4);
+    run(&core, &[]);
+    let report = service.shutdown();
+    let in_cycle = IN_CYCLE_ALLOCS.load(Ordering::Relaxed);
+    eprintln!(
+        "{} cycles; allocations inside cycles: {in_cycle}; allocations elsewhere meanwhile: {}",
+        report.totals.cycles,
+        ALL_ALLOCS.load(Ordering::Relaxed)
+    );
+    assert!(report.totals.cycles > 500, "too few cycles ran: {}", report.totals.cycles);
+    assert!(ALL_ALLOCS.load(Ordering::Relaxed) > 0, "the counting allocator saw nothing: the test could not fail");
+    assert_eq!(in_cycle, 0, "the real-time cycle allocated or freed memory");
+}

@@ -44,6 +44,9 @@ struct Args {
     /// Standstill simulated after FINISHED for the residual-vibration figures, s.
     #[arg(long, default_value_t = 1.0)]
     settle_s: f64,
+    /// Also write the summary figures as one JSON object to this file at exit.
+    #[arg(long)]
+    summary_json: Option<PathBuf>,
     /// More log output on stderr (-v debug, -vv trace). RUST_LOG overrides.
     #[arg(short, long, action = clap::ArgAction::Count)]
     verbose: u8,
@@ -123,6 +126,11 @@ fn run(args: &Args) -> Result<(), Failure> {
     };
     let report = node.run(&mut plant, Some(&mut metrics), &options)?;
     print_summary(&report, &metrics);
+    if let Some(p) = &args.summary_json {
+        let json = summary_json(&report, &metrics);
+        std::fs::write(p, format!("{json}\n"))
+            .map_err(|e| Failure { code: 1, message: format!("--summary-json {}: {e}", p.display()) })?;
+    }
     if let Some(p) = &args.plot {
         if metrics.count() < 2 {
             eprintln!("sim-plant: no plot written to {}: fewer than 2 setpoints received", p.display());
@@ -177,6 +185,36 @@ fn print_summary(report: &RunReport, metrics: &Metrics) {
     if metrics.count() > 0 {
         eprint!("{}", metrics.summary());
     }
+}
+
+/// The figures of a run as JSON (units: mm or deg, N or N·m, s, Hz; null where not measured).
+fn summary_json(report: &RunReport, metrics: &Metrics) -> serde_json::Value {
+    let m = metrics.summary();
+    let axes: Vec<serde_json::Value> = m
+        .axes
+        .iter()
+        .map(|a| {
+            serde_json::json!({
+                "name": a.name.to_string(),
+                "preset": a.preset,
+                "max_following_error": a.max_following_error,
+                "rms_following_error": a.rms_following_error,
+                "max_load_error": a.max_load_error,
+                "max_motor_force": a.max_motor_force,
+                "residual_amplitude": a.residual_amplitude,
+                "residual_peak_hz": a.residual_peak_hz,
+            })
+        })
+        .collect();
+    serde_json::json!({
+        "setpoints_received": report.stats.received,
+        "setpoints_used": report.stats.accepted,
+        "missed_cycles": report.stats.missed_cycles,
+        "duration_s": m.duration_s,
+        "max_contour_error": m.max_contour_error,
+        "rms_contour_error": m.rms_contour_error,
+        "axes": axes,
+    })
 }
 
 fn init_logging(verbose: u8) {

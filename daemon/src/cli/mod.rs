@@ -1,6 +1,7 @@
 //! Subcommands of `interpd`.
 
 mod check;
+mod demo;
 mod law;
 mod otg;
 mod plan;
@@ -38,6 +39,9 @@ pub enum Command {
     Plan(plan::PlanArgs),
     /// The service: control socket, planner and real-time threads, setpoint sinks.
     Run(run::RunArgs),
+    /// The main job on embedded defaults: interpd run + sim-plant over iceoryx2, an example
+    /// program, a summary and a plot.
+    Demo(demo::DemoArgs),
     /// Design a motion law from interpolation conditions (seed 003): degree, VDI 2143
     /// characteristic values, residuals, coefficients; CSV samples and a plot on request.
     Law(law::LawArgs),
@@ -98,6 +102,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Check { program, machine } => check::run(&program, machine.as_deref()),
         Command::Plan(args) => plan::run(&args),
         Command::Run(args) => run::run(&args),
+        Command::Demo(args) => demo::run(&args),
         Command::Law(args) => law::run(&args),
         Command::Otg(args) => otg::run(&args),
     }

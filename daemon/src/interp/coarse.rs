@@ -15,6 +15,12 @@ use crate::planner::Segment;
 /// Largest deviation of the interpolated axis positions from the exact geometry that a piece
 /// may have, mm: a tenth of the 1 µm the daemon promises.
 pub const TOLERANCE_MM: f64 = 1e-4;
+/// Largest deviation of the interpolated axis jerk from the exact one, as a share of the axis
+/// jerk limit: position alone would let a 0.1 µm wiggle over 4 ms show as ~3 % of a typical
+/// jerk limit in the setpoints' third differences.
+pub const JERK_TOLERANCE: f64 = 0.005;
+/// Pieces shorter than this are checked for position only (see `split_segment`), s.
+const MIN_JERK_CHECK_S: f64 = 2.5e-4;
 /// Interior check points per segment of a piece (at k/(N+1) of each segment).
 const CHECKS_PER_SEGMENT: usize = 3;
 /// Bisections of one segment before a piece is accepted as it is (reached only by geometry
@@ -60,6 +66,8 @@ pub struct CoarseBuilder<'a> {
     path: &'a Path,
     n_axes: usize,
     max_piece_s: f64,
+    /// Jerk tolerance per axis (axis units/s³).
+    jerk_tol: AxisVec,
     /// Largest deviation at the check points of the accepted pieces, mm.
     pub max_error_mm: f64,
     /// Pieces split because they missed the tolerance.
@@ -67,9 +75,14 @@ pub struct CoarseBuilder<'a> {
 }
 
 impl<'a> CoarseBuilder<'a> {
-    /// `max_piece_s` bounds the duration of one piece (a few interpolation cycles).
-    pub fn new(path: &'a Path, max_piece_s: f64) -> Self {
-        Self { path, n_axes: path.n_axes, max_piece_s, max_error_mm: 0.0, splits: 0 }
+    /// `max_piece_s` bounds the duration of one piece (a few interpolation cycles);
+    /// `max_jerk` per axis scales the jerk check ([`JERK_TOLERANCE`]).
+    pub fn new(path: &'a Path, max_piece_s: f64, max_jerk: &AxisVec) -> Self {
+        let mut jerk_tol = [f64::INFINITY; crate::path::MAX_AXES];
+        for (t, j) in jerk_tol.iter_mut().zip(max_jerk.iter()).take(path.n_axes) {
+            *t = JERK_TOLERANCE * j;
+        }
+        Self { path, n_axes: path.n_axes, max_piece_s, jerk_tol, max_error_mm: 0.0, splits: 0 }
     }
 
     /// The point at local time `tau_s` of `seg`, stamped with time `t_s`.
@@ -147,8 +160,11 @@ impl<'a> CoarseBuilder<'a> {
         for (a, b) in [(ta, mid), (mid, tb)] {
             let start = *out.last().expect("a start point");
             let end = self.point(seg, b, t_base + b);
-            let err = self.error_between(&start, &end, |tau| (seg, a + tau));
-            if err <= TOLERANCE_MM || depth >= MAX_SPLIT_DEPTH {
+            // A piece this short is checked for position only: the exact jerk steps where a
+            // piece crosses a curvature jump (A″ steps), which no split can follow.
+            let check_jerk = (b - a) > MIN_JERK_CHECK_S;
+            let (err, jerk_ok) = self.error_between(&start, &end, check_jerk, |tau| (seg, a + tau));
+            if (err <= TOLERANCE_MM && jerk_ok) || depth >= MAX_SPLIT_DEPTH {
                 self.max_error_mm = self.max_error_mm.max(err);
                 out.push(end);
             } else {
@@ -161,6 +177,7 @@ impl<'a> CoarseBuilder<'a> {
     fn fits(&mut self, group: &[Segment], t_s: f64, start: &CoarsePoint, end: &CoarsePoint) -> bool {
         let h = end.t_s - start.t_s;
         let mut worst: f64 = 0.0;
+        let mut jerk_ok = true;
         let mut offset = 0.0;
         let mut exact = AxisDerivs::default();
         for seg in group {
@@ -171,13 +188,15 @@ impl<'a> CoarseBuilder<'a> {
                 if at >= h {
                     continue;
                 }
-                self.path.eval(seg.at(tau).s_mm, &mut exact);
+                let st = seg.at(tau);
+                self.path.eval(st.s_mm, &mut exact);
                 worst = worst.max(self.deviation(start, end, at, &exact));
+                jerk_ok &= self.jerk_fits(start, end, at, &st, &exact);
             }
             offset += seg.dt_s;
         }
         let _ = t_s;
-        let fits = worst <= TOLERANCE_MM;
+        let fits = worst <= TOLERANCE_MM && jerk_ok;
         if fits {
             self.max_error_mm = self.max_error_mm.max(worst);
         }
@@ -190,18 +209,39 @@ impl<'a> CoarseBuilder<'a> {
         &mut self,
         start: &CoarsePoint,
         end: &CoarsePoint,
+        check_jerk: bool,
         at: impl Fn(f64) -> (&'s Segment, f64),
-    ) -> f64 {
+    ) -> (f64, bool) {
         let h = end.t_s - start.t_s;
         let mut worst: f64 = 0.0;
+        let mut jerk_ok = true;
         let mut exact = AxisDerivs::default();
         for c in 1..=CHECKS_PER_SEGMENT {
             let tau = h * c as f64 / (CHECKS_PER_SEGMENT + 1) as f64;
             let (seg, local) = at(tau);
-            self.path.eval(seg.at(local).s_mm, &mut exact);
+            let st = seg.at(local);
+            self.path.eval(st.s_mm, &mut exact);
             worst = worst.max(self.deviation(start, end, tau, &exact));
+            jerk_ok &= !check_jerk || self.jerk_fits(start, end, tau, &st, &exact);
         }
-        worst
+        (worst, jerk_ok)
+    }
+
+    /// The quintic's jerk at piece time τ is within the tolerance of the exact axis jerk
+    /// A‴v³ + 3A″va + A′j.
+    fn jerk_fits(
+        &self,
+        start: &CoarsePoint,
+        end: &CoarsePoint,
+        tau: f64,
+        st: &crate::planner::PathState,
+        exact: &AxisDerivs,
+    ) -> bool {
+        let h = end.t_s - start.t_s;
+        (0..self.n_axes).all(|k| {
+            let want = exact.d3[k] * st.v * st.v * st.v + 3.0 * exact.d2[k] * st.v * st.a + exact.d1[k] * st.j;
+            (hermite::jerk(start.axis(k), end.axis(k), h, tau) - want).abs() <= self.jerk_tol[k]
+        })
     }
 
     /// Largest axis deviation of the quintic at piece time τ from the exact positions.
@@ -248,7 +288,7 @@ mod tests {
         let cfg = Config::default_machine();
         let p = program::parse(text, "t.ngc", &cfg).unwrap();
         let (segs, _) = Planner::plan_path(&cfg, &p.path).unwrap();
-        let mut b = CoarseBuilder::new(&p.path, 0.008);
+        let mut b = CoarseBuilder::new(&p.path, 0.008, &[50_000.0; crate::path::MAX_AXES]);
         let mut pts = Vec::new();
         b.build(&segs, 0.0, &mut pts);
         // Independent check: every 0.1 ms, quintic vs exact geometry.

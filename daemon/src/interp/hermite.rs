@@ -34,6 +34,22 @@ pub fn eval(k0: Kinematic, k1: Kinematic, h_s: f64, tau_s: f64) -> Kinematic {
     Kinematic { p, v: dp_du / h_s, a: d2p_du2 / (h_s * h_s) }
 }
 
+/// The jerk of the same quintic at τ (third derivative).
+#[inline]
+pub fn jerk(k0: Kinematic, k1: Kinematic, h_s: f64, tau_s: f64) -> f64 {
+    if h_s <= 0.0 {
+        return 0.0;
+    }
+    let u = (tau_s / h_s).clamp(0.0, 1.0);
+    let dp = k1.p - k0.p;
+    let (v0, v1) = (k0.v * h_s, k1.v * h_s);
+    let (a0, a1) = (k0.a * h_s * h_s, k1.a * h_s * h_s);
+    let c3 = 10.0 * dp - 6.0 * v0 - 4.0 * v1 - 1.5 * a0 + 0.5 * a1;
+    let c4 = -15.0 * dp + 8.0 * v0 + 7.0 * v1 + 1.5 * a0 - a1;
+    let c5 = 6.0 * dp - 3.0 * v0 - 3.0 * v1 - 0.5 * a0 + 0.5 * a1;
+    (6.0 * c3 + u * (24.0 * c4 + u * 60.0 * c5)) / (h_s * h_s * h_s)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -147,6 +147,8 @@ pub struct Feeder {
     run: Option<Run>,
     reports: Sender<FeederReport>,
     stall: Option<(f64, f64)>,
+    /// Axis jerk limits (for the coarse points' jerk check).
+    max_jerk: [f64; crate::path::MAX_AXES],
     /// Counters for the status and tests.
     pub stats: FeederStats,
 }
@@ -177,6 +179,10 @@ impl Feeder {
             );
             config.planner.lookahead_mm = bounded;
         }
+        let mut max_jerk = [f64::INFINITY; crate::path::MAX_AXES];
+        for (m, a) in max_jerk.iter_mut().zip(&config.axes) {
+            *m = a.max_jerk_per_s3;
+        }
         Self {
             config,
             chunk_s,
@@ -185,6 +191,7 @@ impl Feeder {
             run: None,
             reports,
             stall: None,
+            max_jerk,
             stats: FeederStats::default(),
         }
     }
@@ -426,7 +433,7 @@ impl Feeder {
         chunk.seq = run.seq;
         chunk.feed_override = run.feed_override;
         chunk.points.push(CoarsePoint { t_s: 0.0, ..run.end });
-        let mut builder = CoarseBuilder::new(&run.path, max_piece_s);
+        let mut builder = CoarseBuilder::new(&run.path, max_piece_s, &self.max_jerk);
         builder.build(&segments, 0.0, &mut chunk.points);
         let end = *chunk.points.last().expect("points");
         chunk.last = run.buffer.is_empty() && run.planner.done();

@@ -467,12 +467,25 @@ impl Motion for MotionCore {
             }
         };
         let prog = parsed.map_err(|e| MotionError::BadProgram(e.to_string()))?;
+        // Tolerance-band smoothing (G64 P…) of the whole program, here in the control thread:
+        // it runs ahead of the planner and never near the real-time thread.
+        let prepared = crate::prep::prepare_path(&inner.config, &prog.path)
+            .map_err(|e| MotionError::BadProgram(format!("{name}: {e}")))?;
+        if prepared.stats.windows > 0 {
+            tracing::info!(
+                program = %name,
+                windows = prepared.stats.windows,
+                wall_ms = prepared.wall_s * 1e3,
+                "path smoothing (G64) prepared"
+            );
+        }
         let info = ProgramInfo {
             name,
-            elements: prog.path.elements.len() as u64,
-            length_mm: prog.path.length_mm(),
+            elements: prepared.path.elements.len() as u64,
+            length_mm: prepared.path.length_mm(),
             lines: prog.summary.lines,
         };
+        let prog = program::Program { path: prepared.path, summary: prog.summary };
         let mut ctl = lock(&inner.control);
         if !matches!(ctl.state, State::Idle | State::Finished) {
             return Err(Inner::not_allowed(ctl.state, "program.load"));

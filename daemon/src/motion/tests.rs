@@ -217,3 +217,27 @@ fn override_changes_apply_within_the_limits() {
     assert!(path_deviation_mm(&path, &sim.out) <= 1e-3);
     assert!(sim.out.iter().any(|s| s.feed_override == 1.5) && sim.out.iter().any(|s| s.feed_override == 0.3));
 }
+
+#[test]
+fn smoothed_corner_is_passed_in_motion_within_the_limits() {
+    let config = Config::default_machine();
+    let text = "G21 G90 G17 G64 P0.05\nG1 X0 Y0 F6000\nG1 X40 Y0\nG1 X40 Y40\nG1 X0 Y40\n";
+    let parsed = program::parse(text, "g64.ngc", &config).unwrap().path;
+    let prepared = crate::prep::prepare_path(&config, &parsed).unwrap();
+    assert!(prepared.stats.windows > 0, "nothing was smoothed");
+    let path = Arc::new(prepared.path);
+    let mut sim = Sim::new(config.clone());
+    sim.start(path.clone());
+    sim.run_to_end(20_000);
+    let r = stream_ratios(&config, &sim.out);
+    assert!(r[0] <= 1.001 && r[1] <= 1.001 && r[2] <= 1.02, "limits: {r:?}");
+    assert!(path_deviation_mm(&path, &sim.out) <= 1e-3);
+    // Near the corner (40, 0) the machine keeps moving.
+    let near: Vec<f64> = sim
+        .out
+        .iter()
+        .filter(|s| ((s.pos[0] - 40.0).powi(2) + s.pos[1].powi(2)).sqrt() < 0.2)
+        .map(|s| s.v_mm_s)
+        .collect();
+    assert!(!near.is_empty() && near.iter().all(|&v| v > 1.0), "stopped at the smoothed corner: {near:?}");
+}

@@ -384,10 +384,11 @@ pub enum Method {
     FeedOverride,
     Status,
     Subscribe,
+    MotionLaw,
 }
 
 impl Method {
-    pub const ALL: [Method; 8] = [
+    pub const ALL: [Method; 9] = [
         Method::ProgramLoad,
         Method::MotionStart,
         Method::MotionHold,
@@ -396,6 +397,7 @@ impl Method {
         Method::FeedOverride,
         Method::Status,
         Method::Subscribe,
+        Method::MotionLaw,
     ];
 
     /// The wire name, e.g. `"motion.start"`.
@@ -409,6 +411,7 @@ impl Method {
             Method::FeedOverride => "feed.override",
             Method::Status => "status",
             Method::Subscribe => "subscribe",
+            Method::MotionLaw => "motion.law",
         }
     }
 
@@ -434,6 +437,7 @@ pub enum Call {
     FeedOverride(OverrideParams),
     Status,
     Subscribe,
+    MotionLaw(LawParams),
 }
 
 impl Call {
@@ -450,6 +454,7 @@ impl Call {
             Method::MotionStop => no_params(m, params).map(|()| Call::MotionStop)?,
             Method::Status => no_params(m, params).map(|()| Call::Status)?,
             Method::Subscribe => no_params(m, params).map(|()| Call::Subscribe)?,
+            Method::MotionLaw => Call::MotionLaw(LawParams::from_params(params)?),
         })
     }
 
@@ -463,6 +468,7 @@ impl Call {
             Call::FeedOverride(_) => Method::FeedOverride,
             Call::Status => Method::Status,
             Call::Subscribe => Method::Subscribe,
+            Call::MotionLaw(_) => Method::MotionLaw,
         }
     }
 }
@@ -576,6 +582,46 @@ impl<'de> Deserialize<'de> for LoadParams {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let v = Value::deserialize(d)?;
         LoadParams::from_params(Some(v)).map_err(|e| D::Error::custom(e.message))
+    }
+}
+
+/// `motion.law` parameters: one motion-law statement in the program syntax, e.g.
+/// `{"statement": "LAW PRESET=rr7 DURATION=0.8 X=10 Y=-5"}` (README "Motion laws").
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LawParams {
+    pub statement: String,
+}
+
+const LAW_USAGE: &str = r#"{"statement": "LAW PRESET=rr7 DURATION=0.8 X=10"}"#;
+
+impl LawParams {
+    pub fn from_params(params: Option<Value>) -> Result<LawParams, ErrorObject> {
+        let m = Method::MotionLaw;
+        let missing = || {
+            ErrorObject::invalid_params(
+                m,
+                Some("statement"),
+                &format!("missing parameter \"statement\"; expected {LAW_USAGE}"),
+            )
+        };
+        let Some(map) = named(m, params, LAW_USAGE)? else { return Err(missing()) };
+        let mut statement = None;
+        for (key, value) in map {
+            match (key.as_str(), value) {
+                ("statement", Value::String(s)) => statement = Some(s),
+                ("statement", _) => {
+                    return Err(ErrorObject::invalid_params(m, Some("statement"), "\"statement\" must be a string"));
+                }
+                (other, _) => {
+                    return Err(ErrorObject::invalid_params(
+                        m,
+                        Some(other),
+                        &format!("unknown parameter {:?}; expected {LAW_USAGE}", excerpt(other, 40)),
+                    ));
+                }
+            }
+        }
+        statement.map(|statement| LawParams { statement }).ok_or_else(missing)
     }
 }
 

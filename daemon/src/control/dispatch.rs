@@ -148,6 +148,11 @@ impl Context {
             Call::MotionHold => motion.hold().map_err(ErrorObject::from).and_then(|()| to_value(&Ack::default())),
             Call::MotionResume => motion.resume().map_err(ErrorObject::from).and_then(|()| to_value(&Ack::default())),
             Call::MotionStop => motion.stop().map_err(ErrorObject::from).and_then(|()| to_value(&Ack::default())),
+            Call::MotionLaw(p) => {
+                let info = motion.law(&p.statement)?;
+                *self.start_owner.lock().unwrap_or_else(|p| p.into_inner()) = Some(session.id);
+                Ok(info)
+            }
             Call::FeedOverride(p) => {
                 motion.set_override(p.factor)?;
                 tracing::info!(conn = session.id, factor = p.factor, "feed override");

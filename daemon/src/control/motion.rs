@@ -58,6 +58,14 @@ pub trait Motion: Send + Sync + 'static {
     /// gone (`TrySendError::Disconnected`: the client disconnected). The server drops the
     /// receiver when the connection closes.
     fn subscribe(&self) -> crossbeam::channel::Receiver<Event>;
+
+    /// Runs one motion-law move (`motion.law`): the statement in the program syntax, checked
+    /// against the axis limits before it starts. Returns the move's figures. Allowed where
+    /// `motion.start` is; the default refuses (a core without law moves).
+    fn law(&self, statement: &str) -> Result<serde_json::Value, MotionError> {
+        let _ = statement;
+        Err(MotionError::InvalidParams("motion.law is not supported by this motion core".into()))
+    }
 }
 
 /// Why the motion core refused or failed a command.

@@ -6,6 +6,7 @@
 //! See [`crate::interp`] for the contract with the real-time thread.
 
 use super::brake::{brake_along, next_stop_s};
+use super::law_run::LawPart;
 use crate::interp::coarse::{CoarseBuilder, CoarsePoint, split};
 use crate::interp::{Chunk, DivertCause};
 use crate::path::{Feed, Path};
@@ -37,6 +38,15 @@ pub enum FeederCommand {
     /// Plan and queue `path` from its start, at rest, as epoch `epoch`.
     Start {
         path: Arc<Path>,
+        epoch: u64,
+        feed_override: f64,
+    },
+    /// Queue the motion-law moves `laws` along `path` (its lines, one per move) from its
+    /// start, at rest, as epoch `epoch`. The laws' time profiles are executed as they are:
+    /// the feed override does not scale them (see [`LawPart`]).
+    StartLaws {
+        path: Arc<Path>,
+        laws: Box<LawPart>,
         epoch: u64,
         feed_override: f64,
     },
@@ -134,6 +144,9 @@ struct Run {
     wait: Wait,
     /// Seconds of motion queued in this run (for the debug stall).
     queued_s: f64,
+    /// Motion-law moves still to sample (instead of planning `path`); `None` for programs
+    /// and after a restart (the rest of a law program then runs as rapid moves).
+    law: Option<LawPart>,
 }
 
 /// The planner thread's state.
@@ -228,6 +241,14 @@ impl Feeder {
                     CoarsePoint::at_rest(0.0, 0.0, path.elements.first().map_or(0, |e| e.source.line), path.start);
                 self.run = Some(Run::new(&self.config, path, feed_override, epoch, 0.0, start));
             }
+            FeederCommand::StartLaws { path, laws, epoch, feed_override } => {
+                self.abort();
+                let start =
+                    CoarsePoint::at_rest(0.0, 0.0, path.elements.first().map_or(0, |e| e.source.line), path.start);
+                let mut run = Run::new(&self.config, path, feed_override, epoch, 0.0, start);
+                run.law = Some(*laws);
+                self.run = Some(run);
+            }
             FeederCommand::Override(factor) => self.set_override(factor),
             FeederCommand::Diverted { epoch, cause } => {
                 if let Some(run) = self.run.as_mut().filter(|r| r.epoch == epoch) {
@@ -294,7 +315,7 @@ impl Feeder {
     fn set_override(&mut self, factor: f64) {
         let Some(run) = self.run.as_mut() else { return };
         run.feed_override = factor;
-        if run.wait != Wait::No || run.complete {
+        if run.wait != Wait::No || run.complete || run.law.is_some() {
             return;
         }
         self.stats.replans += 1;
@@ -408,6 +429,9 @@ impl Feeder {
         let chunk_s = self.chunk_s;
         let max_piece_s = 2.0 * self.config.cycle_s();
         let Some(run) = self.run.as_mut() else { return Ok(false) };
+        if run.law.is_some() {
+            return Ok(self.fill_law_chunk(chunk));
+        }
         let lim = run.planner.limits().clone();
         let mut segments = Vec::new();
         let mut t = 0.0;
@@ -447,6 +471,53 @@ impl Feeder {
         run.seq += 1;
         Ok(true)
     }
+
+    /// [`Feeder::fill_chunk`] for motion-law moves: samples about one chunk of the laws
+    /// (longer where no stop can follow) and gives it the fastest stop along the move's line
+    /// as its tail; `false` when nothing is left.
+    fn fill_law_chunk(&mut self, chunk: &mut Chunk) -> bool {
+        let (chunk_s, max_piece_s) = (self.chunk_s, 2.0 * self.config.cycle_s());
+        let Some(run) = self.run.as_mut() else { return false };
+        let Some(law) = run.law.as_mut() else { return false };
+        if law.is_done() {
+            return false;
+        }
+        let lim = run.planner.limits().clone();
+        chunk.clear();
+        chunk.epoch = run.epoch;
+        chunk.seq = run.seq;
+        chunk.feed_override = run.feed_override;
+        chunk.points.push(CoarsePoint { t_s: 0.0, ..run.end });
+        let mut want_s = chunk_s;
+        let tail = loop {
+            law.sample(want_s, max_piece_s, &self.max_jerk, &mut chunk.points);
+            let end = *chunk.points.last().expect("points");
+            if law.is_done() {
+                break Vec::new();
+            }
+            // A law may run backwards for a while (overshooting laws); the path stop needs v ≥ 0.
+            if end.v_mm_s >= 0.0 {
+                let limit = next_stop_s(&run.path, end.s_mm);
+                if let Some(stop) = brake_along(&run.path, end.s_mm, end.v_mm_s, end.a_mm_s2, &lim, limit, end.line) {
+                    break stop;
+                }
+            }
+            self.stats.tail_retries += 1;
+            want_s = 0.25 * chunk_s;
+        };
+        let end = *chunk.points.last().expect("points");
+        chunk.last = law.is_done();
+        if !tail.is_empty() {
+            chunk.tail.push(CoarsePoint { t_s: 0.0, ..end });
+            let mut builder = CoarseBuilder::new(&run.path, max_piece_s, &self.max_jerk);
+            builder.build(&tail, 0.0, &mut chunk.tail);
+            self.stats.max_coarse_error_mm = self.stats.max_coarse_error_mm.max(builder.max_error_mm);
+        }
+        run.last_tail = tail;
+        run.end = end;
+        run.seq += 1;
+        true
+    }
 }
 
 impl Run {
@@ -469,6 +540,7 @@ impl Run {
             staged: Vec::new(),
             wait: Wait::No,
             queued_s: 0.0,
+            law: None,
         }
     }
 

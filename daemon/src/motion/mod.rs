@@ -13,10 +13,12 @@
 pub mod approach;
 pub mod brake;
 pub mod feeder;
+pub mod law_run;
 pub mod live;
 
 use crate::control::{Motion, MotionError, ProgramSource};
 use crate::interp::{DivertCause, Executor, Io, Notice};
+use crate::law::LawMove;
 use crate::path::Path;
 use crate::program;
 use crate::rt::{self, LoopTotals, TimingSample, sched::SchedReport, stats::CycleHistograms};
@@ -28,6 +30,7 @@ use feeder::{Feeder, FeederCommand, FeederReport, FeederStats, QUEUE_CHUNKS, Que
 use interpd_config::Config;
 use interpd_protocol::rpc::{Event, ProgramInfo, State, Status};
 use interpd_protocol::shm::{Setpoints, flags};
+use law_run::LawProgram;
 use live::LiveSetpoint;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -76,10 +79,18 @@ pub struct ShutdownReport {
     pub publishers: Vec<DeferredStats>,
 }
 
+/// A loaded program: a path to plan, or motion-law moves (made from where the machine stands
+/// when it starts).
+#[derive(Clone)]
+enum Loaded {
+    Path(Arc<Path>),
+    Laws(Arc<LawProgram>),
+}
+
 /// The control-side state.
 struct Control {
     state: State,
-    program: Option<(ProgramInfo, Arc<Path>)>,
+    program: Option<(ProgramInfo, Loaded)>,
     feed_override: f64,
     held_by_override: bool,
     last_error: Option<String>,
@@ -452,12 +463,54 @@ impl MotionCore {
     }
 }
 
+impl MotionCore {
+    /// `program.load` of a law program: the moves are made and checked from where the machine
+    /// stands now (and again at `motion.start`, from where it stands then).
+    fn load_laws(&self, name: String, laws: LawProgram) -> Result<ProgramInfo, MotionError> {
+        let inner = &self.inner;
+        let here = inner.live.load().pos;
+        let moves = laws.moves(&inner.config, &here, &name).map_err(MotionError::BadProgram)?;
+        let (path, _) = law_run::law_path(&inner.config, moves, here, &laws.lines());
+        let info = ProgramInfo {
+            name,
+            elements: laws.blocks.len() as u64,
+            length_mm: path.length_mm(),
+            lines: laws.blocks.last().map_or(0, |(n, _)| *n),
+        };
+        let mut ctl = lock(&inner.control);
+        if !matches!(ctl.state, State::Idle | State::Finished) {
+            return Err(Inner::not_allowed(ctl.state, "program.load"));
+        }
+        ctl.program = Some((info.clone(), Loaded::Laws(Arc::new(laws))));
+        ctl.state = State::Idle;
+        ctl.last_error = None;
+        Ok(info)
+    }
+}
+
+/// The law program in `source`, if it is one (see [`law_run::parse_law_program`]).
+fn law_program_of(source: &ProgramSource) -> Result<Option<(String, LawProgram)>, MotionError> {
+    let (name, text) = match source {
+        ProgramSource::Text { name, text } => (name.clone(), std::borrow::Cow::Borrowed(text.as_str())),
+        ProgramSource::File(p) => match std::fs::read_to_string(p) {
+            Ok(t) => (p.display().to_string(), std::borrow::Cow::Owned(t)),
+            // Unreadable or not text: the program reader reports it.
+            Err(_) => return Ok(None),
+        },
+    };
+    let laws = law_run::parse_law_program(&text, &name).map_err(MotionError::BadProgram)?;
+    Ok(laws.map(|l| (name, l)))
+}
+
 impl Motion for MotionCore {
     fn load(&self, source: ProgramSource) -> Result<ProgramInfo, MotionError> {
         let inner = &self.inner;
         let state = lock(&inner.control).state;
         if !matches!(state, State::Idle | State::Finished) {
             return Err(Inner::not_allowed(state, "program.load"));
+        }
+        if let Some((name, laws)) = law_program_of(&source)? {
+            return self.load_laws(name, laws);
         }
         let (name, parsed) = match source {
             ProgramSource::File(p) => (p.display().to_string(), program::load(&p, &inner.config)),
@@ -490,16 +543,41 @@ impl Motion for MotionCore {
         if !matches!(ctl.state, State::Idle | State::Finished) {
             return Err(Inner::not_allowed(ctl.state, "program.load"));
         }
-        ctl.program = Some((info.clone(), Arc::new(prog.path)));
+        ctl.program = Some((info.clone(), Loaded::Path(Arc::new(prog.path))));
         ctl.state = State::Idle;
         ctl.last_error = None;
         Ok(info)
     }
 
+    fn law(&self, statement: &str) -> Result<serde_json::Value, MotionError> {
+        if statement.contains('\n') || !crate::law::program::is_law_statement(statement) {
+            return Err(MotionError::InvalidParams(format!(
+                "\"statement\" must be one LAW statement, e.g. \"LAW PRESET=rr7 DURATION=0.8 X=10\"; got {:?}",
+                statement.chars().take(80).collect::<String>()
+            )));
+        }
+        let info = self.load(ProgramSource::Text { name: "motion.law".into(), text: statement.to_owned() })?;
+        let here = self.inner.live.load().pos;
+        let duration_s = {
+            let ctl = lock(&self.inner.control);
+            match ctl.program.as_ref().map(|(_, l)| l) {
+                Some(Loaded::Laws(prog)) => prog
+                    .moves(&self.inner.config, &here, &info.name)
+                    .map_err(MotionError::BadProgram)?
+                    .iter()
+                    .map(LawMove::duration_s)
+                    .sum::<f64>(),
+                _ => return Err(MotionError::Internal("the law move was not loaded".into())),
+            }
+        };
+        self.start()?;
+        Ok(serde_json::json!({ "duration_s": duration_s, "length_mm": info.length_mm }))
+    }
+
     fn start(&self) -> Result<(), MotionError> {
         let inner = &self.inner;
         let mut ctl = lock(&inner.control);
-        let Some((_, path)) = ctl.program.clone() else {
+        let Some((info, loaded)) = ctl.program.clone() else {
             return Err(Inner::not_allowed(ctl.state, "motion.start"));
         };
         if !matches!(ctl.state, State::Idle | State::Finished) || ctl.state == State::Finished && ctl.program.is_none()
@@ -507,7 +585,15 @@ impl Motion for MotionCore {
             return Err(Inner::not_allowed(ctl.state, "motion.start"));
         }
         let here = inner.live.load().pos;
-        let path = approach::with_approach(&path, &here, &inner.config);
+        // Law moves are made (and checked against the limits) from where the machine stands.
+        let motion = match &loaded {
+            Loaded::Path(path) => (approach::with_approach(path, &here, &inner.config), None),
+            Loaded::Laws(prog) => {
+                let moves = prog.moves(&inner.config, &here, &info.name).map_err(MotionError::BadProgram)?;
+                let (path, laws) = law_run::law_path(&inner.config, moves, here, &prog.lines());
+                (path, Some(Box::new(laws)))
+            }
+        };
         let epoch = ctl.next_epoch;
         ctl.next_epoch += 2;
         ctl.state = State::Running;
@@ -520,10 +606,11 @@ impl Motion for MotionCore {
         }
         inner.stop.store(false, Ordering::SeqCst);
         let feed_override = if ctl.feed_override < OVERRIDE_HOLD_BELOW { 1.0 } else { ctl.feed_override };
-        inner
-            .feeder
-            .send(FeederCommand::Start { path: Arc::new(path), epoch, feed_override })
-            .map_err(|_| MotionError::Internal("the planner thread has ended".into()))
+        let command = match motion {
+            (path, Some(laws)) => FeederCommand::StartLaws { path: Arc::new(path), laws, epoch, feed_override },
+            (path, None) => FeederCommand::Start { path: Arc::new(path), epoch, feed_override },
+        };
+        inner.feeder.send(command).map_err(|_| MotionError::Internal("the planner thread has ended".into()))
     }
 
     fn hold(&self) -> Result<(), MotionError> {

@@ -4,6 +4,7 @@ mod check;
 mod law;
 mod otg;
 mod plan;
+mod replay;
 mod run;
 
 use clap::{Parser, Subcommand};
@@ -38,6 +39,9 @@ pub enum Command {
     Plan(plan::PlanArgs),
     /// The service: control socket, planner and real-time threads, setpoint sinks.
     Run(run::RunArgs),
+    /// Replay a recording at its original timing: a candump log to a CAN interface (as
+    /// can-utils' canplayer does).
+    Replay(replay::ReplayArgs),
     /// Design a motion law from interpolation conditions (seed 003): degree, VDI 2143
     /// characteristic values, residuals, coefficients; CSV samples and a plot on request.
     Law(law::LawArgs),
@@ -98,6 +102,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Check { program, machine } => check::run(&program, machine.as_deref()),
         Command::Plan(args) => plan::run(&args),
         Command::Run(args) => run::run(&args),
+        Command::Replay(args) => replay::run(&args),
         Command::Law(args) => law::run(&args),
         Command::Otg(args) => otg::run(&args),
     }

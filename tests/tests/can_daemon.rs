@@ -420,6 +420,19 @@ fn a_new_daemon_takes_over_faulted_drives_where_they_stand() {
     client.ok("program.load", json!({ "text": "G21 G90\nG1 X3 Y-2 Z1 F3000\nM30\n" }));
     client.ok("motion.start", Value::Null);
     client.wait_state(&["finished"], SLOW);
+    // "finished" means the last setpoint is out; the drives (two-mass plants) follow with a
+    // lag. Kill the daemon only once they stand at the target, so they fault exactly there.
+    let until = std::time::Instant::now() + SLOW;
+    loop {
+        let st = client.ok("status", Value::Null);
+        let at: Vec<f64> =
+            st["drives"].as_array().map_or(Vec::new(), |d| d.iter().filter_map(|d| d["position_actual_units"].as_f64()).collect());
+        if at.len() == 3 && at.iter().zip([3.0, -2.0, 1.0]).all(|(p, w)| (p - w).abs() < 5e-4) {
+            break;
+        }
+        assert!(std::time::Instant::now() < until, "the drives did not reach the target: {at:?}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
     drop(client);
     let _ = first.kill();
     std::thread::sleep(Duration::from_millis(300));

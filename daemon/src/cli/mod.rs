@@ -5,6 +5,7 @@ mod demo;
 mod law;
 mod otg;
 mod plan;
+mod replay;
 mod run;
 
 use clap::{Parser, Subcommand};
@@ -42,6 +43,9 @@ pub enum Command {
     /// The main job on embedded defaults: interpd run + sim-plant over iceoryx2, an example
     /// program, a summary and a plot.
     Demo(demo::DemoArgs),
+    /// Replay a recording at its original timing: a candump log to a CAN interface (as
+    /// can-utils' canplayer does).
+    Replay(replay::ReplayArgs),
     /// Design a motion law from interpolation conditions (seed 003): degree, VDI 2143
     /// characteristic values, residuals, coefficients; CSV samples and a plot on request.
     Law(law::LawArgs),
@@ -103,6 +107,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Plan(args) => plan::run(&args),
         Command::Run(args) => run::run(&args),
         Command::Demo(args) => demo::run(&args),
+        Command::Replay(args) => replay::run(&args),
         Command::Law(args) => law::run(&args),
         Command::Otg(args) => otg::run(&args),
     }

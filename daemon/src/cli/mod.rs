@@ -5,6 +5,8 @@ mod demo;
 mod law;
 mod otg;
 mod plan;
+mod record;
+mod replay_shm;
 mod run;
 
 use clap::{Parser, Subcommand};
@@ -47,6 +49,22 @@ pub enum Command {
     Law(law::LawArgs),
     /// One online-trajectory calculation: time-optimal jerk-limited motion from state to state.
     Otg(otg::OtgArgs),
+    /// Republish a recording at its original timing (`--to shm`: MCAP onto iceoryx2).
+    Replay {
+        /// The recording (MCAP from `interpd run --record` or `interpd record`).
+        log: PathBuf,
+        /// Destination: `shm` (iceoryx2 services `<prefix>/setpoints` and `<prefix>/feedback`).
+        #[arg(long, default_value = "shm")]
+        to: String,
+        /// Speed factor: 2 replays twice as fast.
+        #[arg(long, default_value_t = 1.0)]
+        speed: f64,
+        /// iceoryx2 service prefix to publish on; default: $INTERPD_SERVICE_PREFIX, else "interpd".
+        #[arg(long)]
+        service_prefix: Option<String>,
+    },
+    /// Record the shared-memory streams (setpoints, feedback) to MCAP until SIGINT/SIGTERM.
+    Record(record::RecordArgs),
 }
 
 /// A failed command: bad input (exit 2) or anything else (exit 1).
@@ -105,5 +123,10 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Demo(args) => demo::run(&args),
         Command::Law(args) => law::run(&args),
         Command::Otg(args) => otg::run(&args),
+        Command::Replay { log, to, speed, service_prefix } => match to.as_str() {
+            "shm" => replay_shm::run_shm(&log, speed, service_prefix.as_deref()),
+            other => Err(CliError::BadInput(format!("--to {other}: not supported by this build (supported: shm)"))),
+        },
+        Command::Record(args) => record::run(&args),
     }
 }

@@ -5,6 +5,7 @@ use super::CliError;
 use interpd::config::Config;
 use interpd::control::{ControlServer, Motion};
 use interpd::motion::{MotionOptions, MotionService};
+use interpd::record::{RecordFile, RecordOptions, Recorder};
 use interpd_protocol::rpc::State;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -33,6 +34,10 @@ pub struct RunArgs {
     /// motion were queued, to provoke an underrun. Format AFTER_S:FOR_S.
     #[arg(long, value_name = "AFTER_S:FOR_S")]
     pub debug_stall_planner: Option<String>,
+    /// Record the setpoint and feedback streams to this MCAP file (README "Recording and
+    /// replay"); the recording ends when the daemon exits.
+    #[arg(long, value_name = "FILE.mcap")]
+    pub record: Option<PathBuf>,
 }
 
 pub fn run(args: &RunArgs) -> Result<(), CliError> {
@@ -47,7 +52,15 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     }
     let stall = args.debug_stall_planner.as_deref().map(parse_stall).transpose()?;
     let socket = args.socket.clone().unwrap_or_else(|| PathBuf::from(config.control.socket_path()));
+    let record_file = args
+        .record
+        .as_deref()
+        .map(RecordFile::create)
+        .transpose()
+        .map_err(|e| CliError::BadInput(format!("--record: {e}")))?;
     block_termination_signals();
+    // The recorder subscribes before the real-time thread publishes its first setpoint.
+    let recorder = record_file.map(|f| start_recorder(f, &config)).transpose()?;
 
     let service = MotionService::start(MotionOptions { config: config.clone(), shm: config.sinks.shm && !args.no_shm })
         .map_err(|e| CliError::Failure(e.to_string()))?;
@@ -89,6 +102,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         eprintln!("interpd: the machine did not come to rest within {} s (state {state})", STOP_TIMEOUT.as_secs());
     }
     server.shutdown();
+    let recorded = recorder.map(Recorder::stop);
     let report = service.shutdown();
     eprintln!("interpd: {}", report.histograms);
     eprintln!(
@@ -107,7 +121,22 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
             p.published, p.dropped, p.failed
         );
     }
+    match recorded {
+        Some(Ok(r)) => eprintln!("interpd: {r}"),
+        Some(Err(e)) => return Err(CliError::Failure(format!("recording failed: {e}"))),
+        None => {}
+    }
     Ok(())
+}
+
+/// Starts recording `<prefix>/setpoints` and `<prefix>/feedback`, with the machine in the
+/// file's metadata.
+fn start_recorder(file: RecordFile, config: &Config) -> Result<Recorder, CliError> {
+    let mut options = RecordOptions::new(&config.sinks.shm_prefix);
+    let axes: Vec<String> = config.axes.iter().map(|a| a.name.to_string()).collect();
+    options.metadata.insert("axes".into(), axes.join(" "));
+    options.metadata.insert("cycle_ms".into(), config.machine.cycle_ms.to_string());
+    Recorder::start(file, options).map_err(|e| CliError::Failure(format!("--record: {e}")))
 }
 
 fn parse_stall(s: &str) -> Result<(f64, f64), CliError> {

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Runs the CAN tests (tests/tests/can.rs) over a real vcan interface and exits with their status.
+# Runs the CAN tests (tests/tests/can.rs, tests/tests/can_daemon.rs) over a real vcan interface and
+# exits with their status.
 #
 # - Host mode: when the host has vcan0, or `ip link add dev vcan0 type vcan` works here, the
 #   tests run directly on the host (cargo test) with INTERPD_VCAN=vcan0.
@@ -10,11 +11,16 @@
 #   this script streams the console and exits with that status.
 #
 # Usage: scripts/vcan-vm.sh [TEST-BINARY-ARGS...]     e.g. scripts/vcan-vm.sh malformed
+# (the arguments go to every test binary; a name filter that matches nothing in one runs none there)
 #
 # Environment (all optional):
 #   INTERPD_VCAN_MODE        auto (default) | host | vm  -- force a mode (vm also works on hosts with vcan)
+#   INTERPD_VCAN_TESTS       the test targets of the interpd-e2e package to run (default
+#                            "can can_daemon"; space-separated)
 #   INTERPD_VCAN_EXTRA_BINS  workspace binaries the tests start, put into the VM's /bin
-#                            (default below; space-separated)
+#                            (default "interpd sim-plant"; space-separated)
+#   INTERPD_VCAN_SMP         virtual CPUs of the VM (default 2: the daemon, the drives and the
+#                            test run side by side)
 #   INTERPD_VCAN_TIMEOUT     seconds before the VM is killed (default 600)
 #   INTERPD_VCAN_KERNEL_DEB  a linux-image-6.1.0-*-amd64 .deb to use instead of `apt-get download`
 #   INTERPD_VCAN_KEEP_IFACE  host mode: 1 keeps a vcan0 this script created (default: deleted at exit)
@@ -32,8 +38,10 @@ TARGET_DIR="${CARGO_TARGET_DIR:-$ROOT/target}"
 CACHE="$TARGET_DIR/vcan-vm"
 MODE="${INTERPD_VCAN_MODE:-auto}"
 TIMEOUT="${INTERPD_VCAN_TIMEOUT:-600}"
-# Binaries the CAN tests start. Grows with the master/drive integration: "interpd sim-plant".
-EXTRA_BINS="${INTERPD_VCAN_EXTRA_BINS-}"
+# Binaries the CAN tests start: the daemon (master) and the simulated drives.
+EXTRA_BINS="${INTERPD_VCAN_EXTRA_BINS-interpd sim-plant}"
+TESTS="${INTERPD_VCAN_TESTS-can can_daemon}"
+SMP="${INTERPD_VCAN_SMP:-2}"
 # Tests share one bus and lock it anyway; one thread keeps their output readable.
 TEST_ARGS=(--test-threads=1 --nocapture "$@")
 MODULES=(net/can/can net/can/can-raw drivers/net/can/dev/can-dev drivers/net/can/vcan)
@@ -47,6 +55,10 @@ die() {
 
 case "$MODE" in auto | host | vm) ;; *) die "INTERPD_VCAN_MODE must be auto, host or vm, not '$MODE'" ;; esac
 case "$TIMEOUT" in '' | *[!0-9]*) die "INTERPD_VCAN_TIMEOUT must be a number of seconds, not '$TIMEOUT'" ;; esac
+case "$SMP" in '' | *[!0-9]* | 0) die "INTERPD_VCAN_SMP must be a positive number, not '$SMP'" ;; esac
+[ -n "$TESTS" ] || die "INTERPD_VCAN_TESTS names no test target"
+TEST_FLAGS=()
+for t in $TESTS; do TEST_FLAGS+=(--test "$t"); done
 
 # ------------------------------------------------------------------------------------------
 # Host mode
@@ -84,7 +96,7 @@ run_on_host() {
     done
     local rc=0
     INTERPD_VCAN="$IFACE" INTERPD_VCAN_BINS="$EXTRA_BINS" \
-        cargo test --release -p interpd-e2e --test can -- "${TEST_ARGS[@]}" || rc=$?
+        cargo test --release -p interpd-e2e "${TEST_FLAGS[@]}" -- "${TEST_ARGS[@]}" || rc=$?
     log "host run finished with status $rc after $((SECONDS - START)) s"
     exit "$rc"
 }
@@ -133,18 +145,22 @@ fi
 # The explicit --target keeps these +crt-static artefacts apart from the normal build (and keeps
 # RUSTFLAGS away from build scripts and proc macros, which must stay dynamic).
 STATIC_FLAGS="${RUSTFLAGS:+$RUSTFLAGS }-C target-feature=+crt-static"
-log "building the static CAN test binary${EXTRA_BINS:+ and: $EXTRA_BINS}"
+log "building the static CAN test binaries ($TESTS)${EXTRA_BINS:+ and: $EXTRA_BINS}"
 build_json="$CACHE/build.json"
-RUSTFLAGS="$STATIC_FLAGS" cargo test --release --target "$TRIPLE" -p interpd-e2e --test can --no-run \
+RUSTFLAGS="$STATIC_FLAGS" cargo test --release --target "$TRIPLE" -p interpd-e2e "${TEST_FLAGS[@]}" --no-run \
     --message-format=json-render-diagnostics >"$build_json" ||
-    die "building the static CAN test binary failed (compiler output above)"
-# One JSON object per line; the test artefact is the one whose target is named "can" and kind "test".
-TEST_EXE="$(grep '"reason":"compiler-artifact"' "$build_json" | grep '"kind":\["test"\]' |
-    grep '"name":"can"' | sed -n 's/.*"executable":"\([^"]*\)".*/\1/p' | tail -n 1)"
-if [ -z "$TEST_EXE" ] || [ ! -x "$TEST_EXE" ]; then
-    die "could not find the built test executable in cargo's output ($build_json)"
-fi
-bins=("$TEST_EXE")
+    die "building the static CAN test binaries failed (compiler output above)"
+# One JSON object per line; a test artefact is the one whose target has the test's name and kind "test".
+TEST_EXES=()
+for t in $TESTS; do
+    exe="$(grep '"reason":"compiler-artifact"' "$build_json" | grep '"kind":\["test"\]' |
+        grep "\"name\":\"$t\"" | sed -n 's/.*"executable":"\([^"]*\)".*/\1/p' | tail -n 1)"
+    if [ -z "$exe" ] || [ ! -x "$exe" ]; then
+        die "could not find the built test executable of '$t' in cargo's output ($build_json)"
+    fi
+    TEST_EXES+=("$exe")
+done
+bins=("${TEST_EXES[@]}")
 for bin in $EXTRA_BINS; do
     RUSTFLAGS="$STATIC_FLAGS" cargo build --release --target "$TRIPLE" --bin "$bin" ||
         die "building the static binary $bin failed (compiler output above)"
@@ -215,7 +231,11 @@ rm -rf "$STAGE"
 mkdir -p "$STAGE"/{bin,dev,proc,sys,tmp,lib/modules}
 cp "$BUSYBOX" "$STAGE/bin/busybox"
 cp "$KDIR"/*.ko "$STAGE/lib/modules/"
-cp "$TEST_EXE" "$STAGE/bin/can-tests"
+i=0
+for t in $TESTS; do
+    cp "${TEST_EXES[$i]}" "$STAGE/bin/test-$t"
+    i=$((i + 1))
+done
 for bin in $EXTRA_BINS; do
     cp "$TARGET_DIR/$TRIPLE/release/$bin" "$STAGE/bin/$bin"
 done
@@ -238,6 +258,7 @@ mount -t proc proc /proc || fail "mount /proc"
 mount -t sysfs sysfs /sys || fail "mount /sys"
 mount -t devtmpfs devtmpfs /dev || fail "mount /dev"
 mount -t tmpfs tmpfs /tmp || fail "mount /tmp"
+mkdir -p /dev/shm && mount -t tmpfs tmpfs /dev/shm || fail "mount /dev/shm"
 for m in$insmods; do
     insmod /lib/modules/\$m.ko || fail "insmod \$m.ko"
 done
@@ -248,8 +269,11 @@ echo "INTERPD-VCAN-READY uptime=\$(cut -d' ' -f1 /proc/uptime)s"
 export INTERPD_VCAN=$IFACE INTERPD_BIN_DIR=/bin INTERPD_VCAN_BINS=$(shquote "$EXTRA_BINS")
 export HOME=/tmp TMPDIR=/tmp RUST_BACKTRACE=1
 cd /tmp
-/bin/can-tests$args
-rc=\$?
+rc=0
+for t in $TESTS; do
+    echo "INTERPD-VCAN-TEST \$t uptime=\$(cut -d' ' -f1 /proc/uptime)s"
+    /bin/test-\$t$args || { r=\$?; [ "\$rc" = 0 ] && rc=\$r; }
+done
 echo "INTERPD-VCAN-DONE uptime=\$(cut -d' ' -f1 /proc/uptime)s"
 echo "INTERPD-VCAN-RESULT=\$rc"
 poweroff -f
@@ -265,7 +289,7 @@ log "booting QEMU (TCG, timeout ${TIMEOUT}s); console follows"
 boot_start=$SECONDS
 qemu_rc=0
 # stdin from /dev/null: QEMU then leaves the terminal alone (no raw mode left behind on a kill).
-timeout -k 10 "$TIMEOUT" qemu-system-x86_64 -accel tcg -m 1024 -smp 1 \
+timeout -k 10 "$TIMEOUT" qemu-system-x86_64 -accel tcg,thread=multi -m 1024 -smp "$SMP" \
     -display none -monitor none -serial stdio -no-reboot -nic none \
     -kernel "$KDIR/vmlinuz" -initrd "$CACHE/initrd.gz" \
     -append "console=ttyS0 panic=-1 loglevel=4" </dev/null | tee "$CONSOLE" || qemu_rc=$?

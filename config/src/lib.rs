@@ -129,7 +129,7 @@ impl Config {
         }
         self.planner.validate(&v)?;
         self.prep.validate(&v)?;
-        self.sinks.validate(&v, self.axes.len())?;
+        self.sinks.validate(&v, &self.axes)?;
         self.plant.validate(&v, &self.axes)?;
         self.control.validate(&v)?;
         self.rt.validate(&v)?;

@@ -147,3 +147,43 @@ proptest::proptest! {
         }
     }
 }
+
+#[test]
+fn can_section_defaults_and_keys() {
+    let c = parse(&format!("[machine]\n{AXIS_X}")).unwrap();
+    assert!(!c.sinks.can.enabled());
+    assert_eq!(c.sinks.can.node_ids(1), [1]);
+    assert_eq!(c.sinks.can.scales(1), [sinks::DEFAULT_INCREMENTS_PER_UNIT]);
+    let text = format!(
+        "[machine]\n{AXIS_X}\n[sinks.can]\ninterface = \"vcan0\"\nnodes = [5]\nincrements_per_unit = [-4096.0]\n"
+    );
+    let c = parse(&text).unwrap();
+    assert!(c.sinks.can.enabled());
+    assert_eq!((c.sinks.can.node_ids(1), c.sinks.can.scales(1)), (vec![5], vec![-4096.0]));
+}
+
+#[test]
+fn can_section_errors_name_the_key() {
+    let two = format!("{AXIS_X}\n{}", AXIS_X.replace("\"X\"", "\"Y\""));
+    let cases = [
+        ("nodes = [1]", "sinks.can.nodes", "one node-ID per axis (2)"),
+        ("nodes = [1, 0]", "sinks.can.nodes[1]", "1..=127"),
+        ("nodes = [1, 128]", "sinks.can.nodes[1]", "1..=127"),
+        ("nodes = [3, 3]", "sinks.can.nodes[1]", "used twice"),
+        ("increments_per_unit = [1.0]", "sinks.can.increments_per_unit", "one value per axis"),
+        ("increments_per_unit = [1.0, 0.0]", "sinks.can.increments_per_unit[1]", "non-zero"),
+        ("increments_per_unit = [1.0, 3e8]", "sinks.can.increments_per_unit[1]", "i32 range"),
+        ("interface = \"a/b\"", "sinks.can.interface", "does not allow"),
+        ("interface = \"sixteen_chars_xx\"", "sinks.can.interface", "1 to 15"),
+        ("heartbeat_timeout_ms = 1.0", "sinks.can.heartbeat_timeout_ms", "[10, 60000]"),
+        ("boot_timeout_ms = -1.0", "sinks.can.boot_timeout_ms", "[0, 60000]"),
+        ("enable_window_increments = 0", "sinks.can.enable_window_increments", "at least 1"),
+        ("tx_fail_cycles = 0", "sinks.can.tx_fail_cycles", "1..=1000"),
+    ];
+    for (line, key, what) in cases {
+        let e = err_text(&format!("[machine]\n{two}\n[sinks.can]\n{line}\n"));
+        assert!(e.contains(key) && e.contains(what), "{line}: {e}");
+    }
+    let e = err_text(&format!("[machine]\n{AXIS_X}\n[sinks.can]\nnode = [1]\n"));
+    assert!(e.contains("unknown field `node`") && e.contains("sinks.can"), "{e}");
+}

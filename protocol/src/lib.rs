@@ -2,6 +2,8 @@
 //!
 //! Only data layouts, encoders and decoders live here: no threads, no I/O policy.
 
+#[cfg(feature = "socketcan")]
+pub mod can_socket;
 pub mod candump;
 pub mod cia402;
 pub mod rpc;

@@ -58,6 +58,8 @@ pub mod codes {
     pub const REQUEST_TOO_LARGE: i32 = -32003;
     /// The server already serves its maximum number of clients; the connection is closed.
     pub const TOO_MANY_CLIENTS: i32 = -32004;
+    /// `motion.start`: a CAN drive is not in Operation enabled (the message names the drive).
+    pub const DRIVES_NOT_READY: i32 = -32005;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -815,8 +817,14 @@ pub struct Status {
     pub axes: Vec<String>,
     /// Commanded position per axis, in the order of `axes` (mm or deg).
     pub position: Vec<f64>,
-    /// CAN drives (reserved: empty until the CAN sink reports drive states).
+    /// CAN drives, one object per axis when the CAN sink runs (empty otherwise): `axis`,
+    /// `node`, `state` (CiA 402 state name), `statusword`, `nmt`, `position_actual`,
+    /// `last_heartbeat_ms_ago`, `emcy_count`, `last_emcy_code` and more.
     pub drives: Vec<Value>,
+    /// CAN bus counters of the master (frames sent and received, malformed frames by kind,
+    /// send failures by errno class, error frames, candump log records); absent without CAN.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub can_bus: Option<Value>,
 }
 
 impl Default for Status {
@@ -836,6 +844,7 @@ impl Default for Status {
             axes: Vec::new(),
             position: Vec::new(),
             drives: Vec::new(),
+            can_bus: None,
         }
     }
 }

@@ -49,6 +49,8 @@
 
 pub mod analysis;
 pub mod axis;
+pub mod can;
+pub mod can_node;
 pub mod discretize;
 pub mod drive;
 pub mod metrics;

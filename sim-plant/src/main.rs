@@ -26,7 +26,8 @@ struct Args {
     /// Machine configuration (TOML, its [[axis]] and [plant] sections); default: the embedded XYZ machine.
     #[arg(long)]
     config: Option<PathBuf>,
-    /// Setpoint source: `shm` (iceoryx2). `can:IFACE` is reserved for the CAN work.
+    /// Setpoint source: `shm` (iceoryx2), or `can:IFACE`: every axis a CiA 402 drive node on
+    /// that SocketCAN interface (node-IDs and scales from the configuration's [sinks.can]).
     #[arg(long, default_value = "shm")]
     source: String,
     /// Write a PNG plot of the run (setpoint vs load, errors, spectrum) at exit.
@@ -87,22 +88,26 @@ fn main() -> ExitCode {
 }
 
 fn run(args: &Args) -> Result<(), Failure> {
-    match args.source.as_str() {
-        "shm" => {}
+    let can_iface = match args.source.as_str() {
+        "shm" => None,
         s if s.starts_with("can:") => {
-            return Err(Failure::bad_input(format!(
-                "--source {s}: the CAN source is not yet supported; use --source shm"
-            )));
+            let iface = &s[4..];
+            interpd_config::sinks::CanConfig::check_interface(iface)
+                .map_err(|e| Failure::bad_input(format!("--source {s}: {e}")))?;
+            Some(iface.to_string())
         }
         s => return Err(Failure::bad_input(format!("--source {s}: expected `shm` or `can:IFACE`"))),
-    }
+    };
     if !(args.settle_s.is_finite() && (0.0..=600.0).contains(&args.settle_s)) {
         return Err(Failure::bad_input(format!("--settle-s must lie in [0, 600], got {}", args.settle_s)));
     }
     if let Some(p) = &args.plot {
         check_plot_path(p)?;
     }
-    let config = Config::load_or_default(args.config.as_deref()).map_err(PlantError::from)?;
+    let mut config = Config::load_or_default(args.config.as_deref()).map_err(PlantError::from)?;
+    if let Some(iface) = can_iface {
+        return run_can(args, &mut config, &iface);
+    }
     let mut plant = Plant::from_config(&config)?;
     let capacity = (config.plant.record_s / config.cycle_s()).ceil() as usize;
     let mut metrics = Metrics::new(&plant, capacity);
@@ -139,6 +144,70 @@ fn run(args: &Args) -> Result<(), Failure> {
             plot::write_png(p, &metrics, &PlotOptions { title, ..PlotOptions::default() })?;
             eprintln!("sim-plant: plot written to {}", p.display());
         }
+    }
+    Ok(())
+}
+
+/// `--source can:IFACE`: the drives on the bus until SIGINT/SIGTERM.
+fn run_can(args: &Args, config: &mut Config, iface: &str) -> Result<(), Failure> {
+    if args.exit_on_finish {
+        return Err(Failure::bad_input(
+            "--exit-on-finish: CAN setpoints carry no end-of-program flag; stop with SIGTERM",
+        ));
+    }
+    // A CSP drive gets positions only: it interpolates linearly between them.
+    config.plant.fine_interpolation = interpd_config::plant::FineInterpolation::Linear;
+    let mut plant = Plant::from_config(config)?;
+    let capacity = (config.plant.record_s / config.cycle_s()).ceil() as usize;
+    let mut metrics = Metrics::new(&plant, capacity);
+    let stop = sim_plant::can::install_signal_handlers();
+    let n = config.axes.len();
+    let nodes: Vec<String> =
+        config.sinks.can.node_ids(n).iter().zip(&config.axes).map(|(id, a)| format!("{} node {id}", a.name)).collect();
+    eprintln!(
+        "sim-plant: ready: {n} CiA 402 drives on CAN {iface} ({}), cycle {} ms, servo {:.0} Hz",
+        nodes.join(", "),
+        config.machine.cycle_ms,
+        1.0 / plant.servo_period_s()
+    );
+    let report = sim_plant::can::run(config, &mut plant, Some(&mut metrics), iface, stop)?;
+    let b = &report.bus;
+    eprintln!(
+        "sim-plant: stopped after {:.3} s: {} frames received, {} SYNC; ignored: {} RPDO1 for other nodes, {} wrong \
+         DLC, {} unknown COB-ID, {} bad value, {} not data frames, {} frames of other nodes, {} node-ID conflicts, \
+         {} receive errors; {} frames sent, {} send errors; {} free-running cycles; {:.3} s simulated",
+        report.wall_s,
+        b.rx_frames,
+        b.syncs,
+        b.rpdo_other_node,
+        b.wrong_dlc,
+        b.unknown_cob_id,
+        b.bad_value,
+        b.not_data,
+        b.other_node_frames,
+        b.node_id_conflicts,
+        b.rx_errors,
+        b.tx_frames,
+        b.tx_errors,
+        b.free_running_cycles,
+        report.simulated_s
+    );
+    for (id, nmt, power, s) in &report.nodes {
+        eprintln!(
+            "sim-plant: node {id}: {nmt}, {power}; {} SYNC, {} RPDO1, {} bad RPDO1 length, {} NMT, {} watchdog trips, \
+             {} following errors, {} EMCY sent ({} inhibited)",
+            s.syncs,
+            s.rpdos,
+            s.rpdo_bad_length,
+            s.nmt_commands,
+            s.watchdog_trips,
+            s.following_errors,
+            s.emcy_sent,
+            s.emcy_inhibited
+        );
+    }
+    if metrics.count() > 0 {
+        eprint!("{}", metrics.summary());
     }
     Ok(())
 }

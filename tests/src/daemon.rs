@@ -62,6 +62,20 @@ impl Daemon {
         (out.status.code(), self.stderr())
     }
 
+    /// The process id (for signals).
+    pub fn pid(&self) -> Option<u32> {
+        self.child.as_ref().map(Child::id)
+    }
+
+    /// SIGKILL, as a crash would end it: no orderly shutdown. Returns the stderr so far.
+    pub fn kill(mut self) -> String {
+        if let Some(mut c) = self.child.take() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+        self.stderr()
+    }
+
     pub fn client(&self) -> Client {
         Client::connect(&self.socket)
     }

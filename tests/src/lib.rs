@@ -10,8 +10,12 @@ pub fn repo_root() -> PathBuf {
 
 /// Path of a workspace binary built next to the running test executable
 /// (`target/<profile>/<name>`). `cargo test --workspace` builds every package's binaries
-/// because each binary's package has integration tests.
+/// because each binary's package has integration tests. `INTERPD_BIN_DIR`, when set, is
+/// searched instead (scripts/vcan-vm.sh puts the binaries in the VM's /bin).
 pub fn binary(name: &str) -> PathBuf {
+    if let Some(dir) = std::env::var_os("INTERPD_BIN_DIR") {
+        return PathBuf::from(dir).join(name);
+    }
     let exe = std::env::current_exe().expect("test executable path");
     // target/<profile>/deps/<test> -> target/<profile>/<name>
     let dir = exe.parent().and_then(|d| d.parent()).expect("target/<profile> directory");
@@ -30,3 +34,4 @@ pub fn example(name: &str) -> PathBuf {
 }
 
 pub mod daemon;
+pub mod vcan;

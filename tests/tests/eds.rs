@@ -5,6 +5,7 @@
 
 use interpd_e2e::repo_root;
 use interpd_protocol::cia402::cob;
+use sim_plant::can_node;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -94,6 +95,15 @@ fn eds_matches_the_protocol_crate() {
         ("1A00sub1", "0x60410010".to_owned()),
         ("1A00sub2", "0x60640020".to_owned()),
         ("6060", "8".to_owned()),
+        // What sim-plant's drive node implements (sim_plant::can_node).
+        ("1017", can_node::HEARTBEAT_PERIOD_MS.to_string()),
+        ("1015", (can_node::EMCY_INHIBIT_US / 100).to_string()),
+        ("6065", can_node::FOLLOWING_ERROR_WINDOW.to_string()),
+        // Quick stop option code 2: ramp, then Switch on disabled (cia402::next_state).
+        ("605A", "2".to_owned()),
+        // The default machine's cycle, µs; 0x60C2 = 4 · 10⁻³ s.
+        ("1006", format!("{:.0}", interpd_config::Config::default_machine().cycle_s() * 1e6)),
+        ("608Fsub1", format!("{:.0}", interpd_config::sinks::DEFAULT_INCREMENTS_PER_UNIT)),
     ];
     for (section, want) in expect {
         assert_eq!(default_value(&eds, section).as_deref(), Some(want.as_str()), "[{section}] DefaultValue");

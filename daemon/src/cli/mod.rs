@@ -6,6 +6,7 @@ mod law;
 mod otg;
 mod plan;
 mod record;
+mod replay;
 mod replay_shm;
 mod run;
 
@@ -44,25 +45,14 @@ pub enum Command {
     /// The main job on embedded defaults: interpd run + sim-plant over iceoryx2, an example
     /// program, a summary and a plot.
     Demo(demo::DemoArgs),
+    /// Replay a recording at its original timing: an MCAP recording onto iceoryx2 (`--to shm`),
+    /// or a candump log to a CAN interface (`--to can:IFACE`, as can-utils' canplayer does).
+    Replay(replay::ReplayArgs),
     /// Design a motion law from interpolation conditions (seed 003): degree, VDI 2143
     /// characteristic values, residuals, coefficients; CSV samples and a plot on request.
     Law(law::LawArgs),
     /// One online-trajectory calculation: time-optimal jerk-limited motion from state to state.
     Otg(otg::OtgArgs),
-    /// Republish a recording at its original timing (`--to shm`: MCAP onto iceoryx2).
-    Replay {
-        /// The recording (MCAP from `interpd run --record` or `interpd record`).
-        log: PathBuf,
-        /// Destination: `shm` (iceoryx2 services `<prefix>/setpoints` and `<prefix>/feedback`).
-        #[arg(long, default_value = "shm")]
-        to: String,
-        /// Speed factor: 2 replays twice as fast.
-        #[arg(long, default_value_t = 1.0)]
-        speed: f64,
-        /// iceoryx2 service prefix to publish on; default: $INTERPD_SERVICE_PREFIX, else "interpd".
-        #[arg(long)]
-        service_prefix: Option<String>,
-    },
     /// Record the shared-memory streams (setpoints, feedback) to MCAP until SIGINT/SIGTERM.
     Record(record::RecordArgs),
 }
@@ -121,12 +111,9 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Plan(args) => plan::run(&args),
         Command::Run(args) => run::run(&args),
         Command::Demo(args) => demo::run(&args),
+        Command::Replay(args) => replay::run(&args),
         Command::Law(args) => law::run(&args),
         Command::Otg(args) => otg::run(&args),
-        Command::Replay { log, to, speed, service_prefix } => match to.as_str() {
-            "shm" => replay_shm::run_shm(&log, speed, service_prefix.as_deref()),
-            other => Err(CliError::BadInput(format!("--to {other}: not supported by this build (supported: shm)"))),
-        },
         Command::Record(args) => record::run(&args),
     }
 }

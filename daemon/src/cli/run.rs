@@ -4,8 +4,9 @@
 use super::CliError;
 use interpd::config::Config;
 use interpd::control::{ControlServer, Motion};
-use interpd::motion::{MotionOptions, MotionService};
+use interpd::motion::{MotionExtras, MotionOptions, MotionService};
 use interpd::record::{RecordFile, RecordOptions, Recorder};
+use interpd::sinks::can::CanMaster;
 use interpd_protocol::rpc::State;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -30,6 +31,13 @@ pub struct RunArgs {
     /// $INTERPD_SERVICE_PREFIX, else `[sinks] shm_prefix`, else "interpd".
     #[arg(long)]
     pub service_prefix: Option<String>,
+    /// CANopen master (CiA 402 CSP) on this SocketCAN interface, e.g. `can0` or `vcan0`
+    /// (overrides `[sinks.can] interface`; node-IDs and scales come from `[sinks.can]`).
+    #[arg(long, value_name = "IFACE")]
+    pub can: Option<String>,
+    /// Write the CAN bus traffic to FILE in the `candump -l` format (needs a CAN interface).
+    #[arg(long, value_name = "FILE")]
+    pub candump: Option<PathBuf>,
     /// Testing aid: the planner thread stalls once for FOR_S seconds after AFTER_S seconds of
     /// motion were queued, to provoke an underrun. Format AFTER_S:FOR_S.
     #[arg(long, value_name = "AFTER_S:FOR_S")]
@@ -50,6 +58,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
             .map_err(|e| CliError::BadInput(format!("--service-prefix: {e}")))?;
         config.sinks.shm_prefix = p;
     }
+    check_can_args(args, &mut config)?;
     let stall = args.debug_stall_planner.as_deref().map(parse_stall).transpose()?;
     let socket = args.socket.clone().unwrap_or_else(|| PathBuf::from(config.control.socket_path()));
     let record_file = args
@@ -62,8 +71,27 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     // The recorder subscribes before the real-time thread publishes its first setpoint.
     let recorder = record_file.map(|f| start_recorder(f, &config)).transpose()?;
 
-    let service = MotionService::start(MotionOptions { config: config.clone(), shm: config.sinks.shm && !args.no_shm })
-        .map_err(|e| CliError::Failure(e.to_string()))?;
+    let mut extras = MotionExtras::default();
+    let can = if config.sinks.can.enabled() {
+        let start = CanMaster::start(&config, args.candump.as_deref()).map_err(|e| CliError::Failure(e.to_string()))?;
+        eprintln!(
+            "interpd: CAN {}: {} of {} drives answered at start-up",
+            config.sinks.can.interface,
+            start.answered,
+            config.axes.len()
+        );
+        extras.sinks.push(Box::new(start.sink));
+        extras.drives = Some(start.master.monitor());
+        extras.start_position = Some(start.start_position);
+        Some(start.master)
+    } else {
+        None
+    };
+    let service = MotionService::start_with(
+        MotionOptions { config: config.clone(), shm: config.sinks.shm && !args.no_shm },
+        extras,
+    )
+    .map_err(|e| CliError::Failure(e.to_string()))?;
     if service.sched().all_granted() {
         tracing::info!("real-time thread: {}", service.sched());
     } else {
@@ -93,6 +121,9 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
             "no sink".into()
         }
     );
+    if can.is_some() {
+        eprintln!("interpd: CAN master on {} (CiA 402 CSP)", config.sinks.can.interface);
+    }
 
     let signal = wait_for_termination_signal();
     eprintln!("interpd: {signal}: stopping the motion");
@@ -121,10 +152,38 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
             p.published, p.dropped, p.failed
         );
     }
+    if let Some(can) = can {
+        eprintln!("interpd: CAN bus: {}", can.shutdown());
+    }
     match recorded {
         Some(Ok(r)) => eprintln!("interpd: {r}"),
         Some(Err(e)) => return Err(CliError::Failure(format!("recording failed: {e}"))),
         None => {}
+    }
+    Ok(())
+}
+
+/// `--can IFACE` into the configuration; `--candump` needs a CAN interface and a directory.
+fn check_can_args(args: &RunArgs, config: &mut Config) -> Result<(), CliError> {
+    if let Some(iface) = &args.can {
+        interpd::config::sinks::CanConfig::check_interface(iface)
+            .map_err(|e| CliError::BadInput(format!("--can: {e}")))?;
+        config.sinks.can.interface = iface.clone();
+    }
+    if let Some(path) = &args.candump {
+        if !config.sinks.can.enabled() {
+            return Err(CliError::BadInput(
+                "--candump: there is no CAN bus to log: give --can IFACE or set [sinks.can] interface".into(),
+            ));
+        }
+        let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
+        if !dir.is_dir() {
+            return Err(CliError::BadInput(format!(
+                "--candump {}: directory {} does not exist",
+                path.display(),
+                dir.display()
+            )));
+        }
     }
     Ok(())
 }

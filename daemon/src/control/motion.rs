@@ -73,6 +73,10 @@ pub enum MotionError {
     /// A parameter the server could not check (−32602), e.g. a file that is not a program.
     #[error("invalid parameters: {0}")]
     InvalidParams(String),
+    /// `motion.start` while a CAN drive is not in Operation enabled (−32005); the text names
+    /// each drive and why.
+    #[error("{0}")]
+    DrivesNotReady(String),
     /// A failure in the daemon that the client cannot fix (−32603).
     #[error("internal error: {0}")]
     Internal(String),
@@ -86,6 +90,7 @@ impl MotionError {
             MotionError::NotAllowed { .. } => codes::NOT_ALLOWED,
             MotionError::InvalidParams(_) => codes::INVALID_PARAMS,
             MotionError::Internal(_) => codes::INTERNAL_ERROR,
+            MotionError::DrivesNotReady(_) => codes::DRIVES_NOT_READY,
         }
     }
 

@@ -21,7 +21,7 @@ use crate::path::Path;
 use crate::program;
 use crate::rt::{self, LoopTotals, TimingSample, sched::SchedReport, stats::CycleHistograms};
 use crate::sinks::deferred::{self, DeferredStats, DeferredWorker};
-use crate::sinks::{SetpointSink, shm::ShmSink};
+use crate::sinks::{DriveMonitor, SetpointSink, shm::ShmSink};
 use crossbeam::channel::{self, Receiver, Sender};
 use crossbeam::queue::ArrayQueue;
 use feeder::{Feeder, FeederCommand, FeederReport, FeederStats, QUEUE_CHUNKS, Queues};
@@ -52,6 +52,16 @@ pub struct MotionOptions {
     pub config: Config,
     /// Publish on iceoryx2 (`[sinks] shm`).
     pub shm: bool,
+}
+
+/// What the caller sets up besides the configured sinks (the CAN master): more sinks for the
+/// real-time thread, the drives to ask before motion and to watch for faults, and the position
+/// the machine stands at (the drives' actual positions) instead of the origin.
+#[derive(Default)]
+pub struct MotionExtras {
+    pub sinks: Vec<Box<dyn SetpointSink + Send>>,
+    pub drives: Option<Arc<dyn DriveMonitor>>,
+    pub start_position: Option<[f64; crate::path::MAX_AXES]>,
 }
 
 /// Why the service could not start.
@@ -104,6 +114,7 @@ struct Inner {
     notices: ArrayQueue<Notice>,
     timing: ArrayQueue<TimingSample>,
     publish_errors: AtomicU64,
+    drives: Option<Arc<dyn DriveMonitor>>,
 }
 
 /// The motion core as the control API sees it (cheap to clone).
@@ -129,6 +140,12 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
 impl MotionService {
     /// Starts the real-time, planner and supervisor threads.
     pub fn start(opts: MotionOptions) -> Result<MotionService, StartError> {
+        Self::start_with(opts, MotionExtras::default())
+    }
+
+    /// [`MotionService::start`] with extra sinks and drives (see [`MotionExtras`]).
+    pub fn start_with(opts: MotionOptions, extras: MotionExtras) -> Result<MotionService, StartError> {
+        let MotionExtras { sinks: extra_sinks, drives, start_position } = extras;
         let (feeder_tx, feeder_rx) = channel::unbounded();
         let (report_tx, report_rx) = channel::unbounded();
         let queues = Queues::new();
@@ -156,6 +173,7 @@ impl MotionService {
             notices: ArrayQueue::new(NOTICE_CAPACITY),
             timing: ArrayQueue::new(TIMING_CAPACITY),
             publish_errors: AtomicU64::new(0),
+            drives,
         });
         let thread_err =
             |what: &'static str| move |e: std::io::Error| StartError::Thread { what, message: e.to_string() };
@@ -176,11 +194,14 @@ impl MotionService {
             sinks.push(Box::new(sink));
             publishers.push(worker);
         }
+        // The caller's sinks (the CAN master's) publish in the cycle itself: they neither
+        // allocate nor block.
+        sinks.extend(extra_sinks);
         let (ready_tx, ready_rx) = channel::bounded(1);
         let rt_inner = inner.clone();
         let rt = std::thread::Builder::new()
             .name("interpd-rt".into())
-            .spawn(move || rt_thread(rt_inner, sinks, ready_tx))
+            .spawn(move || rt_thread(rt_inner, sinks, start_position, ready_tx))
             .map_err(thread_err("real-time"))?;
         let sched = match ready_rx.recv() {
             Ok(Ok(sched)) => sched,
@@ -245,12 +266,13 @@ impl MotionService {
 fn rt_thread(
     inner: Arc<Inner>,
     mut sinks: Vec<Box<dyn SetpointSink + Send>>,
+    start_position: Option<[f64; crate::path::MAX_AXES]>,
     ready: Sender<Result<SchedReport, StartError>>,
 ) -> (LoopTotals, crate::interp::executor::ExecutorFaults) {
     let sched = rt::sched::apply(&inner.config.rt);
     let _ = ready.send(Ok(sched));
     let n_axes = inner.config.axes.len();
-    let mut executor = Executor::new(n_axes, [0.0; crate::path::MAX_AXES]);
+    let mut executor = Executor::new(n_axes, start_position.unwrap_or([0.0; crate::path::MAX_AXES]));
     let mut sp = Setpoints { n_axes: n_axes as u32, ..Setpoints::default() };
     let period_ns = (inner.config.machine.cycle_ms * 1e6).round() as u64;
     let dt_s = period_ns as f64 * 1e-9;
@@ -302,6 +324,7 @@ fn supervise(inner: Arc<Inner>, reports: Receiver<FeederReport>) {
             on_report(&inner, r);
         }
         drain_timing(&inner);
+        check_drives(&inner);
         finish_stop_if_standing(&inner);
         std::thread::sleep(SUPERVISOR_PERIOD);
     }
@@ -373,6 +396,26 @@ fn on_report(inner: &Inner, r: FeederReport) {
             inner.emit(Event::Error { message });
         }
         FeederReport::Complete { .. } => {}
+    }
+}
+
+/// A drive fault (reported by the drive monitor) while the machine moves: a controlled stop
+/// along the path, the fault as `last_error` and an error event. At rest it is only logged
+/// (motion.start refuses until the drives are ready again).
+fn check_drives(inner: &Inner) {
+    let Some(drives) = &inner.drives else { return };
+    while let Some(message) = drives.take_fault() {
+        let mut ctl = lock(&inner.control);
+        if !matches!(ctl.state, State::Running | State::Holding) {
+            continue;
+        }
+        inner.stop.store(true, Ordering::SeqCst);
+        ctl.state = State::Stopping;
+        ctl.last_error = Some(message.clone());
+        let _ = inner.feeder.send(FeederCommand::Abort);
+        drop(ctl);
+        tracing::error!("drive fault during motion: {message}; stopping");
+        inner.emit(Event::Error { message });
     }
 }
 
@@ -489,6 +532,9 @@ impl Motion for MotionCore {
         let Some((_, path)) = ctl.program.clone() else {
             return Err(Inner::not_allowed(ctl.state, "motion.start"));
         };
+        if let (Some(drives), State::Idle | State::Finished) = (&inner.drives, ctl.state) {
+            drives.ready_for_motion().map_err(MotionError::DrivesNotReady)?;
+        }
         if !matches!(ctl.state, State::Idle | State::Finished) || ctl.state == State::Finished && ctl.program.is_none()
         {
             return Err(Inner::not_allowed(ctl.state, "motion.start"));
@@ -595,7 +641,8 @@ impl Motion for MotionCore {
             program: ctl.program.as_ref().map(|(i, _)| i.clone()),
             axes: inner.config.axis_names(),
             position: live.pos[..n].to_vec(),
-            drives: Vec::new(),
+            drives: inner.drives.as_ref().map(|d| d.drives()).unwrap_or_default(),
+            can_bus: inner.drives.as_ref().and_then(|d| d.bus()),
         }
     }
 

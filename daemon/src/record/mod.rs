@@ -4,11 +4,13 @@
 //!   `#[repr(C)]` payloads after a 4-byte header) and payload validation;
 //! - [`file`]: writing and reading the MCAP file;
 //! - [`recorder`]: a non-real-time thread that subscribes to `<prefix>/setpoints` and
-//!   `<prefix>/feedback` and records every sample, counting lost cycles ([`gaps`]);
+//!   `<prefix>/feedback` and records every sample, counting lost cycles ([`gaps`]), in an
+//!   order that depends on the streams' contents only ([`interleave`]);
 //! - [`replay`]: validates a recording, then republishes it at its original timing.
 
 pub mod file;
 pub mod gaps;
+pub mod interleave;
 pub mod recorder;
 pub mod replay;
 pub mod schema;

@@ -7,6 +7,7 @@
 use super::RecordError;
 use super::file::RecordFile;
 use super::gaps::StreamCount;
+use super::interleave::Interleave;
 use super::schema::{self, Payload, Stream};
 use crate::sinks::shm::{node, open_service};
 use iceoryx2::port::subscriber::Subscriber;
@@ -59,20 +60,25 @@ pub struct RecordReport {
     /// Most samples found queued in one subscriber at one drain (of
     /// [`qos::SUBSCRIBER_BUFFER_SIZE`]): the headroom left before samples are lost.
     pub max_backlog: usize,
+    /// Messages written before one with an earlier log time (see [`Interleave`]); 0 unless a
+    /// stream lagged the other by more than the reorder window.
+    pub out_of_order: u64,
 }
 
 impl fmt::Display for RecordReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "recorded setpoints: {}; feedback: {}; {:.1} s to {} ({} bytes; largest subscriber backlog {} of {})",
+            "recorded setpoints: {}; feedback: {}; {:.1} s to {} ({} bytes; largest subscriber backlog {} of {}; {} \
+             out of log-time order)",
             self.setpoints,
             self.feedback,
             self.duration_s,
             self.path.display(),
             self.bytes,
             self.max_backlog,
-            qos::SUBSCRIBER_BUFFER_SIZE
+            qos::SUBSCRIBER_BUFFER_SIZE,
+            self.out_of_order
         )
     }
 }
@@ -174,9 +180,9 @@ impl Tally {
     }
 }
 
-/// The loop: drain both queues, merge the two batches by log time, write; until `stop`, then
-/// one last drain. On a write or receive error the file is still finished, so what was
-/// recorded stays readable.
+/// The loop: drain both queues into the merge, write what the merge releases; until `stop`,
+/// then one last drain and everything held. On a write or receive error the file is still
+/// finished, so what was recorded stays readable.
 fn record(
     mut file: RecordFile,
     subs: &Subscribers,
@@ -185,14 +191,20 @@ fn record(
 ) -> Result<RecordReport, RecordError> {
     let started = Instant::now();
     let mut tally = Tally::default();
-    let (mut sps, mut fbs, mut merged) = (Vec::new(), Vec::new(), Vec::new());
+    let mut merge = Interleave::default();
+    let (mut received, mut ready) = (Vec::new(), Vec::new());
     let outcome = loop {
         let last = stop.load(Ordering::Acquire);
-        let step = drain(&subs.setpoints, &mut sps, &mut tally)
-            .and_then(|()| drain(&subs.feedback, &mut fbs, &mut tally))
+        let step = drain(&subs.setpoints, &mut received, &mut tally)
+            .and_then(|()| drain(&subs.feedback, &mut received, &mut tally))
             .and_then(|()| {
-                merge_by_log_time(&mut sps, &mut fbs, &mut merged);
-                merged.drain(..).try_for_each(|p: Payload| {
+                received.drain(..).for_each(|p| merge.push(p));
+                if last {
+                    merge.pop_all(&mut ready)
+                } else {
+                    merge.pop_ready(&mut ready)
+                }
+                ready.drain(..).try_for_each(|p: Payload| {
                     tally.count(p.stream()).record(p.cycle());
                     file.write(&p)
                 })
@@ -216,6 +228,7 @@ fn record(
         bytes,
         duration_s: started.elapsed().as_secs_f64(),
         max_backlog: tally.max_backlog,
+        out_of_order: merge.out_of_order,
     })
 }
 
@@ -265,56 +278,4 @@ fn drain<T: Recordable>(
     }
     tally.max_backlog = tally.max_backlog.max(out.len() - before);
     Ok(())
-}
-
-/// Merges two batches, each in arrival order, into `out` by log time; ties and each batch's
-/// own order are kept (a stream is never reordered within itself).
-fn merge_by_log_time(a: &mut Vec<Payload>, b: &mut Vec<Payload>, out: &mut Vec<Payload>) {
-    let (mut i, mut j) = (0, 0);
-    while i < a.len() || j < b.len() {
-        let take_a = j == b.len() || (i < a.len() && a[i].mcap_times().0 <= b[j].mcap_times().0);
-        if take_a {
-            out.push(a[i]);
-            i += 1;
-        } else {
-            out.push(b[j]);
-            j += 1;
-        }
-    }
-    a.clear();
-    b.clear();
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn sp(cycle: u64, t: u64) -> Payload {
-        Payload::Setpoints(Setpoints { cycle, time_ns: t, ..Setpoints::default() })
-    }
-
-    fn fb(cycle: u64, t: u64) -> Payload {
-        Payload::Feedback(Feedback { cycle, time_ns: t, ..Feedback::default() })
-    }
-
-    #[test]
-    fn merge_keeps_each_stream_in_order() {
-        // The second setpoint goes back in time (two publishers): it still follows the first.
-        let mut a = vec![sp(1, 10), sp(2, 5), sp(3, 30)];
-        let mut b = vec![fb(1, 10), fb(2, 20)];
-        let mut out = Vec::new();
-        merge_by_log_time(&mut a, &mut b, &mut out);
-        let order: Vec<(Stream, u64)> = out.iter().map(|p| (p.stream(), p.cycle())).collect();
-        assert_eq!(
-            order,
-            [
-                (Stream::Setpoints, 1),
-                (Stream::Setpoints, 2),
-                (Stream::Feedback, 1),
-                (Stream::Feedback, 2),
-                (Stream::Setpoints, 3)
-            ]
-        );
-        assert!(a.is_empty() && b.is_empty());
-    }
 }

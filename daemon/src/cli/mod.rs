@@ -53,7 +53,8 @@ pub enum Command {
     Law(law::LawArgs),
     /// One online-trajectory calculation: time-optimal jerk-limited motion from state to state.
     Otg(otg::OtgArgs),
-    /// Record the shared-memory streams (setpoints, feedback) to MCAP until SIGINT/SIGTERM.
+    /// Record the shared-memory streams (setpoints, feedback) to MCAP until SIGINT/SIGTERM or
+    /// `--duration-s`.
     Record(record::RecordArgs),
 }
 

@@ -14,7 +14,7 @@ const MAX_DURATION_S: f64 = 86_400.0;
 #[derive(Debug, clap::Args)]
 pub struct RecordArgs {
     /// Output file (MCAP); created or truncated.
-    #[arg(long)]
+    #[arg(long, value_name = "FILE.mcap")]
     pub out: PathBuf,
     /// iceoryx2 service prefix; default: $INTERPD_SERVICE_PREFIX, else "interpd".
     #[arg(long)]

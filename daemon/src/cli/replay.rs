@@ -39,7 +39,8 @@ pub struct ReplayArgs {
     /// the CAN interface named in the log.
     #[arg(long, value_name = "shm|can:IFACE")]
     pub to: Option<String>,
-    /// Time scale: 2 plays twice as fast, 0.5 at half speed.
+    /// Time scale: 2 plays twice as fast, 0.5 at half speed; at most 1000 (and for MCAP at
+    /// least 0.001).
     #[arg(long, default_value_t = 1.0)]
     pub speed: f64,
     /// With `--to shm`: the iceoryx2 service prefix to publish on; default:

@@ -180,6 +180,7 @@ fn record_a_run(dir: &Path, program: &str) -> PathBuf {
     let (code, stderr) = daemon.terminate();
     assert_eq!(code, Some(0), "interpd run --record; stderr:\n{stderr}");
     assert!(stderr.contains("recorded setpoints:"), "no recording report; stderr:\n{stderr}");
+    assert!(stderr.contains(" 0 dropped, 0 failed"), "the shm publisher dropped setpoints; stderr:\n{stderr}");
     let (code, plant_log) = plant.signal_and_wait(libc::SIGINT);
     assert_eq!(code, Some(0), "sim-plant; stderr:\n{plant_log}");
 
@@ -363,5 +364,53 @@ fn bad_recordings_exit_2_naming_the_file_and_publish_nothing() {
     std::thread::sleep(Duration::from_millis(50));
     let seen = watcher.finish();
     assert!(seen.is_empty(), "a refused replay published {} setpoints", seen.len());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The recorder is an ordinary subscriber: stopped (SIGSTOP) for a second during motion, it
+/// loses samples (the publisher overwrites its full queue), while the daemon's publisher drops
+/// nothing and a live subscriber still gets every cycle.
+#[test]
+fn a_stalled_recorder_loses_samples_but_never_holds_up_the_stream() {
+    let dir = temp_dir("stall");
+    let daemon = Daemon::start(&[]);
+    let out = dir.join("stalled.mcap");
+    let recorder = Proc::spawn(
+        "interpd",
+        &["record", "--out", &out.display().to_string(), "--service-prefix", &daemon.prefix],
+        dir.join("record.log"),
+    );
+    recorder.wait_for_stderr("SIGINT or SIGTERM ends it");
+    let live = Collector::start(&daemon.prefix);
+    let mut c = daemon.client();
+    c.ok("program.load", json!({ "path": example("demo.ngc").display().to_string() }));
+    c.ok("motion.start", Value::Null);
+    std::thread::sleep(Duration::from_millis(500));
+    let pid = recorder.child.as_ref().expect("running").id() as i32;
+    // SAFETY: kill(2) on our own child's pid.
+    unsafe { libc::kill(pid, libc::SIGSTOP) };
+    std::thread::sleep(Duration::from_secs(1));
+    // SAFETY: as above.
+    unsafe { libc::kill(pid, libc::SIGCONT) };
+    let st = c.wait_state(&["finished", "error"], RUN_TIMEOUT);
+    assert_eq!(st["state"], "finished", "{st}");
+    std::thread::sleep(Duration::from_millis(100));
+    let live = live.finish();
+    let (code, stderr) = daemon.terminate();
+    assert_eq!(code, Some(0), "interpd run; stderr:\n{stderr}");
+    assert!(stderr.contains(" 0 dropped, 0 failed"), "the shm publisher dropped setpoints; stderr:\n{stderr}");
+    let (code, rec_log) = recorder.signal_and_wait(libc::SIGTERM);
+    assert_eq!(code, Some(0), "interpd record; stderr:\n{rec_log}");
+
+    for w in live.windows(2) {
+        assert_eq!(w[1].cycle, w[0].cycle + 1, "the live stream has a gap while the recorder was stopped");
+    }
+    assert!(live.iter().any(|s| s.flags & flags::FINISHED != 0), "the live subscriber saw no FINISHED");
+    let sps = setpoints(&read_all(&out));
+    let missing: u64 = sps.windows(2).map(|w| w[1].cycle - w[0].cycle - 1).sum();
+    // 1 s at 4 ms is 250 cycles, of which the 64-sample queue keeps the newest.
+    assert!(missing >= 100, "the stopped recorder missed only {missing} cycles; record log:\n{rec_log}");
+    assert!(rec_log.contains(&format!("{missing} missing")), "the report does not count {missing} missing:\n{rec_log}");
+    eprintln!("stalled recorder: {missing} cycles missing, live stream of {} setpoints without a gap", live.len());
     let _ = std::fs::remove_dir_all(&dir);
 }

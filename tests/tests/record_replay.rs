@@ -414,3 +414,32 @@ fn a_stalled_recorder_loses_samples_but_never_holds_up_the_stream() {
     eprintln!("stalled recorder: {missing} cycles missing, live stream of {} setpoints without a gap", live.len());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Options of the recording commands are checked before anything starts: exit 2 and a message
+/// naming the option or file.
+#[test]
+fn recording_options_are_checked() {
+    let dir = temp_dir("options");
+    let good = dir.join("good.mcap");
+    valid_recording(&good, None);
+    let good = good.display().to_string();
+    let missing_dir = dir.join("no-such-dir").join("x.mcap").display().to_string();
+    let socket = dir.join("c.sock").display().to_string();
+    let prefix = format!("interpd-test/opt{}", std::process::id());
+    let cases: [(&[&str], &str); 6] = [
+        (&["run", "--socket", &socket, "--no-shm", "--record", &good], "shared-memory sink is off"),
+        (&["run", "--socket", &socket, "--service-prefix", &prefix, "--record", &missing_dir], &missing_dir),
+        (&["record", "--out", &missing_dir, "--service-prefix", &prefix], &missing_dir),
+        (&["record", "--out", &good, "--duration-s", "0", "--service-prefix", &prefix], "--duration-s"),
+        (&["replay", &good, "--to", "shm", "--speed", "0.0001", "--service-prefix", &prefix], "--speed"),
+        (&["replay", &good, "--to", "can:vcan0"], "cannot go to can:vcan0"),
+    ];
+    for (args, expect) in cases {
+        let out = Command::new(binary("interpd")).args(args).output().expect("run interpd");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: stderr:\n{stderr}");
+        assert!(stderr.contains(expect), "{args:?}: expected {expect:?} in:\n{stderr}");
+    }
+    assert!(read_all(Path::new(&good)).len() == 400, "a refused command touched the good recording");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -42,8 +42,8 @@ pub struct RunArgs {
     /// motion were queued, to provoke an underrun. Format AFTER_S:FOR_S.
     #[arg(long, value_name = "AFTER_S:FOR_S")]
     pub debug_stall_planner: Option<String>,
-    /// Record the setpoint and feedback streams to this MCAP file (README "Recording and
-    /// replay"); the recording ends when the daemon exits.
+    /// Record the setpoint and feedback streams to this MCAP file, created or truncated (README
+    /// "Recording and replay"); the recording ends when the daemon exits.
     #[arg(long, value_name = "FILE.mcap")]
     pub record: Option<PathBuf>,
 }
@@ -61,6 +61,13 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     check_can_args(args, &mut config)?;
     let stall = args.debug_stall_planner.as_deref().map(parse_stall).transpose()?;
     let socket = args.socket.clone().unwrap_or_else(|| PathBuf::from(config.control.socket_path()));
+    if args.record.is_some() && (!config.sinks.shm || args.no_shm) {
+        return Err(CliError::BadInput(
+            "--record records the shared-memory streams, but the shared-memory sink is off (--no-shm or [sinks] \
+             shm = false)"
+                .into(),
+        ));
+    }
     let record_file = args
         .record
         .as_deref()

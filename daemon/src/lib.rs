@@ -12,6 +12,7 @@ pub mod path;
 pub mod planner;
 pub mod prep;
 pub mod program;
+pub mod record;
 pub mod rt;
 pub mod sinks;
 

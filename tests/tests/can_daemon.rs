@@ -615,13 +615,13 @@ fn replay_sends_a_candump_log_with_its_timing() {
     assert_eq!(candump::format_log(&rewritten), text);
     let back = candump::parse_log(&text).expect("parse");
     assert_eq!(candump::format_log(&back), text, "read back and written again: identical");
-    // Without --to the log's interface is used; --to shm is not there yet (exit 2).
+    // Without --to the log's interface is used; --to shm takes MCAP recordings only (exit 2).
     let out = std::process::Command::new(interpd_e2e::binary("interpd"))
         .args(["replay", log_arg.as_str(), "--to", "shm"])
         .output()
         .expect("run interpd replay");
     assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("not yet supported"));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--to shm needs an MCAP recording"));
     eprintln!(
         "replay: {} frames at speed {speed}, worst timing error {worst_ms:.3} ms; {}",
         frames.len(),

@@ -5,7 +5,9 @@ mod demo;
 mod law;
 mod otg;
 mod plan;
+mod record;
 mod replay;
+mod replay_shm;
 mod run;
 
 use clap::{Parser, Subcommand};
@@ -43,14 +45,17 @@ pub enum Command {
     /// The main job on embedded defaults: interpd run + sim-plant over iceoryx2, an example
     /// program, a summary and a plot.
     Demo(demo::DemoArgs),
-    /// Replay a recording at its original timing: a candump log to a CAN interface (as
-    /// can-utils' canplayer does).
+    /// Replay a recording at its original timing: an MCAP recording onto iceoryx2 (`--to shm`),
+    /// or a candump log to a CAN interface (`--to can:IFACE`, as can-utils' canplayer does).
     Replay(replay::ReplayArgs),
     /// Design a motion law from interpolation conditions (seed 003): degree, VDI 2143
     /// characteristic values, residuals, coefficients; CSV samples and a plot on request.
     Law(law::LawArgs),
     /// One online-trajectory calculation: time-optimal jerk-limited motion from state to state.
     Otg(otg::OtgArgs),
+    /// Record the shared-memory streams (setpoints, feedback) to MCAP until SIGINT/SIGTERM or
+    /// `--duration-s`.
+    Record(record::RecordArgs),
 }
 
 /// A failed command: bad input (exit 2) or anything else (exit 1).
@@ -110,5 +115,6 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Replay(args) => replay::run(&args),
         Command::Law(args) => law::run(&args),
         Command::Otg(args) => otg::run(&args),
+        Command::Record(args) => record::run(&args),
     }
 }

@@ -1,15 +1,19 @@
 //! `interpd replay LOG [--to shm|can:IFACE] [--speed X]`: plays a recorded stream back at its
 //! original timing (DESIGN.md "Command line").
 //!
+//! An MCAP recording (`interpd run --record`, `interpd record`) goes to shared memory
+//! (`--to shm`, the default for an MCAP file): see `replay_shm.rs` and README "Recording and
+//! replay".
+//!
 //! A candump log (`candump -l` format, as `interpd run --candump` writes it) goes to a CAN
 //! interface as can-utils' `canplayer` would send it: every frame at its recorded offset from
 //! the first, divided by `--speed`, on absolute deadlines (no drift over long logs). Without
 //! `--to`, the interface named in the log's first line is used. The whole log is read and
 //! checked before the first frame goes out, so a bad line never leaves a half-played bus.
 //! SocketCAN error frames in the log are skipped (only the kernel can produce them).
-//! Replaying an MCAP recording to shared memory (`--to shm`) is not implemented yet.
 
 use super::CliError;
+use super::replay_shm;
 use interpd::rt::clock;
 use interpd_protocol::can_socket::{SendFailure, to_socketcan};
 use interpd_protocol::candump::{self, Record};
@@ -27,14 +31,22 @@ const MCAP_MAGIC: &[u8] = b"\x89MCAP";
 /// Options of `interpd replay`.
 #[derive(Debug, clap::Args)]
 pub struct ReplayArgs {
-    /// The recording: a candump log (`(seconds.micros) IFACE ID#DATA` per line).
+    /// The recording: an MCAP file (`interpd run --record`, `interpd record`) or a candump log
+    /// (`(seconds.micros) IFACE ID#DATA` per line).
     pub log: PathBuf,
-    /// Where to: `can:IFACE` (default: the interface named in the log), or `shm`.
+    /// Where to: `shm` (MCAP recordings: iceoryx2 services `<prefix>/setpoints` and
+    /// `<prefix>/feedback`) or `can:IFACE` (candump logs). Default: `shm` for an MCAP file, else
+    /// the CAN interface named in the log.
     #[arg(long, value_name = "shm|can:IFACE")]
     pub to: Option<String>,
-    /// Time scale: 2 plays twice as fast, 0.5 at half speed.
+    /// Time scale: 2 plays twice as fast, 0.5 at half speed; at most 1000 (and for MCAP at
+    /// least 0.001).
     #[arg(long, default_value_t = 1.0)]
     pub speed: f64,
+    /// With `--to shm`: the iceoryx2 service prefix to publish on; default:
+    /// $INTERPD_SERVICE_PREFIX, else "interpd".
+    #[arg(long)]
+    pub service_prefix: Option<String>,
 }
 
 /// Where a replay goes.
@@ -62,13 +74,28 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         return Err(CliError::BadInput(format!("--speed must lie in (0, 1000], got {}", args.speed)));
     }
     let target = args.to.as_deref().map(parse_target).transpose()?;
-    if target == Some(Target::Shm) || is_mcap(&args.log)? {
-        return Err(CliError::BadInput(format!(
-            "{}{}: replaying shared-memory (MCAP) recordings is not yet supported; candump logs replay with --to \
-             can:IFACE",
-            args.log.display(),
-            if target == Some(Target::Shm) { " --to shm" } else { "" }
-        )));
+    let mcap = is_mcap(&args.log)?;
+    match (&target, mcap) {
+        (Some(Target::Shm) | None, true) => {
+            return replay_shm::run_shm(&args.log, args.speed, args.service_prefix.as_deref());
+        }
+        (Some(Target::Shm), false) => {
+            return Err(CliError::BadInput(format!(
+                "{}: --to shm needs an MCAP recording (from interpd run --record or interpd record), and this \
+                 file does not start with the MCAP magic; candump logs replay with --to can:IFACE",
+                args.log.display()
+            )));
+        }
+        (Some(Target::Can(iface)), true) => {
+            return Err(CliError::BadInput(format!(
+                "{}: an MCAP recording of the shared-memory streams cannot go to can:{iface}; replay it with --to shm",
+                args.log.display()
+            )));
+        }
+        (_, false) => {}
+    }
+    if args.service_prefix.is_some() {
+        return Err(CliError::BadInput("--service-prefix applies to --to shm only".into()));
     }
     let records = read_log(&args.log)?;
     let Some(first) = records.first() else {

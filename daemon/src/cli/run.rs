@@ -5,6 +5,7 @@ use super::CliError;
 use interpd::config::Config;
 use interpd::control::{ControlServer, Motion};
 use interpd::motion::{MotionExtras, MotionOptions, MotionService};
+use interpd::record::{RecordFile, RecordOptions, Recorder};
 use interpd::sinks::can::CanMaster;
 use interpd_protocol::rpc::State;
 use std::path::PathBuf;
@@ -41,6 +42,10 @@ pub struct RunArgs {
     /// motion were queued, to provoke an underrun. Format AFTER_S:FOR_S.
     #[arg(long, value_name = "AFTER_S:FOR_S")]
     pub debug_stall_planner: Option<String>,
+    /// Record the setpoint and feedback streams to this MCAP file, created or truncated (README
+    /// "Recording and replay"); the recording ends when the daemon exits.
+    #[arg(long, value_name = "FILE.mcap")]
+    pub record: Option<PathBuf>,
 }
 
 pub fn run(args: &RunArgs) -> Result<(), CliError> {
@@ -56,7 +61,22 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     check_can_args(args, &mut config)?;
     let stall = args.debug_stall_planner.as_deref().map(parse_stall).transpose()?;
     let socket = args.socket.clone().unwrap_or_else(|| PathBuf::from(config.control.socket_path()));
+    if args.record.is_some() && (!config.sinks.shm || args.no_shm) {
+        return Err(CliError::BadInput(
+            "--record records the shared-memory streams, but the shared-memory sink is off (--no-shm or [sinks] \
+             shm = false)"
+                .into(),
+        ));
+    }
+    let record_file = args
+        .record
+        .as_deref()
+        .map(RecordFile::create)
+        .transpose()
+        .map_err(|e| CliError::BadInput(format!("--record: {e}")))?;
     block_termination_signals();
+    // The recorder subscribes before the real-time thread publishes its first setpoint.
+    let recorder = record_file.map(|f| start_recorder(f, &config)).transpose()?;
 
     let mut extras = MotionExtras::default();
     let can = if config.sinks.can.enabled() {
@@ -120,6 +140,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         eprintln!("interpd: the machine did not come to rest within {} s (state {state})", STOP_TIMEOUT.as_secs());
     }
     server.shutdown();
+    let recorded = recorder.map(Recorder::stop);
     let report = service.shutdown();
     eprintln!("interpd: {}", report.histograms);
     eprintln!(
@@ -140,6 +161,11 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     }
     if let Some(can) = can {
         eprintln!("interpd: CAN bus: {}", can.shutdown());
+    }
+    match recorded {
+        Some(Ok(r)) => eprintln!("interpd: {r}"),
+        Some(Err(e)) => return Err(CliError::Failure(format!("recording failed: {e}"))),
+        None => {}
     }
     Ok(())
 }
@@ -167,6 +193,16 @@ fn check_can_args(args: &RunArgs, config: &mut Config) -> Result<(), CliError> {
         }
     }
     Ok(())
+}
+
+/// Starts recording `<prefix>/setpoints` and `<prefix>/feedback`, with the machine in the
+/// file's metadata.
+fn start_recorder(file: RecordFile, config: &Config) -> Result<Recorder, CliError> {
+    let mut options = RecordOptions::new(&config.sinks.shm_prefix);
+    let axes: Vec<String> = config.axes.iter().map(|a| a.name.to_string()).collect();
+    options.metadata.insert("axes".into(), axes.join(" "));
+    options.metadata.insert("cycle_ms".into(), config.machine.cycle_ms.to_string());
+    Recorder::start(file, options).map_err(|e| CliError::Failure(format!("--record: {e}")))
 }
 
 fn parse_stall(s: &str) -> Result<(f64, f64), CliError> {

@@ -205,6 +205,8 @@ impl MotionService {
             sinks.push(Box::new(sink));
             publishers.push(worker);
         }
+        // The caller's sinks (the CAN master's) publish in the cycle itself: they neither
+        // allocate nor block.
         sinks.extend(extra_sinks);
         let (ready_tx, ready_rx) = channel::bounded(1);
         let rt_inner = inner.clone();

@@ -4,12 +4,12 @@
 //! A sink's `publish` runs inside the real-time cycle: it must not allocate, lock, block or
 //! log. Failures are counted and reported outside the cycle.
 
-pub mod deferred;
 pub mod can;
 mod can_log;
 mod can_rx;
 mod can_sink;
 mod can_state;
+pub mod deferred;
 pub mod shm;
 
 use interpd_protocol::shm::Setpoints;

@@ -425,8 +425,9 @@ fn a_new_daemon_takes_over_faulted_drives_where_they_stand() {
     let until = std::time::Instant::now() + SLOW;
     loop {
         let st = client.ok("status", Value::Null);
-        let at: Vec<f64> =
-            st["drives"].as_array().map_or(Vec::new(), |d| d.iter().filter_map(|d| d["position_actual_units"].as_f64()).collect());
+        let at: Vec<f64> = st["drives"]
+            .as_array()
+            .map_or(Vec::new(), |d| d.iter().filter_map(|d| d["position_actual_units"].as_f64()).collect());
         if at.len() == 3 && at.iter().zip([3.0, -2.0, 1.0]).all(|(p, w)| (p - w).abs() < 5e-4) {
             break;
         }

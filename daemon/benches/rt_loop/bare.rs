@@ -1,8 +1,10 @@
 //! The baseline: the daemon's own loop (`rt::run_loop`: clock_nanosleep to absolute deadlines,
-//! the same timing samples) with an empty cycle, in a thread scheduled exactly as the daemon's
-//! real-time thread (`rt::sched::apply` with the same `[rt]` settings). What it measures is the
-//! machine: timer, scheduler and hypervisor, without any interpd work.
+//! the same timing samples) in a thread scheduled exactly as the daemon's real-time thread
+//! (`rt::sched::apply` with the same `[rt]` settings), whose cycle is a fixed synthetic
+//! computation of about interpd's median cycle length (`work`). What it measures is the
+//! machine: timer, scheduler and hypervisor, without any interpd code.
 
+use super::work::work;
 use crossbeam::queue::ArrayQueue;
 use interpd::config::RtConfig;
 use interpd::rt::{self, LoopTotals, TimingSample, sched::SchedReport};
@@ -18,8 +20,8 @@ pub struct BareRun {
     pub samples: Vec<TimingSample>,
 }
 
-/// Runs `cycles` empty cycles of `period_ns` with the scheduling `rt`.
-pub fn run(rt_cfg: &RtConfig, period_ns: u64, cycles: u64) -> BareRun {
+/// Runs `cycles` cycles of `period_ns`, each [`work`]`(work_iters)`, with the scheduling `rt`.
+pub fn run(rt_cfg: &RtConfig, period_ns: u64, cycles: u64, work_iters: u64) -> BareRun {
     let rt_cfg = rt_cfg.clone();
     std::thread::Builder::new()
         .name("rt-bench-bare".into())
@@ -30,7 +32,8 @@ pub fn run(rt_cfg: &RtConfig, period_ns: u64, cycles: u64) -> BareRun {
             let quit = AtomicBool::new(false);
             let start_ns = rt::clock::now_ns() + FIRST_CYCLE_DELAY_NS;
             let totals = rt::run_loop(start_ns, period_ns, &quit, &queue, |cycle, _, _| {
-                std::hint::black_box(cycle) + 1 < cycles
+                std::hint::black_box(work(work_iters));
+                cycle + 1 < cycles
             });
             let samples = std::iter::from_fn(|| queue.pop()).collect();
             BareRun { sched, totals, samples }

@@ -5,8 +5,10 @@
 //! RT_BENCH_CYCLES=2500 cargo bench -p interpd --bench rt_loop   # a short run
 //! ```
 //!
-//! Per scenario, in one run: a **bare loop** (the daemon's own `rt::run_loop`, empty cycle,
-//! scheduled as the daemon's real-time thread: SCHED_FIFO, mlockall, pinned CPU from `[rt]`),
+//! Per scenario, in one run: a **bare loop** (the daemon's own `rt::run_loop`, scheduled as the
+//! daemon's real-time thread: SCHED_FIFO, mlockall, pinned CPU from `[rt]`; its cycle is a fixed
+//! synthetic computation calibrated to interpd's median cycle length, the baseline of the
+//! compute-time figures),
 //! half of its cycles before and half after the service run so slow drifts of a shared
 //! machine hit both alike; then the **real service** (`MotionService`, iceoryx2 on, a service
 //! prefix of its own) for the same number of cycles while it plans and executes a program,
@@ -30,6 +32,7 @@ mod hog;
 mod service;
 mod stream;
 mod table;
+mod work;
 
 use interpd::config::{Config, PrepMode};
 use interpd::rt::{LoopTotals, sched::SchedReport, stats::CycleHistograms};
@@ -113,16 +116,16 @@ fn histograms(runs: &[&bare::BareRun]) -> (CycleHistograms, LoopTotals) {
     (h, totals)
 }
 
-fn run_scenario(sc: &Scenario, cycles: u64) -> Result<(Outcome, String), String> {
+fn run_scenario(sc: &Scenario, cycles: u64, work_iters: u64) -> Result<(Outcome, String), String> {
     let (config, program, what) = job(sc.job);
     let period_ns = (config.machine.cycle_ms * 1e6).round() as u64;
     let other = cpu::other_cpu(&config.rt);
     let hog = sc.hog.then(|| hog::Hog::start(other));
-    let before = bare::run(&config.rt, period_ns, cycles / 2);
+    let before = bare::run(&config.rt, period_ns, cycles / 2, work_iters);
     let prefix = format!("interpd-bench/{}-{}", std::process::id(), sc.name);
     let monitor_priority = (config.rt.priority - 2).max(1);
     let run = service::run(config.clone(), &prefix, &program, cycles, other, monitor_priority);
-    let after = bare::run(&config.rt, period_ns, cycles - cycles / 2);
+    let after = bare::run(&config.rt, period_ns, cycles - cycles / 2, work_iters);
     let hog = hog.map(hog::Hog::stop);
     let run = run?;
     let (bare, bare_totals) = histograms(&[&before, &after]);
@@ -165,8 +168,14 @@ fn main() {
         kernel(),
         loadavg()
     );
+    let work_iters = work::calibrate();
+    let _ = writeln!(
+        out,
+        "bare loop cycle: {work_iters} dependent multiply-adds, calibrated to {} µs",
+        work::WORK_TARGET_US
+    );
     for sc in SCENARIOS.iter().filter(|s| wanted.is_empty() || wanted.contains(&s.name)) {
-        let (outcome, what) = match run_scenario(sc, cycles) {
+        let (outcome, what) = match run_scenario(sc, cycles, work_iters) {
             Ok(r) => r,
             Err(e) => {
                 let _ = writeln!(out, "\n== {}: FAILED: {e}", sc.name);

@@ -36,7 +36,7 @@ fn python_with_iceoryx2() -> Option<&'static str> {
             eprintln!(
                 "SKIPPED python_subscriber: python3 cannot import iceoryx2 (install it with \
                  `python3 -m pip install -r .ci/python-requirements.txt`): {}",
-                String::from_utf8_lossy(&out.stderr).trim()
+                String::from_utf8_lossy(&out.stderr).lines().last().unwrap_or("").trim()
             );
             None
         }

@@ -16,7 +16,11 @@
 # Environment (all optional):
 #   INTERPD_VCAN_MODE        auto (default) | host | vm  -- force a mode (vm also works on hosts with vcan)
 #   INTERPD_VCAN_TESTS       the test targets of the interpd-e2e package to run (default
-#                            "can can_daemon"; space-separated)
+#                            "can"; space-separated). can_daemon (the daemon and the drives
+#                            over the bus at a 4 ms cycle) is not in the default: under TCG
+#                            emulation the VM cannot hold a 4 ms cycle (wake-ups up to 33 ms,
+#                            so the drives' 3-cycle SYNC watchdog trips); run it with
+#                            INTERPD_VCAN_TESTS="can can_daemon" on a host with vcan or KVM
 #   INTERPD_VCAN_EXTRA_BINS  workspace binaries the tests start, put into the VM's /bin
 #                            (default "interpd sim-plant"; space-separated)
 #   INTERPD_VCAN_SMP         virtual CPUs of the VM (default 2: the daemon, the drives and the
@@ -40,7 +44,7 @@ MODE="${INTERPD_VCAN_MODE:-auto}"
 TIMEOUT="${INTERPD_VCAN_TIMEOUT:-600}"
 # Binaries the CAN tests start: the daemon (master) and the simulated drives.
 EXTRA_BINS="${INTERPD_VCAN_EXTRA_BINS-interpd sim-plant}"
-TESTS="${INTERPD_VCAN_TESTS-can can_daemon}"
+TESTS="${INTERPD_VCAN_TESTS-can}"
 SMP="${INTERPD_VCAN_SMP:-2}"
 # Tests share one bus and lock it anyway; one thread keeps their output readable.
 TEST_ARGS=(--test-threads=1 --nocapture "$@")

@@ -155,6 +155,13 @@ fn run_can(args: &Args, config: &mut Config, iface: &str) -> Result<(), Failure>
             "--exit-on-finish: CAN setpoints carry no end-of-program flag; stop with SIGTERM",
         ));
     }
+    // A missing interface is the user's input, reported before anything claims to be ready.
+    if !std::path::Path::new("/sys/class/net").join(iface).exists() {
+        return Err(Failure::bad_input(format!(
+            "--source can:{iface}: there is no network interface {iface} (`ip link show {iface}`; for a virtual bus \
+             `ip link add dev {iface} type vcan && ip link set up {iface}`)"
+        )));
+    }
     // A CSP drive gets positions only: it interpolates linearly between them.
     config.plant.fine_interpolation = interpd_config::plant::FineInterpolation::Linear;
     let mut plant = Plant::from_config(config)?;

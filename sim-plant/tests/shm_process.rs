@@ -241,9 +241,12 @@ fn plant_process_rejects_bad_start_up_input_with_exit_2() {
         let out = Command::new(env!("CARGO_BIN_EXE_sim-plant")).args(args).output().unwrap();
         (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
     };
-    let (code, err) = run(&["--source", "can:vcan0"]);
+    let (code, err) = run(&["--source", "can:nosuchcan7"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("no network interface nosuchcan7") && !err.contains("ready"), "{err}");
+    let (code, err) = run(&["--source", "can:"]);
     assert_eq!(code, Some(2));
-    assert!(err.contains("not yet supported"), "{err}");
+    assert!(err.contains("interface name"), "{err}");
     let (code, err) = run(&["--config", "/nonexistent/machine.toml"]);
     assert_eq!(code, Some(2));
     assert!(err.contains("/nonexistent/machine.toml"), "{err}");

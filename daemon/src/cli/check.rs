@@ -2,6 +2,7 @@
 
 use super::CliError;
 use interpd::config::Config;
+use interpd::motion::law_run::{LawProgram, parse_law_program};
 use interpd::program;
 use std::io::Write;
 use std::path::Path;
@@ -10,6 +11,12 @@ use std::time::Instant;
 pub fn run(program_path: &Path, machine: Option<&Path>) -> Result<(), CliError> {
     let config = Config::load_or_default(machine)?;
     let t0 = Instant::now();
+    if let Ok(text) = std::fs::read_to_string(program_path) {
+        let name = program_path.display().to_string();
+        if let Some(laws) = parse_law_program(&text, &name).map_err(CliError::BadInput)? {
+            return check_laws(&config, &laws, &name, t0);
+        }
+    }
     let program = program::load(program_path, &config)?;
     let elapsed = t0.elapsed();
     let s = &program.summary;
@@ -31,6 +38,22 @@ pub fn run(program_path: &Path, machine: Option<&Path>) -> Result<(), CliError> 
         program.path.length_mm(),
         config.axis_names().join(" "),
         elapsed.as_secs_f64() * 1e3
+    );
+    writeln!(std::io::stdout(), "{line}").map_err(|e| CliError::Failure(format!("cannot write to stdout: {e}")))?;
+    Ok(())
+}
+
+/// A program of `LAW` statements: every move solved and checked against the axis limits from
+/// the machine origin (the daemon checks again from where the machine stands).
+fn check_laws(config: &Config, laws: &LawProgram, name: &str, t0: Instant) -> Result<(), CliError> {
+    let here = [0.0; interpd::path::MAX_AXES];
+    let moves = laws.moves(config, &here, name).map_err(CliError::BadInput)?;
+    let duration_s: f64 = moves.iter().map(|m| m.duration_s()).sum();
+    let line = format!(
+        "{name}: ok: {} law moves, {duration_s:.3} s of motion from the origin, axes {}, checked in {:.1} ms",
+        moves.len(),
+        config.axis_names().join(" "),
+        t0.elapsed().as_secs_f64() * 1e3
     );
     writeln!(std::io::stdout(), "{line}").map_err(|e| CliError::Failure(format!("cannot write to stdout: {e}")))?;
     Ok(())

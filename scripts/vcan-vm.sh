@@ -25,6 +25,9 @@
 #                            (default "interpd sim-plant"; space-separated)
 #   INTERPD_VCAN_SMP         virtual CPUs of the VM (default 2: the daemon, the drives and the
 #                            test run side by side)
+#   INTERPD_VCAN_CYCLE_MS    VM mode: interpolation cycle of the daemon-level tests (default 20;
+#                            the tests count in cycles, run >= 2000 cycles and scale timing
+#                            tolerances by cycle/4 ms). Host mode: 4 ms unless set.
 #   INTERPD_VCAN_TIMEOUT     seconds before the VM is killed (default 600)
 #   INTERPD_VCAN_KERNEL_DEB  a linux-image-6.1.0-*-amd64 .deb to use instead of `apt-get download`
 #   INTERPD_VCAN_KEEP_IFACE  host mode: 1 keeps a vcan0 this script created (default: deleted at exit)
@@ -46,6 +49,9 @@ TIMEOUT="${INTERPD_VCAN_TIMEOUT:-600}"
 EXTRA_BINS="${INTERPD_VCAN_EXTRA_BINS-interpd sim-plant}"
 TESTS="${INTERPD_VCAN_TESTS-can}"
 SMP="${INTERPD_VCAN_SMP:-2}"
+# The interpolation cycle of the daemon-level tests inside the VM: TCG emulation wakes threads
+# up to ~30 ms late, which a 4 ms cycle's 3-cycle SYNC watchdog (12 ms) cannot tolerate.
+VM_CYCLE_MS="${INTERPD_VCAN_CYCLE_MS:-20}"
 # Tests share one bus and lock it anyway; one thread keeps their output readable.
 TEST_ARGS=(--test-threads=1 --nocapture "$@")
 MODULES=(net/can/can net/can/can-raw drivers/net/can/dev/can-dev drivers/net/can/vcan)
@@ -59,6 +65,7 @@ die() {
 
 case "$MODE" in auto | host | vm) ;; *) die "INTERPD_VCAN_MODE must be auto, host or vm, not '$MODE'" ;; esac
 case "$TIMEOUT" in '' | *[!0-9]*) die "INTERPD_VCAN_TIMEOUT must be a number of seconds, not '$TIMEOUT'" ;; esac
+case "$VM_CYCLE_MS" in '' | *[!0-9.]*) die "INTERPD_VCAN_CYCLE_MS must be milliseconds, not '$VM_CYCLE_MS'" ;; esac
 case "$SMP" in '' | *[!0-9]* | 0) die "INTERPD_VCAN_SMP must be a positive number, not '$SMP'" ;; esac
 [ -n "$TESTS" ] || die "INTERPD_VCAN_TESTS names no test target"
 TEST_FLAGS=()
@@ -270,7 +277,7 @@ ip link set up dev lo
 ip link add dev $IFACE type vcan || fail "ip link add dev $IFACE type vcan"
 ip link set up dev $IFACE || fail "ip link set up $IFACE"
 echo "INTERPD-VCAN-READY uptime=\$(cut -d' ' -f1 /proc/uptime)s"
-export INTERPD_VCAN=$IFACE INTERPD_BIN_DIR=/bin INTERPD_VCAN_BINS=$(shquote "$EXTRA_BINS")
+export INTERPD_VCAN=$IFACE INTERPD_BIN_DIR=/bin INTERPD_VCAN_BINS=$(shquote "$EXTRA_BINS") INTERPD_VCAN_CYCLE_MS=$VM_CYCLE_MS
 export HOME=/tmp TMPDIR=/tmp RUST_BACKTRACE=1
 cd /tmp
 rc=0

@@ -216,3 +216,31 @@ impl Collector {
         self.snapshot()
     }
 }
+
+/// An axis's limits for [`limit_ratios`] (axis units per s, s², s³).
+#[derive(Debug, Clone, Copy)]
+pub struct AxisLimits {
+    pub vel: f64,
+    pub acc: f64,
+    pub jerk: f64,
+}
+
+/// Largest |value|/limit over all axes of a stream at `cycle_s`: velocity, acceleration and
+/// jerk from finite differences of the positions, and the reported acceleration.
+pub fn limit_ratios(cycle_s: f64, limits: &[AxisLimits], sps: &[Setpoints]) -> [f64; 4] {
+    let dt = cycle_s;
+    let mut worst = [0.0f64; 4];
+    for (k, lim) in limits.iter().enumerate() {
+        for w in sps.windows(4) {
+            let p = [w[0].pos[k], w[1].pos[k], w[2].pos[k], w[3].pos[k]];
+            let v = (p[1] - p[0]) / dt;
+            let a = (p[2] - 2.0 * p[1] + p[0]) / (dt * dt);
+            let j = (p[3] - 3.0 * p[2] + 3.0 * p[1] - p[0]) / (dt * dt * dt);
+            worst[0] = worst[0].max(v.abs() / lim.vel);
+            worst[1] = worst[1].max(a.abs() / lim.acc);
+            worst[2] = worst[2].max(j.abs() / lim.jerk);
+            worst[3] = worst[3].max(w[0].acc[k].abs() / lim.acc);
+        }
+    }
+    worst
+}

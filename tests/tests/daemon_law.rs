@@ -6,7 +6,7 @@
 
 use interpd::config::Config;
 use interpd::motion::law_run::parse_law_program;
-use interpd_e2e::daemon::{Client, Collector, Daemon};
+use interpd_e2e::daemon::{AxisLimits, Client, Collector, Daemon, limit_ratios};
 use interpd_e2e::{binary, example};
 use interpd_protocol::shm::Setpoints;
 use serde_json::{Value, json};
@@ -16,20 +16,13 @@ const RUN_TIMEOUT: Duration = Duration::from_secs(30);
 
 /// Largest |value|/limit of velocity, acceleration and jerk over all axes.
 fn ratios(config: &Config, sps: &[Setpoints]) -> [f64; 3] {
-    let dt = config.cycle_s();
-    let mut worst = [0.0f64; 3];
-    for (k, ax) in config.axes.iter().enumerate() {
-        for w in sps.windows(4) {
-            let p: Vec<f64> = w.iter().map(|s| s.pos[k]).collect();
-            let v = (p[1] - p[0]) / dt;
-            let a = (p[2] - 2.0 * p[1] + p[0]) / (dt * dt);
-            let j = (p[3] - 3.0 * p[2] + 3.0 * p[1] - p[0]) / (dt * dt * dt);
-            worst[0] = worst[0].max(v.abs() / ax.max_vel_per_s);
-            worst[1] = worst[1].max(a.abs() / ax.max_acc_per_s2);
-            worst[2] = worst[2].max(j.abs() / ax.max_jerk_per_s3);
-        }
-    }
-    worst
+    let limits: Vec<AxisLimits> = config
+        .axes
+        .iter()
+        .map(|a| AxisLimits { vel: a.max_vel_per_s, acc: a.max_acc_per_s2, jerk: a.max_jerk_per_s3 })
+        .collect();
+    let r = limit_ratios(config.cycle_s(), &limits, sps);
+    [r[0], r[1].max(r[3]), r[2]]
 }
 
 /// Runs to `finished` and returns the setpoints of this run (those after `from`).

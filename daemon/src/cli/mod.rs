@@ -9,6 +9,7 @@ mod record;
 mod replay;
 mod replay_shm;
 mod run;
+mod signals;
 
 use clap::{Parser, Subcommand};
 use std::fmt;

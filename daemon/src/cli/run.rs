@@ -2,6 +2,7 @@
 //! real-time threads, sinks; SIGINT/SIGTERM bring the machine to a controlled stop and exit 0.
 
 use super::CliError;
+use super::signals::TerminationSignals;
 use interpd::config::Config;
 use interpd::control::{ControlServer, Motion};
 use interpd::motion::{MotionExtras, MotionOptions, MotionService};
@@ -74,7 +75,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         .map(RecordFile::create)
         .transpose()
         .map_err(|e| CliError::BadInput(format!("--record: {e}")))?;
-    block_termination_signals();
+    let signals = TerminationSignals::block();
     // The recorder subscribes before the real-time thread publishes its first setpoint.
     let recorder = record_file.map(|f| start_recorder(f, &config)).transpose()?;
 
@@ -132,7 +133,8 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         eprintln!("interpd: CAN master on {} (CiA 402 CSP)", config.sinks.can.interface);
     }
 
-    let signal = wait_for_termination_signal();
+    // Without a timeout the wait returns only with a signal.
+    let signal = signals.wait(None).unwrap_or("SIGTERM");
     eprintln!("interpd: {signal}: stopping the motion");
     let _ = core.stop();
     let state = core.wait_for(&[State::Idle, State::Finished, State::Error], STOP_TIMEOUT);
@@ -213,34 +215,4 @@ fn parse_stall(s: &str) -> Result<(f64, f64), CliError> {
         return Err(bad());
     }
     Ok((a, b))
-}
-
-/// Blocks SIGINT and SIGTERM in this thread and the threads it starts from now on, so that
-/// [`wait_for_termination_signal`] receives them synchronously.
-fn block_termination_signals() {
-    // SAFETY: sigset manipulation on a local set; pthread_sigmask on the calling thread.
-    unsafe {
-        let mut set: libc::sigset_t = std::mem::zeroed();
-        libc::sigemptyset(&mut set);
-        libc::sigaddset(&mut set, libc::SIGINT);
-        libc::sigaddset(&mut set, libc::SIGTERM);
-        libc::pthread_sigmask(libc::SIG_BLOCK, &set, std::ptr::null_mut());
-    }
-}
-
-/// Waits for SIGINT or SIGTERM; returns its name.
-fn wait_for_termination_signal() -> &'static str {
-    // SAFETY: as above; sigwait writes the received signal into `sig`.
-    unsafe {
-        let mut set: libc::sigset_t = std::mem::zeroed();
-        libc::sigemptyset(&mut set);
-        libc::sigaddset(&mut set, libc::SIGINT);
-        libc::sigaddset(&mut set, libc::SIGTERM);
-        let mut sig: libc::c_int = 0;
-        loop {
-            if libc::sigwait(&set, &mut sig) == 0 {
-                return if sig == libc::SIGINT { "SIGINT" } else { "SIGTERM" };
-            }
-        }
-    }
 }

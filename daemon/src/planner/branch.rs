@@ -137,7 +137,9 @@ const BACK_OFF_STEPS: [usize; 7] = [1, 2, 4, 8, 16, 32, 64];
 /// the state k steps back, every interval fully checked and under the ceiling, until it has
 /// flattened. Returns the position the ramp starts from and its intervals; `None` if no
 /// back-off up to `BACK_OFF_STEPS` helps. Bounded work, and rare: the viability test
-/// normally keeps branches out of such dead ends.
+/// normally keeps branches out of such dead ends. `depth` skips the shortest back-offs: a
+/// branch stuck again at the same place after a back-off must brake from further back, since
+/// the same ramp would lead it into the same dead end.
 pub fn back_off(
     view: &View,
     ceiling: &FlattenUnder,
@@ -145,10 +147,11 @@ pub fn back_off(
     work: &mut Work,
     states: &[(f64, f64)],
     p0: usize,
+    depth: usize,
 ) -> Option<(usize, Vec<Interval>)> {
     work.repairs += 1;
     let current = states.len() - 1;
-    for k in BACK_OFF_STEPS {
+    for k in BACK_OFF_STEPS.into_iter().skip(depth) {
         if k > current {
             break;
         }
@@ -215,6 +218,8 @@ pub fn backward_branch(
     let (mut v, mut a) = (v_start, -a_start);
     let mut t = t0;
     let mut backoffs = 0;
+    // Where the branch last got stuck and how deep its back-off went.
+    let (mut stuck_at, mut depth): (Option<usize>, usize) = (None, 0);
     while view.index(t) > stop + 1 {
         let i_next = view.index(t + 1);
         let v_max = nodes[i_next].vbar_mm_s.min(cap);
@@ -237,7 +242,10 @@ pub fn backward_branch(
                 if backoffs > MAX_BACK_OFFS_PER_BRANCH {
                     return None;
                 }
-                let (base, ramp) = back_off(&view, &ceiling, &lim_b, work, &states, t0)?;
+                // Stuck again where the last back-off led: brake from further back.
+                depth = if stuck_at == Some(i_next) { depth + 1 } else { 0 };
+                stuck_at = Some(i_next);
+                let (base, ramp) = back_off(&view, &ceiling, &lim_b, work, &states, t0, depth)?;
                 let keep = base - t0;
                 out.truncate(keep);
                 states.truncate(keep + 1);

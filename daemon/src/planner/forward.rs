@@ -104,7 +104,7 @@ pub fn forward_branch(
         {
             backoffs += 1;
             let states = &run.states[anchor - run.first..];
-            if let Some((base, ramp)) = super::branch::back_off(&view, &free, lim, work, states, anchor) {
+            if let Some((base, ramp)) = super::branch::back_off(&view, &free, lim, work, states, anchor, 0) {
                 run.truncate(base);
                 for iv in ramp {
                     run.push(iv);

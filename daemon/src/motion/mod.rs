@@ -149,7 +149,9 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
 }
 
 impl MotionService {
-    /// Starts the real-time, planner and supervisor threads.
+    /// Starts the real-time, planner and supervisor threads. Side effect: the calling thread
+    /// and the threads it starts afterwards are kept off the real-time CPU
+    /// ([`rt::sched::keep_off_rt_cpu`]).
     pub fn start(opts: MotionOptions) -> Result<MotionService, StartError> {
         Self::start_with(opts, MotionExtras::default())
     }
@@ -157,6 +159,11 @@ impl MotionService {
     /// [`MotionService::start`] with extra sinks and drives (see [`MotionExtras`]).
     pub fn start_with(opts: MotionOptions, extras: MotionExtras) -> Result<MotionService, StartError> {
         let MotionExtras { sinks: extra_sinks, drives, start_position } = extras;
+        // Before any thread starts: they all inherit it; the real-time thread pins itself.
+        match rt::sched::keep_off_rt_cpu(&opts.config.rt) {
+            Ok(cpu) => tracing::info!(cpu, "non-real-time threads kept off the real-time CPU"),
+            Err(why) => tracing::info!("non-real-time threads share the real-time CPU: {why}"),
+        }
         let (feeder_tx, feeder_rx) = channel::unbounded();
         let (report_tx, report_rx) = channel::unbounded();
         let queues = Queues::new();

@@ -68,7 +68,9 @@ fn lock_memory(wanted: bool) -> Result<(), String> {
     if rc == 0 { Ok(()) } else { Err(format!("mlockall refused: {}", os_error())) }
 }
 
-fn pin(cpu: Option<usize>) -> Result<usize, String> {
+/// The CPU the real-time thread is pinned to (`rt.cpu`, else the last online CPU) and the
+/// number of online CPUs.
+fn rt_cpu(cpu: Option<usize>) -> Result<(usize, usize), String> {
     // SAFETY: plain syscall.
     let online = unsafe { libc::sysconf(libc::_SC_NPROCESSORS_ONLN) };
     if online < 1 {
@@ -79,6 +81,32 @@ fn pin(cpu: Option<usize>) -> Result<usize, String> {
     if cpu >= online {
         return Err(format!("rt.cpu = {cpu} but only {online} CPUs are online"));
     }
+    Ok((cpu, online))
+}
+
+/// Keeps the calling thread, and every thread it starts from now on, off the real-time CPU
+/// (when there is another one): the planner, publisher, supervisor and control threads would
+/// otherwise share it with the cycle, and a non-preemptible kernel section of theirs (a page
+/// fault, an munmap's TLB shoot-down) delays the cycle's wake-up by milliseconds. Returns the
+/// CPU kept free.
+pub fn keep_off_rt_cpu(cfg: &RtConfig) -> Result<usize, String> {
+    let (cpu, online) = rt_cpu(cfg.cpu)?;
+    if online < 2 {
+        return Err("one CPU online: nothing to keep off it".into());
+    }
+    // SAFETY: cpu_set_t is plain data; CPU_SET writes inside it; the call affects this thread.
+    let rc = unsafe {
+        let mut set: libc::cpu_set_t = std::mem::zeroed();
+        for other in (0..online).filter(|&c| c != cpu) {
+            libc::CPU_SET(other, &mut set);
+        }
+        libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set)
+    };
+    if rc == 0 { Ok(cpu) } else { Err(format!("sched_setaffinity refused: {}", os_error())) }
+}
+
+fn pin(cpu: Option<usize>) -> Result<usize, String> {
+    let (cpu, _) = rt_cpu(cpu)?;
     // SAFETY: cpu_set_t is plain data; CPU_SET writes inside it; the call affects this thread.
     let rc = unsafe {
         let mut set: libc::cpu_set_t = std::mem::zeroed();

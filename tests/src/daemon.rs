@@ -158,6 +158,36 @@ impl Client {
     }
 }
 
+/// A subscriber to the setpoint service `name` (e.g. `<prefix>/setpoints`) with the daemon's
+/// QoS (`protocol::shm::qos`); the node and service live as long as it.
+pub struct SetpointSubscriber {
+    pub port: iceoryx2::port::subscriber::Subscriber<ipc::Service, Setpoints, ()>,
+    _service: iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, Setpoints, ()>,
+    _node: Node<ipc::Service>,
+}
+
+impl SetpointSubscriber {
+    pub fn open(name: &str) -> SetpointSubscriber {
+        set_log_level(LogLevel::Error);
+        let node = NodeBuilder::new()
+            .signal_handling_mode(SignalHandlingMode::Disabled)
+            .create::<ipc::Service>()
+            .expect("iceoryx2 node");
+        let service_name: ServiceName = name.try_into().expect("service name");
+        let service = node
+            .service_builder(&service_name)
+            .publish_subscribe::<Setpoints>()
+            .history_size(qos::HISTORY_SIZE)
+            .subscriber_max_buffer_size(qos::SUBSCRIBER_BUFFER_SIZE)
+            .max_publishers(qos::MAX_PUBLISHERS)
+            .max_subscribers(qos::MAX_SUBSCRIBERS)
+            .open_or_create()
+            .expect("setpoint service");
+        let port = service.subscriber_builder().buffer_size(qos::SUBSCRIBER_BUFFER_SIZE).create().expect("subscriber");
+        SetpointSubscriber { port, _service: service, _node: node }
+    }
+}
+
 /// Collects every setpoint published on `<prefix>/setpoints` in a thread of its own.
 pub struct Collector {
     stop: Arc<AtomicBool>,
@@ -172,27 +202,11 @@ impl Collector {
         let (ready_tx, ready_rx) = std::sync::mpsc::channel();
         let (s2, st2, p2) = (samples.clone(), stop.clone(), format!("{prefix}/setpoints"));
         let thread = std::thread::spawn(move || {
-            set_log_level(LogLevel::Error);
-            let node = NodeBuilder::new()
-                .signal_handling_mode(SignalHandlingMode::Disabled)
-                .create::<ipc::Service>()
-                .expect("iceoryx2 node");
-            let name: ServiceName = p2.as_str().try_into().expect("service name");
-            let service = node
-                .service_builder(&name)
-                .publish_subscribe::<Setpoints>()
-                .history_size(qos::HISTORY_SIZE)
-                .subscriber_max_buffer_size(qos::SUBSCRIBER_BUFFER_SIZE)
-                .max_publishers(qos::MAX_PUBLISHERS)
-                .max_subscribers(qos::MAX_SUBSCRIBERS)
-                .open_or_create()
-                .expect("setpoint service");
-            let sub =
-                service.subscriber_builder().buffer_size(qos::SUBSCRIBER_BUFFER_SIZE).create().expect("subscriber");
+            let sub = SetpointSubscriber::open(&p2);
             ready_tx.send(()).expect("ready");
             while !st2.load(Ordering::SeqCst) {
                 let mut got = Vec::new();
-                while let Ok(Some(sample)) = sub.receive() {
+                while let Ok(Some(sample)) = sub.port.receive() {
                     got.push(*sample);
                 }
                 s2.lock().expect("samples").extend(got);

@@ -11,9 +11,9 @@ use interpd::record::schema::Payload;
 use interpd::record::{RecordFile, Recorded, read_messages};
 use interpd::rt::clock::now_ns;
 use interpd_e2e::binary;
-use interpd_e2e::daemon::{Collector, Daemon};
+use interpd_e2e::daemon::{Collector, Daemon, SetpointSubscriber};
 use interpd_e2e::example;
-use interpd_protocol::shm::{Setpoints, flags, qos};
+use interpd_protocol::shm::{Setpoints, flags};
 use serde_json::{Value, json};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -119,32 +119,15 @@ struct ArrivalClock {
 
 impl ArrivalClock {
     fn start(prefix: &str) -> ArrivalClock {
-        use iceoryx2::prelude::*;
         let stop = Arc::new(AtomicBool::new(false));
         let (ready_tx, ready_rx) = std::sync::mpsc::channel();
         let (st, service_name) = (stop.clone(), format!("{prefix}/setpoints"));
         let thread = std::thread::spawn(move || {
-            set_log_level(LogLevel::Error);
-            let node = NodeBuilder::new()
-                .signal_handling_mode(SignalHandlingMode::Disabled)
-                .create::<ipc::Service>()
-                .expect("iceoryx2 node");
-            let name: ServiceName = service_name.as_str().try_into().expect("service name");
-            let service = node
-                .service_builder(&name)
-                .publish_subscribe::<Setpoints>()
-                .history_size(qos::HISTORY_SIZE)
-                .subscriber_max_buffer_size(qos::SUBSCRIBER_BUFFER_SIZE)
-                .max_publishers(qos::MAX_PUBLISHERS)
-                .max_subscribers(qos::MAX_SUBSCRIBERS)
-                .open_or_create()
-                .expect("setpoint service");
-            let sub =
-                service.subscriber_builder().buffer_size(qos::SUBSCRIBER_BUFFER_SIZE).create().expect("subscriber");
+            let sub = SetpointSubscriber::open(&service_name);
             ready_tx.send(()).expect("ready");
             let mut got = Vec::new();
             while !st.load(Ordering::SeqCst) {
-                while let Ok(Some(sample)) = sub.receive() {
+                while let Ok(Some(sample)) = sub.port.receive() {
                     got.push((sample.cycle, now_ns()));
                 }
                 std::thread::sleep(Duration::from_micros(200));

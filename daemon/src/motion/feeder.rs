@@ -452,11 +452,7 @@ impl Feeder {
             self.stats.tail_retries += 1;
             target = t + 0.25 * chunk_s;
         };
-        chunk.clear();
-        chunk.epoch = run.epoch;
-        chunk.seq = run.seq;
-        chunk.feed_override = run.feed_override;
-        chunk.points.push(CoarsePoint { t_s: 0.0, ..run.end });
+        run.open_chunk(chunk);
         let mut builder = CoarseBuilder::new(&run.path, max_piece_s, &self.max_jerk);
         builder.build(&segments, 0.0, &mut chunk.points);
         let end = *chunk.points.last().expect("points");
@@ -466,9 +462,7 @@ impl Feeder {
             builder.build(&tail, 0.0, &mut chunk.tail);
         }
         self.stats.max_coarse_error_mm = self.stats.max_coarse_error_mm.max(builder.max_error_mm);
-        run.last_tail = tail;
-        run.end = end;
-        run.seq += 1;
+        run.close_chunk(end, tail);
         Ok(true)
     }
 
@@ -478,16 +472,12 @@ impl Feeder {
     fn fill_law_chunk(&mut self, chunk: &mut Chunk) -> bool {
         let (chunk_s, max_piece_s) = (self.chunk_s, 2.0 * self.config.cycle_s());
         let Some(run) = self.run.as_mut() else { return false };
-        let Some(law) = run.law.as_mut() else { return false };
-        if law.is_done() {
+        if run.law.as_ref().is_none_or(LawPart::is_done) {
             return false;
         }
         let lim = run.planner.limits().clone();
-        chunk.clear();
-        chunk.epoch = run.epoch;
-        chunk.seq = run.seq;
-        chunk.feed_override = run.feed_override;
-        chunk.points.push(CoarsePoint { t_s: 0.0, ..run.end });
+        run.open_chunk(chunk);
+        let Some(law) = run.law.as_mut() else { return false };
         let mut want_s = chunk_s;
         let tail = loop {
             law.sample(want_s, max_piece_s, &self.max_jerk, &mut chunk.points);
@@ -513,14 +503,28 @@ impl Feeder {
             builder.build(&tail, 0.0, &mut chunk.tail);
             self.stats.max_coarse_error_mm = self.stats.max_coarse_error_mm.max(builder.max_error_mm);
         }
-        run.last_tail = tail;
-        run.end = end;
-        run.seq += 1;
+        run.close_chunk(end, tail);
         true
     }
 }
 
 impl Run {
+    /// Starts `chunk` as this run's next one, from its last queued point.
+    fn open_chunk(&self, chunk: &mut Chunk) {
+        chunk.clear();
+        chunk.epoch = self.epoch;
+        chunk.seq = self.seq;
+        chunk.feed_override = self.feed_override;
+        chunk.points.push(CoarsePoint { t_s: 0.0, ..self.end });
+    }
+
+    /// A chunk ending at `end` with the stop `tail` is filled: the next one starts there.
+    fn close_chunk(&mut self, end: CoarsePoint, tail: Vec<Segment>) {
+        self.last_tail = tail;
+        self.end = end;
+        self.seq += 1;
+    }
+
     fn new(config: &Config, path: Arc<Path>, feed_override: f64, epoch: u64, s_mm: f64, end: CoarsePoint) -> Run {
         let plan_path = scaled(&path.suffix_from(s_mm), feed_override);
         let planner = Planner::new(config);

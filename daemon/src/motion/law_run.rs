@@ -98,7 +98,6 @@ impl LawPart {
         let mut added = 0.0;
         while added < want_s - END_TOL_S {
             let Some((mv, frame)) = self.moves.front() else { break };
-            let (mv, frame) = (mv.clone(), *frame);
             let remaining = mv.duration_s() - self.t_s;
             if remaining <= END_TOL_S {
                 self.moves.pop_front();
@@ -107,13 +106,13 @@ impl LawPart {
             }
             let mut h = step_s.min(remaining).min(want_s - added + step_s * 0.5);
             let start = *out.last().expect("a start point");
-            let mut end = point(&mv, &frame, self.t_s + h, start.t_s + h, start.pos);
+            let mut end = point(mv, frame, self.t_s + h, start.t_s + h, start.pos);
             for _ in 0..MAX_HALVINGS {
-                if fits(&mv, self.t_s, h, &start, &end, max_jerk) {
+                if fits(mv, self.t_s, h, &start, &end, max_jerk) {
                     break;
                 }
                 h *= 0.5;
-                end = point(&mv, &frame, self.t_s + h, start.t_s + h, start.pos);
+                end = point(mv, frame, self.t_s + h, start.t_s + h, start.pos);
             }
             out.push(end);
             self.t_s += h;

@@ -516,10 +516,12 @@ impl MotionCore {
 impl MotionCore {
     /// `program.load` of a law program: the moves are made and checked from where the machine
     /// stands now (and again at `motion.start`, from where it stands then).
-    fn load_laws(&self, name: String, laws: LawProgram) -> Result<ProgramInfo, MotionError> {
+    /// Returns the program's info and the moves' total duration.
+    fn load_laws(&self, name: String, laws: LawProgram) -> Result<(ProgramInfo, f64), MotionError> {
         let inner = &self.inner;
         let here = inner.live.load().pos;
         let moves = laws.moves(&inner.config, &here, &name).map_err(MotionError::BadProgram)?;
+        let duration_s = moves.iter().map(LawMove::duration_s).sum();
         let (path, _) = law_run::law_path(&inner.config, moves, here, &laws.lines());
         let info = ProgramInfo {
             name,
@@ -534,7 +536,7 @@ impl MotionCore {
         ctl.program = Some((info.clone(), Loaded::Laws(Arc::new(laws))));
         ctl.state = State::Idle;
         ctl.last_error = None;
-        Ok(info)
+        Ok((info, duration_s))
     }
 }
 
@@ -560,7 +562,7 @@ impl Motion for MotionCore {
             return Err(Inner::not_allowed(state, "program.load"));
         }
         if let Some((name, laws)) = law_program_of(&source)? {
-            return self.load_laws(name, laws);
+            return self.load_laws(name, laws).map(|(info, _)| info);
         }
         let (name, parsed) = match source {
             ProgramSource::File(p) => (p.display().to_string(), program::load(&p, &inner.config)),
@@ -606,20 +608,11 @@ impl Motion for MotionCore {
                 statement.chars().take(80).collect::<String>()
             )));
         }
-        let info = self.load(ProgramSource::Text { name: "motion.law".into(), text: statement.to_owned() })?;
-        let here = self.inner.live.load().pos;
-        let duration_s = {
-            let ctl = lock(&self.inner.control);
-            match ctl.program.as_ref().map(|(_, l)| l) {
-                Some(Loaded::Laws(prog)) => prog
-                    .moves(&self.inner.config, &here, &info.name)
-                    .map_err(MotionError::BadProgram)?
-                    .iter()
-                    .map(LawMove::duration_s)
-                    .sum::<f64>(),
-                _ => return Err(MotionError::Internal("the law move was not loaded".into())),
-            }
-        };
+        let name = "motion.law";
+        let laws = law_run::parse_law_program(statement, name)
+            .map_err(MotionError::BadProgram)?
+            .ok_or_else(|| MotionError::Internal("a LAW statement did not parse as a law program".into()))?;
+        let (info, duration_s) = self.load_laws(name.to_owned(), laws)?;
         self.start()?;
         Ok(serde_json::json!({ "duration_s": duration_s, "length_mm": info.length_mm }))
     }

@@ -89,6 +89,23 @@ impl CubicSpan {
         self.table.s_of_u(&|u| speed_of(&self.r, &self.linear, u), u)
     }
 
+    /// |P′(u)| = ds/du and its derivative d²s/du² (over the linear axes): for integrating
+    /// the arc length over many parameters at once without a quadrature each.
+    pub fn speed_at_u(&self, u: f64) -> (f64, f64) {
+        let (mut p1p1, mut p1p2) = (0.0, 0.0);
+        for k in 0..MAX_AXES {
+            if self.linear[k] {
+                let r = &self.r;
+                let p1 = (3.0 * r[3][k] * u + 2.0 * r[2][k]) * u + r[1][k];
+                let p2 = 6.0 * r[3][k] * u + 2.0 * r[2][k];
+                p1p1 += p1 * p1;
+                p1p2 += p1 * p2;
+            }
+        }
+        let sigma = p1p1.sqrt();
+        (sigma, p1p2 / sigma)
+    }
+
     /// A(s) … A‴(s) at span parameter `u` (no arc-length inversion: cheap, for scanning).
     pub fn eval_at_u(&self, u: f64, out: &mut AxisDerivs) {
         let (mut p1, mut p2, mut p3) = ([0.0; MAX_AXES], [0.0; MAX_AXES], [0.0; MAX_AXES]);
@@ -124,19 +141,57 @@ impl CubicSpan {
     }
 }
 
+/// |P′|², P′·P″ and |P″|² of a cubic span as polynomials in u, from the six sums over the
+/// linear axes of products of P′ = a u² + b u + c's coefficients (a = 3R₃, b = 2R₂, c = R₁):
+/// the scans below evaluate them hundreds of times per span at a cost independent of the
+/// axis count.
+struct SpeedPolys {
+    aa: f64,
+    ab: f64,
+    ac: f64,
+    bb: f64,
+    bc: f64,
+    cc: f64,
+}
+
+impl SpeedPolys {
+    fn new(r: &[AxisVec; 4], linear: &[bool; MAX_AXES]) -> Self {
+        let mut p = SpeedPolys { aa: 0.0, ab: 0.0, ac: 0.0, bb: 0.0, bc: 0.0, cc: 0.0 };
+        for k in (0..MAX_AXES).filter(|&k| linear[k]) {
+            let (a, b, c) = (3.0 * r[3][k], 2.0 * r[2][k], r[1][k]);
+            p.aa += a * a;
+            p.ab += a * b;
+            p.ac += a * c;
+            p.bb += b * b;
+            p.bc += b * c;
+            p.cc += c * c;
+        }
+        p
+    }
+
+    /// |P′(u)|²
+    #[inline]
+    fn p1p1(&self, u: f64) -> f64 {
+        (((self.aa * u + 2.0 * self.ab) * u + self.bb + 2.0 * self.ac) * u + 2.0 * self.bc) * u + self.cc
+    }
+
+    /// P′(u)·P″(u)
+    #[inline]
+    fn p1p2(&self, u: f64) -> f64 {
+        ((2.0 * self.aa * u + 3.0 * self.ab) * u + self.bb + 2.0 * self.ac) * u + self.bc
+    }
+
+    /// |P″(u)|²
+    #[inline]
+    fn p2p2(&self, u: f64) -> f64 {
+        (4.0 * self.aa * u + 4.0 * self.ab) * u + self.bb
+    }
+}
+
 /// Smallest |P′(u)| on [0, 1]: at the ends or where d|P′|²/du = 2P′·P″ changes sign.
 fn min_speed(r: &[AxisVec; 4], linear: &[bool; MAX_AXES]) -> f64 {
-    let dot = |u: f64| {
-        let mut d = 0.0;
-        for k in 0..MAX_AXES {
-            if linear[k] {
-                let p1 = (3.0 * r[3][k] * u + 2.0 * r[2][k]) * u + r[1][k];
-                let p2 = 6.0 * r[3][k] * u + 2.0 * r[2][k];
-                d += p1 * p2;
-            }
-        }
-        d
-    };
+    let poly = SpeedPolys::new(r, linear);
+    let dot = |u: f64| poly.p1p2(u);
     let mut best = speed_of(r, linear, 0.0).min(speed_of(r, linear, 1.0));
     for i in 0..CUSP_SAMPLES {
         let (mut a, mut b) = (i as f64 / CUSP_SAMPLES as f64, (i + 1) as f64 / CUSP_SAMPLES as f64);
@@ -158,46 +213,50 @@ fn min_speed(r: &[AxisVec; 4], linear: &[bool; MAX_AXES]) -> f64 {
     best
 }
 
+/// Golden-section steps refining the tightest curvature sample (the bracket of two sample
+/// spacings shrinks to 0.618⁴⁰ ≈ 4·10⁻⁹ of itself).
+const CURVATURE_REFINE: usize = 40;
+
 /// Smallest radius of curvature |P′|³ / |P′ × P″| over the span, and where (u): sampled,
 /// then refined by golden-section search around the tightest sample.
 fn min_curvature_radius(r: &[AxisVec; 4], linear: &[bool; MAX_AXES]) -> (f64, f64) {
-    let radius = |u: f64| {
-        let (mut p1p1, mut p2p2, mut p1p2) = (0.0, 0.0, 0.0);
-        for k in 0..MAX_AXES {
-            if linear[k] {
-                let p1 = (3.0 * r[3][k] * u + 2.0 * r[2][k]) * u + r[1][k];
-                let p2 = 6.0 * r[3][k] * u + 2.0 * r[2][k];
-                p1p1 += p1 * p1;
-                p2p2 += p2 * p2;
-                p1p2 += p1 * p2;
-            }
-        }
-        // |P′ × P″|² = |P′|²|P″|² − (P′·P″)² in any dimension.
-        let cross = (p1p1 * p2p2 - p1p2 * p1p2).max(0.0).sqrt();
-        if cross > 0.0 { p1p1.powf(1.5) / cross } else { f64::INFINITY }
+    let poly = SpeedPolys::new(r, linear);
+    // The radius squared, |P′|⁶ / |P′ × P″|², with |P′ × P″|² = |P′|²|P″|² − (P′·P″)² in
+    // any dimension: ordered like the radius, without roots or powers.
+    let radius2 = |u: f64| {
+        let (p1p1, p1p2) = (poly.p1p1(u), poly.p1p2(u));
+        let cross2 = (p1p1 * poly.p2p2(u) - p1p2 * p1p2).max(0.0);
+        if cross2 > 0.0 { p1p1 * p1p1 * p1p1 / cross2 } else { f64::INFINITY }
     };
     let mut best = (f64::INFINITY, 0.0);
     for i in 0..=CUSP_SAMPLES {
         let u = i as f64 / CUSP_SAMPLES as f64;
-        let rad = radius(u);
-        if rad < best.0 {
-            best = (rad, u);
+        let rad2 = radius2(u);
+        if rad2 < best.0 {
+            best = (rad2, u);
         }
     }
     let h = 1.0 / CUSP_SAMPLES as f64;
     let (mut a, mut b) = ((best.1 - h).max(0.0), (best.1 + h).min(1.0));
     let g = 0.5 * (5f64.sqrt() - 1.0);
-    for _ in 0..60 {
-        let (c, d) = (b - g * (b - a), a + g * (b - a));
-        if radius(c) < radius(d) {
+    let (mut c, mut d) = (b - g * (b - a), a + g * (b - a));
+    let (mut fc, mut fd) = (radius2(c), radius2(d));
+    for _ in 0..CURVATURE_REFINE {
+        if fc < fd {
             b = d;
+            (d, fd) = (c, fc);
+            c = b - g * (b - a);
+            fc = radius2(c);
         } else {
             a = c;
+            (c, fc) = (d, fd);
+            d = a + g * (b - a);
+            fd = radius2(d);
         }
     }
-    let u = 0.5 * (a + b);
-    let rad = radius(u);
-    if rad < best.0 { (rad, u) } else { best }
+    let (u, rad2) = if fc < fd { (c, fc) } else { (d, fd) };
+    let (rad2, u) = if rad2 < best.0 { (rad2, u) } else { best };
+    (rad2.sqrt(), u)
 }
 
 fn speed_of(r: &[AxisVec; 4], linear: &[bool; MAX_AXES], u: f64) -> f64 {

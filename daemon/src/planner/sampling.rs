@@ -44,17 +44,37 @@ impl SamplingParams {
 
 /// Samples per span when profiling how sharply a spline or table span turns.
 const SHARPNESS_SAMPLES: usize = 32;
-/// Golden-section steps refining each local maximum of the sharpness.
-const SHARPNESS_REFINE: usize = 24;
+/// Golden-section steps refining a sharp local maximum of the sharpness (the bracket of two
+/// sample spacings shrinks to 0.618¹⁶ ≈ 5·10⁻⁴ of itself).
+const SHARPNESS_REFINE: usize = 16;
+/// A local maximum whose neighbours both lie within this fraction below it is flat: the
+/// curve between the samples is bounded by the parabola through the three (its vertex lies
+/// at most a quarter of the drop above the sample), so no search is needed there.
+const FLAT_PEAK_DROP: f64 = 0.1;
 
 /// How sharply a curved span turns along its length, so a step is bounded by the sharpest
 /// point it covers and not only by where it starts (a narrow tight spot would be stepped
 /// over): tangent turn rate, its change, and orientation rate, sampled along the span with
-/// every local maximum refined.
+/// every local maximum bounded (flat ones) or refined (sharp ones).
 struct Sharpness {
     s: Vec<f64>,
     /// Per sample: (curvature, curvature change, orientation rate) as the step criteria use them.
     value: Vec<(f64, f64, f64)>,
+}
+
+/// One criterion of a sharpness triple.
+#[inline]
+fn criterion(v: &(f64, f64, f64), crit: usize) -> f64 {
+    [v.0, v.1, v.2][crit]
+}
+
+/// Raises one criterion of a sharpness triple to at least `x`.
+fn raise(v: &mut (f64, f64, f64), crit: usize, x: f64) {
+    match crit {
+        0 => v.0 = v.0.max(x),
+        1 => v.1 = v.1.max(x),
+        _ => v.2 = v.2.max(x),
+    }
 }
 
 impl Sharpness {
@@ -63,47 +83,55 @@ impl Sharpness {
     fn of(e: &Element, lim: &Limits, params: &SamplingParams) -> Option<Self> {
         let crate::path::Geometry::Cubic(c) = &e.geometry else { return None };
         let mut d = AxisDerivs::default();
-        let measure = |d: &AxisDerivs| sharpness_at(d, lim, params);
-        // The derivatives at span parameter x are cheap; its arc length (a quadrature) is
-        // computed only for the points kept, not inside the refining searches.
         let mut sharp_at = |x: f64| {
             c.eval_at_u(x, &mut d);
-            measure(&d)
+            sharpness_at(&d, lim, params)
         };
-        let mut pts: Vec<(f64, (f64, f64, f64))> = (0..=SHARPNESS_SAMPLES)
-            .map(|i| {
-                let x = i as f64 / SHARPNESS_SAMPLES as f64;
-                (x, sharp_at(x))
-            })
-            .collect();
-        // Refine every local maximum of each criterion by golden-section search in x.
+        let n = SHARPNESS_SAMPLES;
+        let h = 1.0 / n as f64;
+        let mut u: Vec<f64> = (0..=n).map(|i| i as f64 * h).collect();
+        let mut value: Vec<(f64, f64, f64)> = u.iter().map(|&x| sharp_at(x)).collect();
+        let mut s = uniform_arc_lengths(c, n);
         let mut extra = Vec::new();
         for crit in 0..3 {
-            let get = |v: &(f64, f64, f64)| [v.0, v.1, v.2][crit];
-            for i in 0..pts.len() {
-                let here = get(&pts[i].1);
-                let left = if i > 0 { get(&pts[i - 1].1) } else { f64::NEG_INFINITY };
-                let right = if i + 1 < pts.len() { get(&pts[i + 1].1) } else { f64::NEG_INFINITY };
-                if here > 0.0 && here >= left && here >= right {
-                    let h = 1.0 / SHARPNESS_SAMPLES as f64;
-                    let (mut a, mut b) = ((pts[i].0 - h).max(0.0), (pts[i].0 + h).min(1.0));
-                    let g = 0.5 * (5f64.sqrt() - 1.0);
-                    for _ in 0..SHARPNESS_REFINE {
-                        let (p, q) = (b - g * (b - a), a + g * (b - a));
-                        if get(&sharp_at(p)) > get(&sharp_at(q)) {
-                            b = q;
-                        } else {
-                            a = p;
-                        }
-                    }
-                    let x = 0.5 * (a + b);
+            for i in 0..=n {
+                let here = criterion(&value[i], crit);
+                let left = if i > 0 { criterion(&value[i - 1], crit) } else { f64::NEG_INFINITY };
+                let right = if i < n { criterion(&value[i + 1], crit) } else { f64::NEG_INFINITY };
+                if !(here > 0.0 && here >= left && here >= right) {
+                    continue;
+                }
+                // At the span's ends only the inner neighbour counts.
+                let lowest = if i == 0 {
+                    right
+                } else if i == n {
+                    left
+                } else {
+                    left.min(right)
+                };
+                let drop = here - lowest.max(0.0);
+                if drop <= FLAT_PEAK_DROP * here {
+                    raise(&mut value[i], crit, here + 0.25 * drop);
+                } else {
+                    let x = refine_peak(
+                        &mut sharp_at,
+                        crit,
+                        ((i as f64 - 1.0) * h).max(0.0),
+                        ((i as f64 + 1.0) * h).min(1.0),
+                    );
                     extra.push((x, sharp_at(x)));
                 }
             }
         }
-        pts.extend(extra);
-        pts.sort_by(|p, q| p.0.total_cmp(&q.0));
-        Some(Self { s: pts.iter().map(|p| c.s_at(p.0)).collect(), value: pts.iter().map(|p| p.1).collect() })
+        // Refined maxima (rare: only where the curve turns sharply inside a span) get their
+        // exact arc length.
+        for (x, v) in extra {
+            let at = u.partition_point(|&y| y < x);
+            u.insert(at, x);
+            value.insert(at, v);
+            s.insert(at, c.s_at(x));
+        }
+        Some(Self { s, value })
     }
 
     /// The sharpest values over [a, b] (including the samples just outside, since the
@@ -113,6 +141,52 @@ impl Sharpness {
         let i1 = (self.s.partition_point(|&x| x <= b) + 1).min(self.s.len());
         self.value[i0..i1].iter().fold((0.0, 0.0, 0.0), |m, v| (m.0.max(v.0), m.1.max(v.1), m.2.max(v.2)))
     }
+}
+
+/// Arc length at u = i/n, i = 0..=n, of a cubic span: the trapezoid rule with its end
+/// correction (Euler–Maclaurin, h²/12·(σ′ᵢ − σ′ᵢ₊₁), fourth order) per piece, scaled so the
+/// last equals the span's exact length. Accurate far beyond what locating a step needs, at
+/// n + 1 speed evaluations instead of a quadrature per point.
+fn uniform_arc_lengths(c: &crate::path::CubicSpan, n: usize) -> Vec<f64> {
+    let h = 1.0 / n as f64;
+    let mut s = Vec::with_capacity(n + 1);
+    s.push(0.0);
+    let (mut f0, mut df0) = c.speed_at_u(0.0);
+    for i in 1..=n {
+        let (f1, df1) = c.speed_at_u(i as f64 * h);
+        let piece = 0.5 * h * (f0 + f1) + h * h / 12.0 * (df0 - df1);
+        s.push(s[i - 1] + piece);
+        (f0, df0) = (f1, df1);
+    }
+    let total = s[n];
+    let scale = if total > 0.0 { c.length_mm() / total } else { 1.0 };
+    for x in &mut s {
+        *x *= scale;
+    }
+    s
+}
+
+/// The parameter in [a, b] where criterion `crit` peaks: golden-section search, one new
+/// evaluation per step.
+fn refine_peak(sharp_at: &mut impl FnMut(f64) -> (f64, f64, f64), crit: usize, a: f64, b: f64) -> f64 {
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut a, mut b) = (a, b);
+    let (mut p, mut q) = (b - g * (b - a), a + g * (b - a));
+    let (mut fp, mut fq) = (criterion(&sharp_at(p), crit), criterion(&sharp_at(q), crit));
+    for _ in 0..SHARPNESS_REFINE {
+        if fp > fq {
+            b = q;
+            (q, fq) = (p, fp);
+            p = b - g * (b - a);
+            fp = criterion(&sharp_at(p), crit);
+        } else {
+            a = p;
+            (p, fp) = (q, fq);
+            q = a + g * (b - a);
+            fq = criterion(&sharp_at(q), crit);
+        }
+    }
+    if fp > fq { p } else { q }
 }
 
 /// (curvature, curvature change, orientation rate) at one point, as the step criteria use them.

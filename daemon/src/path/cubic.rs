@@ -10,6 +10,9 @@ pub struct CubicSpan {
     /// P(u) = r[3]u³ + r[2]u² + r[1]u + r[0]
     r: [AxisVec; 4],
     linear: [bool; MAX_AXES],
+    /// Axes of the path (the entries of `r` beyond are zero): the per-evaluation loops stop
+    /// there, which makes a 3-axis span three times cheaper than looping over `MAX_AXES`.
+    n_axes: usize,
     table: ArcLengthTable,
 }
 
@@ -48,17 +51,18 @@ impl CubicSpan {
         for (k, m) in mask.iter_mut().enumerate() {
             *m = linear.get(k).copied().unwrap_or(false);
         }
-        let speed = |u: f64| speed_of(&r, &mask, u);
+        let n_axes = linear.len().min(MAX_AXES);
+        let speed = |u: f64| speed_of(&r, &mask[..n_axes], u);
         let table = ArcLengthTable::build(&speed);
         let mean = table.length();
-        if mean.is_nan() || mean <= 0.0 || min_speed(&r, &mask) < CUSP_REL_TOL * mean {
+        if mean.is_nan() || mean <= 0.0 || min_speed(&r, &mask[..n_axes]) < CUSP_REL_TOL * mean {
             return Err(SpanError::ZeroTangent);
         }
-        let (radius_mm, u) = min_curvature_radius(&r, &mask);
+        let (radius_mm, u) = min_curvature_radius(&r, &mask[..n_axes]);
         if radius_mm < MIN_CURVATURE_RADIUS_MM {
             return Err(SpanError::SharpTurn { radius_mm, u });
         }
-        Ok(Self { r, linear: mask, table })
+        Ok(Self { r, linear: mask, n_axes, table })
     }
 
     pub fn length_mm(&self) -> f64 {
@@ -76,7 +80,7 @@ impl CubicSpan {
 
     /// Span parameter at arc length `s`.
     pub fn u_at(&self, s: f64) -> f64 {
-        self.table.u_of_s(&|u| speed_of(&self.r, &self.linear, u), s)
+        self.table.u_of_s(&|u| speed_of(&self.r, &self.linear[..self.n_axes], u), s)
     }
 
     pub fn eval(&self, s: f64, out: &mut AxisDerivs) {
@@ -86,14 +90,14 @@ impl CubicSpan {
 
     /// Arc length from the span start to parameter `u`.
     pub fn s_at(&self, u: f64) -> f64 {
-        self.table.s_of_u(&|u| speed_of(&self.r, &self.linear, u), u)
+        self.table.s_of_u(&|u| speed_of(&self.r, &self.linear[..self.n_axes], u), u)
     }
 
     /// |P′(u)| = ds/du and its derivative d²s/du² (over the linear axes): for integrating
     /// the arc length over many parameters at once without a quadrature each.
     pub fn speed_at_u(&self, u: f64) -> (f64, f64) {
         let (mut p1p1, mut p1p2) = (0.0, 0.0);
-        for k in 0..MAX_AXES {
+        for k in 0..self.n_axes {
             if self.linear[k] {
                 let r = &self.r;
                 let p1 = (3.0 * r[3][k] * u + 2.0 * r[2][k]) * u + r[1][k];
@@ -108,8 +112,9 @@ impl CubicSpan {
 
     /// A(s) … A‴(s) at span parameter `u` (no arc-length inversion: cheap, for scanning).
     pub fn eval_at_u(&self, u: f64, out: &mut AxisDerivs) {
+        let n = self.n_axes;
         let (mut p1, mut p2, mut p3) = ([0.0; MAX_AXES], [0.0; MAX_AXES], [0.0; MAX_AXES]);
-        for k in 0..MAX_AXES {
+        for k in 0..n {
             let r = &self.r;
             out.pos[k] = ((r[3][k] * u + r[2][k]) * u + r[1][k]) * u + r[0][k];
             p1[k] = (3.0 * r[3][k] * u + 2.0 * r[2][k]) * u + r[1][k];
@@ -118,7 +123,7 @@ impl CubicSpan {
         }
         // σ = |P′|, σ_u = P′·P″/σ, σ_uu = (|P″|² + P′·P‴)/σ − σ_u²/σ over the linear axes.
         let (mut p1p1, mut p1p2, mut p2p2, mut p1p3) = (0.0, 0.0, 0.0, 0.0);
-        for k in 0..MAX_AXES {
+        for k in 0..n {
             if self.linear[k] {
                 p1p1 += p1[k] * p1[k];
                 p1p2 += p1[k] * p2[k];
@@ -133,10 +138,14 @@ impl CubicSpan {
         let u1 = 1.0 / sigma;
         let u2 = -sigma_u * u1 * u1 * u1;
         let u3 = -sigma_uu * u1.powi(4) + 3.0 * sigma_u * sigma_u * u1.powi(5);
-        for k in 0..MAX_AXES {
+        for k in 0..n {
             out.d1[k] = p1[k] * u1;
             out.d2[k] = p2[k] * u1 * u1 + p1[k] * u2;
             out.d3[k] = p3[k] * u1 * u1 * u1 + 3.0 * p2[k] * u1 * u2 + p1[k] * u3;
+        }
+        // Axes the path does not have stand still (`out` may hold another geometry's values).
+        for k in n..MAX_AXES {
+            (out.pos[k], out.d1[k], out.d2[k], out.d3[k]) = (0.0, 0.0, 0.0, 0.0);
         }
     }
 }
@@ -155,9 +164,9 @@ struct SpeedPolys {
 }
 
 impl SpeedPolys {
-    fn new(r: &[AxisVec; 4], linear: &[bool; MAX_AXES]) -> Self {
+    fn new(r: &[AxisVec; 4], linear: &[bool]) -> Self {
         let mut p = SpeedPolys { aa: 0.0, ab: 0.0, ac: 0.0, bb: 0.0, bc: 0.0, cc: 0.0 };
-        for k in (0..MAX_AXES).filter(|&k| linear[k]) {
+        for k in (0..linear.len()).filter(|&k| linear[k]) {
             let (a, b, c) = (3.0 * r[3][k], 2.0 * r[2][k], r[1][k]);
             p.aa += a * a;
             p.ab += a * b;
@@ -189,7 +198,7 @@ impl SpeedPolys {
 }
 
 /// Smallest |P′(u)| on [0, 1]: at the ends or where d|P′|²/du = 2P′·P″ changes sign.
-fn min_speed(r: &[AxisVec; 4], linear: &[bool; MAX_AXES]) -> f64 {
+fn min_speed(r: &[AxisVec; 4], linear: &[bool]) -> f64 {
     let poly = SpeedPolys::new(r, linear);
     let dot = |u: f64| poly.p1p2(u);
     let mut best = speed_of(r, linear, 0.0).min(speed_of(r, linear, 1.0));
@@ -219,7 +228,7 @@ const CURVATURE_REFINE: usize = 40;
 
 /// Smallest radius of curvature |P′|³ / |P′ × P″| over the span, and where (u): sampled,
 /// then refined by golden-section search around the tightest sample.
-fn min_curvature_radius(r: &[AxisVec; 4], linear: &[bool; MAX_AXES]) -> (f64, f64) {
+fn min_curvature_radius(r: &[AxisVec; 4], linear: &[bool]) -> (f64, f64) {
     let poly = SpeedPolys::new(r, linear);
     // The radius squared, |P′|⁶ / |P′ × P″|², with |P′ × P″|² = |P′|²|P″|² − (P′·P″)² in
     // any dimension: ordered like the radius, without roots or powers.
@@ -259,9 +268,10 @@ fn min_curvature_radius(r: &[AxisVec; 4], linear: &[bool; MAX_AXES]) -> (f64, f6
     (rad2.sqrt(), u)
 }
 
-fn speed_of(r: &[AxisVec; 4], linear: &[bool; MAX_AXES], u: f64) -> f64 {
+/// |P′(u)| over the linear axes; `linear` has one flag per axis of the path.
+fn speed_of(r: &[AxisVec; 4], linear: &[bool], u: f64) -> f64 {
     let mut sq = 0.0;
-    for k in 0..MAX_AXES {
+    for k in 0..linear.len() {
         if linear[k] {
             let d = (3.0 * r[3][k] * u + 2.0 * r[2][k]) * u + r[1][k];
             sq += d * d;

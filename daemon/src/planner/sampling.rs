@@ -42,8 +42,13 @@ impl SamplingParams {
     }
 }
 
-/// Samples per span when profiling how sharply a spline or table span turns.
+/// Samples per step length when profiling how sharply a spline span turns: a span much
+/// longer than a step gets this many per step (up to `SHARPNESS_SAMPLES`), a span shorter
+/// than a step, as in a dense G06 spline, at least `SHARPNESS_MIN_SAMPLES`, so the profile
+/// resolves the same share of a step either way.
 const SHARPNESS_SAMPLES: usize = 32;
+/// Fewest samples of a span's sharpness profile.
+const SHARPNESS_MIN_SAMPLES: usize = 8;
 /// Golden-section steps refining a sharp local maximum of the sharpness (the bracket of two
 /// sample spacings shrinks to 0.618¹⁶ ≈ 5·10⁻⁴ of itself).
 const SHARPNESS_REFINE: usize = 16;
@@ -80,14 +85,20 @@ fn raise(v: &mut (f64, f64, f64), crit: usize, x: f64) {
 impl Sharpness {
     /// Profile of a spline span; `None` for lines and arcs (constant sharpness) and path-table
     /// spans (the table brings its own sample points).
-    fn of(e: &Element, lim: &Limits, params: &SamplingParams) -> Option<Self> {
+    /// `step_mm` is the sampling step at the span's start, which sets the profile's resolution.
+    fn of(e: &Element, lim: &Limits, params: &SamplingParams, step_mm: f64) -> Option<Self> {
         let crate::path::Geometry::Cubic(c) = &e.geometry else { return None };
         let mut d = AxisDerivs::default();
         let mut sharp_at = |x: f64| {
             c.eval_at_u(x, &mut d);
             sharpness_at(&d, lim, params)
         };
-        let n = SHARPNESS_SAMPLES;
+        let per_step = SHARPNESS_SAMPLES as f64 * c.length_mm() / step_mm;
+        let n = if per_step.is_finite() {
+            (per_step.ceil() as usize).clamp(SHARPNESS_MIN_SAMPLES, SHARPNESS_SAMPLES)
+        } else {
+            SHARPNESS_SAMPLES
+        };
         let h = 1.0 / n as f64;
         let mut u: Vec<f64> = (0..=n).map(|i| i as f64 * h).collect();
         let mut value: Vec<(f64, f64, f64)> = u.iter().map(|&x| sharp_at(x)).collect();
@@ -307,7 +318,8 @@ pub fn sample_element(
     }
     let j_path = lim.min_jerk();
     let a_path = lim.min_acc();
-    let sharpness = Sharpness::of(e, lim, params);
+    // Profiled at the first step, whose length sets the profile's resolution.
+    let mut sharpness: Option<Option<Sharpness>> = None;
     let mut s = 0.0;
     loop {
         let from_start = *since_stop_mm + s;
@@ -324,7 +336,7 @@ pub fn sample_element(
         }
         // And the sharpest point the step covers (splines and tables can turn tightly in a
         // narrow spot between two sample points).
-        if let Some(sh) = &sharpness {
+        if let Some(sh) = sharpness.get_or_insert_with(|| Sharpness::of(e, lim, params, ds)) {
             for _ in 0..SHARPNESS_ITERS {
                 let bound = geometric_step(sh.max_over(s, s + ds), params).max(GEOMETRY_MIN_STEP_MM);
                 if bound >= ds {

@@ -144,6 +144,17 @@ impl Client {
         Some(v)
     }
 
+    /// Waits until the event `name` has arrived (events are written apart from responses,
+    /// so one may follow the status that already shows its effect).
+    pub fn wait_event(&mut self, name: &str, timeout: Duration) {
+        let until = Instant::now() + timeout;
+        while !self.events.iter().any(|e| e["event"] == name) {
+            assert!(Instant::now() < until, "event {name} not received after {timeout:?}: {:?}", self.events);
+            self.ok("status", Value::Null);
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+
     /// Polls `status` until its state is one of `states`; returns the status.
     pub fn wait_state(&mut self, states: &[&str], timeout: Duration) -> Value {
         let until = Instant::now() + timeout;

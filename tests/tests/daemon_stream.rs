@@ -145,6 +145,7 @@ fn override_hold_resume_and_stop_keep_the_limits_and_the_path() {
     c.ok("motion.stop", Value::Null);
     let st = c.wait_state(&["idle"], RUN_TIMEOUT);
     assert!(st["s_mm"].as_f64().unwrap() > 0.0);
+    c.wait_event("stopped", Duration::from_secs(5));
     pause(100);
     let sps = collector.finish();
     let path = program::parse(LOOP, name, &config).unwrap().path;

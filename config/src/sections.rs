@@ -214,11 +214,15 @@ pub struct RtConfig {
     pub cpu: Option<usize>,
     /// Lock all memory (mlockall) when permitted.
     pub lock_memory: bool,
+    /// Nice value (−20–19) of the planner thread under the normal scheduler when permitted:
+    /// below 0 it keeps its share of a CPU that busy processes compete for, so the queue of
+    /// planned motion does not run dry (an underrun stops the machine along the path).
+    pub planner_nice: i32,
 }
 
 impl Default for RtConfig {
     fn default() -> Self {
-        Self { priority: 80, cpu: None, lock_memory: true }
+        Self { priority: 80, cpu: None, lock_memory: true, planner_nice: -10 }
     }
 }
 
@@ -226,6 +230,9 @@ impl RtConfig {
     pub(crate) fn validate(&self, v: &Validator) -> Result<(), ConfigError> {
         if !(0..=99).contains(&self.priority) {
             return Err(v.err("rt.priority", &format!("must lie in 0..=99, got {}", self.priority)));
+        }
+        if !(-20..=19).contains(&self.planner_nice) {
+            return Err(v.err("rt.planner_nice", &format!("must lie in -20..=19, got {}", self.planner_nice)));
         }
         Ok(())
     }

@@ -197,9 +197,16 @@ impl MotionService {
             |what: &'static str| move |e: std::io::Error| StartError::Thread { what, message: e.to_string() };
 
         let feeder = Feeder::new(opts.config.clone(), queues, report_tx);
+        let planner_nice = opts.config.rt.planner_nice;
         let feeder = std::thread::Builder::new()
             .name("interpd-planner".into())
-            .spawn(move || feeder.run(feeder_rx))
+            .spawn(move || {
+                match rt::sched::set_thread_nice(planner_nice) {
+                    Ok(()) => tracing::info!(nice = planner_nice, "planner thread scheduled"),
+                    Err(why) => tracing::info!("planner thread at the default nice value: {why}"),
+                }
+                feeder.run(feeder_rx)
+            })
             .map_err(thread_err("planner"))?;
 
         // Sinks: iceoryx2 publishes from a thread of its own (its loan allocates).

@@ -105,6 +105,17 @@ pub fn keep_off_rt_cpu(cfg: &RtConfig) -> Result<usize, String> {
     if rc == 0 { Ok(cpu) } else { Err(format!("sched_setaffinity refused: {}", os_error())) }
 }
 
+/// Sets the calling thread's nice value (Linux applies `setpriority` to a thread id alone).
+/// A value below 0 needs CAP_SYS_NICE or `LimitNICE`/`RLIMIT_NICE`.
+pub fn set_thread_nice(nice: i32) -> Result<(), String> {
+    // SAFETY: gettid has no arguments; setpriority changes this thread's nice value only.
+    let rc = unsafe {
+        let tid = libc::syscall(libc::SYS_gettid) as libc::id_t;
+        libc::setpriority(libc::PRIO_PROCESS, tid, nice)
+    };
+    if rc == 0 { Ok(()) } else { Err(format!("setpriority(nice {nice}) refused: {}", os_error())) }
+}
+
 fn pin(cpu: Option<usize>) -> Result<usize, String> {
     let (cpu, _) = rt_cpu(cpu)?;
     // SAFETY: cpu_set_t is plain data; CPU_SET writes inside it; the call affects this thread.

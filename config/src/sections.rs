@@ -274,4 +274,21 @@ mod prep_tests {
             assert!(e.contains(key), "{text}: {e}");
         }
     }
+
+    #[test]
+    fn rt_section_ranges() {
+        let rt = |keys: &str| {
+            Config::from_toml_str(&format!("{MACHINE}[rt]\n{keys}\n"), "m.toml").map_err(|e| e.to_string())
+        };
+        assert_eq!(rt("planner_nice = -5").unwrap().rt.planner_nice, -5);
+        assert_eq!(rt("").unwrap().rt.planner_nice, -10);
+        for (text, key) in [
+            ("planner_nice = -21", "rt.planner_nice"),
+            ("planner_nice = 20", "rt.planner_nice"),
+            ("priority = 100", "rt.priority"),
+        ] {
+            let e = rt(text).expect_err(text);
+            assert!(e.contains(key), "{text}: {e}");
+        }
+    }
 }

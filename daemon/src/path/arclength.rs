@@ -44,13 +44,28 @@ pub struct ArcLengthTable {
 impl ArcLengthTable {
     /// Builds the table for the speed |P′(u)| given by `speed`.
     pub fn build(speed: &impl Fn(f64) -> f64) -> Self {
+        // Start from 8 pieces so that features narrower than the span are not missed.
+        Self::build_from(speed, &[], 8)
+    }
+
+    /// Builds the table starting from the pieces between `breaks` (ascending, inside (0, 1)),
+    /// each cut into `per_piece` equal parts, then refined. A curve whose speed can only turn
+    /// sharply at known parameters (a cubic's at the minima of |P′|) needs few pieces when
+    /// those parameters are breaks: between them the speed is smooth and monotone.
+    pub fn build_from(speed: &impl Fn(f64) -> f64, breaks: &[f64], per_piece: usize) -> Self {
         let mut u = vec![0.0];
         let mut s = vec![0.0];
-        // Start from 8 pieces so that features narrower than the span are not missed.
-        for i in 0..8 {
-            let (a, b) = (i as f64 / 8.0, (i + 1) as f64 / 8.0);
-            let whole = gauss_legendre_8(speed, a, b);
-            refine(speed, a, b, whole, 0, &mut u, &mut s);
+        let per_piece = per_piece.max(1);
+        let ends = breaks.iter().copied().filter(|&b| b > 0.0 && b < 1.0).chain(std::iter::once(1.0));
+        let mut from = 0.0;
+        for to in ends {
+            for i in 0..per_piece {
+                let a = from + (to - from) * i as f64 / per_piece as f64;
+                let b = if i + 1 == per_piece { to } else { from + (to - from) * (i + 1) as f64 / per_piece as f64 };
+                let whole = gauss_legendre_8(speed, a, b);
+                refine(speed, a, b, whole, 0, &mut u, &mut s);
+            }
+            from = to;
         }
         Self { u, s }
     }

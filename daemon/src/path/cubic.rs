@@ -29,6 +29,9 @@ pub enum SpanError {
 /// radius at any useful speed, and such near-cusps come from bad tangents or support points.
 pub const MIN_CURVATURE_RADIUS_MM: f64 = 1e-3;
 
+/// Initial arc-length pieces per part of the span between the minima of |P′| (where the speed
+/// is monotone and smooth); the quadrature refines them where needed.
+const ARC_PIECES_PER_MONOTONE_PART: usize = 2;
 /// A span whose speed |P′| drops below this fraction of its mean is degenerate.
 const CUSP_REL_TOL: f64 = 1e-6;
 
@@ -51,7 +54,8 @@ impl CubicSpan {
         }
         let n_axes = linear.len().min(MAX_AXES);
         let speed = |u: f64| speed_of(&r, &mask[..n_axes], u);
-        let table = ArcLengthTable::build(&speed);
+        let (minima, n_minima) = speed_minima(&SpeedPolys::new(&r, &mask[..n_axes]));
+        let table = ArcLengthTable::build_from(&speed, &minima[..n_minima], ARC_PIECES_PER_MONOTONE_PART);
         let mean = table.length();
         if mean.is_nan() || mean <= 0.0 || min_speed(&r, &mask[..n_axes]) < CUSP_REL_TOL * mean {
             return Err(SpanError::ZeroTangent);
@@ -427,6 +431,12 @@ mod tests {
                 r[3][k] = 2.0 * (a[k] - b[k]) + ta[k] + tb[k];
             }
             let n = 20_000;
+            let speed = |u: f64| speed_of(&r, &mask, u);
+            let (minima, n_minima) = speed_minima(&SpeedPolys::new(&r, &mask));
+            let split = ArcLengthTable::build_from(&speed, &minima[..n_minima], ARC_PIECES_PER_MONOTONE_PART);
+            let uniform = ArcLengthTable::build_from(&speed, &[], 64);
+            let rel = (split.length() - uniform.length()).abs() / uniform.length();
+            assert!(rel < 1e-12, "case {case}: length {} vs {} from 64 pieces", split.length(), uniform.length());
             let dense_speed = (0..=n).map(|i| speed_of(&r, &mask, i as f64 / n as f64)).fold(f64::INFINITY, f64::min);
             let ours = min_speed(&r, &mask);
             assert!(ours <= dense_speed * (1.0 + 1e-9) + 1e-12, "case {case}: min speed {ours} > dense {dense_speed}");

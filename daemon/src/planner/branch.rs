@@ -19,6 +19,11 @@ use super::view::View;
 const VIABLE_SEARCH_ITERS: usize = 40;
 /// Relative bracket width at which the viable search stops.
 const VIABLE_SEARCH_REL_TOL: f64 = 1e-4;
+/// The viable search also stops once the best state's braking ramp peaks within this share
+/// below the ceiling: the peak rises about as fast as the next velocity or faster, so no viable
+/// velocity is more than this share higher. Cuts the slow tail of the search (a quarter of
+/// the ramp simulations on a dense G06 spline) for at most 0.03 % of speed at that node.
+const VIABLE_TOUCH_MARGIN: f64 = 3e-4;
 /// Backward branches brake with this share of the jerk the axes allow, the forward branch
 /// with all of it: where the forward branch crosses a backward branch its braking is the
 /// steeper, which leaves jerk for the exact join.
@@ -97,7 +102,7 @@ pub fn greedy_step(
     let (mut x_lo, mut x_hi, mut m_hi) = (best.v1(), cand.v1(), m_cand);
     let mut side = 0i8;
     for _ in 0..VIABLE_SEARCH_ITERS {
-        if x_hi - x_lo <= VIABLE_SEARCH_REL_TOL * x_hi.max(1e-12) {
+        if x_hi - x_lo <= VIABLE_SEARCH_REL_TOL * x_hi.max(1e-12) || m_lo >= -VIABLE_TOUCH_MARGIN {
             break;
         }
         let x = match m_hi {

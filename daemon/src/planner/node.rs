@@ -45,22 +45,23 @@ pub struct Node {
 /// Seed 001 eq. 6, corrected: eq. 6 prints the fractions upside down and with vector norms;
 /// per axis, eq. 5 gives v ≤ Ȧ_max/|A′|, v ≤ √(Ä_max/|A″|), v ≤ ∛(A⃛_max/|A‴|).
 pub fn velocity_bound(g: &NodeGeom, lim: &Limits) -> f64 {
-    let mut v = f64::INFINITY;
+    // Roots are monotone: the smallest v², v³ over the axes first, one root each at the end.
+    let (mut v, mut v2, mut v3) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
     for k in 0..lim.n_axes {
         let (d1, d2, d3) = (g.d1[k].abs(), g.d2[k], g.d3[k].abs());
         if d1 > 0.0 {
             v = v.min(lim.vel[k] / d1);
         }
-        if g.d2[k] > 0.0 {
-            v = v.min((lim.acc_max[k] / d2).sqrt());
+        if d2 > 0.0 {
+            v2 = v2.min(lim.acc_max[k] / d2);
         } else if d2 < 0.0 {
-            v = v.min((lim.acc_min[k] / d2).sqrt());
+            v2 = v2.min(lim.acc_min[k] / d2);
         }
         if d3 > 0.0 {
-            v = v.min((lim.jerk[k] / d3).cbrt());
+            v3 = v3.min(lim.jerk[k] / d3);
         }
     }
-    v
+    v.min(v2.sqrt()).min(v3.cbrt())
 }
 
 /// Speed cap at a curvature jump (G¹ but not G² joint): the axis acceleration steps by

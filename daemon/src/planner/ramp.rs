@@ -12,6 +12,7 @@
 use super::check::{acc_range, jerk_range, violates};
 use super::interval::Interval;
 use super::limits::Limits;
+use super::node::NodeGeom;
 use super::step::Work;
 use super::view::View;
 
@@ -69,6 +70,22 @@ pub fn peak_velocity(iv: &Interval) -> f64 {
     peak
 }
 
+/// The path jerks and accelerations the axes allow at one node for one state (eq. 1b–1c):
+/// computed at the end of one ramp interval and reused as the start of the next, where the
+/// node's geometry on both sides is the same (everywhere but at element joints).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NodeRanges {
+    pub jerk: (f64, f64),
+    pub acc: (f64, f64),
+}
+
+impl NodeRanges {
+    #[inline]
+    fn at(g: &NodeGeom, sign: f64, v: f64, a: f64, lim: &Limits) -> Self {
+        NodeRanges { jerk: jerk_range(g, sign, v, a, lim), acc: acc_range(g, sign, v, lim) }
+    }
+}
+
 /// The ramp's interval from traversal position `t` with state (v, a): braking with the
 /// steepest jerk the axes allow at both ends of the interval (and not below the lowest
 /// allowed acceleration), checked over the whole interval. If that fails (curvature taking
@@ -78,13 +95,28 @@ pub fn peak_velocity(iv: &Interval) -> f64 {
 /// An interval that becomes part of the motion needs `Check::Full`; for the viability margin
 /// `Check::Nodes` suffices where both nodes' ranges hold with room (see below).
 pub fn ramp_interval(view: &View, t: usize, v: f64, a: f64, lim: &Limits, check: Check) -> Option<Interval> {
-    let g = view.start_geom(t);
+    ramp_interval_from(view, t, v, a, lim, check, None).map(|(iv, _)| iv)
+}
+
+/// [`ramp_interval`] with the start node's ranges for (v, a) when already known, returning
+/// the end node's ranges for the interval's end state when they hold for the next interval
+/// too (the node is no element joint).
+fn ramp_interval_from(
+    view: &View,
+    t: usize,
+    v: f64,
+    a: f64,
+    lim: &Limits,
+    check: Check,
+    start: Option<NodeRanges>,
+) -> Option<(Interval, Option<NodeRanges>)> {
     let sign = view.sign();
-    let (jlo, jhi) = jerk_range(g, sign, v, a, lim);
+    let r0 = start.unwrap_or_else(|| NodeRanges::at(view.start_geom(t), sign, v, a, lim));
+    let (jlo, jhi) = r0.jerk;
     if jlo > jhi {
         return None;
     }
-    let (alo, ahi0) = acc_range(g, sign, v, lim);
+    let (alo, ahi0) = r0.acc;
     let ig = view.interval_geom(t);
     let feasible = |iv: &Interval| !violates(iv, &ig, lim);
     if a > alo && jlo < 0.0 {
@@ -94,8 +126,8 @@ pub fn ramp_interval(view: &View, t: usize, v: f64, a: f64, lim: &Limits, check:
             let Some(iv) = Interval::with_jerk(v, a, ig.ds_mm, j) else { break };
             let (v1, a1) = (iv.v1(), iv.a1());
             let g1 = view.end_geom(t + 1);
-            let (jlo1, jhi1) = jerk_range(g1, sign, v1, a1, lim);
-            let (alo1, ahi1) = acc_range(g1, sign, v1, lim);
+            let r1 = NodeRanges::at(g1, sign, v1, a1, lim);
+            let ((jlo1, jhi1), (alo1, ahi1)) = (r1.jerk, r1.acc);
             let mut j_next = j;
             if jlo1 <= jhi1 && j < jlo1 {
                 j_next = RAMP_JERK_STEPS[0] * jlo1;
@@ -122,7 +154,8 @@ pub fn ramp_interval(view: &View, t: usize, v: f64, a: f64, lim: &Limits, check:
                     && inside(a, alo, ahi0)
                     && inside(a1, alo1, ahi1);
                 if (check == Check::Nodes && nodes_ok) || feasible(&iv) {
-                    return Some(iv);
+                    let same_side = t + 1 < view.len() && view.start_geom(t + 1) == g1;
+                    return Some((iv, same_side.then_some(r1)));
                 }
                 break;
             }
@@ -137,7 +170,7 @@ pub fn ramp_interval(view: &View, t: usize, v: f64, a: f64, lim: &Limits, check:
         // would stop with a ≠ 0 and reverse): try a gentler one.
         if let Some(iv) = Interval::with_jerk(v, a, ig.ds_mm, j) {
             if feasible(&iv) {
-                return Some(iv);
+                return Some((iv, None));
             }
         }
     }
@@ -151,15 +184,23 @@ pub fn ramp_interval(view: &View, t: usize, v: f64, a: f64, lim: &Limits, check:
 /// overshooting into braking would chatter along it (seed 001 §3.2: α = 1 alone makes the
 /// jerk bang-bang), and near stops, where nodes are few, get stuck.
 /// Returns the interval and whether it landed (ends flat).
-fn landing_ramp_interval(view: &View, t: usize, v: f64, a: f64, lim: &Limits) -> Option<(Interval, bool)> {
-    let steep = ramp_interval(view, t, v, a, lim, Check::Nodes)?;
+/// Also returns the end node's ranges when they carry over (see [`ramp_interval_from`]).
+fn landing_ramp_interval(
+    view: &View,
+    t: usize,
+    v: f64,
+    a: f64,
+    lim: &Limits,
+    start: Option<NodeRanges>,
+) -> Option<(Interval, bool, Option<NodeRanges>)> {
+    let (steep, r1) = ramp_interval_from(view, t, v, a, lim, Check::Nodes, start)?;
     if a <= 0.0 || steep.a1() >= 0.0 {
-        return Some((steep, false));
+        return Some((steep, false, r1));
     }
     let ig = view.interval_geom(t);
     match Interval::landing(v, a, ig.ds_mm) {
-        Some(land) if !violates(&land, &ig, lim) => Some((land, true)),
-        _ => Some((steep, false)),
+        Some(land) if !violates(&land, &ig, lim) => Some((land, true, None)),
+        _ => Some((steep, false, r1)),
     }
 }
 
@@ -236,6 +277,7 @@ pub fn ramp_margin(
     let (mut v, mut a) = (v0, a0);
     let mut margin = v / ceiling.velocity(t0) - 1.0;
     let mut j_last = 0.0;
+    let mut ranges = None;
     for t in (t0..).take(MAX_RAMP_NODES) {
         if margin > MARGIN_GIVE_UP {
             return Some(margin);
@@ -251,7 +293,8 @@ pub fn ramp_margin(
         if t - t0 >= RAMP_SIMULATED_NODES {
             return ramp_tail_margin(view, t, v, a, j_last, ceiling, work).map(|m| margin.max(m));
         }
-        let (iv, landed) = landing_ramp_interval(view, t, v, a, lim)?;
+        let (iv, landed, r1) = landing_ramp_interval(view, t, v, a, lim, ranges)?;
+        ranges = r1;
         j_last = iv.j;
         work.ramp_nodes += 1;
         let cap = ceiling.velocity(t).min(ceiling.velocity(t + 1));

@@ -53,6 +53,7 @@ impl ArcLengthTable {
     /// sharply at known parameters (a cubic's at the minima of |P′|) needs few pieces when
     /// those parameters are breaks: between them the speed is smooth and monotone.
     pub fn build_from(speed: &impl Fn(f64) -> f64, breaks: &[f64], per_piece: usize) -> Self {
+        debug_assert!(breaks.windows(2).all(|w| w[0] <= w[1]), "breaks must ascend: {breaks:?}");
         let mut u = vec![0.0];
         let mut s = vec![0.0];
         let per_piece = per_piece.max(1);

@@ -112,6 +112,11 @@ impl CubicSpan {
         (sigma, p1p2 / sigma)
     }
 
+    /// The local minima of |P′| inside (0, 1) (at most two; the count is returned).
+    pub fn speed_minima(&self) -> ([f64; 2], usize) {
+        speed_minima(&SpeedPolys::new(&self.r, &self.linear[..self.n_axes]))
+    }
+
     /// A(s) … A‴(s) at span parameter `u` (no arc-length inversion: cheap, for scanning).
     pub fn eval_at_u(&self, u: f64, out: &mut AxisDerivs) {
         let n = self.n_axes;

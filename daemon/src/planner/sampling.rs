@@ -52,10 +52,15 @@ const SHARPNESS_MIN_SAMPLES: usize = 8;
 /// Golden-section steps refining a sharp local maximum of the sharpness (the bracket of two
 /// sample spacings shrinks to 0.618¹⁶ ≈ 5·10⁻⁴ of itself).
 const SHARPNESS_REFINE: usize = 16;
-/// A local maximum whose neighbours both lie within this fraction below it is flat: the
-/// curve between the samples is bounded by the parabola through the three (its vertex lies
-/// at most a quarter of the drop above the sample), so no search is needed there.
+/// A local maximum whose neighbours both lie within this fraction below it is flat: between
+/// the samples the curve is close to the parabola through the three, whose vertex lies at most
+/// `FLAT_PEAK_SHARE` of the drop above the sample, so it is raised by that (a margin, not a
+/// strict bound) instead of searched.
 const FLAT_PEAK_DROP: f64 = 0.1;
+const FLAT_PEAK_SHARE: f64 = 0.25;
+/// A minimum of |P′| below this share of the span's mean |P′| (its length) is a dip where the
+/// sharpness can spike between samples.
+const SPEED_DIP_SHARE: f64 = 0.5;
 
 /// How sharply a curved span turns along its length, so a step is bounded by the sharpest
 /// point it covers and not only by where it starts (a narrow tight spot would be stepped
@@ -104,6 +109,7 @@ impl Sharpness {
         let mut value: Vec<(f64, f64, f64)> = u.iter().map(|&x| sharp_at(x)).collect();
         let mut s = uniform_arc_lengths(c, n);
         let mut extra = Vec::new();
+        let mut raises = Vec::new();
         for crit in 0..3 {
             for i in 0..=n {
                 let here = criterion(&value[i], crit);
@@ -112,35 +118,50 @@ impl Sharpness {
                 if !(here > 0.0 && here >= left && here >= right) {
                     continue;
                 }
-                // At the span's ends only the inner neighbour counts.
-                let lowest = if i == 0 {
-                    right
+                // At the span's ends only the inner neighbour counts, and without a third point
+                // no parabola: the whole drop is added.
+                let (lowest, share) = if i == 0 {
+                    (right, 1.0)
                 } else if i == n {
-                    left
+                    (left, 1.0)
                 } else {
-                    left.min(right)
+                    (left.min(right), FLAT_PEAK_SHARE)
                 };
                 let drop = here - lowest.max(0.0);
                 if drop <= FLAT_PEAK_DROP * here {
-                    raise(&mut value[i], crit, here + 0.25 * drop);
+                    raises.push((i, crit, here + share * drop));
                 } else {
-                    let x = refine_peak(
-                        &mut sharp_at,
-                        crit,
-                        ((i as f64 - 1.0) * h).max(0.0),
-                        ((i as f64 + 1.0) * h).min(1.0),
-                    );
+                    let (a, b) = (((i as f64 - 1.0) * h).max(0.0), ((i as f64 + 1.0) * h).min(1.0));
+                    let x = refine_peak(&mut sharp_at, crit, a, b);
+                    extra.push((x, sharp_at(x)));
+                }
+            }
+        }
+        // Raised only now, so each criterion's peaks were found on the sampled values.
+        for (i, crit, x) in raises {
+            raise(&mut value[i], crit, x);
+        }
+        // A narrow spike of any criterion (they all divide by powers of |P′|) can only sit
+        // where |P′| dips well below its mean: refine every criterion there.
+        let (minima, n_minima) = c.speed_minima();
+        for &um in &minima[..n_minima] {
+            if c.speed_at_u(um).0 < SPEED_DIP_SHARE * c.length_mm() {
+                let (a, b) = ((um - h).max(0.0), (um + h).min(1.0));
+                for crit in 0..3 {
+                    let x = refine_peak(&mut sharp_at, crit, a, b);
                     extra.push((x, sharp_at(x)));
                 }
             }
         }
         // Refined maxima (rare: only where the curve turns sharply inside a span) get their
-        // exact arc length.
+        // exact arc length, kept between its neighbours' approximate ones so `s` stays sorted.
         for (x, v) in extra {
             let at = u.partition_point(|&y| y < x);
+            let lo = if at > 0 { s[at - 1] } else { 0.0 };
+            let hi = s.get(at).copied().unwrap_or(f64::INFINITY);
             u.insert(at, x);
             value.insert(at, v);
-            s.insert(at, c.s_at(x));
+            s.insert(at, c.s_at(x).clamp(lo, hi.max(lo)));
         }
         Some(Self { s, value })
     }
@@ -156,8 +177,9 @@ impl Sharpness {
 
 /// Arc length at u = i/n, i = 0..=n, of a cubic span: the trapezoid rule with its end
 /// correction (Euler–Maclaurin, h²/12·(σ′ᵢ − σ′ᵢ₊₁), fourth order) per piece, scaled so the
-/// last equals the span's exact length. Accurate far beyond what locating a step needs, at
-/// n + 1 speed evaluations instead of a quadrature per point.
+/// last equals the span's exact length, at n + 1 speed evaluations instead of a quadrature per
+/// point. Away from deep dips of |P′| it is accurate far beyond what locating a step needs;
+/// near one less so, which only shifts where a step looks up the profile.
 fn uniform_arc_lengths(c: &crate::path::CubicSpan, n: usize) -> Vec<f64> {
     let h = 1.0 / n as f64;
     let mut s = Vec::with_capacity(n + 1);
@@ -524,3 +546,34 @@ const SHARPNESS_ITERS: usize = 4;
 /// Smallest step the geometry criteria may ask for, mm (spline spans turn on 1 µm radii at
 /// the tightest; 1 nm resolves that by three orders of magnitude).
 const GEOMETRY_MIN_STEP_MM: f64 = 1e-6;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::path::{Blend, CubicSpan, Geometry, Path, Source};
+
+    /// A span whose curvature spikes to 29.8 /mm at u ≈ 0.060, where |P′| dips to 1.75 (mean
+    /// 12.5), between the first two of 8 samples that show only 0.80 and 0.75 (found in review:
+    /// an end-sample shortcut had reported 0.86).
+    #[test]
+    fn a_curvature_spike_between_samples_is_found() {
+        let cfg = Config::default_machine();
+        let lim = Limits::from_config(&cfg);
+        let params = SamplingParams::from_config(&cfg);
+        let v = |x: f64, y: f64| {
+            let mut a = [0.0; crate::path::MAX_AXES];
+            (a[0], a[1]) = (x, y);
+            a
+        };
+        let span = CubicSpan::hermite(&v(0.0, 0.0), &v(9.27, -4.79), &v(-5.79, 2.10), &v(-2.48, 12.79), &[true; 3])
+            .expect("the span passes the radius check");
+        let len = span.length_mm();
+        let mut path = Path::new(vec!["X".into(), "Y".into(), "Z".into()], [0.0; crate::path::MAX_AXES]);
+        let src = Source { line: 1, block: 0 };
+        path.push(Geometry::Cubic(Box::new(span)), Feed::Programmed { mm_per_s: 100.0 }, src, 0.0, Blend::Exact);
+        // A step 4 times the span: the profile takes its fewest samples.
+        let sharp = Sharpness::of(&path.elements[0], &lim, &params, 4.0 * len).expect("a cubic span is profiled");
+        let curvature = sharp.max_over(0.0, len).0;
+        assert!(curvature > 0.99 * 29.838, "largest curvature found {curvature} /mm, true 29.838 /mm");
+    }
+}

@@ -3,6 +3,7 @@
 //! stream over iceoryx2.
 
 use iceoryx2::prelude::*;
+use interpd::sinks::shm as shm_sink;
 use interpd_protocol::shm::{Setpoints, qos};
 use serde_json::{Value, json};
 use std::io::{BufRead, BufReader, Write};
@@ -169,8 +170,9 @@ impl Client {
     }
 }
 
-/// A subscriber to the setpoint service `name` (e.g. `<prefix>/setpoints`) with the daemon's
-/// QoS (`protocol::shm::qos`); the node and service live as long as it.
+/// A subscriber to the setpoint service `<prefix>/setpoints`, opened as the daemon opens it
+/// (`interpd::sinks::shm::open_service`, the shared QoS); the node and service live as long
+/// as it.
 pub struct SetpointSubscriber {
     pub port: iceoryx2::port::subscriber::Subscriber<ipc::Service, Setpoints, ()>,
     _service: iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, Setpoints, ()>,
@@ -178,22 +180,9 @@ pub struct SetpointSubscriber {
 }
 
 impl SetpointSubscriber {
-    pub fn open(name: &str) -> SetpointSubscriber {
-        set_log_level(LogLevel::Error);
-        let node = NodeBuilder::new()
-            .signal_handling_mode(SignalHandlingMode::Disabled)
-            .create::<ipc::Service>()
-            .expect("iceoryx2 node");
-        let service_name: ServiceName = name.try_into().expect("service name");
-        let service = node
-            .service_builder(&service_name)
-            .publish_subscribe::<Setpoints>()
-            .history_size(qos::HISTORY_SIZE)
-            .subscriber_max_buffer_size(qos::SUBSCRIBER_BUFFER_SIZE)
-            .max_publishers(qos::MAX_PUBLISHERS)
-            .max_subscribers(qos::MAX_SUBSCRIBERS)
-            .open_or_create()
-            .expect("setpoint service");
+    pub fn open(prefix: &str) -> SetpointSubscriber {
+        let node = shm_sink::node("interpd-e2e-subscriber").expect("iceoryx2 node");
+        let service = shm_sink::open_service::<Setpoints>(&node, prefix, "setpoints").expect("setpoint service");
         let port = service.subscriber_builder().buffer_size(qos::SUBSCRIBER_BUFFER_SIZE).create().expect("subscriber");
         SetpointSubscriber { port, _service: service, _node: node }
     }
@@ -211,7 +200,7 @@ impl Collector {
         let stop = Arc::new(AtomicBool::new(false));
         let samples = Arc::new(Mutex::new(Vec::new()));
         let (ready_tx, ready_rx) = std::sync::mpsc::channel();
-        let (s2, st2, p2) = (samples.clone(), stop.clone(), format!("{prefix}/setpoints"));
+        let (s2, st2, p2) = (samples.clone(), stop.clone(), prefix.to_string());
         let thread = std::thread::spawn(move || {
             let sub = SetpointSubscriber::open(&p2);
             ready_tx.send(()).expect("ready");

@@ -121,9 +121,9 @@ impl ArrivalClock {
     fn start(prefix: &str) -> ArrivalClock {
         let stop = Arc::new(AtomicBool::new(false));
         let (ready_tx, ready_rx) = std::sync::mpsc::channel();
-        let (st, service_name) = (stop.clone(), format!("{prefix}/setpoints"));
+        let (st, prefix) = (stop.clone(), prefix.to_string());
         let thread = std::thread::spawn(move || {
-            let sub = SetpointSubscriber::open(&service_name);
+            let sub = SetpointSubscriber::open(&prefix);
             ready_tx.send(()).expect("ready");
             let mut got = Vec::new();
             while !st.load(Ordering::SeqCst) {

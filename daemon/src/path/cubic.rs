@@ -13,6 +13,9 @@ pub struct CubicSpan {
     /// Axes of the path (the entries of `r` beyond are zero): the per-evaluation loops stop
     /// there, which makes a 3-axis span three times cheaper than looping over `MAX_AXES`.
     n_axes: usize,
+    /// Local minima of |P′| inside (0, 1) and their count: where the speed, and with it every
+    /// arc-length derivative, can turn sharply.
+    speed_minima: ([f64; 2], usize),
     table: ArcLengthTable,
 }
 
@@ -54,17 +57,19 @@ impl CubicSpan {
         }
         let n_axes = linear.len().min(MAX_AXES);
         let speed = |u: f64| speed_of(&r, &mask[..n_axes], u);
-        let (minima, n_minima) = speed_minima(&SpeedPolys::new(&r, &mask[..n_axes]));
-        let table = ArcLengthTable::build_from(&speed, &minima[..n_minima], ARC_PIECES_PER_MONOTONE_PART);
+        let poly = SpeedPolys::new(&r, &mask[..n_axes]);
+        let (minima, n_minima) = speed_minima(&poly);
+        let minima_u = &minima[..n_minima];
+        let table = ArcLengthTable::build_from(&speed, minima_u, ARC_PIECES_PER_MONOTONE_PART);
         let mean = table.length();
-        if mean.is_nan() || mean <= 0.0 || min_speed(&r, &mask[..n_axes]) < CUSP_REL_TOL * mean {
+        if mean.is_nan() || mean <= 0.0 || min_speed(&r, &mask[..n_axes], minima_u) < CUSP_REL_TOL * mean {
             return Err(SpanError::ZeroTangent);
         }
-        let (radius_mm, u) = min_curvature_radius(&r, &mask[..n_axes]);
+        let (radius_mm, u) = min_curvature_radius(&poly, minima_u);
         if radius_mm < MIN_CURVATURE_RADIUS_MM {
             return Err(SpanError::SharpTurn { radius_mm, u });
         }
-        Ok(Self { r, linear: mask, n_axes, table })
+        Ok(Self { r, linear: mask, n_axes, speed_minima: (minima, n_minima), table })
     }
 
     pub fn length_mm(&self) -> f64 {
@@ -112,9 +117,9 @@ impl CubicSpan {
         (sigma, p1p2 / sigma)
     }
 
-    /// The local minima of |P′| inside (0, 1) (at most two; the count is returned).
-    pub fn speed_minima(&self) -> ([f64; 2], usize) {
-        speed_minima(&SpeedPolys::new(&self.r, &self.linear[..self.n_axes]))
+    /// The local minima of |P′| inside (0, 1) (at most two).
+    pub fn speed_minima(&self) -> &[f64] {
+        &self.speed_minima.0[..self.speed_minima.1]
     }
 
     /// A(s) … A‴(s) at span parameter `u` (no arc-length inversion: cheap, for scanning).
@@ -258,12 +263,9 @@ fn quadratic_roots(c2: f64, c1: f64, c0: f64) -> [f64; 2] {
     if q == 0.0 { [0.0, f64::NAN] } else { [q / c2, c0 / q] }
 }
 
-/// Smallest |P′(u)| on [0, 1]: at the ends or at a local minimum inside.
-fn min_speed(r: &[AxisVec; 4], linear: &[bool]) -> f64 {
-    let (minima, n) = speed_minima(&SpeedPolys::new(r, linear));
-    minima[..n]
-        .iter()
-        .fold(speed_of(r, linear, 0.0).min(speed_of(r, linear, 1.0)), |m, &u| m.min(speed_of(r, linear, u)))
+/// Smallest |P′(u)| on [0, 1]: at the ends or at a local minimum inside (`minima`).
+fn min_speed(r: &[AxisVec; 4], linear: &[bool], minima: &[f64]) -> f64 {
+    minima.iter().fold(speed_of(r, linear, 0.0).min(speed_of(r, linear, 1.0)), |m, &u| m.min(speed_of(r, linear, u)))
 }
 
 /// Samples of the curvature radius per span before refining the tightest.
@@ -276,8 +278,7 @@ const CURVATURE_REFINE: usize = 40;
 /// then refined by golden-section search around the tightest sample. The radius of a cubic
 /// varies on the scale of the span except where |P′| nearly vanishes (a near-cusp), so the
 /// samples are the uniform ones plus the local minima of |P′|.
-fn min_curvature_radius(r: &[AxisVec; 4], linear: &[bool]) -> (f64, f64) {
-    let poly = SpeedPolys::new(r, linear);
+fn min_curvature_radius(poly: &SpeedPolys, minima: &[f64]) -> (f64, f64) {
     // The radius squared, |P′|⁶ / |P′ × P″|², with |P′ × P″|² = |P′|²|P″|² − (P′·P″)² in
     // any dimension: ordered like the radius, without roots or powers.
     let radius2 = |u: f64| {
@@ -285,10 +286,9 @@ fn min_curvature_radius(r: &[AxisVec; 4], linear: &[bool]) -> (f64, f64) {
         let cross2 = (p1p1 * poly.p2p2(u) - p1p2 * p1p2).max(0.0);
         if cross2 > 0.0 { p1p1 * p1p1 * p1p1 / cross2 } else { f64::INFINITY }
     };
-    let (minima, n_minima) = speed_minima(&poly);
     let uniform = (0..=CURVATURE_SAMPLES).map(|i| i as f64 / CURVATURE_SAMPLES as f64);
     let mut best = (f64::INFINITY, 0.0);
-    for u in uniform.chain(minima[..n_minima].iter().copied()) {
+    for u in uniform.chain(minima.iter().copied()) {
         let rad2 = radius2(u);
         if rad2 < best.0 {
             best = (rad2, u);
@@ -443,7 +443,7 @@ mod tests {
             let rel = (split.length() - uniform.length()).abs() / uniform.length();
             assert!(rel < 1e-12, "case {case}: length {} vs {} from 64 pieces", split.length(), uniform.length());
             let dense_speed = (0..=n).map(|i| speed_of(&r, &mask, i as f64 / n as f64)).fold(f64::INFINITY, f64::min);
-            let ours = min_speed(&r, &mask);
+            let ours = min_speed(&r, &mask, &minima[..n_minima]);
             assert!(ours <= dense_speed * (1.0 + 1e-9) + 1e-12, "case {case}: min speed {ours} > dense {dense_speed}");
             let radius = |u: f64| {
                 let poly = SpeedPolys::new(&r, &mask);
@@ -452,7 +452,7 @@ mod tests {
                 p1p1 * p1p1.sqrt() / cross
             };
             let dense_radius = (0..=n).map(|i| radius(i as f64 / n as f64)).fold(f64::INFINITY, f64::min);
-            let (ours, _) = min_curvature_radius(&r, &mask);
+            let (ours, _) = min_curvature_radius(&SpeedPolys::new(&r, &mask), &minima[..n_minima]);
             assert!(ours <= dense_radius * (1.0 + 1e-6), "case {case}: min radius {ours} > dense {dense_radius}");
         }
     }

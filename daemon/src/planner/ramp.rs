@@ -209,9 +209,8 @@ fn landing_ramp_interval(
 /// acceleration is inside its range (eq. 1b–1c). At an element joint A″ and A‴ jump, so a
 /// state that kept the limits arriving may have none left for the next side.
 pub fn can_leave(view: &View, t: usize, v: f64, a: f64, lim: &Limits) -> bool {
-    let g = view.start_geom(t);
-    let (jlo, jhi) = jerk_range(g, view.sign(), v, a, lim);
-    let (alo, ahi) = acc_range(g, view.sign(), v, lim);
+    let r = NodeRanges::at(view.start_geom(t), view.sign(), v, a, lim);
+    let ((jlo, jhi), (alo, ahi)) = (r.jerk, r.acc);
     jlo <= jhi && a >= alo && a <= ahi
 }
 

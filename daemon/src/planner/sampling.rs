@@ -143,8 +143,7 @@ impl Sharpness {
         }
         // A narrow spike of any criterion (they all divide by powers of |P′|) can only sit
         // where |P′| dips well below its mean: refine every criterion there.
-        let (minima, n_minima) = c.speed_minima();
-        for &um in &minima[..n_minima] {
+        for &um in c.speed_minima() {
             if c.speed_at_u(um).0 < SPEED_DIP_SHARE * c.length_mm() {
                 let (a, b) = ((um - h).max(0.0), (um + h).min(1.0));
                 for crit in 0..3 {

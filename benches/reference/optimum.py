@@ -146,7 +146,10 @@ def ipopt_block(data, i0, i1, verbose):
     solver = ca.nlpsol("ref", "ipopt", {"x": x, "f": ca.sum1(T) * ts, "g": ca.vertcat(*g)}, opts)
     sol = solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
     status = solver.stats()["return_status"]
-    return float(sol["f"]), ("optimal" if status == "Solve_Succeeded" else status)
+    x = np.array(sol["x"]).ravel()
+    v_opt = x[: m + 1] * vs
+    t_opt = x[2 * (m + 1) + m :] * ts
+    return float(sol["f"]), ("optimal" if status == "Solve_Succeeded" else status), v_opt, t_opt
 
 
 # ------------------------------------------------------------------ acceleration-only bound
@@ -226,11 +229,33 @@ def acc_only_block(data, i0, i1):
     return total
 
 
+def where_lost(data, i0, i1, v_opt, dt_opt):
+    """Per stretch of the block between local minima of our v-bar (the planner's section ends):
+    (s from, s to, our time, Ipopt's time, largest Ipopt velocity over our v-bar at a node)."""
+    nodes, prof = data["nodes"], data["profile"]
+    vbar = [n["vbar"] for n in nodes]
+    cuts = [i0] + [i for i in range(i0 + 1, i1) if vbar[i] < vbar[i - 1] and vbar[i] <= vbar[i + 1]] + [i1]
+    out = []
+    for a, b in zip(cuts, cuts[1:]):
+        t_ours = sum(prof[i][3] for i in range(a, b) if prof[i])
+        t_ipopt = float(sum(dt_opt[a - i0 : b - i0]))
+        ratio = max((v_opt[i - i0] / vbar[i] for i in range(a, b + 1) if vbar[i] > 0), default=0.0)
+        out.append((nodes[a]["s"], nodes[b]["s"], t_ours, t_ipopt, ratio))
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("exports", nargs="+", help="JSON files from interpd plan --export-nodes")
     ap.add_argument("--verbose", action="store_true", help="Ipopt iteration log")
     ap.add_argument("--no-ipopt", action="store_true", help="only the acceleration-only bound")
+    ap.add_argument(
+        "--where",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also list the N stretches (between minima of our v-bar) where our motion loses most time to Ipopt's",
+    )
     args = ap.parse_args()
     worst = 0.0
     for path in args.exports:
@@ -238,6 +263,7 @@ def main():
         ours = data["duration_s"]
         opt_total, bound_total, statuses = 0.0, 0.0, set()
         t0 = time.time()
+        stretches = []
         for i0, i1 in blocks(data["nodes"]):
             if i1 - i0 < 2:
                 # A straight rest-to-rest move planned in closed form (its own optimum).
@@ -248,9 +274,11 @@ def main():
                 statuses.add("closed-form")
                 continue
             if not args.no_ipopt:
-                t_opt, st = ipopt_block(data, i0, i1, args.verbose)
+                t_opt, st, v_opt, dt_opt = ipopt_block(data, i0, i1, args.verbose)
                 opt_total += t_opt
                 statuses.add(st)
+                if args.where:
+                    stretches.extend(where_lost(data, i0, i1, v_opt, dt_opt))
             bound_total += acc_only_block(data, i0, i1)
         dwell = ours - sum(p[3] for p in data["profile"] if p)
         opt_total += max(dwell, 0.0)
@@ -263,6 +291,11 @@ def main():
         line += f", acceleration-only bound {bound_total:.5f} s, ours/bound {ours / bound_total:.4f}"
         line += f" [{len(data['nodes'])} nodes, {time.time() - t0:.1f} s]"
         print(line, flush=True)
+        if args.where and stretches:
+            stretches.sort(key=lambda r: -(r[2] - r[3]))
+            print(f"  where {path} loses most (s from-to mm: ours s, Ipopt s, largest Ipopt v / our v-bar):")
+            for s0, s1, t_ours, t_ipopt, ratio in stretches[: args.where]:
+                print(f"  {s0:9.3f}-{s1:9.3f}: {t_ours:.4f} vs {t_ipopt:.4f} (+{t_ours - t_ipopt:.4f}), v/v-bar up to {ratio:.2f}")
     if not args.no_ipopt:
         print(f"largest ours/Ipopt: {worst:.4f} (target <= 1.05)")
     return 0

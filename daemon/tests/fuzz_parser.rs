@@ -3,7 +3,8 @@
 //! plus grammar-shaped random programs. Every input must yield a program or errors, never a
 //! panic; an accepted program must evaluate to finite geometry everywhere.
 //!
-//! The run lasts `FUZZ_SECONDS` (default 2 s; CI's scripts/test.sh sets 60 s).
+//! The run lasts `FUZZ_SECONDS` (default 2 s; CI's scripts/test.sh sets 60 s). Each run prints its
+//! `FUZZ_SEED`; setting it replays that run's inputs (up to the time limit).
 
 use interpd::config::Config;
 use interpd::path::AxisDerivs;
@@ -155,25 +156,54 @@ fn generated(rng: &mut Rng) -> String {
     s
 }
 
-fn check_input(name: &str, text: &str, cfgs: &[Config]) {
+/// Parses `text` under each configuration; describes the first failure (a panic, or an accepted
+/// program with non-finite geometry).
+fn check_input(name: &str, text: &str, cfgs: &[Config]) -> Result<(), String> {
     for cfg in cfgs {
         let result = catch_unwind(AssertUnwindSafe(|| program::parse(text, name, cfg)));
         let Ok(result) = result else {
-            panic!("parser panicked on input named {name}:\n---\n{text}\n---");
+            return Err(format!("the parser panicked (machine with axes {})", cfg.axis_names().join(" ")));
         };
         if let Ok(p) = result {
             let mut d = AxisDerivs::default();
             for e in &p.path.elements {
                 for f in [0.0, 0.5, 1.0] {
-                    p.path.eval(e.s_start_mm + f * e.geometry.length_mm(), &mut d);
+                    let s_mm = e.s_start_mm + f * e.geometry.length_mm();
+                    p.path.eval(s_mm, &mut d);
                     let finite = (0..p.path.n_axes).all(|k| {
                         d.pos[k].is_finite() && d.d1[k].is_finite() && d.d2[k].is_finite() && d.d3[k].is_finite()
                     });
-                    assert!(finite, "non-finite geometry from input {name}:\n{text}");
+                    if !finite {
+                        return Err(format!(
+                            "non-finite geometry at s = {s_mm} mm (element from line {})",
+                            e.source.line
+                        ));
+                    }
                 }
             }
         }
     }
+    Ok(())
+}
+
+/// A failure report a reader can act on: the lines where the input differs from its base,
+/// and the whole input saved to a file.
+fn report(seed: u64, name: &str, base: &str, text: &str, what: &str) -> String {
+    let file = std::env::temp_dir().join(format!("interpd-fuzz-{seed}-{name}"));
+    let saved = match std::fs::write(&file, text) {
+        Ok(()) => format!("input saved to {}", file.display()),
+        Err(e) => format!("input not saved ({e})"),
+    };
+    let (a, b): (Vec<&str>, Vec<&str>) = (base.lines().collect(), text.lines().collect());
+    let changed: Vec<String> = (0..a.len().max(b.len()))
+        .filter(|&i| a.get(i) != b.get(i))
+        .take(6)
+        .map(|i| format!("  line {}: {:?}", i + 1, b.get(i).copied().unwrap_or("<none>")))
+        .collect();
+    format!(
+        "FUZZ_SEED={seed}: {what} on input {name} ({saved}); first lines that differ from its base:\n{}",
+        changed.join("\n")
+    )
 }
 
 #[test]
@@ -183,14 +213,23 @@ fn fuzz_program_parsers() {
     let cfgs = [Config::default_machine(), Config::five_axis_machine()];
     let corpus = corpus();
     assert!(corpus.len() > 10, "corpus not found");
-    let mut rng = Rng(0x9e37_79b9_7f4a_7c15 ^ std::process::id() as u64);
+    // A fresh seed per run explores new inputs; FUZZ_SEED replays the run a failure reports.
+    let seed: u64 = std::env::var("FUZZ_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0x9e37_79b9_7f4a_7c15 ^ std::process::id() as u64);
+    eprintln!("fuzz_program_parsers: FUZZ_SEED={seed}");
+    let mut rng = Rng(seed);
     let mut runs = 0u64;
     while Instant::now() < deadline {
         let (name, base) = &corpus[rng.below(corpus.len())];
-        let text = if rng.below(4) == 0 { generated(&mut rng) } else { mutate(&mut rng, base) };
+        let base_is_text = rng.below(4) != 0;
+        let text = if base_is_text { mutate(&mut rng, base) } else { generated(&mut rng) };
         // Alternate the format so tables and G-code both get mutated inputs.
         let fname = if rng.below(2) == 0 { name.clone() } else { format!("{name}.ngc") };
-        check_input(&fname, &text, &cfgs);
+        if let Err(what) = check_input(&fname, &text, &cfgs) {
+            panic!("{}", report(seed, &fname, if base_is_text { base } else { "" }, &text, &what));
+        }
         runs += 1;
     }
     eprintln!("fuzz_program_parsers: {runs} inputs in {seconds} s, no panic");

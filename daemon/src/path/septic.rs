@@ -46,6 +46,16 @@ impl SepticSpan {
         self.h
     }
 
+    /// Whether A … A‴ evaluate finite everywhere on the span: the sum Σ i³·|bᵢ| bounds every
+    /// Horner partial sum, and scaled by 1/h³ it bounds A″ and A‴ (so A and A′ too).
+    pub fn is_bounded(&self) -> bool {
+        let scale = 1.0f64.max(1.0 / (self.h * self.h * self.h));
+        self.b.iter().all(|c| {
+            let sum: f64 = c.iter().enumerate().map(|(i, ci)| (i * i * i).max(1) as f64 * ci.abs()).sum();
+            (sum * scale).is_finite()
+        })
+    }
+
     pub fn eval(&self, s: f64, out: &mut AxisDerivs) {
         let t = s / self.h;
         let (ih, ih2, ih3) = (1.0 / self.h, 1.0 / (self.h * self.h), 1.0 / (self.h * self.h * self.h));

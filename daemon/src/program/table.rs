@@ -12,12 +12,16 @@
 use super::error::Diagnostics;
 use super::{Program, Summary, fmt_num};
 use crate::path::{AxisDerivs, Blend, Feed, Geometry, MAX_AXES, Path, SepticSpan, Source};
-use interpd_config::{AxisLetter, Config};
+use interpd_config::{AxisKind, AxisLetter, Config};
 
 /// Rows closer in s than this are the same sample (a corner if their derivatives differ).
 const SAME_S_TOL: f64 = 1e-12;
 /// At a corner the two rows must have the same position within this.
 const CORNER_POS_TOL: f64 = 1e-9;
+/// s is the arc length over the linear axes, which no chord between two rows can exceed;
+/// relative and absolute slack (mm) for rounding in the table.
+const CHORD_REL_TOL: f64 = 1e-6;
+const CHORD_ABS_TOL_MM: f64 = 1e-9;
 
 pub(crate) fn parse_table(text: &str, config: &Config, d: &mut Diagnostics) -> Program {
     let mut summary = Summary::default();
@@ -120,7 +124,28 @@ pub(crate) fn parse_table(text: &str, config: &Config, d: &mut Diagnostics) -> P
                         continue;
                     }
                 } else {
+                    let chord_mm = linear_chord_mm(axes, config, &prow, &row);
+                    if chord_mm > h * (1.0 + CHORD_REL_TOL) + CHORD_ABS_TOL_MM {
+                        d.error(
+                            line_no,
+                            fields[0].1,
+                            format!(
+                                "s advances {} mm but the linear axes move {} mm: s must be the arc length over them",
+                                fmt_num(h),
+                                fmt_num(chord_mm)
+                            ),
+                        );
+                        continue;
+                    }
                     let span = SepticSpan::new(&prow, &row, h);
+                    if !span.is_bounded() {
+                        d.error(
+                            line_no,
+                            fields[0].1,
+                            format!("derivatives too large for an s step of {} mm (the span overflows)", fmt_num(h)),
+                        );
+                        continue;
+                    }
                     *summary.kinds.entry("table").or_insert(0) += 1;
                     path.push(
                         Geometry::Septic(Box::new(span)),
@@ -140,6 +165,15 @@ pub(crate) fn parse_table(text: &str, config: &Config, d: &mut Diagnostics) -> P
         d.error(summary.lines.max(1), 1, "path table needs at least two rows with different s");
     }
     Program { path, summary }
+}
+
+/// Straight-line distance between two rows over the table's linear axes (mm).
+fn linear_chord_mm(axes: &[usize], config: &Config, a: &AxisDerivs, b: &AxisDerivs) -> f64 {
+    axes.iter()
+        .filter(|&&k| config.axes[k].kind == AxisKind::Linear)
+        .map(|&k| (b.pos[k] - a.pos[k]).powi(2))
+        .sum::<f64>()
+        .sqrt()
 }
 
 /// Splits a CSV line into trimmed fields with their 1-based columns.

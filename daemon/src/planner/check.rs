@@ -48,8 +48,8 @@ pub const VBAR_FRACTIONS: [f64; 3] = [0.25, 0.5, 0.75];
 /// The lowest velocity bound v̄ inside an interval (seed 001 eq. 6 on the interpolated
 /// geometry): a minimum of v̄ between two nodes must lower the nodes' bounds, or a branch
 /// starting there at v̄ with a = 0 would break a limit a little further on.
-pub fn interior_vbar(g: &IntervalGeom, lim: &Limits) -> f64 {
-    let mut v = f64::INFINITY;
+pub fn interior_vbar(g: &IntervalGeom, lim: &Limits) -> (f64, f64) {
+    let (mut v, mut v_flat) = (f64::INFINITY, f64::INFINITY);
     for &sigma in &VBAR_FRACTIONS {
         let mut ng = NodeGeom::default();
         for k in 0..lim.n_axes {
@@ -59,8 +59,9 @@ pub fn interior_vbar(g: &IntervalGeom, lim: &Limits) -> f64 {
             ng.d3[k] = d3;
         }
         v = v.min(super::node::velocity_bound(&ng, lim));
+        v_flat = v_flat.min(super::node::flat_velocity_bound(&ng, lim));
     }
-    v
+    (v, v_flat)
 }
 
 /// Largest normalised limit use minus one over all axes, limits and check points:

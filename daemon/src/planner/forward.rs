@@ -86,7 +86,7 @@ pub fn forward_branch(
 ) -> Result<ForwardPlan, Stuck> {
     let n = nodes.len();
     let view = View::forward(nodes);
-    let free = FlattenUnder { view, cap: f64::INFINITY };
+    let free = FlattenUnder { view, cap: f64::INFINITY, lim };
     let mut run = Run::new(0, start);
     let mut anchor = 0;
     let mut evals_at_anchor = work.evals;
@@ -428,7 +428,7 @@ fn capped_run(
         biv[i] = iv;
     }
     let view = View::forward(nodes);
-    let ceiling = FlattenUnder { view, cap };
+    let ceiling = FlattenUnder { view, cap, lim };
     let mut run = Run::new(anchor, fwd);
     while run.last() < end {
         let t = run.last();

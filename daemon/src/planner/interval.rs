@@ -97,7 +97,13 @@ impl Interval {
     /// s = v₀T + a₀T²/3 = Δs, solved in the cancellation-free form
     /// T = 2Δs / (v₀ + √(v₀² + 4a₀Δs/3)). `None` if no such interval moves forward.
     pub fn landing(v0: f64, a0: f64, ds: f64) -> Option<Interval> {
-        let disc = v0 * v0 + 4.0 * a0 * ds / 3.0;
+        Self::landing_at(v0, a0, ds, 0.0)
+    }
+
+    /// The interval over `ds` that ends with acceleration `a1`: j = (a1 − a0)/T and
+    /// ds = v0·T + (2a0 + a1)·T²/6 (seed 001 eq. 2 at τ = T).
+    pub fn landing_at(v0: f64, a0: f64, ds: f64, a1: f64) -> Option<Interval> {
+        let disc = v0 * v0 + 2.0 * (2.0 * a0 + a1) * ds / 3.0;
         if disc.is_nan() || disc < 0.0 {
             return None;
         }
@@ -106,7 +112,7 @@ impl Interval {
         if !(t > 0.0 && t.is_finite()) {
             return None;
         }
-        let iv = Interval { v0, a0, j: -a0 / t, t_s: t, ds_mm: ds };
+        let iv = Interval { v0, a0, j: (a1 - a0) / t, t_s: t, ds_mm: ds };
         iv.velocity_stays_non_negative().then_some(iv)
     }
 

@@ -24,6 +24,7 @@ pub mod limits;
 pub mod node;
 pub mod profile;
 pub mod ramp;
+pub mod reach;
 pub mod resume;
 pub mod sampling;
 pub mod scurve;
@@ -255,11 +256,12 @@ impl Planner {
         for i in from..self.nodes.len().saturating_sub(1) {
             let (a, b) = (&self.nodes[i], &self.nodes[i + 1]);
             let g = check::IntervalGeom { start: &a.right, end: &b.left, ds_mm: b.s_mm - a.s_mm, sign: 1.0 };
-            let v = check::interior_vbar(&g, &self.lim);
+            let (v, v_flat) = check::interior_vbar(&g, &self.lim);
             for k in [i, i + 1] {
                 let node = &mut self.nodes[k];
                 if !node.stop {
                     node.vbar_mm_s = node.vbar_mm_s.min(v);
+                    node.vbar_flat_mm_s = node.vbar_flat_mm_s.min(v_flat);
                 }
             }
         }

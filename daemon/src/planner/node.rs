@@ -1,5 +1,6 @@
 //! Sample nodes s_i of the path with the geometry the planner needs there, and the velocity
-//! bound v̄(s_i) (seed 001 eq. 6, corrected).
+//! bounds there: seed 001's v̄(s_i) (eq. 6, corrected) and the acceleration-only maximum
+//! velocity curve (eq. 1a–1b with the path acceleration free).
 
 use super::limits::Limits;
 use crate::path::{AxisDerivs, AxisVec};
@@ -30,6 +31,9 @@ pub struct Node {
     pub right: NodeGeom,
     /// Velocity bound v̄ at this node, mm/s (both sides, programmed feed, joint caps).
     pub vbar_mm_s: f64,
+    /// Seed 001's v̄ (eq. 6, a = j = 0) under the same caps, mm/s: ≤ `vbar_mm_s`, the ceiling
+    /// a block is planned under first (see `block`).
+    pub vbar_flat_mm_s: f64,
     /// Programmed feed of the interval after this node, mm/s (∞ for rapid moves).
     pub feed_mm_s: f64,
     /// The motion must be at rest here (corner, dwell, program start or end).
@@ -38,13 +42,59 @@ pub struct Node {
     pub dwell_s: f64,
     /// Program line of the element after this node.
     pub line: u32,
+    /// The block's acceleration-only passes lowered the ceiling here (`reach`): a dip of the
+    /// ceiling the motion brakes into and out of with a ≠ 0, not a stretch it can run flat.
+    pub reach_bound: bool,
 }
 
 /// v̄ from one side's geometry: the largest path velocity at which every axis keeps its
-/// velocity, acceleration and jerk limit with a = 0 and j = 0.
-/// Seed 001 eq. 6, corrected: eq. 6 prints the fractions upside down and with vector norms;
-/// per axis, eq. 5 gives v ≤ Ȧ_max/|A′|, v ≤ √(Ä_max/|A″|), v ≤ ∛(A⃛_max/|A‴|).
+/// velocity limit (seed 001 eq. 5, first term) and *some* path acceleration keeps every axis
+/// within its acceleration limit (eq. 1b with a free).
+///
+/// Seed 001 eq. 6 (corrected: it prints the fractions upside down and with vector norms)
+/// takes a = 0 and j = 0, which makes (v̄, 0, 0) a state that keeps every limit but is far
+/// below what the axes allow where the acceleration A′a can offset the centripetal A″v²
+/// (a 5-axis orientation swing: the optimum passes there at several times that v̄, braking
+/// into it and accelerating out). The jerk term is left to the interval checks for the same
+/// reason. This bound is the maximum velocity curve of the acceleration-only problem; the
+/// block planner lowers it to what acceleration alone can reach (`reach`).
 pub fn velocity_bound(g: &NodeGeom, lim: &Limits) -> f64 {
+    // Per axis with A′ ≠ 0 the allowed a is [p + c·x, r + c·x] with x = v², c = −A″/A′; the
+    // ranges intersect iff every lower end lies below every upper end (pairwise, linear in x).
+    let mut v = f64::INFINITY;
+    let mut x = f64::INFINITY;
+    let mut lines = [(0.0f64, 0.0f64, 0.0f64); crate::path::MAX_AXES];
+    let mut n = 0;
+    for k in 0..lim.n_axes {
+        let (d1, d2) = (g.d1[k], g.d2[k]);
+        if d1 != 0.0 {
+            v = v.min(lim.vel[k] / d1.abs());
+            let (lo, hi) = if d1 > 0.0 { (lim.acc_min[k], lim.acc_max[k]) } else { (lim.acc_max[k], lim.acc_min[k]) };
+            lines[n] = (lo / d1, hi / d1, -d2 / d1);
+            n += 1;
+        } else if d2 > 0.0 {
+            x = x.min(lim.acc_max[k] / d2);
+        } else if d2 < 0.0 {
+            x = x.min(lim.acc_min[k] / d2);
+        }
+    }
+    for &(p, _, ck) in &lines[..n] {
+        for &(_, r, cl) in &lines[..n] {
+            if ck > cl {
+                x = x.min((r - p) / (ck - cl));
+            }
+        }
+    }
+    v.min(x.sqrt())
+}
+
+/// Seed 001 eq. 6 (corrected: it prints the fractions upside down and with vector norms): the
+/// largest path velocity at which every axis keeps its limits with a = 0 and j = 0; per axis,
+/// eq. 5 gives v ≤ Ȧ_max/|A′|, v ≤ √(Ä_max/|A″|), v ≤ ∛(A⃛_max/|A‴|). The ceiling a block is
+/// planned under first (`block`), and the speed the node spacing is sized for: where the
+/// motion is faster (under [`velocity_bound`]) it is braking or accelerating through a short
+/// stretch.
+pub fn flat_velocity_bound(g: &NodeGeom, lim: &Limits) -> f64 {
     // Roots are monotone: the smallest v², v³ over the axes first, one root each at the end.
     let (mut v, mut v2, mut v3) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
     for k in 0..lim.n_axes {
@@ -76,4 +126,41 @@ pub fn curvature_jump_cap(left: &NodeGeom, right: &NodeGeom, lim: &Limits, step_
         }
     }
     v
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::check::acc_range;
+    use super::*;
+    use interpd_config::Config;
+    use proptest::prelude::*;
+
+    fn geom(d: &[f64]) -> NodeGeom {
+        let mut g = NodeGeom::default();
+        for k in 0..5 {
+            (g.d1[k], g.d2[k], g.d3[k]) = (d[3 * k], d[3 * k + 1], d[3 * k + 2]);
+        }
+        g
+    }
+
+    proptest! {
+        /// The acceleration-only bound is never below seed 001's v̄, and at it some path
+        /// acceleration keeps every axis within its limit (the pairwise closed form is exact);
+        /// a little above it none does, unless the velocity limit binds.
+        #[test]
+        fn acceleration_only_bound_is_exact(d in proptest::collection::vec(-50.0f64..50.0, 15)) {
+            let lim = Limits::from_config(&Config::five_axis_machine());
+            let g = geom(&d);
+            let (v, v_flat) = (velocity_bound(&g, &lim), flat_velocity_bound(&g, &lim));
+            prop_assert!(v >= v_flat * (1.0 - 1e-12), "{v} < {v_flat}");
+            prop_assume!(v.is_finite() && v > 0.0);
+            let (lo, hi) = acc_range(&g, 1.0, v, &lim);
+            prop_assert!(lo <= hi + 1e-9 * (1.0 + lo.abs().max(hi.abs())), "empty at the bound: [{lo}, {hi}]");
+            let by_vel = (0..lim.n_axes).any(|k| g.d1[k] != 0.0 && (lim.vel[k] / g.d1[k].abs() - v).abs() <= 1e-12 * v);
+            if !by_vel {
+                let (lo, hi) = acc_range(&g, 1.0, v * 1.001, &lim);
+                prop_assert!(lo > hi, "still feasible above the bound: [{lo}, {hi}]");
+            }
+        }
+    }
 }

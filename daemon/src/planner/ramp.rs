@@ -38,6 +38,8 @@ const MARGIN_GIVE_UP: f64 = 0.05;
 pub struct FlattenUnder<'a> {
     pub view: View<'a>,
     pub cap: f64,
+    /// The limits the branch runs under (for [`FlattenUnder::flat_acc`]).
+    pub lim: &'a Limits,
 }
 
 impl FlattenUnder<'_> {
@@ -45,6 +47,30 @@ impl FlattenUnder<'_> {
     #[inline]
     pub fn velocity(&self, t: usize) -> f64 {
         self.view.node(t).vbar_mm_s.min(self.cap)
+    }
+
+    /// The acceleration at or below which a state (v, ·) at traversal position `t` has
+    /// flattened: a ≤ 0 (seed 001's v̄ with a = 0), or the lowest acceleration the axes allow
+    /// at v where that is above zero. The acceleration-only ceiling passes a dip with A′a
+    /// offsetting A″v², where a = 0 does not keep the limits: a state braked as far as the
+    /// axes allow is as flat as the motion can be there. Where the ceiling falls into a dip
+    /// the passes made (`Node::reach_bound`), following its slope (dv/ds = Δc/Δs, so
+    /// a = v·dv/ds, scaled to v) counts as flat, as long as the axes allow it.
+    #[inline]
+    pub fn flat_acc(&self, t: usize, v: f64) -> f64 {
+        if t + 1 >= self.view.len() {
+            return 0.0;
+        }
+        let (lo, hi) = acc_range(self.view.start_geom(t), self.view.sign(), v, self.lim);
+        let lo = if lo <= hi { lo } else { f64::NEG_INFINITY };
+        let (c0, c1) = (self.velocity(t), self.velocity(t + 1));
+        if self.view.node(t).reach_bound && c1 < c0 && c0 > 0.0 {
+            // Into a dip of the passes' ceiling: flat means following its slope.
+            let follow = v * v * (c1 - c0) / (self.view.ds(t) * c0);
+            follow.max(lo).min(0.0)
+        } else {
+            lo.max(0.0)
+        }
     }
 }
 
@@ -191,14 +217,18 @@ fn landing_ramp_interval(
     v: f64,
     a: f64,
     lim: &Limits,
+    ceiling: &FlattenUnder,
     start: Option<NodeRanges>,
 ) -> Option<(Interval, bool, Option<NodeRanges>)> {
     let (steep, r1) = ramp_interval_from(view, t, v, a, lim, Check::Nodes, start)?;
-    if a <= 0.0 || steep.a1() >= 0.0 {
+    // The next node's flat acceleration at the current speed (the ramp slows on the way, and
+    // a slower state is flat at a lower relative slope: landing there errs on the safe side).
+    let target = ceiling.flat_acc(t + 1, v);
+    if a <= target || steep.a1() >= target {
         return Some((steep, false, r1));
     }
     let ig = view.interval_geom(t);
-    match Interval::landing(v, a, ig.ds_mm) {
+    match Interval::landing_at(v, a, ig.ds_mm, target) {
         Some(land) if !violates(&land, &ig, lim) => Some((land, true, None)),
         _ => Some((steep, false, r1)),
     }
@@ -281,7 +311,7 @@ pub fn ramp_margin(
         if margin > MARGIN_GIVE_UP {
             return Some(margin);
         }
-        if a <= 0.0 {
+        if a <= ceiling.flat_acc(t, v) {
             // Flat, but it must be able to go on: at an element joint A‴ (and A″) can jump,
             // and a state that kept the limits arriving can leave no jerk for the next side.
             return (t >= last || can_leave(view, t, v, a, lim)).then_some(margin);
@@ -289,18 +319,20 @@ pub fn ramp_margin(
         if t >= last {
             return None;
         }
-        if t - t0 >= RAMP_SIMULATED_NODES {
+        // The closed-form tail needs a braking jerk; a ramp still forced to raise its
+        // acceleration (into a dip of the passes' ceiling) is simulated on.
+        if t - t0 >= RAMP_SIMULATED_NODES && j_last < 0.0 {
             return ramp_tail_margin(view, t, v, a, j_last, ceiling, work).map(|m| margin.max(m));
         }
-        let (iv, landed, r1) = landing_ramp_interval(view, t, v, a, lim, ranges)?;
+        let (iv, landed, r1) = landing_ramp_interval(view, t, v, a, lim, ceiling, ranges)?;
         ranges = r1;
         j_last = iv.j;
         work.ramp_nodes += 1;
         let cap = ceiling.velocity(t).min(ceiling.velocity(t + 1));
         margin = margin.max(peak_velocity(&iv) / cap - 1.0).max(iv.v1() / ceiling.velocity(t + 1) - 1.0);
         v = iv.v1();
-        // A landed ramp is flat: its a₁ is zero up to rounding, which must not keep it going.
-        a = if landed { 0.0 } else { iv.a1() };
+        // A landed ramp is flat: its a₁ is on target up to rounding, which must not keep it going.
+        a = if landed { iv.a1().min(ceiling.flat_acc(t + 1, v)) } else { iv.a1() };
     }
     None
 }

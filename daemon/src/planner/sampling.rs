@@ -9,7 +9,7 @@
 
 use super::check::{IntervalGeom, geom_at};
 use super::limits::Limits;
-use super::node::{Node, NodeGeom, curvature_jump_cap, velocity_bound};
+use super::node::{Node, NodeGeom, curvature_jump_cap, flat_velocity_bound, velocity_bound};
 use crate::path::{AxisDerivs, Element, Feed, JointKind};
 use interpd_config::{AxisKind, Config};
 
@@ -321,10 +321,12 @@ pub fn sample_element(
         left,
         right,
         vbar_mm_s: vbar,
+        vbar_flat_mm_s: flat_velocity_bound(&left, lim).min(flat_velocity_bound(&right, lim)).min(vbar),
         feed_mm_s: feed,
         stop,
         dwell_s: e.dwell_before_s,
         line: e.source.line,
+        reach_bound: false,
     });
 
     // A straight line between two stops is planned in closed form (`scurve`): its interior
@@ -408,7 +410,7 @@ fn interpolation_error(e: &Element, s: f64, h: f64, feed: f64, lim: &Limits) -> 
     e.geometry.eval(s + h, &mut d1);
     e.geometry.eval(s + 0.5 * h, &mut dm);
     let (a, b, m) = (NodeGeom::from(&d0), NodeGeom::from(&d1), NodeGeom::from(&dm));
-    let v = velocity_bound(&a, lim).max(velocity_bound(&b, lim)).max(velocity_bound(&m, lim)).min(feed);
+    let v = flat_velocity_bound(&a, lim).max(flat_velocity_bound(&b, lim)).max(flat_velocity_bound(&m, lim)).min(feed);
     if !v.is_finite() {
         return 0.0;
     }
@@ -444,10 +446,12 @@ fn push_interior(e: &Element, s_local: f64, d: &mut AxisDerivs, feed: f64, lim: 
         left: g,
         right: g,
         vbar_mm_s: velocity_bound(&g, lim).min(feed),
+        vbar_flat_mm_s: flat_velocity_bound(&g, lim).min(feed),
         feed_mm_s: feed,
         stop: false,
         dwell_s: 0.0,
         line: e.source.line,
+        reach_bound: false,
     });
 }
 
@@ -461,10 +465,12 @@ pub fn end_node(last: &Element, final_dwell_s: f64, params: &SamplingParams) -> 
         left: g,
         right: g,
         vbar_mm_s: 0.0,
+        vbar_flat_mm_s: 0.0,
         feed_mm_s: feed_of(last, params),
         stop: true,
         dwell_s: final_dwell_s,
         line: last.source.line,
+        reach_bound: false,
     }
 }
 
@@ -489,7 +495,7 @@ fn table_step(
     params: &SamplingParams,
 ) -> f64 {
     e.geometry.eval(s, d);
-    let v = velocity_bound(&NodeGeom::from(&*d), lim)
+    let v = flat_velocity_bound(&NodeGeom::from(&*d), lim)
         .min(feed)
         .min(speed_from_rest(from_start_mm.max(0.0), j_path, a_path))
         .min(speed_from_rest(to_end_mm.max(0.0), j_path, a_path));
@@ -515,7 +521,7 @@ fn step_at(
     e.geometry.eval(s, d);
     let ds = geometric_step(sharpness_at(d, lim, params), params);
     let g = NodeGeom::from(&*d);
-    let v_nom = velocity_bound(&g, lim)
+    let v_nom = flat_velocity_bound(&g, lim)
         .min(feed)
         .min(speed_from_rest(from_start_mm.max(0.0), j_path, a_path))
         .min(speed_from_rest(to_end_mm.max(0.0), j_path, a_path));

@@ -197,6 +197,8 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
                 "ramp_nodes": stats.work.ramp_nodes,
                 "bisections": stats.work.bisections,
                 "cap_tries": stats.work.cap_tries,
+                "relaxed_tried": stats.work.relaxed_tried,
+                "relaxed_kept": stats.work.relaxed_kept,
             },
             "lookahead_mm": config.planner.lookahead_mm,
             "prep": { "wall_ms": prepared.wall_s * 1e3, "stats": prepared.stats },

@@ -70,10 +70,25 @@ pub fn plan_block(nodes: &mut [Node], start: (f64, f64), end_is_stop: bool, lim:
         for nd in nodes.iter_mut() {
             nd.reach_bound = false;
         }
+        work.relaxed_tried += 1;
+        tracing::debug!(
+            s_from_mm = nodes[0].s_mm,
+            nodes = nodes.len(),
+            acc_only_gain = gain,
+            seed_ceiling_s = chosen.as_ref().map_or(f64::NAN, |c| c.time_s),
+            relaxed_ceiling_s = free.as_ref().map_or(f64::NAN, |c| c.time_s),
+            "block planned under both ceilings"
+        );
         chosen = match (chosen, free) {
-            (Ok(a), Ok(b)) => Ok(if b.time_s < a.time_s { b } else { a }),
-            (Err(_), Ok(b)) => Ok(b),
-            (a, Err(_)) => a,
+            (Ok(a), Ok(b)) if b.time_s < a.time_s => {
+                work.relaxed_kept += 1;
+                Ok(b)
+            }
+            (Err(_), Ok(b)) => {
+                work.relaxed_kept += 1;
+                Ok(b)
+            }
+            (a, _) => a,
         };
     }
     // The nodes keep the repairs of the plan that was chosen, for the next horizon.

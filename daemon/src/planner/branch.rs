@@ -328,6 +328,8 @@ pub fn build_envelope(nodes: &[Node], lim: &Limits, work: &mut Work) -> Result<E
         let branch_nodes = branch.len();
         tracing::debug!(
             s_end_mm = nodes[m].s_mm,
+            v_start,
+            vbar = nodes[m].vbar_mm_s,
             s_from_mm = branch.last().map_or(nodes[m].s_mm, |b| nodes[b.0].s_mm),
             nodes = branch_nodes,
             evals = work.evals - evals_before,

@@ -39,6 +39,10 @@ pub struct Work {
     pub bisections: u64,
     /// Capped runs tried (forward and backward branch under a common velocity).
     pub cap_tries: u64,
+    /// Blocks also planned under the acceleration-only ceiling, and how many of those plans
+    /// were faster and kept (`block`).
+    pub relaxed_tried: u64,
+    pub relaxed_kept: u64,
 }
 
 impl Work {
@@ -51,6 +55,8 @@ impl Work {
         self.ramp_nodes += o.ramp_nodes;
         self.bisections += o.bisections;
         self.cap_tries += o.cap_tries;
+        self.relaxed_tried += o.relaxed_tried;
+        self.relaxed_kept += o.relaxed_kept;
     }
 }
 

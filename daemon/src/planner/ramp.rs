@@ -61,10 +61,16 @@ impl FlattenUnder<'_> {
         if t + 1 >= self.view.len() {
             return 0.0;
         }
+        let node = self.view.node(t);
+        // Up to seed 001's v̄ the axes allow a = 0 (eq. 6), so the lowest allowed acceleration
+        // is ≤ 0: the common case, without the per-axis ranges.
+        if !node.reach_bound && v <= node.vbar_flat_mm_s {
+            return 0.0;
+        }
         let (lo, hi) = acc_range(self.view.start_geom(t), self.view.sign(), v, self.lim);
         let lo = if lo <= hi { lo } else { f64::NEG_INFINITY };
         let (c0, c1) = (self.velocity(t), self.velocity(t + 1));
-        if self.view.node(t).reach_bound && c1 < c0 && c0 > 0.0 {
+        if node.reach_bound && c1 < c0 && c0 > 0.0 {
             // Into a dip of the passes' ceiling: flat means following its slope.
             let follow = v * v * (c1 - c0) / (self.view.ds(t) * c0);
             follow.max(lo).min(0.0)

@@ -214,21 +214,21 @@ fn fuzz_program_parsers() {
     let corpus = corpus();
     assert!(corpus.len() > 10, "corpus not found");
     // A fresh seed per run explores new inputs; FUZZ_SEED replays the run a failure reports.
-    let seed: u64 = std::env::var("FUZZ_SEED")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(0x9e37_79b9_7f4a_7c15 ^ std::process::id() as u64);
+    let seed: u64 = match std::env::var("FUZZ_SEED") {
+        Ok(s) => s.parse().unwrap_or_else(|_| panic!("FUZZ_SEED={s:?} is not an unsigned integer")),
+        Err(_) => 0x9e37_79b9_7f4a_7c15 ^ std::process::id() as u64,
+    };
     eprintln!("fuzz_program_parsers: FUZZ_SEED={seed}");
     let mut rng = Rng(seed);
     let mut runs = 0u64;
     while Instant::now() < deadline {
         let (name, base) = &corpus[rng.below(corpus.len())];
-        let base_is_text = rng.below(4) != 0;
-        let text = if base_is_text { mutate(&mut rng, base) } else { generated(&mut rng) };
+        let mutated = rng.below(4) != 0;
+        let text = if mutated { mutate(&mut rng, base) } else { generated(&mut rng) };
         // Alternate the format so tables and G-code both get mutated inputs.
         let fname = if rng.below(2) == 0 { name.clone() } else { format!("{name}.ngc") };
         if let Err(what) = check_input(&fname, &text, &cfgs) {
-            panic!("{}", report(seed, &fname, if base_is_text { base } else { "" }, &text, &what));
+            panic!("{}", report(seed, &fname, if mutated { base } else { "" }, &text, &what));
         }
         runs += 1;
     }

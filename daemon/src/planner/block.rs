@@ -51,25 +51,13 @@ pub fn plan_block(nodes: &mut [Node], start: (f64, f64), end_is_stop: bool, lim:
     }
     let raw: Vec<f64> = nodes.iter().map(|nd| nd.vbar_mm_s).collect();
     // Seed 001's ceiling: v̄ with a = j = 0 (eq. 6), every state (v̄, 0, 0) keeping the limits.
-    let seed: Vec<f64> = nodes.iter().zip(&raw).map(|(nd, &r)| nd.vbar_flat_mm_s.min(r)).collect();
+    let seed = Ceiling {
+        v: nodes.iter().zip(&raw).map(|(nd, &r)| nd.vbar_flat_mm_s.min(r)).collect(),
+        dip: vec![false; nodes.len()],
+    };
     let mut chosen = plan_under(nodes, &seed, start, lim, &mut work);
-    // The relaxed ceiling pays only where the acceleration-only profile under it is clearly
-    // faster than under seed 001's (5-axis orientation swings); elsewhere the greedy branches
-    // do as well or better under the smoother seed ceiling, at half the work. It cannot be
-    // faster by more than the ceilings differ.
-    let differs = raw.iter().zip(&seed).any(|(&r, &f)| r > f * (1.0 + RELAXED_MIN_GAIN));
-    let relaxed = if differs { Some(relaxed_ceiling(nodes, &raw, &seed, start.0, lim)) } else { None };
-    let gain = relaxed.as_ref().map_or(0.0, |(c, _)| {
-        acc_only_time_s(nodes, &seed, start.0, lim) / acc_only_time_s(nodes, c, start.0, lim) - 1.0
-    });
-    if let Some(relaxed) = relaxed.filter(|_| gain > RELAXED_MIN_GAIN) {
-        for (nd, &b) in nodes.iter_mut().zip(&relaxed.1) {
-            nd.reach_bound = b;
-        }
-        let free = plan_under(nodes, &relaxed.0, start, lim, &mut work);
-        for nd in nodes.iter_mut() {
-            nd.reach_bound = false;
-        }
+    if let Some((relaxed, gain)) = relaxed_worth_trying(nodes, &raw, &seed.v, start.0, lim) {
+        let free = plan_under(nodes, &relaxed, start, lim, &mut work);
         work.relaxed_tried += 1;
         tracing::debug!(
             s_from_mm = nodes[0].s_mm,
@@ -79,28 +67,33 @@ pub fn plan_block(nodes: &mut [Node], start: (f64, f64), end_is_stop: bool, lim:
             relaxed_ceiling_s = free.as_ref().map_or(f64::NAN, |c| c.time_s),
             "block planned under both ceilings"
         );
-        chosen = match (chosen, free) {
-            (Ok(a), Ok(b)) if b.time_s < a.time_s => {
-                work.relaxed_kept += 1;
-                Ok(b)
-            }
-            (Err(_), Ok(b)) => {
-                work.relaxed_kept += 1;
-                Ok(b)
-            }
-            (a, _) => a,
+        let faster = match (&chosen, &free) {
+            (Ok(a), Ok(b)) => b.time_s < a.time_s,
+            (Err(_), Ok(_)) => true,
+            (_, Err(_)) => false,
         };
+        if faster {
+            work.relaxed_kept += 1;
+            chosen = free;
+        }
     }
     // The nodes keep the repairs of the plan that was chosen, for the next horizon.
-    for (i, nd) in nodes.iter_mut().enumerate() {
-        nd.vbar_mm_s = raw[i];
-        if let Ok(c) = &chosen {
-            if c.ceiling[i] < c.given[i] {
-                nd.vbar_mm_s = nd.vbar_mm_s.min(c.ceiling[i]);
-            }
+    for (nd, &r) in nodes.iter_mut().zip(&raw) {
+        nd.vbar_mm_s = r;
+    }
+    if let Ok(c) = &chosen {
+        for &(i, v) in &c.repairs {
+            nodes[i].vbar_mm_s = nodes[i].vbar_mm_s.min(v);
         }
     }
     chosen.map(|c| BlockPlan { intervals: c.intervals, node_aligned: true, final_before: c.final_before, work })
+}
+
+/// A ceiling to plan a block under: v̄ per node, and where it is a dip the acceleration-only
+/// passes made (`Node::reach_bound`).
+struct Ceiling {
+    v: Vec<f64>,
+    dip: Vec<bool>,
 }
 
 /// A block's profile under one ceiling.
@@ -108,52 +101,75 @@ struct Planned {
     intervals: Vec<Interval>,
     final_before: usize,
     time_s: f64,
-    /// The ceiling it was given and the one it ended with (lowered by repairs).
-    given: Vec<f64>,
-    ceiling: Vec<f64>,
+    /// Nodes whose v̄ repairs lowered, and to what.
+    repairs: Vec<(usize, f64)>,
 }
 
 fn plan_under(
     nodes: &mut [Node],
-    ceiling: &[f64],
+    ceiling: &Ceiling,
     start: (f64, f64),
     lim: &Limits,
     work: &mut Work,
 ) -> Result<Planned, Stuck> {
-    for (nd, &c) in nodes.iter_mut().zip(ceiling) {
-        nd.vbar_mm_s = c;
+    for ((nd, &v), &dip) in nodes.iter_mut().zip(&ceiling.v).zip(&ceiling.dip) {
+        nd.vbar_mm_s = v;
+        nd.reach_bound = dip;
     }
-    let (intervals, final_before) = plan_repaired(nodes, start, lim, work)?;
-    let time_s = intervals.iter().map(|iv| iv.t_s).sum();
+    let result = plan_repaired(nodes, start, lim, work);
+    for nd in nodes.iter_mut() {
+        nd.reach_bound = false;
+    }
+    let (intervals, final_before) = result?;
+    let repairs = (0..nodes.len()).filter(|&i| nodes[i].vbar_mm_s < ceiling.v[i]);
     Ok(Planned {
+        time_s: intervals.iter().map(|iv| iv.t_s).sum(),
         intervals,
         final_before,
-        time_s,
-        given: ceiling.to_vec(),
-        ceiling: nodes.iter().map(|nd| nd.vbar_mm_s).collect(),
+        repairs: repairs.map(|i| (i, nodes[i].vbar_mm_s)).collect(),
     })
 }
 
-/// The acceleration-only maximum velocity curve `raw` lowered by the passes of the
-/// acceleration-only problem (`reach`), and where that lowering marks a dip (`reach_bound`).
-/// A lowering by less than `PASS_NEGLIGIBLE` is ignored, and none goes below `seed`.
-fn relaxed_ceiling(nodes: &[Node], raw: &[f64], seed: &[f64], v_start: f64, lim: &Limits) -> (Vec<f64>, Vec<bool>) {
-    let mut passed = raw.to_vec();
-    super::reach::lower_to_reachable(nodes, &mut passed, v_start, lim);
-    let mut bound = vec![false; nodes.len()];
-    for i in 0..nodes.len() {
-        let lowered = passed[i] < raw[i] * (1.0 - PASS_NEGLIGIBLE);
-        bound[i] = lowered && passed[i] > seed[i];
-        passed[i] = if lowered { passed[i].max(seed[i]) } else { raw[i] };
+/// The relaxed ceiling and its gain when it pays: only where the acceleration-only profile
+/// under it is more than `RELAXED_MIN_GAIN` faster than under seed 001's (5-axis orientation
+/// swings); elsewhere the greedy branches do as well or better under the smoother seed ceiling,
+/// at half the work. It cannot be faster by more than the ceilings differ, which is checked
+/// first (no passes where they are alike).
+fn relaxed_worth_trying(
+    nodes: &[Node],
+    raw: &[f64],
+    seed: &[f64],
+    v_start: f64,
+    lim: &Limits,
+) -> Option<(Ceiling, f64)> {
+    if !raw.iter().zip(seed).any(|(&r, &f)| r > f * (1.0 + RELAXED_MIN_GAIN)) {
+        return None;
     }
-    (passed, bound)
+    let relaxed = relaxed_ceiling(nodes, raw, seed, lim);
+    let gain = acc_only_time_s(nodes, seed, v_start, lim) / acc_only_time_s(nodes, &relaxed.v, v_start, lim) - 1.0;
+    (gain > RELAXED_MIN_GAIN).then_some((relaxed, gain))
+}
+
+/// The acceleration-only maximum velocity curve `raw` lowered by the passes of the
+/// acceleration-only problem (`reach`), and where that lowering marks a dip. A lowering by
+/// less than `PASS_NEGLIGIBLE` is ignored, and none goes below `seed`.
+fn relaxed_ceiling(nodes: &[Node], raw: &[f64], seed: &[f64], lim: &Limits) -> Ceiling {
+    let mut v = raw.to_vec();
+    super::reach::lower_to_reachable(nodes, &mut v, lim);
+    let mut dip = vec![false; nodes.len()];
+    for i in 0..nodes.len() {
+        let lowered = v[i] < raw[i] * (1.0 - PASS_NEGLIGIBLE);
+        dip[i] = lowered && v[i] > seed[i];
+        v[i] = if lowered { v[i].max(seed[i]) } else { raw[i] };
+    }
+    Ceiling { v, dip }
 }
 
 /// Time of the acceleration-only profile under `ceiling` (a lower bound of any jerk-limited
 /// profile under it): the passes of `reach`, then Δs over the mean velocity of each interval.
 fn acc_only_time_s(nodes: &[Node], ceiling: &[f64], v_start: f64, lim: &Limits) -> f64 {
     let mut v = ceiling.to_vec();
-    super::reach::lower_to_reachable(nodes, &mut v, v_start, lim);
+    super::reach::lower_to_reachable(nodes, &mut v, lim);
     v[0] = v_start;
     nodes
         .windows(2)

@@ -93,16 +93,10 @@ impl Interval {
         (t > 0.0 && t.is_finite()).then_some(Interval { v0, a0, j, t_s: t, ds_mm: ds })
     }
 
-    /// The interval from (v0, a0) over `ds` that ends with zero acceleration (j = −a₀/T):
-    /// s = v₀T + a₀T²/3 = Δs, solved in the cancellation-free form
-    /// T = 2Δs / (v₀ + √(v₀² + 4a₀Δs/3)). `None` if no such interval moves forward.
-    pub fn landing(v0: f64, a0: f64, ds: f64) -> Option<Interval> {
-        Self::landing_at(v0, a0, ds, 0.0)
-    }
-
-    /// The interval over `ds` that ends with acceleration `a1`: j = (a1 − a0)/T and
-    /// ds = v0·T + (2a0 + a1)·T²/6 (seed 001 eq. 2 at τ = T).
-    pub fn landing_at(v0: f64, a0: f64, ds: f64, a1: f64) -> Option<Interval> {
+    /// The interval from (v0, a0) over `ds` that ends with acceleration `a1`: j = (a1 − a0)/T
+    /// and Δs = v₀T + (2a₀ + a₁)T²/6 (seed 001 eq. 2 at τ = T), solved in the cancellation-free
+    /// form T = 2Δs / (v₀ + √(v₀² + 2(2a₀ + a₁)Δs/3)). `None` if no such interval moves forward.
+    pub fn landing(v0: f64, a0: f64, ds: f64, a1: f64) -> Option<Interval> {
         let disc = v0 * v0 + 2.0 * (2.0 * a0 + a1) * ds / 3.0;
         if disc.is_nan() || disc < 0.0 {
             return None;
@@ -215,7 +209,7 @@ mod tests {
     #[test]
     fn landing_ends_flat() {
         for &(v0, a0, ds) in &[(10.0, 500.0, 0.02), (3.0, -200.0, 0.01), (0.0, 1000.0, 0.001)] {
-            let iv = Interval::landing(v0, a0, ds).expect("lands");
+            let iv = Interval::landing(v0, a0, ds, 0.0).expect("lands");
             let (s, _, a) = iv.state_at(iv.t_s);
             assert!((s - ds).abs() < 1e-12 && a.abs() < 1e-9 * a0.abs(), "s {s} a {a}");
         }

@@ -234,7 +234,7 @@ fn landing_ramp_interval(
         return Some((steep, false, r1));
     }
     let ig = view.interval_geom(t);
-    match Interval::landing_at(v, a, ig.ds_mm, target) {
+    match Interval::landing(v, a, ig.ds_mm, target) {
         Some(land) if !violates(&land, &ig, lim) => Some((land, true, None)),
         _ => Some((steep, false, r1)),
     }

@@ -12,14 +12,10 @@ use super::check::acc_range;
 use super::limits::Limits;
 use super::node::Node;
 
-/// Lowers `ceiling[i]` (initially the nodes' v̄) to what can be reached from `v_start` at the
-/// first node and braked to the last node's bound at the last.
-pub fn lower_to_reachable(nodes: &[Node], ceiling: &mut [f64], v_start: f64, lim: &Limits) {
+/// Lowers the interior of `ceiling` (initially the nodes' v̄) to what acceleration can reach
+/// from, and brake to, the ceiling at the other interior nodes.
+pub fn lower_to_reachable(nodes: &[Node], ceiling: &mut [f64], lim: &Limits) {
     let n = nodes.len();
-    if n < 2 {
-        return;
-    }
-    ceiling[0] = ceiling[0].max(v_start);
     // Backward: b_i ≤ b_{i+1} − 2·Δs·a_min at node i+1. Not from the block end: its stop
     // (or a horizon end a later horizon moves on) is the backward branch's business, and
     // the ceiling it would spread is no dip the branches need to know of.
@@ -79,7 +75,7 @@ mod tests {
         let nodes = line(41);
         let mut c = vec![1000.0; 41];
         c[20] = 10.0;
-        lower_to_reachable(&nodes, &mut c, 0.0, &lim);
+        lower_to_reachable(&nodes, &mut c, &lim);
         for (i, &v) in c.iter().enumerate() {
             // b = v² grows by 2·a·Δs per node away from the dip (never above the original).
             let reach = (100.0 + 2.0 * a * (i as f64 - 20.0).abs()).sqrt().min(1000.0);

@@ -199,6 +199,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
                 "cap_tries": stats.work.cap_tries,
                 "relaxed_tried": stats.work.relaxed_tried,
                 "relaxed_kept": stats.work.relaxed_kept,
+                "seed_skipped": stats.work.seed_skipped,
             },
             "lookahead_mm": config.planner.lookahead_mm,
             "prep": { "wall_ms": prepared.wall_s * 1e3, "stats": prepared.stats },

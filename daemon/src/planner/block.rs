@@ -6,10 +6,11 @@
 //! follow closely, and the maximum velocity curve of the acceleration-only problem lowered to
 //! what acceleration can reach (`reach`), which lets the motion pass a 5-axis orientation
 //! swing braking into it and accelerating out, as the time-optimal profile does (seed 001's
-//! v̄ is up to 2.9 × too low there). A block is planned under seed 001's ceiling, and also
-//! under the relaxed one where the acceleration-only profile says that gains more than
-//! `RELAXED_MIN_GAIN`; the faster plan is kept. Both keep every limit (every interval is
-//! checked); they differ only in speed.
+//! v̄ is up to 2.9 × too low there). A block is planned under seed 001's ceiling, or, where
+//! the acceleration-only profile says the relaxed one gains more than `RELAXED_MIN_GAIN`,
+//! under the relaxed one first, and under seed 001's too unless the relaxed plan already beats
+//! the acceleration-only time under it (which no plan under that ceiling can); the faster plan
+//! is kept. Both keep every limit (every interval is checked); they differ only in speed.
 
 use super::branch::{Stuck, build_envelope};
 use super::forward::forward_branch;
@@ -25,6 +26,9 @@ const PASS_NEGLIGIBLE: f64 = 1e-3;
 /// The relaxed ceiling is tried when the acceleration-only profile under it is at least this
 /// much faster than under seed 001's.
 const RELAXED_MIN_GAIN: f64 = 0.02;
+/// A relaxed plan this much faster than the acceleration-only time under seed 001's ceiling is
+/// kept without planning under that ceiling.
+const SEED_SKIP_MARGIN: f64 = 0.02;
 /// Factors applied to the stuck node's velocity, in order, when repairing there again.
 const REPAIR_FACTORS: [f64; 5] = [0.9, 0.7, 0.4, 0.1, 0.0];
 
@@ -55,28 +59,10 @@ pub fn plan_block(nodes: &mut [Node], start: (f64, f64), end_is_stop: bool, lim:
         v: nodes.iter().zip(&raw).map(|(nd, &r)| nd.vbar_flat_mm_s.min(r)).collect(),
         dip: vec![false; nodes.len()],
     };
-    let mut chosen = plan_under(nodes, &seed, start, lim, &mut work);
-    if let Some((relaxed, gain)) = relaxed_worth_trying(nodes, &raw, &seed.v, start.0, lim) {
-        let free = plan_under(nodes, &relaxed, start, lim, &mut work);
-        work.relaxed_tried += 1;
-        tracing::debug!(
-            s_from_mm = nodes[0].s_mm,
-            nodes = nodes.len(),
-            acc_only_gain = gain,
-            seed_ceiling_s = chosen.as_ref().map_or(f64::NAN, |c| c.time_s),
-            relaxed_ceiling_s = free.as_ref().map_or(f64::NAN, |c| c.time_s),
-            "block planned under both ceilings"
-        );
-        let faster = match (&chosen, &free) {
-            (Ok(a), Ok(b)) => b.time_s < a.time_s,
-            (Err(_), Ok(_)) => true,
-            (_, Err(_)) => false,
-        };
-        if faster {
-            work.relaxed_kept += 1;
-            chosen = free;
-        }
-    }
+    let chosen = match relaxed_worth_trying(nodes, &raw, &seed.v, start.0, lim) {
+        None => plan_under(nodes, &seed, start, lim, &mut work),
+        Some(relaxed) => plan_both(nodes, &seed, &relaxed, start, lim, &mut work),
+    };
     // The nodes keep the repairs of the plan that was chosen, for the next horizon.
     for (nd, &r) in nodes.iter_mut().zip(&raw) {
         nd.vbar_mm_s = r;
@@ -87,6 +73,49 @@ pub fn plan_block(nodes: &mut [Node], start: (f64, f64), end_is_stop: bool, lim:
         }
     }
     chosen.map(|c| BlockPlan { intervals: c.intervals, node_aligned: true, final_before: c.final_before, work })
+}
+
+/// Plans a block under the relaxed ceiling and, unless that plan is clearly faster than any
+/// plan under seed 001's ceiling can be, under that one too; keeps the faster.
+fn plan_both(
+    nodes: &mut [Node],
+    seed: &Ceiling,
+    relaxed: &Relaxed,
+    start: (f64, f64),
+    lim: &Limits,
+    work: &mut Work,
+) -> Result<Planned, Stuck> {
+    work.relaxed_tried += 1;
+    let free = plan_under(nodes, &relaxed.ceiling, start, lim, work);
+    // A plan under seed 001's ceiling takes at least the acceleration-only time under it (up to
+    // the passes' discretisation, hence the margin): a relaxed plan below that wins anyway.
+    let seed_cannot_win = free.as_ref().is_ok_and(|f| f.time_s < (1.0 - SEED_SKIP_MARGIN) * relaxed.seed_bound_s);
+    let under_seed = (!seed_cannot_win).then(|| plan_under(nodes, seed, start, lim, work));
+    tracing::debug!(
+        s_from_mm = nodes[0].s_mm,
+        nodes = nodes.len(),
+        acc_only_gain = relaxed.gain,
+        seed_ceiling_s = under_seed.as_ref().map_or(f64::NAN, |c| c.as_ref().map_or(f64::NAN, |c| c.time_s)),
+        seed_bound_s = relaxed.seed_bound_s,
+        relaxed_ceiling_s = free.as_ref().map_or(f64::NAN, |c| c.time_s),
+        "block planned under the relaxed ceiling"
+    );
+    let Some(seed_plan) = under_seed else {
+        work.relaxed_kept += 1;
+        work.seed_skipped += 1;
+        return free;
+    };
+    let faster = match (&seed_plan, &free) {
+        (Ok(a), Ok(b)) => b.time_s < a.time_s,
+        (Err(_), Ok(_)) => true,
+        (_, Err(_)) => false,
+    };
+    if faster {
+        work.relaxed_kept += 1;
+        free
+    } else {
+        seed_plan
+    }
 }
 
 /// A ceiling to plan a block under: v̄ per node, and where it is a dip the acceleration-only
@@ -130,24 +159,27 @@ fn plan_under(
     })
 }
 
-/// The relaxed ceiling and its gain when it pays: only where the acceleration-only profile
-/// under it is more than `RELAXED_MIN_GAIN` faster than under seed 001's (5-axis orientation
-/// swings); elsewhere the greedy branches do as well or better under the smoother seed ceiling,
-/// at half the work. It cannot be faster by more than the ceilings differ, which is checked
-/// first (no passes where they are alike).
-fn relaxed_worth_trying(
-    nodes: &[Node],
-    raw: &[f64],
-    seed: &[f64],
-    v_start: f64,
-    lim: &Limits,
-) -> Option<(Ceiling, f64)> {
+/// The relaxed ceiling, with the acceleration-only gain that justifies it and the
+/// acceleration-only time under seed 001's ceiling (a lower bound of any plan under that one).
+struct Relaxed {
+    ceiling: Ceiling,
+    gain: f64,
+    seed_bound_s: f64,
+}
+
+/// The relaxed ceiling when it pays: only where the acceleration-only profile under it is more
+/// than `RELAXED_MIN_GAIN` faster than under seed 001's (5-axis orientation swings); elsewhere
+/// the greedy branches do as well or better under the smoother seed ceiling, at half the work.
+/// It cannot be faster by more than the ceilings differ, which is checked first (no passes
+/// where they are alike).
+fn relaxed_worth_trying(nodes: &[Node], raw: &[f64], seed: &[f64], v_start: f64, lim: &Limits) -> Option<Relaxed> {
     if !raw.iter().zip(seed).any(|(&r, &f)| r > f * (1.0 + RELAXED_MIN_GAIN)) {
         return None;
     }
-    let relaxed = relaxed_ceiling(nodes, raw, seed, lim);
-    let gain = acc_only_time_s(nodes, seed, v_start, lim) / acc_only_time_s(nodes, &relaxed.v, v_start, lim) - 1.0;
-    (gain > RELAXED_MIN_GAIN).then_some((relaxed, gain))
+    let ceiling = relaxed_ceiling(nodes, raw, seed, lim);
+    let seed_bound_s = acc_only_time_s(nodes, seed, v_start, lim);
+    let gain = seed_bound_s / acc_only_time_s(nodes, &ceiling.v, v_start, lim) - 1.0;
+    (gain > RELAXED_MIN_GAIN).then_some(Relaxed { ceiling, gain, seed_bound_s })
 }
 
 /// The acceleration-only maximum velocity curve `raw` lowered by the passes of the

@@ -43,6 +43,9 @@ pub struct Work {
     /// were faster and kept (`block`).
     pub relaxed_tried: u64,
     pub relaxed_kept: u64,
+    /// Blocks whose relaxed plan beat the acceleration-only time under seed 001's ceiling, so
+    /// no plan under that ceiling was made (`block`).
+    pub seed_skipped: u64,
 }
 
 impl Work {
@@ -57,6 +60,7 @@ impl Work {
         self.cap_tries += o.cap_tries;
         self.relaxed_tried += o.relaxed_tried;
         self.relaxed_kept += o.relaxed_kept;
+        self.seed_skipped += o.seed_skipped;
     }
 }
 

@@ -193,7 +193,11 @@ fn five_axis_table_within_three_percent_of_the_reference() {
     let table =
         std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/five_axis_table.csv")).unwrap();
     let prog = program::parse(&table, "t.csv", &five).unwrap();
-    let (segs, _) = Planner::plan_path(&five, &prog.path).unwrap();
+    let (segs, stats) = Planner::plan_path(&five, &prog.path).unwrap();
     let t = profile::duration_s(&segs);
     assert!(t <= 1.03 * 4.4176, "5-axis table: {t} s, {:.4} × the Ipopt reference", t / 4.4176);
+    // The machining goes through the swings; the relaxed plans there beat what any plan under
+    // seed 001's ceiling could do, so that plan is skipped (the cost of planning twice).
+    let w = stats.work;
+    assert!(w.relaxed_tried >= 1 && w.relaxed_kept == w.relaxed_tried && w.seed_skipped == w.relaxed_tried, "{w:?}");
 }

@@ -29,6 +29,9 @@ const RELAXED_MIN_GAIN: f64 = 0.02;
 /// A relaxed plan this much faster than the acceleration-only time under seed 001's ceiling is
 /// kept without planning under that ceiling.
 const SEED_SKIP_MARGIN: f64 = 0.02;
+/// A repair this many nodes (beyond the last one's span) before the last repair counts as the
+/// branch creeping back from it.
+const CREEP_SLACK_NODES: usize = 2;
 /// Factors applied to the stuck node's velocity, in order, when repairing there again.
 const REPAIR_FACTORS: [f64; 5] = [0.9, 0.7, 0.4, 0.1, 0.0];
 
@@ -221,6 +224,8 @@ fn plan_repaired(
     work: &mut Work,
 ) -> Result<(Vec<Interval>, usize), Stuck> {
     let mut repairs_at: Vec<(usize, usize)> = Vec::new();
+    // The last repair's node and how many nodes before it it lowered.
+    let mut last: Option<(usize, usize)> = None;
     for _ in 0..=MAX_REPAIRS {
         let env = build_envelope(nodes, lim, work)?;
         match forward_branch(nodes, &env, start, lim, work) {
@@ -253,12 +258,19 @@ fn plan_repaired(
                     reason = stuck.reason,
                     "planner repair: lowering v̄"
                 );
-                // Lower the bound at the stuck node and one before it: a new section end.
-                let base = nodes[k].vbar_mm_s.min(nodes[k - 1].vbar_mm_s);
-                for i in [k - 1, k] {
-                    if i > 0 {
-                        nodes[i].vbar_mm_s = nodes[i].vbar_mm_s.min(factor * base);
-                    }
+                // Lower the bound at the stuck node and one before it: a new section end. A
+                // branch stuck again just before the last repair (it cannot join the new end
+                // either) would creep back one node per replan of the whole block: each such
+                // repair lowers twice as many nodes before the stuck one.
+                let span = match last {
+                    Some((prev, prev_span)) if k < prev && prev - k <= prev_span + CREEP_SLACK_NODES => 2 * prev_span,
+                    _ => 1,
+                };
+                last = Some((k, span));
+                let from = k.saturating_sub(span).max(1);
+                let base = nodes[from..=k].iter().map(|nd| nd.vbar_mm_s).fold(f64::INFINITY, f64::min);
+                for nd in &mut nodes[from..=k] {
+                    nd.vbar_mm_s = nd.vbar_mm_s.min(factor * base);
                 }
             }
         }

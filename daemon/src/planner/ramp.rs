@@ -58,6 +58,13 @@ impl FlattenUnder<'_> {
     /// a = v·dv/ds, scaled to v) counts as flat, as long as the axes allow it.
     #[inline]
     pub fn flat_acc(&self, t: usize, v: f64) -> f64 {
+        self.flat_acc_in(t, v, None)
+    }
+
+    /// [`FlattenUnder::flat_acc`] with the accelerations the axes allow at (t, v) when they are
+    /// known already (a ramp carries them from one interval into the next).
+    #[inline]
+    fn flat_acc_in(&self, t: usize, v: f64, acc: Option<(f64, f64)>) -> f64 {
         if t + 1 >= self.view.len() {
             return 0.0;
         }
@@ -67,7 +74,7 @@ impl FlattenUnder<'_> {
         if !node.reach_bound && v <= node.vbar_flat_mm_s {
             return 0.0;
         }
-        let (lo, hi) = acc_range(self.view.start_geom(t), self.view.sign(), v, self.lim);
+        let (lo, hi) = acc.unwrap_or_else(|| acc_range(self.view.start_geom(t), self.view.sign(), v, self.lim));
         let lo = if lo <= hi { lo } else { f64::NEG_INFINITY };
         let (c0, c1) = (self.velocity(t), self.velocity(t + 1));
         if node.reach_bound && c1 < c0 && c0 > 0.0 {
@@ -339,7 +346,7 @@ pub fn ramp_margin(
         if margin > MARGIN_GIVE_UP {
             return Some(margin);
         }
-        if a <= ceiling.flat_acc(t, v) {
+        if a <= ceiling.flat_acc_in(t, v, ranges.map(|r: NodeRanges| r.acc)) {
             // Flat, but it must be able to go on: at an element joint A‴ (and A″) can jump,
             // and a state that kept the limits arriving can leave no jerk for the next side.
             return (t >= last || can_leave(view, t, v, a, lim)).then_some(margin);

@@ -8,9 +8,9 @@
 //! swing braking into it and accelerating out, as the time-optimal profile does (seed 001's
 //! v̄ is up to 2.9 × too low there). A block is planned under seed 001's ceiling, or, where
 //! the acceleration-only profile says the relaxed one gains more than `RELAXED_MIN_GAIN`,
-//! under the relaxed one first, and under seed 001's too unless the relaxed plan already beats
-//! the acceleration-only time under it (which no plan under that ceiling can); the faster plan
-//! is kept. Both keep every limit (every interval is checked); they differ only in speed.
+//! under the relaxed one first, and under seed 001's too unless the relaxed plan is clearly
+//! below the acceleration-only time under it (which a plan under that ceiling can undercut only
+//! by the passes' discretisation error); the faster plan is kept. Both keep every limit (every interval is checked); they differ only in speed.
 
 use super::branch::{Stuck, build_envelope};
 use super::forward::forward_branch;
@@ -29,8 +29,8 @@ const RELAXED_MIN_GAIN: f64 = 0.02;
 /// A relaxed plan this much faster than the acceleration-only time under seed 001's ceiling is
 /// kept without planning under that ceiling.
 const SEED_SKIP_MARGIN: f64 = 0.02;
-/// A repair this many nodes (beyond the last one's span) before the last repair counts as the
-/// branch creeping back from it.
+/// A repair up to this many nodes (beyond the last one's span) before the last repair counts
+/// as the branch creeping back from it.
 const CREEP_SLACK_NODES: usize = 2;
 /// Factors applied to the stuck node's velocity, in order, when repairing there again.
 const REPAIR_FACTORS: [f64; 5] = [0.9, 0.7, 0.4, 0.1, 0.0];
@@ -78,8 +78,8 @@ pub fn plan_block(nodes: &mut [Node], start: (f64, f64), end_is_stop: bool, lim:
     chosen.map(|c| BlockPlan { intervals: c.intervals, node_aligned: true, final_before: c.final_before, work })
 }
 
-/// Plans a block under the relaxed ceiling and, unless that plan is clearly faster than any
-/// plan under seed 001's ceiling can be, under that one too; keeps the faster.
+/// Plans a block under the relaxed ceiling and, unless that plan is clearly faster than a plan
+/// under seed 001's ceiling can be, under that one too; keeps the faster.
 fn plan_both(
     nodes: &mut [Node],
     seed: &Ceiling,
@@ -90,8 +90,10 @@ fn plan_both(
 ) -> Result<Planned, Stuck> {
     work.relaxed_tried += 1;
     let free = plan_under(nodes, &relaxed.ceiling, start, lim, work);
-    // A plan under seed 001's ceiling takes at least the acceleration-only time under it (up to
-    // the passes' discretisation, hence the margin): a relaxed plan below that wins anyway.
+    // A plan under seed 001's ceiling takes about at least the acceleration-only time under it:
+    // not strictly (the passes take the acceleration range at the nodes only, and a
+    // constant-jerk interval's mean speed is not that of its ends), hence the margin. A
+    // relaxed plan clearly below that bound wins anyway.
     let seed_cannot_win = free.as_ref().is_ok_and(|f| f.time_s < (1.0 - SEED_SKIP_MARGIN) * relaxed.seed_bound_s);
     let under_seed = (!seed_cannot_win).then(|| plan_under(nodes, seed, start, lim, work));
     tracing::debug!(
@@ -163,7 +165,8 @@ fn plan_under(
 }
 
 /// The relaxed ceiling, with the acceleration-only gain that justifies it and the
-/// acceleration-only time under seed 001's ceiling (a lower bound of any plan under that one).
+/// acceleration-only time under seed 001's ceiling (about a lower bound of any plan under that
+/// one, see `plan_both`).
 struct Relaxed {
     ceiling: Ceiling,
     gain: f64,
@@ -201,7 +204,7 @@ fn relaxed_ceiling(nodes: &[Node], raw: &[f64], seed: &[f64], lim: &Limits) -> C
 }
 
 /// Time of the acceleration-only profile under `ceiling` (a lower bound of any jerk-limited
-/// profile under it): the passes of `reach`, then Δs over the mean velocity of each interval.
+/// profile under it, up to the passes' discretisation): the passes of `reach`, then Δs over the mean velocity of each interval.
 fn acc_only_time_s(nodes: &[Node], ceiling: &[f64], v_start: f64, lim: &Limits) -> f64 {
     let mut v = ceiling.to_vec();
     super::reach::lower_to_reachable(nodes, &mut v, lim);
@@ -258,24 +261,37 @@ fn plan_repaired(
                     reason = stuck.reason,
                     "planner repair: lowering v̄"
                 );
-                // Lower the bound at the stuck node and one before it: a new section end. A
-                // branch stuck again just before the last repair (it cannot join the new end
-                // either) would creep back one node per replan of the whole block: each such
-                // repair lowers twice as many nodes before the stuck one.
-                let span = match last {
-                    Some((prev, prev_span)) if k < prev && prev - k <= prev_span + CREEP_SLACK_NODES => 2 * prev_span,
-                    _ => 1,
-                };
+                let span = repair_span(last, k);
                 last = Some((k, span));
-                let from = k.saturating_sub(span).max(1);
-                let base = nodes[from..=k].iter().map(|nd| nd.vbar_mm_s).fold(f64::INFINITY, f64::min);
-                for nd in &mut nodes[from..=k] {
-                    nd.vbar_mm_s = nd.vbar_mm_s.min(factor * base);
-                }
+                lower_before(nodes, k, span, factor);
             }
         }
     }
     Err(Stuck { node: nodes.len() - 1, reason: "too many repairs" })
+}
+
+/// How many nodes before the stuck node `k` a repair lowers, given the last repair's node and
+/// span: one, a new section end. A branch stuck again just before the last repair (it cannot
+/// join the new end either) would creep back one node per replan of the whole block, so each
+/// such repair lowers twice as many as the last; one stuck again at the same node keeps the
+/// span (its factor falls instead).
+fn repair_span(last: Option<(usize, usize)>, k: usize) -> usize {
+    match last {
+        Some((prev, prev_span)) if k == prev => prev_span,
+        Some((prev, prev_span)) if k < prev && prev - k <= prev_span + CREEP_SLACK_NODES => (2 * prev_span).min(k),
+        _ => 1,
+    }
+}
+
+/// Lowers v̄ at nodes `k − span ..= k` (never node 0, the block's start state) to `factor` times
+/// their lowest v̄ (node 0's included, as a section end right after the start must not be
+/// faster than the start allows).
+fn lower_before(nodes: &mut [Node], k: usize, span: usize, factor: f64) {
+    let from = k.saturating_sub(span);
+    let base = nodes[from..=k].iter().map(|nd| nd.vbar_mm_s).fold(f64::INFINITY, f64::min);
+    for nd in &mut nodes[from.max(1)..=k] {
+        nd.vbar_mm_s = nd.vbar_mm_s.min(factor * base);
+    }
 }
 
 /// Relative tolerance for "the same direction" along a straight block (as for a smooth joint,
@@ -317,4 +333,51 @@ fn straight_move(nodes: &[Node], lim: &Limits) -> Option<Vec<Interval>> {
     }
     let length = nodes[n - 1].s_mm - nodes[0].s_mm;
     (length > 0.0 && v > 0.0 && v.is_finite()).then(|| super::scurve::rest_to_rest(length, v, a, j))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_repair_creeping_back_widens_and_a_distant_one_starts_over() {
+        let mut last = None;
+        let mut spans = Vec::new();
+        // Stuck again one or two nodes before each repair: 1, 2, 4, 8 nodes lowered.
+        for k in [900, 899, 897, 893] {
+            let span = repair_span(last, k);
+            spans.push(span);
+            last = Some((k, span));
+        }
+        assert_eq!(spans, [1, 2, 4, 8]);
+        // The same node again keeps the span; one far before (another dip) starts over.
+        assert_eq!(repair_span(last, 893), 8);
+        assert_eq!(repair_span(last, 500), 1);
+        // Never past the block start.
+        assert_eq!(repair_span(Some((6, 8)), 5), 5);
+    }
+
+    #[test]
+    fn lowering_spares_the_start_node_but_respects_its_bound() {
+        let mut nodes: Vec<Node> = (0..6)
+            .map(|i| Node {
+                s_mm: i as f64,
+                left: Default::default(),
+                right: Default::default(),
+                vbar_mm_s: if i == 0 { 0.0 } else { 100.0 },
+                vbar_flat_mm_s: 100.0,
+                feed_mm_s: 100.0,
+                stop: i == 0,
+                dwell_s: 0.0,
+                line: 1,
+                reach_bound: false,
+            })
+            .collect();
+        lower_before(&mut nodes, 4, 2, 0.9);
+        let v: Vec<f64> = nodes.iter().map(|n| n.vbar_mm_s).collect();
+        assert_eq!(v, [0.0, 100.0, 90.0, 90.0, 90.0, 100.0]);
+        lower_before(&mut nodes, 1, 1, 0.9);
+        assert_eq!(nodes[1].vbar_mm_s, 0.0, "a section end right after a stop is at rest too");
+        assert_eq!(nodes[0].vbar_mm_s, 0.0);
+    }
 }

@@ -48,7 +48,9 @@ pub const VBAR_FRACTIONS: [f64; 3] = [0.25, 0.5, 0.75];
 /// The lowest velocity bounds inside an interval on the interpolated geometry: the
 /// acceleration-only bound and seed 001's v̄ (eq. 6), as (`velocity_bound`,
 /// `flat_velocity_bound`). A minimum between two nodes must lower the nodes' bounds, or a
-/// branch starting there at v̄ with a = 0 would break a limit a little further on.
+/// branch starting there at v̄ with a = 0 would break a limit a little further on; the
+/// planner lowers the acceleration-only bound only by a minimum below both nodes'
+/// (`Planner::refine_vbar`), and never at a stop.
 pub fn interior_vbar(g: &IntervalGeom, lim: &Limits) -> (f64, f64) {
     let (mut v, mut v_flat) = (f64::INFINITY, f64::INFINITY);
     for &sigma in &VBAR_FRACTIONS {

@@ -261,11 +261,11 @@ impl Planner {
             let (a, b) = (&self.nodes[i], &self.nodes[i + 1]);
             let g = check::IntervalGeom { start: &a.right, end: &b.left, ds_mm: b.s_mm - a.s_mm, sign: 1.0 };
             let (v, v_flat) = check::interior_vbar(&g, &self.lim);
-            let interior_min = v < a.vbar_mm_s.min(b.vbar_mm_s);
+            let below_both = v < a.vbar_mm_s.min(b.vbar_mm_s);
             for k in [i, i + 1] {
                 let node = &mut self.nodes[k];
                 if !node.stop {
-                    if interior_min {
+                    if below_both {
                         node.vbar_mm_s = node.vbar_mm_s.min(v);
                     }
                     node.vbar_flat_mm_s = node.vbar_flat_mm_s.min(v_flat);

@@ -32,6 +32,9 @@ pub const CEILING_REL_TOL: f64 = 1e-9;
 const ACC_NEAR_BOUND_FRACTION: f64 = 0.05;
 /// A ramp rising this far (relative) above the ceiling is stopped early: clearly not viable.
 const MARGIN_GIVE_UP: f64 = 0.05;
+/// Shares of a forced jerk window (one not containing zero) a ramp tries, from the edge the
+/// fallback jerks clamp to inwards, when that edge breaks a limit inside the interval.
+const FORCED_WINDOW_FRACTIONS: [f64; 4] = [0.1, 0.25, 0.5, 0.75];
 
 /// The ceiling a branch runs under: the velocity bound v̄, capped at `cap`.
 #[derive(Clone, Copy)]
@@ -128,8 +131,9 @@ impl NodeRanges {
 /// The ramp's interval from traversal position `t` with state (v, a): braking with the
 /// steepest jerk the axes allow at both ends of the interval (and not below the lowest
 /// allowed acceleration), checked over the whole interval. If that fails (curvature taking
-/// jerk inside the interval), the gentler `RAMP_JERK_STEPS` are tried. `None` if none keeps
-/// every limit.
+/// jerk inside the interval), the gentler `RAMP_JERK_STEPS` are tried, and where the geometry
+/// forces the jerk's sign, jerks inside that window (`FORCED_WINDOW_FRACTIONS`). `None` if
+/// none keeps every limit.
 ///
 /// An interval that becomes part of the motion needs `Check::Full`; for the viability margin
 /// `Check::Nodes` suffices where both nodes' ranges hold with room (see below).
@@ -230,10 +234,6 @@ fn ramp_interval_from(
     None
 }
 
-/// Shares of a forced jerk window (one not containing zero) a ramp tries from its braking
-/// edge inwards, when the edge itself breaks a limit inside the interval.
-const FORCED_WINDOW_FRACTIONS: [f64; 4] = [0.1, 0.25, 0.5, 0.75];
-
 /// The viability ramp's interval: the braking ramp's, except where that would take the
 /// acceleration below zero within the interval; then the interval that lands exactly at
 /// a = 0 at the next node, if it keeps the limits. A state counts as viable only if it can
@@ -280,11 +280,10 @@ pub fn can_leave(view: &View, t: usize, v: f64, a: f64, lim: &Limits) -> bool {
 /// closed form, so the work per ramp is bounded whatever the node density. The tail errs on
 /// the slow side (it brakes at a share of the last jerk, where the axes often allow more
 /// further on), so its verdict should come late: 5-axis table 4.661 s with 48 nodes, 4.505 s
-/// with 96 (1185 M and 1118 M instructions: fewer states wrongly judged not viable to search
-/// around); on the loose test machine 1.420 s and 1.387 s, but 4.2 G and 8.7 G instructions.
+/// with 96, for fewer instructions (fewer states wrongly judged not viable to search around).
 pub const RAMP_SIMULATED_NODES: usize = 96;
-/// The closed-form tail brakes with this share of the jerk the simulated ramp reached last
-/// (later nodes may allow less; the estimate errs on the high side).
+/// The closed-form tail brakes with this share of the jerk the simulated ramp reached last: it
+/// overestimates the peak (errs on the slow side) unless later nodes allow less than this share.
 const RAMP_TAIL_JERK_SHARE: f64 = 0.8;
 
 /// The rest of a braking ramp from (v, a) at traversal position `t`, with constant jerk
@@ -346,6 +345,9 @@ pub fn ramp_margin(
         if margin > MARGIN_GIVE_UP {
             return Some(margin);
         }
+        // The carried ranges are for this node's side and state; their acceleration range
+        // depends on the acceleration limits only, which backward branches share with their
+        // ceiling (they scale the jerk limits alone).
         if a <= ceiling.flat_acc_in(t, v, ranges.map(|r: NodeRanges| r.acc)) {
             // Flat, but it must be able to go on: at an element joint A‴ (and A″) can jump,
             // and a state that kept the limits arriving can leave no jerk for the next side.
@@ -382,11 +384,11 @@ mod tests {
     /// interval) forces the path jerk into a narrow window far above zero (9 J to 11 J at the
     /// start) that moves up along it, as on a rotary axis held at its velocity limit through a
     /// swing.
-    fn swing(lim: &Limits, v: f64) -> Vec<Node> {
+    fn swing(lim: &Limits, v_mm_s: f64) -> Vec<Node> {
         let node = |s_mm: f64, d3_share: f64| {
             let mut g = NodeGeom::default();
             g.d1[0] = 1.0;
-            g.d3[0] = -d3_share * lim.jerk[0] / (v * v * v);
+            g.d3[0] = -d3_share * lim.jerk[0] / v_mm_s.powi(3);
             Node {
                 s_mm,
                 left: g,
@@ -400,19 +402,21 @@ mod tests {
                 reach_bound: false,
             }
         };
-        vec![node(0.0, 10.0), node(0.001, 10.6)]
+        vec![node(0.0, 10.0), node(SWING_DS_MM, 10.6)]
     }
+
+    const SWING_DS_MM: f64 = 0.001;
 
     #[test]
     fn a_forced_jerk_window_is_searched_inside_not_only_at_its_edge() {
         let lim = Limits::from_config(&Config::default_machine());
-        let v = 10.0;
+        let v = 10.0; // mm/s
         let nodes = swing(&lim, v);
         let view = View::forward(&nodes);
         let (jlo, jhi) = jerk_range(&nodes[0].right, 1.0, v, 0.0, &lim);
         assert!(jlo > 0.0 && jhi > jlo, "the window must exclude zero: ({jlo}, {jhi})");
         // Its lower edge keeps the start node but not the end, where the window has moved up.
-        let edge = Interval::with_jerk(v, 0.0, 0.001, jlo).unwrap();
+        let edge = Interval::with_jerk(v, 0.0, SWING_DS_MM, jlo).unwrap();
         assert!(violates(&edge, &view.interval_geom(0), &lim));
         let iv = ramp_interval(&view, 0, v, 0.0, &lim, Check::Full).expect("a jerk inside the window");
         assert!(iv.j > jlo && iv.j < jhi && !violates(&iv, &view.interval_geom(0), &lim));

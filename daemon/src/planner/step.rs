@@ -39,8 +39,9 @@ pub struct Work {
     pub bisections: u64,
     /// Capped runs tried (forward and backward branch under a common velocity).
     pub cap_tries: u64,
-    /// Blocks also planned under the acceleration-only ceiling, and how many of those plans
-    /// were faster and kept (`block`).
+    /// Blocks planned under the acceleration-only ceiling (first, see `block`), and how many
+    /// of those plans were kept: faster than the plan under seed 001's ceiling, or so fast
+    /// that that plan was skipped (`seed_skipped`).
     pub relaxed_tried: u64,
     pub relaxed_kept: u64,
     /// Blocks whose relaxed plan beat the acceleration-only time under seed 001's ceiling, so

@@ -190,6 +190,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             "evals_per_node": evals_per_node,
             "joins": stats.work.joins,
             "repairs": stats.work.repairs,
+            "horizon_stops": stats.horizon_stops,
             "work": {
                 "evals": stats.work.evals,
                 "steps": stats.work.steps,

@@ -74,7 +74,16 @@ pub struct PlanStats {
     /// Blocks (stop to stop, or horizon pieces) planned.
     pub blocks: u64,
     pub work: Work,
+    /// Horizons that could not continue from the state the one before handed over and took
+    /// that one's stop instead (see `Planner::stop_in`).
+    pub horizon_stops: u64,
 }
+
+/// Tolerances of [`Planner::can_stop_within_horizon`]'s check of a retained stop: interval
+/// lengths against the node spacing, and the state it ends in (as its other check, at rest).
+const STOP_CHECK_DS_TOL_MM: f64 = 1e-9;
+const STOP_CHECK_V_TOL_MM_S: f64 = 1e-6;
+const STOP_CHECK_A_TOL_MM_S2: f64 = 1e-3;
 
 /// The online planner.
 pub struct Planner {
@@ -100,6 +109,9 @@ pub struct Planner {
     planned_len: usize,
     /// A feasible profile from the start whose velocity floors the bounds (`resume`).
     vbar_floor: Vec<Segment>,
+    /// The rest of the last horizon's plan from the hand-over node to where it came to rest
+    /// (its virtual end): the stop the hand-over state is guaranteed to have.
+    stop_in: Vec<interval::Interval>,
     out: Vec<Segment>,
     pub stats: PlanStats,
 }
@@ -128,6 +140,7 @@ impl Planner {
             t_now_s: 0.0,
             planned_len: 0,
             vbar_floor: Vec::new(),
+            stop_in: Vec::new(),
             out: Vec::new(),
             stats: PlanStats::default(),
         }
@@ -174,10 +187,15 @@ impl Planner {
 
     /// Whether the machine, in the state handed over last, can still come to rest within the
     /// path planned so far (the nodes held for the horizon): the invariant every hand-over
-    /// keeps. Plans that stop on a copy; the planner is unchanged.
+    /// keeps. The stop the last horizon planned proves it when it starts in that state, runs
+    /// node to node and ends at rest; otherwise a stop is planned on a copy. The planner is
+    /// unchanged.
     pub fn can_stop_within_horizon(&self) -> bool {
         if self.nodes.len() < 2 {
             return self.start.0.abs() < 1e-9 && self.start.1.abs() < 1e-6;
+        }
+        if self.retained_stop_holds() {
+            return true;
         }
         // The nodes up to the first stop (or the horizon end, taken as one).
         let end = (1..self.nodes.len()).find(|&i| self.nodes[i].stop).unwrap_or(self.nodes.len() - 1);
@@ -186,6 +204,20 @@ impl Planner {
             last.vbar_mm_s = 0.0;
         }
         block::plan_block(&mut nodes, self.start, false, &self.lim).is_ok()
+    }
+
+    /// Whether `stop_in` is a stop from the hand-over state within the held nodes.
+    fn retained_stop_holds(&self) -> bool {
+        let (Some(first), Some(last)) = (self.stop_in.first(), self.stop_in.last()) else { return false };
+        let fits = self.stop_in.len() < self.nodes.len()
+            && self.stop_in.iter().enumerate().all(|(k, iv)| {
+                let ds = self.nodes[k + 1].s_mm - self.nodes[k].s_mm;
+                (iv.ds_mm - ds).abs() <= STOP_CHECK_DS_TOL_MM
+            });
+        fits && first.v0 == self.start.0
+            && first.a0 == self.start.1
+            && last.v1().abs() < STOP_CHECK_V_TOL_MM_S
+            && last.a1().abs() < STOP_CHECK_A_TOL_MM_S2
     }
 
     /// Plans a whole path at once (the offline use of the same online machinery).
@@ -299,10 +331,40 @@ impl Planner {
             if virtual_end {
                 self.nodes[idx].vbar_mm_s = saved_vbar;
             }
-            let plan = result.map_err(|stuck| {
-                let node = &self.nodes[block_start + stuck.node.min(idx - block_start)];
-                PlanError::Infeasible { s_mm: node.s_mm, line: node.line, reason: stuck.reason.to_string() }
-            })?;
+            let plan = match result {
+                Ok(plan) => plan,
+                Err(stuck) if block_start == 0 && !self.stop_in.is_empty() && self.stop_in.len() < idx => {
+                    // No continuation from the hand-over state with the longer horizon (a
+                    // dead end the branches do not find their way out of): the last horizon
+                    // ended at rest and handed over only what can still stop there, so take
+                    // that stop and go on from rest.
+                    let stop = std::mem::take(&mut self.stop_in);
+                    tracing::warn!(
+                        s_from_mm = self.nodes[0].s_mm,
+                        s_stop_mm = self.nodes[stop.len()].s_mm,
+                        reason = stuck.reason,
+                        "planner: no continuation from the hand-over state; stopping where the last horizon ended"
+                    );
+                    self.stats.horizon_stops += 1;
+                    self.emit(0, &stop);
+                    handed = stop.len();
+                    state = (0.0, 0.0);
+                    block_start = handed;
+                    idx = block_start + 1;
+                    continue;
+                }
+                Err(stuck) => {
+                    let node = &self.nodes[block_start + stuck.node.min(idx - block_start)];
+                    return Err(PlanError::Infeasible {
+                        s_mm: node.s_mm,
+                        line: node.line,
+                        reason: stuck.reason.to_string(),
+                    });
+                }
+            };
+            if block_start == 0 {
+                self.stop_in.clear();
+            }
             self.stats.blocks += 1;
             self.stats.work.add(&plan.work);
             tracing::debug!(
@@ -330,6 +392,7 @@ impl Planner {
             if final_count < plan.intervals.len() {
                 let iv = &plan.intervals[final_count];
                 state = (iv.v0, iv.a0);
+                self.stop_in = plan.intervals[final_count..].to_vec();
                 break;
             }
             state = (0.0, 0.0);

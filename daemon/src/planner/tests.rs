@@ -134,6 +134,11 @@ fn long_spline(points: usize) -> String {
 }
 
 fn plan_online(cfg: &Config, path: &Path, lookahead_mm: f64) -> (Vec<Segment>, usize) {
+    let (segs, handovers, _) = plan_online_stats(cfg, path, lookahead_mm);
+    (segs, handovers)
+}
+
+fn plan_online_stats(cfg: &Config, path: &Path, lookahead_mm: f64) -> (Vec<Segment>, usize, PlanStats) {
     let mut cfg = cfg.clone();
     cfg.planner.lookahead_mm = lookahead_mm;
     let mut planner = Planner::new(&cfg);
@@ -155,7 +160,35 @@ fn plan_online(cfg: &Config, path: &Path, lookahead_mm: f64) -> (Vec<Segment>, u
     planner.finish(path.final_dwell_s);
     segs.extend(planner.plan().expect("final plan"));
     assert!(planner.done());
-    (segs, handovers)
+    (segs, handovers, planner.stats)
+}
+
+/// A dense G06 spline on the tight machine with a short look-ahead: some horizons cannot
+/// continue from the state the one before handed over (the branches find no join), which made
+/// the whole program infeasible. Each horizon hands over only states that can still stop within
+/// it, so the planner takes that stop and goes on from rest.
+#[test]
+fn a_horizon_without_continuation_takes_the_stop_it_was_handed() {
+    let tight = Config::from_toml_str(
+        &std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/machines/xyz_tight.toml")).unwrap(),
+        "xyz_tight.toml",
+    )
+    .unwrap();
+    let mut text = String::from("G21 G90 G17\nG1 X40 Y0 F6000\nG06\n");
+    for i in 1..=1000 {
+        let u = i as f64 / 1000.0 * std::f64::consts::TAU;
+        text += &format!("X{:.9} Y{:.9} Z0;\n", 40.0 * u.cos() + 8.0 * (3.0 * u).sin(), 30.0 * (2.0 * u).sin());
+    }
+    text += "\nM30\n";
+    let prog = program::parse(&text, "t.ngc", &tight).unwrap();
+    let (segs, _, stats) = plan_online_stats(&tight, &prog.path, 30.0);
+    assert!(stats.horizon_stops >= 1, "the case no longer needs the fallback: {stats:?}");
+    check_continuity(&segs);
+    let end = segs.last().unwrap();
+    assert!((end.s1_mm() - prog.path.length_mm()).abs() < 1e-6);
+    // Each fallback stop is a real rest in the motion.
+    let rests = segs.windows(2).filter(|w| w[0].at(w[0].dt_s).v.abs() < 1e-9 && w[1].v0 == 0.0).count();
+    assert!(rests as u64 >= stats.horizon_stops, "{rests} rests for {} horizon stops", stats.horizon_stops);
 }
 
 #[test]

@@ -359,20 +359,8 @@ mod tests {
 
     #[test]
     fn lowering_spares_the_start_node_but_respects_its_bound() {
-        let mut nodes: Vec<Node> = (0..6)
-            .map(|i| Node {
-                s_mm: i as f64,
-                left: Default::default(),
-                right: Default::default(),
-                vbar_mm_s: if i == 0 { 0.0 } else { 100.0 },
-                vbar_flat_mm_s: 100.0,
-                feed_mm_s: 100.0,
-                stop: i == 0,
-                dwell_s: 0.0,
-                line: 1,
-                reach_bound: false,
-            })
-            .collect();
+        let mut nodes: Vec<Node> = (0..6).map(|i| Node::for_test(i as f64, Default::default(), 100.0)).collect();
+        (nodes[0].vbar_mm_s, nodes[0].stop) = (0.0, true);
         lower_before(&mut nodes, 4, 2, 0.9);
         let v: Vec<f64> = nodes.iter().map(|n| n.vbar_mm_s).collect();
         assert_eq!(v, [0.0, 100.0, 90.0, 90.0, 90.0, 100.0]);

@@ -29,6 +29,9 @@ const CAP_DESCENT_STEPS: usize = 60;
 const CAP_SEARCH_ITERS: usize = 30;
 /// The cap search stops when the bracket is this narrow relative to v_c.
 const CAP_SEARCH_REL_TOL: f64 = 1e-4;
+/// A state this close to v = 0 and a = 0 is at rest (a block's end, a kept stop).
+pub const REST_V_TOL_MM_S: f64 = 1e-6;
+pub const REST_A_TOL_MM_S2: f64 = 1e-3;
 /// Bisection steps on the jerk blend of a brake join's first interval.
 const BLEND_ITERS: usize = 40;
 /// Joins are tried from ramp states at least this close (relative) below the branch.
@@ -171,7 +174,7 @@ pub fn forward_branch(
         anchor = run.last();
     }
     let (v, a) = run.state(n - 1);
-    if v.abs() > 1e-6 || a.abs() > 1e-3 {
+    if v.abs() > REST_V_TOL_MM_S || a.abs() > REST_A_TOL_MM_S2 {
         return Err(Stuck { node: n - 1, reason: "the forward branch did not come to rest at the block end" });
     }
     Ok(ForwardPlan { intervals: run.intervals, final_before })

@@ -79,11 +79,9 @@ pub struct PlanStats {
     pub horizon_stops: u64,
 }
 
-/// Tolerances of [`Planner::can_stop_within_horizon`]'s check of a retained stop: interval
-/// lengths against the node spacing, and the state it ends in (as its other check, at rest).
+/// Interval lengths of a retained stop against the node spacing
+/// ([`Planner::can_stop_within_horizon`]).
 const STOP_CHECK_DS_TOL_MM: f64 = 1e-9;
-const STOP_CHECK_V_TOL_MM_S: f64 = 1e-6;
-const STOP_CHECK_A_TOL_MM_S2: f64 = 1e-3;
 
 /// The online planner.
 pub struct Planner {
@@ -216,8 +214,8 @@ impl Planner {
             });
         fits && first.v0 == self.start.0
             && first.a0 == self.start.1
-            && last.v1().abs() < STOP_CHECK_V_TOL_MM_S
-            && last.a1().abs() < STOP_CHECK_A_TOL_MM_S2
+            && last.v1().abs() <= forward::REST_V_TOL_MM_S
+            && last.a1().abs() <= forward::REST_A_TOL_MM_S2
     }
 
     /// Plans a whole path at once (the offline use of the same online machinery).

@@ -47,6 +47,26 @@ pub struct Node {
     pub reach_bound: bool,
 }
 
+#[cfg(test)]
+impl Node {
+    /// A node for unit tests: the same geometry on both sides, one bound for both ceilings and
+    /// the feed, not a stop.
+    pub fn for_test(s_mm: f64, g: NodeGeom, vbar_mm_s: f64) -> Node {
+        Node {
+            s_mm,
+            left: g,
+            right: g,
+            vbar_mm_s,
+            vbar_flat_mm_s: vbar_mm_s,
+            feed_mm_s: vbar_mm_s,
+            stop: false,
+            dwell_s: 0.0,
+            line: 1,
+            reach_bound: false,
+        }
+    }
+}
+
 /// v̄ from one side's geometry: the largest path velocity at which every axis keeps its
 /// velocity limit (seed 001 eq. 5, first term) and *some* path acceleration keeps every axis
 /// within its acceleration limit (eq. 1b with a free).

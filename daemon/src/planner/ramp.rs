@@ -389,18 +389,7 @@ mod tests {
             let mut g = NodeGeom::default();
             g.d1[0] = 1.0;
             g.d3[0] = -d3_share * lim.jerk[0] / v_mm_s.powi(3);
-            Node {
-                s_mm,
-                left: g,
-                right: g,
-                vbar_mm_s: 1e3,
-                vbar_flat_mm_s: 1e3,
-                feed_mm_s: 1e3,
-                stop: false,
-                dwell_s: 0.0,
-                line: 1,
-                reach_bound: false,
-            }
+            Node::for_test(s_mm, g, 1e3)
         };
         vec![node(0.0, 10.0), node(SWING_DS_MM, 10.6)]
     }

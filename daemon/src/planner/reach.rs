@@ -52,20 +52,7 @@ mod tests {
     fn line(n: usize) -> Vec<Node> {
         let mut g = NodeGeom::default();
         g.d1[0] = 1.0;
-        (0..n)
-            .map(|i| Node {
-                s_mm: i as f64,
-                left: g,
-                right: g,
-                vbar_mm_s: 100.0,
-                vbar_flat_mm_s: 100.0,
-                feed_mm_s: 100.0,
-                stop: false,
-                dwell_s: 0.0,
-                line: 1,
-                reach_bound: false,
-            })
-            .collect()
+        (0..n).map(|i| Node::for_test(i as f64, g, 100.0)).collect()
     }
 
     #[test]

@@ -376,11 +376,27 @@ fn capped_section(
         if cap <= lo * (1.0 + 1e-12) {
             break;
         }
-        if let Some(p) = try_cap(cap, work) {
-            best = Some((cap, p));
-            break;
+        match try_cap(cap, work) {
+            Ok(p) => {
+                best = Some((cap, p));
+                break;
+            }
+            // The forward branch got stuck below every cap still to try: the caps do not
+            // reach where it fails (a dead end the block repair must lower v̄ for), and
+            // trying them all cost three quarters of the planning on a dense spline.
+            Err(CapFail::ForwardStuck { v_mm_s }) if v_mm_s < lo => {
+                tracing::trace!(
+                    anchor,
+                    section_end = start.node,
+                    cap,
+                    v_mm_s,
+                    lo,
+                    "capped section: stuck below every cap"
+                );
+                return None;
+            }
+            Err(_) => hi_bad = cap,
         }
-        hi_bad = cap;
     }
     let (mut lo_ok, mut profile) = best?;
     for _ in 0..CAP_SEARCH_ITERS {
@@ -389,15 +405,28 @@ fn capped_section(
         }
         let cap = 0.5 * (lo_ok + hi_bad);
         match try_cap(cap, work) {
-            Some(p) => {
+            Ok(p) => {
                 lo_ok = cap;
                 profile = p;
             }
-            None => hi_bad = cap,
+            Err(_) => hi_bad = cap,
         }
     }
     tracing::trace!(anchor, section_end = start.node, cap = lo_ok, "capped section");
     Some(profile)
+}
+
+/// Why a capped run failed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum CapFail {
+    /// The backward branch got stuck.
+    BackwardStuck,
+    /// The forward branch found no feasible and viable step, at this velocity.
+    ForwardStuck { v_mm_s: f64 },
+    /// It reached the backward branch but no join onto it keeps the limits.
+    NoJoin,
+    /// It reached the section end without meeting the backward branch.
+    NotMet,
 }
 
 /// Forward from `anchor` with state `fwd`, backward from `end` with state `bwd`, both under
@@ -412,10 +441,10 @@ fn capped_run(
     cap: f64,
     lim: &Limits,
     work: &mut Work,
-) -> Option<Vec<Interval>> {
+) -> Result<Vec<Interval>, CapFail> {
     let Some(branch) = backward_branch(nodes, end, bwd.0, bwd.1, cap, anchor, |_, _| false, lim, work) else {
         tracing::trace!(cap, anchor, end, "capped run: backward branch stuck");
-        return None;
+        return Err(CapFail::BackwardStuck);
     };
     // Backward states per node from the branch's leftmost node to `end`; left of it the
     // branch has flattened at the cap (or v̄).
@@ -464,7 +493,7 @@ fn capped_run(
         }
         let Some((from, ivs)) = joined else {
             tracing::trace!(cap, t, left, v, a, bv = bv[t + 1], ba = ba[t + 1], step = ?step.map(|iv| (iv.v1(), iv.a1())), "capped run: no join");
-            return None;
+            return Err(if step.is_none() { CapFail::ForwardStuck { v_mm_s: v } } else { CapFail::NoJoin });
         };
         run.truncate(from);
         for iv in ivs {
@@ -475,8 +504,8 @@ fn capped_run(
             run.push(biv[i]);
         }
         work.joins += 1;
-        return Some(run.intervals);
+        return Ok(run.intervals);
     }
     tracing::trace!(cap, anchor, end, "capped run: forward reached the end without meeting");
-    None
+    Err(CapFail::NotMet)
 }

@@ -12,8 +12,9 @@
 //! below the acceleration-only time under it (which a plan under that ceiling can undercut only
 //! by the passes' discretisation error); the faster plan is kept. Both keep every limit (every interval is checked); they differ only in speed.
 
-use super::branch::{Stuck, build_envelope};
-use super::forward::forward_branch;
+use super::branch::{Previous, Stuck, build_envelope};
+use super::envelope::Envelope;
+use super::forward::{Failed, Progress, forward_branch};
 use super::interval::Interval;
 use super::limits::Limits;
 use super::node::Node;
@@ -219,7 +220,10 @@ fn acc_only_time_s(nodes: &[Node], ceiling: &[f64], v_start: f64, lim: &Limits) 
         .sum()
 }
 
-/// The envelope and the forward branch, with repairs where the forward branch gets stuck.
+/// The envelope and the forward branch, with repairs where the forward branch gets stuck. After
+/// a repair the envelope keeps its branches away from the lowered stretch, and the forward
+/// branch resumes from its last section end before the first node where the block or the
+/// envelope changed (`branch::build_envelope`, `forward::forward_branch`).
 fn plan_repaired(
     nodes: &mut [Node],
     start: (f64, f64),
@@ -229,42 +233,45 @@ fn plan_repaired(
     let mut repairs_at: Vec<(usize, usize)> = Vec::new();
     // The last repair's node and how many nodes before it it lowered.
     let mut last: Option<(usize, usize)> = None;
+    // The last envelope, how far the forward branch got on it, and the stretch lowered since.
+    let mut before: Option<(Envelope, Progress, (usize, usize))> = None;
     for _ in 0..=MAX_REPAIRS {
-        let env = build_envelope(nodes, lim, work)?;
-        match forward_branch(nodes, &env, start, lim, work) {
+        let previous = before.as_ref().map(|(env, _, (from, to))| Previous { env, from: *from, to: *to });
+        let env = build_envelope(nodes, previous, lim, work)?;
+        let resume = before.as_ref().map(|(old, progress, (from, _))| (progress, env.first_difference(old).min(*from)));
+        let stuck = match forward_branch(nodes, &env, start, resume, lim, work) {
             Ok(f) => return Ok((f.intervals, f.final_before)),
-            Err(stuck) => {
-                work.repairs += 1;
-                // Never the block end itself (a stop): lowering there changes nothing, and
-                // its zero would spread to the node before it.
-                if nodes.len() < 3 {
-                    return Err(stuck);
-                }
-                let k = stuck.node.clamp(1, nodes.len() - 2);
-                let count = match repairs_at.iter_mut().find(|(n, _)| *n == k) {
-                    Some((_, c)) => {
-                        *c += 1;
-                        *c
-                    }
-                    None => {
-                        repairs_at.push((k, 1));
-                        1
-                    }
-                };
-                let Some(&factor) = REPAIR_FACTORS.get(count - 1) else {
-                    return Err(stuck);
-                };
-                tracing::debug!(
-                    node = k,
-                    s_mm = nodes[k].s_mm,
-                    factor,
-                    reason = stuck.reason,
-                    "planner repair: lowering v̄"
-                );
-                let span = repair_span(last, k);
-                last = Some((k, span));
-                lower_before(nodes, k, span, factor);
+            Err(Failed { stuck, progress }) => {
+                before = Some((env, progress, (0, 0)));
+                stuck
             }
+        };
+        work.repairs += 1;
+        // Never the block end itself (a stop): lowering there changes nothing, and its zero
+        // would spread to the node before it.
+        if nodes.len() < 3 {
+            return Err(stuck);
+        }
+        let k = stuck.node.clamp(1, nodes.len() - 2);
+        let count = match repairs_at.iter_mut().find(|(n, _)| *n == k) {
+            Some((_, c)) => {
+                *c += 1;
+                *c
+            }
+            None => {
+                repairs_at.push((k, 1));
+                1
+            }
+        };
+        let Some(&factor) = REPAIR_FACTORS.get(count - 1) else {
+            return Err(stuck);
+        };
+        tracing::debug!(node = k, s_mm = nodes[k].s_mm, factor, reason = stuck.reason, "planner repair: lowering v̄");
+        let span = repair_span(last, k);
+        last = Some((k, span));
+        let lowered = lower_before(nodes, k, span, factor);
+        if let Some((_, _, stretch)) = before.as_mut() {
+            *stretch = lowered;
         }
     }
     Err(Stuck { node: nodes.len() - 1, reason: "too many repairs" })
@@ -286,12 +293,14 @@ fn repair_span(last: Option<(usize, usize)>, k: usize) -> usize {
 /// Lowers v̄ at nodes `k − span ..= k` (never node 0, the block's start state) to `factor` times
 /// their lowest v̄ (node 0's included, as a section end right after the start must not be
 /// faster than the start allows).
-fn lower_before(nodes: &mut [Node], k: usize, span: usize, factor: f64) {
+/// Returns the nodes it may have lowered.
+pub(super) fn lower_before(nodes: &mut [Node], k: usize, span: usize, factor: f64) -> (usize, usize) {
     let from = k.saturating_sub(span);
     let base = nodes[from..=k].iter().map(|nd| nd.vbar_mm_s).fold(f64::INFINITY, f64::min);
     for nd in &mut nodes[from.max(1)..=k] {
         nd.vbar_mm_s = nd.vbar_mm_s.min(factor * base);
     }
+    (from.max(1), k)
 }
 
 /// Relative tolerance for "the same direction" along a straight block (as for a smooth joint,

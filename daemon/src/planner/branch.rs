@@ -293,9 +293,35 @@ pub fn backward_branch(
     Some(out)
 }
 
+/// The envelope before a repair lowered v̄ at nodes `from..=to`, to rebuild from (see
+/// [`build_envelope`]).
+pub struct Previous<'a> {
+    pub env: &'a Envelope,
+    pub from: usize,
+    pub to: usize,
+}
+
+/// Nodes beyond a repaired stretch, on either side, within which branches are built anew after a
+/// repair: about the reach of a viability ramp (`ramp::RAMP_SIMULATED_NODES`), so a kept branch's
+/// ramps rarely looked into the stretch.
+const REBUILD_GUARD_NODES: usize = 96;
+
 /// The backward branches of a block: from the block end (at rest) and from every local
 /// minimum of v̄ (seed 001 §3.1), right to left.
-pub fn build_envelope(nodes: &[Node], lim: &Limits, work: &mut Work) -> Result<Envelope, Stuck> {
+///
+/// After a repair (`previous`) the branches the repair leaves alone are taken over: one from a
+/// section end after the lowered stretch that keeps `REBUILD_GUARD_NODES` clear of it, and all
+/// from section ends before the stretch when the branches built anew reach before it exactly as
+/// the old ones did (then they would be built as before). A kept branch brakes into its own
+/// section end under an unchanged v̄, so it is as valid as before; it could differ from one
+/// built anew only where its viability ramps looked into the stretch, which the guard makes
+/// rare. A repair then costs about the work around the stretch, not a whole block.
+pub fn build_envelope(
+    nodes: &[Node],
+    previous: Option<Previous>,
+    lim: &Limits,
+    work: &mut Work,
+) -> Result<Envelope, Stuck> {
     let n = nodes.len();
     let mut env = Envelope::from_vbar(nodes.iter().map(|nd| nd.vbar_mm_s));
     env.v[n - 1] = 0.0;
@@ -303,9 +329,24 @@ pub fn build_envelope(nodes: &[Node], lim: &Limits, work: &mut Work) -> Result<E
         .filter(|&i| nodes[i].vbar_mm_s < nodes[i - 1].vbar_mm_s && nodes[i].vbar_mm_s <= nodes[i + 1].vbar_mm_s)
         .collect();
     starts.push(n - 1);
+    let edges = previous.as_ref().map(|p| (p.from.saturating_sub(REBUILD_GUARD_NODES), p.to + REBUILD_GUARD_NODES));
+    let mut left_checked = false;
     for &m in starts.iter().rev() {
+        if let (Some(p), Some((left, _))) = (&previous, edges) {
+            if m < left && !left_checked {
+                left_checked = true;
+                if env.keep_left_of(p.env, left) {
+                    return Ok(env);
+                }
+            }
+        }
         if m != n - 1 && (env.on_curve(m) || env.v[m] < nodes[m].vbar_mm_s) {
             continue; // a branch from further on already lies lower here
+        }
+        if let (Some(p), Some((_, right))) = (&previous, edges) {
+            if m > right && env.keep_branch(p.env, m, right) {
+                continue;
+            }
         }
         let evals_before = work.evals;
         let id = env.starts.len() as u32;

@@ -67,4 +67,107 @@ impl Envelope {
         let n = self.curve.len();
         (0..n).rev().take_while(|&i| self.curve[i] == END_CURVE).last().unwrap_or(n.saturating_sub(1))
     }
+
+    /// Takes over `old`'s branch from section end `m`, if it has one that lies wholly after
+    /// node `edge`. Whether it did.
+    pub fn keep_branch(&mut self, old: &Envelope, m: usize, edge: usize) -> bool {
+        let c = old.curve[m];
+        if c == 0 || old.starts[c as usize].node != m {
+            return false;
+        }
+        let first = (0..m).rev().take_while(|&i| old.curve[i] == c).last().unwrap_or(m);
+        if first <= edge {
+            return false;
+        }
+        let id = self.starts.len() as u32;
+        self.starts.push(old.starts[c as usize]);
+        for i in first..=m {
+            self.copy_node(old, i, id);
+        }
+        true
+    }
+
+    /// Takes over every branch of `old` from a section end before node `edge`, if the branches
+    /// so far (all from section ends at or after it) lie before it exactly as `old`'s from
+    /// there did: then the branches before it would be built as they were. Whether it did.
+    pub fn keep_left_of(&mut self, old: &Envelope, edge: usize) -> bool {
+        let from_right = |e: &Envelope, i: usize| e.curve[i] != 0 && e.starts[e.curve[i] as usize].node >= edge;
+        let same = (0..edge).all(|i| {
+            let (new, was) = (from_right(self, i), from_right(old, i));
+            new == was && (!new || (self.v[i] == old.v[i] && self.a[i] == old.a[i]))
+        });
+        if !same {
+            return false;
+        }
+        let mut ids = vec![0u32; old.starts.len()];
+        for (c, st) in old.starts.iter().enumerate().skip(1) {
+            if st.node < edge {
+                ids[c] = self.starts.len() as u32;
+                self.starts.push(*st);
+            }
+        }
+        for i in 0..edge {
+            let id = ids[old.curve[i] as usize];
+            if id != 0 {
+                self.copy_node(old, i, id);
+            }
+        }
+        true
+    }
+
+    fn copy_node(&mut self, old: &Envelope, i: usize, id: u32) {
+        self.v[i] = old.v[i];
+        self.a[i] = old.a[i];
+        self.iv[i] = old.iv[i];
+        self.curve[i] = id;
+    }
+
+    /// The first node where this envelope differs from `old` (velocity, acceleration, whether
+    /// a branch lies there and where it ends); the length if nowhere.
+    pub fn first_difference(&self, old: &Envelope) -> usize {
+        let end = |e: &Envelope, i: usize| (e.curve[i] != 0).then(|| e.starts[e.curve[i] as usize].node);
+        (0..self.len())
+            .find(|&i| self.v[i] != old.v[i] || self.a[i] != old.a[i] || end(self, i) != end(old, i))
+            .unwrap_or(self.len())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Ten nodes with v̄ = 10 and branches (id, section end, first node, velocity) laid on them.
+    fn envelope(branches: &[(usize, usize, f64)]) -> Envelope {
+        let mut e = Envelope::from_vbar(std::iter::repeat_n(10.0, 10));
+        for &(end, first, v) in branches {
+            let id = e.starts.len() as u32;
+            e.starts.push(CurveStart { node: end, v, a: 0.0 });
+            for i in first..=end {
+                (e.v[i], e.curve[i]) = (v, id);
+            }
+        }
+        e
+    }
+
+    #[test]
+    fn branches_clear_of_a_change_are_kept_and_others_not() {
+        // Block end 9 (nodes 7..=9) and a section end at 4 (nodes 2..=4).
+        let old = envelope(&[(9, 7, 1.0), (4, 2, 5.0)]);
+        let mut new = envelope(&[]);
+        assert!(!new.keep_branch(&old, 9, 7), "reaches the edge");
+        assert!(new.keep_branch(&old, 9, 6));
+        assert!(!new.keep_branch(&old, 8, 0), "no branch starts there");
+        assert!(new.keep_left_of(&old, 6), "nothing from the right reaches before node 6, as before");
+        assert_eq!(new.first_difference(&old), 10);
+        assert_eq!(new.curve, old.curve);
+
+        // A branch from the right that now reaches before the edge: those before are rebuilt.
+        let mut new = envelope(&[(9, 5, 1.0)]);
+        assert!(!new.keep_left_of(&old, 6));
+        assert_eq!(new.first_difference(&old), 2, "the branch from 4 is not there yet");
+        // ... as they are when one reached there before and no longer does.
+        let old = envelope(&[(9, 5, 1.0), (4, 2, 5.0)]);
+        let mut new = envelope(&[(9, 7, 1.0)]);
+        assert!(!new.keep_left_of(&old, 6));
+    }
 }

@@ -79,21 +79,60 @@ impl Run {
     }
 }
 
-/// The forward branch over a block from `start` = (v, a) at node 0 to rest at the last node.
+/// How far a forward branch got before it got stuck: its intervals from the block start and
+/// the section ends it passed, where a run after a repair further on can resume.
+pub struct Progress {
+    intervals: Vec<Interval>,
+    /// (section end node, `final_before` there), in order; the block start first.
+    anchors: Vec<(usize, usize)>,
+}
+
+/// A forward branch that got stuck: where, and how far it got.
+pub struct Failed {
+    pub stuck: Stuck,
+    pub progress: Progress,
+}
+
+/// The forward branch over a block from `start` = (v, a) at node 0 to rest at the last node;
+/// with `resume` = (progress, node), it keeps the earlier run up to its last section end before
+/// `node` (where the block and its envelope are as they were) and runs on from there.
 pub fn forward_branch(
     nodes: &[Node],
     env: &Envelope,
     start: (f64, f64),
+    resume: Option<(&Progress, usize)>,
     lim: &Limits,
     work: &mut Work,
-) -> Result<ForwardPlan, Stuck> {
+) -> Result<ForwardPlan, Failed> {
+    let mut run = Run::new(0, start);
+    let mut anchors = vec![(0, nodes.len() - 1)];
+    if let Some((p, before)) = resume {
+        let kept = p.anchors.iter().take_while(|(a, _)| *a < before).count().max(1);
+        anchors = p.anchors[..kept].to_vec();
+        for iv in &p.intervals[..anchors[kept - 1].0] {
+            run.push(*iv);
+        }
+    }
+    match run_forward(nodes, env, &mut run, &mut anchors, lim, work) {
+        Ok(final_before) => Ok(ForwardPlan { intervals: run.intervals, final_before }),
+        Err(stuck) => Err(Failed { stuck, progress: Progress { intervals: run.intervals, anchors } }),
+    }
+}
+
+/// Runs the forward branch on from the last of `anchors` to the block end: `final_before`.
+fn run_forward(
+    nodes: &[Node],
+    env: &Envelope,
+    run: &mut Run,
+    anchors: &mut Vec<(usize, usize)>,
+    lim: &Limits,
+    work: &mut Work,
+) -> Result<usize, Stuck> {
     let n = nodes.len();
     let view = View::forward(nodes);
     let free = FlattenUnder { view, cap: f64::INFINITY, lim };
-    let mut run = Run::new(0, start);
-    let mut anchor = 0;
+    let (mut anchor, mut final_before) = *anchors.last().expect("the block start");
     let mut evals_at_anchor = work.evals;
-    let mut final_before = n - 1;
     let mut backoffs = 0;
     while run.last() + 1 < n {
         let t = run.last();
@@ -129,8 +168,8 @@ pub fn forward_branch(
             return Err(Stuck { node: t, reason: "no feasible and viable next velocity" });
         };
         let section_end = env.starts[c as usize].node;
-        let joined = direct_join(&view, &run, t, anchor, env, c, lim, work)
-            .or_else(|| brake_join(&view, &run, t, anchor, env, c, lim, work))
+        let joined = direct_join(&view, run, t, anchor, env, c, lim, work)
+            .or_else(|| brake_join(&view, run, t, anchor, env, c, lim, work))
             .map(|(from, ivs)| {
                 if c == END_CURVE {
                     final_before = final_before.min(from);
@@ -141,7 +180,7 @@ pub fn forward_branch(
                 }
             })
             .or_else(|| {
-                let capped = capped_section(nodes, &run, anchor, env, c, lim, work)?;
+                let capped = capped_section(nodes, run, anchor, env, c, lim, work)?;
                 if c == END_CURVE {
                     final_before = final_before.min(anchor);
                 }
@@ -172,12 +211,13 @@ pub fn forward_branch(
         );
         evals_at_anchor = work.evals;
         anchor = run.last();
+        anchors.push((anchor, final_before));
     }
     let (v, a) = run.state(n - 1);
     if v.abs() > REST_V_TOL_MM_S || a.abs() > REST_A_TOL_MM_S2 {
         return Err(Stuck { node: n - 1, reason: "the forward branch did not come to rest at the block end" });
     }
-    Ok(ForwardPlan { intervals: run.intervals, final_before })
+    Ok(final_before)
 }
 
 /// Exact joins onto branch `c` near node t: from the forward state at `from` onto the

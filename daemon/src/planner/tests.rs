@@ -98,7 +98,7 @@ fn debug_dump() {
     let lim = Limits::from_config(&cfg);
     let nodes = Planner::sample_path(&cfg, &p.path);
     let mut work = Work::default();
-    let env = branch::build_envelope(&nodes, &lim, &mut work);
+    let env = branch::build_envelope(&nodes, None, &lim, &mut work);
     eprintln!("after envelope: {work:?}");
     match &env {
         Ok(env) => {
@@ -108,14 +108,14 @@ fn debug_dump() {
                     node.s_mm, node.vbar_mm_s, env.v[i], env.a[i], env.curve[i]
                 );
             }
-            let fw = forward::forward_branch(&nodes, env, (0.0, 0.0), &lim, &mut work);
+            let fw = forward::forward_branch(&nodes, env, (0.0, 0.0), None, &lim, &mut work);
             match fw {
                 Ok(f) => {
                     for (i, iv) in f.intervals.iter().enumerate() {
                         eprintln!("fw {i:4} v0={:10.4} a0={:10.2} j={:12.1} T={:.6}", iv.v0, iv.a0, iv.j, iv.t_s);
                     }
                 }
-                Err(e) => eprintln!("forward stuck: {e:?}"),
+                Err(e) => eprintln!("forward stuck: {:?}", e.stuck),
             }
         }
         Err(e) => eprintln!("envelope failed: {e:?}"),
@@ -257,6 +257,23 @@ fn five_axis_table_skips_the_plan_that_cannot_win() {
     assert!(w.relaxed_tried >= 1 && w.relaxed_kept == w.relaxed_tried && w.seed_skipped >= 1, "{w:?}");
 }
 
+/// The planner benchmark's G06 spline through `points` support points, on the tight machine.
+fn tight_spline(points: usize) -> (Config, Path) {
+    let tight = Config::from_toml_str(
+        &std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/machines/xyz_tight.toml")).unwrap(),
+        "xyz_tight.toml",
+    )
+    .unwrap();
+    let mut text = String::from("G21 G90 G17\nG1 X40 Y0 F6000\nG06\n");
+    for i in 1..=points {
+        let u = i as f64 / points as f64 * std::f64::consts::TAU;
+        text += &format!("X{:.9} Y{:.9} Z0;\n", 40.0 * u.cos() + 8.0 * (3.0 * u).sin(), 30.0 * (2.0 * u).sin());
+    }
+    text += "\nM30\n";
+    let path = program::parse(&text, "t.ngc", &tight).unwrap().path;
+    (tight, path)
+}
+
 /// Where the forward branch of a capped section gets stuck below the lowest cap the search may
 /// try, no cap helps: the search gives up at once (the block repair lowers v̄ there) instead of
 /// running every cap over the whole section. On this spline (the planner benchmark's, on the
@@ -264,20 +281,56 @@ fn five_axis_table_skips_the_plan_that_cannot_win() {
 /// the same either way.
 #[test]
 fn a_capped_section_stuck_below_every_cap_gives_up_at_once() {
-    let tight = Config::from_toml_str(
-        &std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/machines/xyz_tight.toml")).unwrap(),
-        "xyz_tight.toml",
-    )
-    .unwrap();
-    let mut text = String::from("G21 G90 G17\nG1 X40 Y0 F6000\nG06\n");
-    for i in 1..=10_000 {
-        let u = i as f64 / 10_000.0 * std::f64::consts::TAU;
-        text += &format!("X{:.9} Y{:.9} Z0;\n", 40.0 * u.cos() + 8.0 * (3.0 * u).sin(), 30.0 * (2.0 * u).sin());
-    }
-    text += "\nM30\n";
-    let (segs, stats, path) = plan_text(&text, &tight);
+    let (tight, path) = tight_spline(10_000);
+    let (segs, stats) = Planner::plan_path(&tight, &path).expect("plan");
     check_continuity(&segs);
     assert!((segs.last().unwrap().s1_mm() - path.length_mm()).abs() < 1e-6);
     assert!(stats.work.repairs > 0, "the case no longer needs repairs: {:?}", stats.work);
     assert!(stats.work.cap_tries <= 40, "{:?}", stats.work);
+}
+
+/// A repair lowers v̄ at a few nodes of a 10 000-node block (the tight machine's dense spline).
+/// Rebuilt from the envelope before, the envelope keeps the branches away from there, and the
+/// forward branch resumes at its last section end before the first change: the same envelope
+/// and the same forward branch as built anew, for a fraction of the work.
+#[test]
+fn a_repair_rebuilds_only_around_the_lowered_stretch() {
+    let (tight, path) = tight_spline(10_000);
+    let lim = Limits::from_config(&tight);
+    let nodes = Planner::sample_path(&tight, &path);
+    // The spline's block, from the stop where it leaves the lead-in line, under seed 001's
+    // ceiling (as `block` plans it).
+    let first = nodes.iter().position(|nd| nd.stop && nd.s_mm > 1.0).unwrap();
+    let mut block = nodes[first..].to_vec();
+    for nd in &mut block {
+        nd.vbar_mm_s = nd.vbar_mm_s.min(nd.vbar_flat_mm_s);
+    }
+    let mut work = Work::default();
+    let env = branch::build_envelope(&block, None, &lim, &mut work).unwrap();
+    let Err(failed) = forward::forward_branch(&block, &env, (0.0, 0.0), None, &lim, &mut work) else {
+        panic!("the case no longer needs a repair");
+    };
+    let k = failed.stuck.node;
+    assert!(k > block.len() / 4, "stuck at node {k} of {}: too early to show the saving", block.len());
+    let (from, to) = block::lower_before(&mut block, k, 1, 0.9);
+
+    let (mut anew_work, mut kept_work) = (Work::default(), Work::default());
+    let anew = branch::build_envelope(&block, None, &lim, &mut anew_work).unwrap();
+    let previous = branch::Previous { env: &env, from, to };
+    let kept = branch::build_envelope(&block, Some(previous), &lim, &mut kept_work).unwrap();
+    assert_eq!((anew.v.clone(), anew.a.clone()), (kept.v.clone(), kept.a.clone()));
+    assert_eq!(kept.first_difference(&anew), block.len());
+    assert!(kept_work.evals * 3 < anew_work.evals, "rebuilt {kept_work:?}, anew {anew_work:?}");
+
+    let (mut anew_work, mut kept_work) = (Work::default(), Work::default());
+    let resume_at = kept.first_difference(&env).min(from);
+    let anew = forward::forward_branch(&block, &anew, (0.0, 0.0), None, &lim, &mut anew_work);
+    let resumed =
+        forward::forward_branch(&block, &kept, (0.0, 0.0), Some((&failed.progress, resume_at)), &lim, &mut kept_work);
+    match (anew, resumed) {
+        (Ok(a), Ok(b)) => assert!(a.intervals == b.intervals && a.final_before == b.final_before),
+        (Err(a), Err(b)) => assert_eq!(a.stuck, b.stuck),
+        _ => panic!("resumed and anew disagree"),
+    }
+    assert!(kept_work.evals * 2 < anew_work.evals, "resumed {kept_work:?}, anew {anew_work:?}");
 }

@@ -30,6 +30,9 @@ pub const CEILING_REL_TOL: f64 = 1e-9;
 /// Accelerations within this fraction of their allowed range from a bound count as binding
 /// for the node-only ramp check (the full interval check runs there).
 const ACC_NEAR_BOUND_FRACTION: f64 = 0.05;
+/// A forced-window ramp step whose jerk lies within this fraction of the end node's allowed
+/// range from its edges counts as binding (the full interval check runs there).
+const JERK_NEAR_BOUND_FRACTION: f64 = 0.05;
 /// A ramp rising this far (relative) above the ceiling is stopped early: clearly not viable.
 const MARGIN_GIVE_UP: f64 = 0.05;
 /// Shares of a forced jerk window (one not containing zero) a ramp tries, from the edge the
@@ -159,7 +162,7 @@ fn ramp_interval_from(
     if jlo > jhi {
         return None;
     }
-    let (alo, ahi0) = r0.acc;
+    let alo = r0.acc.0;
     let ig = view.interval_geom(t);
     let feasible = |iv: &Interval| !violates(iv, &ig, lim);
     if a > alo && jlo < 0.0 {
@@ -170,7 +173,7 @@ fn ramp_interval_from(
             let (v1, a1) = (iv.v1(), iv.a1());
             let g1 = view.end_geom(t + 1);
             let r1 = NodeRanges::at(g1, sign, v1, a1, lim);
-            let ((jlo1, jhi1), (alo1, ahi1)) = (r1.jerk, r1.acc);
+            let ((jlo1, jhi1), alo1) = (r1.jerk, r1.acc.0);
             let mut j_next = j;
             if jlo1 <= jhi1 && j < jlo1 {
                 j_next = RAMP_JERK_STEPS[0] * jlo1;
@@ -187,15 +190,7 @@ fn ramp_interval_from(
                 // between the nodes (a state on the bound whose axis jerk points outwards
                 // passes both node checks and breaks the bound inside), and a viability
                 // estimate that misses this leads a branch into a dead end.
-                let inside = |x: f64, lo: f64, hi: f64| {
-                    let band = ACC_NEAR_BOUND_FRACTION * (hi - lo);
-                    x > lo + band && x < hi - band
-                };
-                let nodes_ok = jlo1 <= jhi1
-                    && j <= jhi1
-                    && j > jlo1 * RAMP_JERK_STEPS[0] * (1.0 - 1e-9)
-                    && inside(a, alo, ahi0)
-                    && inside(a1, alo1, ahi1);
+                let nodes_ok = j > jlo1 * RAMP_JERK_STEPS[0] * (1.0 - 1e-9) && holds_at_nodes(j, (a, &r0), (a1, &r1));
                 if (check == Check::Nodes && nodes_ok) || feasible(&iv) {
                     let same_side = t + 1 < view.len() && view.start_geom(t + 1) == g1;
                     return Some((iv, same_side.then_some(r1)));
@@ -206,12 +201,32 @@ fn ramp_interval_from(
         }
     }
     let steps: &[f64] = if a > alo { &RAMP_JERK_STEPS[1..] } else { &RAMP_JERK_STEPS[3..] };
+    let mut tried = f64::NAN;
     for &frac in steps {
         let j = if frac >= 0.0 { frac * jlo.min(0.0) } else { -frac * jhi.max(0.0) };
         let j = j.clamp(jlo, jhi);
+        if j == tried {
+            continue;
+        }
+        tried = j;
         // A jerk that brings the motion to rest before the next node is no continuation (it
         // would stop with a ≠ 0 and reverse): try a gentler one.
         if let Some(iv) = Interval::with_jerk(v, a, ig.ds_mm, j) {
+            // As above, the viability margin takes the nodes' ranges where they hold with
+            // room, but only in a forced window: most of these steps run there (43 k of the
+            // 5-axis table's 59 k, at its swings; 5 % fewer instructions), and elsewhere the
+            // extra ranges cost more than the checks they save. The window moves along the
+            // interval, so the jerk must also keep clear of the end node's window edges.
+            if check == Check::Nodes && (jlo > 0.0 || jhi < 0.0) {
+                let g1 = view.end_geom(t + 1);
+                let r1 = NodeRanges::at(g1, sign, iv.v1(), iv.a1(), lim);
+                let band = JERK_NEAR_BOUND_FRACTION * (r1.jerk.1 - r1.jerk.0);
+                let clear = j > r1.jerk.0 + band && j < r1.jerk.1 - band;
+                if clear && holds_at_nodes(j, (a, &r0), (iv.a1(), &r1)) {
+                    let same_side = t + 1 < view.len() && view.start_geom(t + 1) == g1;
+                    return Some((iv, same_side.then_some(r1)));
+                }
+            }
             if feasible(&iv) {
                 return Some((iv, None));
             }
@@ -232,6 +247,18 @@ fn ramp_interval_from(
         }
     }
     None
+}
+
+/// Whether jerk `j` keeps the end node's jerk range and both nodes' accelerations (a with its
+/// node's ranges) keep clear of their bounds by `ACC_NEAR_BOUND_FRACTION` (see
+/// [`ramp_interval_from`]).
+fn holds_at_nodes(j: f64, start: (f64, &NodeRanges), end: (f64, &NodeRanges)) -> bool {
+    let inside = |x: f64, (lo, hi): (f64, f64)| {
+        let band = ACC_NEAR_BOUND_FRACTION * (hi - lo);
+        x > lo + band && x < hi - band
+    };
+    let (jlo1, jhi1) = end.1.jerk;
+    jlo1 <= j && j <= jhi1 && inside(start.0, start.1.acc) && inside(end.0, end.1.acc)
 }
 
 /// The viability ramp's interval: the braking ramp's, except where that would take the

@@ -221,7 +221,7 @@ fn acc_only_time_s(nodes: &[Node], ceiling: &[f64], v_start: f64, lim: &Limits) 
 }
 
 /// The envelope and the forward branch, with repairs where the forward branch gets stuck. After
-/// a repair the envelope keeps its branches away from the lowered stretch, and the forward
+/// a repair the envelope takes over its branches before the lowered nodes, and the forward
 /// branch resumes from its last section end before the first node where the block or the
 /// envelope changed (`branch::build_envelope`, `forward::forward_branch`).
 fn plan_repaired(
@@ -233,16 +233,16 @@ fn plan_repaired(
     let mut repairs_at: Vec<(usize, usize)> = Vec::new();
     // The last repair's node and how many nodes before it it lowered.
     let mut last: Option<(usize, usize)> = None;
-    // The last envelope, how far the forward branch got on it, and the stretch lowered since.
-    let mut before: Option<(Envelope, Progress, (usize, usize))> = None;
+    // The last envelope, how far the forward branch got on it, and the first node lowered since.
+    let mut before: Option<(Envelope, Progress, usize)> = None;
     for _ in 0..=MAX_REPAIRS {
-        let previous = before.as_ref().map(|(env, _, (from, to))| Previous { env, from: *from, to: *to });
+        let previous = before.as_ref().map(|(env, _, from)| Previous { env, from: *from });
         let env = build_envelope(nodes, previous, lim, work)?;
-        let resume = before.as_ref().map(|(old, progress, (from, _))| (progress, env.first_difference(old).min(*from)));
+        let resume = before.as_ref().map(|(old, progress, from)| (progress, env.first_difference(old).min(*from)));
         let stuck = match forward_branch(nodes, &env, start, resume, lim, work) {
             Ok(f) => return Ok((f.intervals, f.final_before)),
             Err(Failed { stuck, progress }) => {
-                before = Some((env, progress, (0, 0)));
+                before = Some((env, progress, 0));
                 stuck
             }
         };
@@ -270,8 +270,8 @@ fn plan_repaired(
         let span = repair_span(last, k);
         last = Some((k, span));
         let lowered = lower_before(nodes, k, span, factor);
-        if let Some((_, _, stretch)) = before.as_mut() {
-            *stretch = lowered;
+        if let Some((_, _, from)) = before.as_mut() {
+            *from = lowered;
         }
     }
     Err(Stuck { node: nodes.len() - 1, reason: "too many repairs" })
@@ -293,14 +293,14 @@ fn repair_span(last: Option<(usize, usize)>, k: usize) -> usize {
 /// Lowers v̄ at nodes `k − span ..= k` (never node 0, the block's start state) to `factor` times
 /// their lowest v̄ (node 0's included, as a section end right after the start must not be
 /// faster than the start allows).
-/// Returns the nodes it may have lowered.
-pub(super) fn lower_before(nodes: &mut [Node], k: usize, span: usize, factor: f64) -> (usize, usize) {
+/// Returns the first node it may have lowered.
+pub(super) fn lower_before(nodes: &mut [Node], k: usize, span: usize, factor: f64) -> usize {
     let from = k.saturating_sub(span);
     let base = nodes[from..=k].iter().map(|nd| nd.vbar_mm_s).fold(f64::INFINITY, f64::min);
     for nd in &mut nodes[from.max(1)..=k] {
         nd.vbar_mm_s = nd.vbar_mm_s.min(factor * base);
     }
-    (from.max(1), k)
+    from.max(1)
 }
 
 /// Relative tolerance for "the same direction" along a straight block (as for a smooth joint,

@@ -293,29 +293,24 @@ pub fn backward_branch(
     Some(out)
 }
 
-/// The envelope before a repair lowered v̄ at nodes `from..=to`, to rebuild from (see
+/// The envelope before a repair lowered v̄ at nodes from `from` on, to rebuild from (see
 /// [`build_envelope`]).
 pub struct Previous<'a> {
     pub env: &'a Envelope,
     pub from: usize,
-    pub to: usize,
 }
-
-/// Nodes beyond a repaired stretch, on either side, within which branches are built anew after a
-/// repair: about the reach of a viability ramp (`ramp::RAMP_SIMULATED_NODES`), so a kept branch's
-/// ramps rarely looked into the stretch.
-const REBUILD_GUARD_NODES: usize = 96;
 
 /// The backward branches of a block: from the block end (at rest) and from every local
 /// minimum of v̄ (seed 001 §3.1), right to left.
 ///
-/// After a repair (`previous`) the branches the repair leaves alone are taken over: one from a
-/// section end after the lowered stretch that keeps `REBUILD_GUARD_NODES` clear of it, and all
-/// from section ends before the stretch when the branches built anew reach before it exactly as
-/// the old ones did (then they would be built as before). A kept branch brakes into its own
-/// section end under an unchanged v̄, so it is as valid as before; it could differ from one
-/// built anew only where its viability ramps looked into the stretch, which the guard makes
-/// rare. A repair then costs about the work around the stretch, not a whole block.
+/// After a repair (`previous`), the branches from section ends before the lowered stretch are
+/// taken over from the first section end that no branch from a later one reaches past, in the
+/// old envelope or the new. They are then the branches a full build would make: a branch runs
+/// leftwards and sees only v̄ and the envelope left of its section end, both as before. A
+/// repair deep inside a long block then costs the branches after it, not the whole block.
+/// (Branches after the stretch are built anew: taking over those clear of it saved another
+/// quarter on a dense spline, but their viability ramps had looked into the stretch, and
+/// the plans that differed handed over states that led to more stops mid-path.)
 pub fn build_envelope(
     nodes: &[Node],
     previous: Option<Previous>,
@@ -329,24 +324,22 @@ pub fn build_envelope(
         .filter(|&i| nodes[i].vbar_mm_s < nodes[i - 1].vbar_mm_s && nodes[i].vbar_mm_s <= nodes[i + 1].vbar_mm_s)
         .collect();
     starts.push(n - 1);
-    let edges = previous.as_ref().map(|p| (p.from.saturating_sub(REBUILD_GUARD_NODES), p.to + REBUILD_GUARD_NODES));
-    let mut left_checked = false;
+    // After a repair: the old branches, latest section end first, and the first nodes reached
+    // by the old branches from section ends after the current one and by the new ones.
+    let mut old_branches = previous.as_ref().map(|p| p.env.extents()).unwrap_or_default().into_iter().peekable();
+    let (mut old_reach, mut new_reach) = (n, n);
     for &m in starts.iter().rev() {
-        if let (Some(p), Some((left, _))) = (&previous, edges) {
-            if m < left && !left_checked {
-                left_checked = true;
-                if env.keep_left_of(p.env, left) {
-                    return Ok(env);
-                }
+        if let Some(p) = &previous {
+            while let Some((_, first)) = old_branches.next_if(|&(end, _)| end > m) {
+                old_reach = old_reach.min(first);
+            }
+            if m + 1 < p.from && m < old_reach && m < new_reach {
+                env.take_over_before(p.env, m + 1);
+                return Ok(env);
             }
         }
         if m != n - 1 && (env.on_curve(m) || env.v[m] < nodes[m].vbar_mm_s) {
             continue; // a branch from further on already lies lower here
-        }
-        if let (Some(p), Some((_, right))) = (&previous, edges) {
-            if m > right && env.keep_branch(p.env, m, right) {
-                continue;
-            }
         }
         let evals_before = work.evals;
         let id = env.starts.len() as u32;
@@ -377,6 +370,7 @@ pub fn build_envelope(
             evals_per_node = (work.evals - evals_before) as f64 / branch_nodes.max(1) as f64,
             "backward branch of a section"
         );
+        new_reach = new_reach.min(branch.last().map_or(m, |b| b.0));
         env.starts.push(CurveStart { node: m, v: v_start, a: 0.0 });
         env.v[m] = v_start;
         env.a[m] = 0.0;

@@ -68,37 +68,22 @@ impl Envelope {
         (0..n).rev().take_while(|&i| self.curve[i] == END_CURVE).last().unwrap_or(n.saturating_sub(1))
     }
 
-    /// Takes over `old`'s branch from section end `m`, if it has one that lies wholly after
-    /// node `edge`. Whether it did.
-    pub fn keep_branch(&mut self, old: &Envelope, m: usize, edge: usize) -> bool {
-        let c = old.curve[m];
-        if c == 0 || old.starts[c as usize].node != m {
-            return false;
+    /// Every branch as (section end, first node), the latest section end first.
+    pub fn extents(&self) -> Vec<(usize, usize)> {
+        let mut first = vec![usize::MAX; self.starts.len()];
+        for (i, &c) in self.curve.iter().enumerate().rev() {
+            first[c as usize] = i;
         }
-        let first = (0..m).rev().take_while(|&i| old.curve[i] == c).last().unwrap_or(m);
-        if first <= edge {
-            return false;
-        }
-        let id = self.starts.len() as u32;
-        self.starts.push(old.starts[c as usize]);
-        for i in first..=m {
-            self.copy_node(old, i, id);
-        }
-        true
+        let mut out: Vec<(usize, usize)> =
+            self.starts.iter().zip(&first).skip(1).map(|(st, &f)| (st.node, f.min(st.node))).collect();
+        out.sort_unstable_by_key(|&(end, _)| std::cmp::Reverse(end));
+        out
     }
 
-    /// Takes over every branch of `old` from a section end before node `edge`, if the branches
-    /// so far (all from section ends at or after it) lie before it exactly as `old`'s from
-    /// there did: then the branches before it would be built as they were. Whether it did.
-    pub fn keep_left_of(&mut self, old: &Envelope, edge: usize) -> bool {
-        let from_right = |e: &Envelope, i: usize| e.curve[i] != 0 && e.starts[e.curve[i] as usize].node >= edge;
-        let same = (0..edge).all(|i| {
-            let (new, was) = (from_right(self, i), from_right(old, i));
-            new == was && (!new || (self.v[i] == old.v[i] && self.a[i] == old.a[i]))
-        });
-        if !same {
-            return false;
-        }
+    /// Takes over every branch of `old` from a section end before node `edge`. For a block whose
+    /// v̄ before `edge` is as in `old`'s, and where no branch from a later section end reaches
+    /// before `edge`, here or in `old`: then those branches are the ones a build would make.
+    pub fn take_over_before(&mut self, old: &Envelope, edge: usize) {
         let mut ids = vec![0u32; old.starts.len()];
         for (c, st) in old.starts.iter().enumerate().skip(1) {
             if st.node < edge {
@@ -112,7 +97,6 @@ impl Envelope {
                 self.copy_node(old, i, id);
             }
         }
-        true
     }
 
     fn copy_node(&mut self, old: &Envelope, i: usize, id: u32) {
@@ -150,24 +134,14 @@ mod tests {
     }
 
     #[test]
-    fn branches_clear_of_a_change_are_kept_and_others_not() {
-        // Block end 9 (nodes 7..=9) and a section end at 4 (nodes 2..=4).
-        let old = envelope(&[(9, 7, 1.0), (4, 2, 5.0)]);
-        let mut new = envelope(&[]);
-        assert!(!new.keep_branch(&old, 9, 7), "reaches the edge");
-        assert!(new.keep_branch(&old, 9, 6));
-        assert!(!new.keep_branch(&old, 8, 0), "no branch starts there");
-        assert!(new.keep_left_of(&old, 6), "nothing from the right reaches before node 6, as before");
-        assert_eq!(new.first_difference(&old), 10);
-        assert_eq!(new.curve, old.curve);
-
-        // A branch from the right that now reaches before the edge: those before are rebuilt.
-        let mut new = envelope(&[(9, 5, 1.0)]);
-        assert!(!new.keep_left_of(&old, 6));
-        assert_eq!(new.first_difference(&old), 2, "the branch from 4 is not there yet");
-        // ... as they are when one reached there before and no longer does.
-        let old = envelope(&[(9, 5, 1.0), (4, 2, 5.0)]);
-        let mut new = envelope(&[(9, 7, 1.0)]);
-        assert!(!new.keep_left_of(&old, 6));
+    fn branches_before_an_edge_are_taken_over() {
+        // Block end 9 (nodes 7..=9), section ends at 4 (nodes 2..=4) and 1 (node 1 only).
+        let old = envelope(&[(9, 7, 1.0), (4, 2, 5.0), (1, 1, 6.0)]);
+        assert_eq!(old.extents(), [(9, 7), (4, 2), (1, 1)]);
+        let mut new = envelope(&[(9, 8, 1.0)]);
+        new.take_over_before(&old, 5);
+        assert_eq!(new.first_difference(&old), 7, "the block end's branch differs");
+        assert_eq!(&new.curve[..5], &[0, 3, 2, 2, 2]);
+        assert_eq!(new.starts[2].node, 4);
     }
 }

@@ -95,7 +95,10 @@ pub struct Failed {
 
 /// The forward branch over a block from `start` = (v, a) at node 0 to rest at the last node;
 /// with `resume` = (progress, node), it keeps the earlier run up to its last section end before
-/// `node` (where the block and its envelope are as they were) and runs on from there.
+/// `node` (where the block and its envelope are as they were) and runs on from there. The kept
+/// run is valid as it stands: every interval was checked, and it ends on a branch's section
+/// end. A run built anew could differ only where the kept one's viability ramps looked past
+/// that section end, which they seldom do (they flatten under the branch it joined).
 pub fn forward_branch(
     nodes: &[Node],
     env: &Envelope,

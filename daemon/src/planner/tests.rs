@@ -289,12 +289,12 @@ fn a_capped_section_stuck_below_every_cap_gives_up_at_once() {
     assert!(stats.work.cap_tries <= 40, "{:?}", stats.work);
 }
 
-/// A repair lowers v̄ at a few nodes of a 10 000-node block (the tight machine's dense spline).
-/// Rebuilt from the envelope before, the envelope keeps the branches away from there, and the
-/// forward branch resumes at its last section end before the first change: the same envelope
-/// and the same forward branch as built anew, for a fraction of the work.
+/// A repair lowers v̄ at a node in the middle of a 10 000-node block (the tight machine's dense
+/// spline). Rebuilt from the envelope before, the envelope takes over the branches before that
+/// node, and the forward branch resumes at its last section end before the first change: the
+/// same envelope and the same forward branch as built anew, for less work.
 #[test]
-fn a_repair_rebuilds_only_around_the_lowered_stretch() {
+fn a_repair_rebuilds_only_from_the_lowered_node_on() {
     let (tight, path) = tight_spline(10_000);
     let lim = Limits::from_config(&tight);
     let nodes = Planner::sample_path(&tight, &path);
@@ -312,15 +312,15 @@ fn a_repair_rebuilds_only_around_the_lowered_stretch() {
     };
     let k = failed.stuck.node;
     assert!(k > block.len() / 4, "stuck at node {k} of {}: too early to show the saving", block.len());
-    let (from, to) = block::lower_before(&mut block, k, 1, 0.9);
+    let from = block::lower_before(&mut block, k, 1, 0.9);
 
     let (mut anew_work, mut kept_work) = (Work::default(), Work::default());
     let anew = branch::build_envelope(&block, None, &lim, &mut anew_work).unwrap();
-    let previous = branch::Previous { env: &env, from, to };
+    let previous = branch::Previous { env: &env, from };
     let kept = branch::build_envelope(&block, Some(previous), &lim, &mut kept_work).unwrap();
     assert_eq!((anew.v.clone(), anew.a.clone()), (kept.v.clone(), kept.a.clone()));
     assert_eq!(kept.first_difference(&anew), block.len());
-    assert!(kept_work.evals * 3 < anew_work.evals, "rebuilt {kept_work:?}, anew {anew_work:?}");
+    assert!(kept_work.evals * 4 < anew_work.evals * 3, "rebuilt {kept_work:?}, anew {anew_work:?}");
 
     let (mut anew_work, mut kept_work) = (Work::default(), Work::default());
     let resume_at = kept.first_difference(&env).min(from);

@@ -1,7 +1,7 @@
 //! Exact join of a branch onto another branch's state (seed 001 §3.3): two intervals whose
 //! middle velocity is chosen so the second ends with the target's velocity and acceleration.
 
-use super::check::{VIOLATION_TOL, violates, violation};
+use super::check::{VIOLATION_TOL, jerk_range, violates, violation};
 use super::interval::Interval;
 use super::limits::Limits;
 use super::step::Work;
@@ -14,6 +14,26 @@ const JOIN_ITERS: usize = 60;
 /// The joined acceleration may miss the target by this, relative to (|a| + 1).
 const JOIN_ACC_REL_TOL: f64 = 1e-6;
 
+/// Whether a two-interval join from (v, a) at traversal position `t` can reach the branch state
+/// `target` = (v, a) at t+2 with the jerk the axes allow: a cheap test [`join_two`] runs first. The
+/// joined acceleration changes by j₁T₁ + j₂T₂. The first jerk must lie in the range the axes
+/// allow at t (the join's check at its start node is exactly that); the second, at t+1 and
+/// another state, is taken within that range widened by its width on both sides. T₁ + T₂ is
+/// taken at the slower end's velocity. A braking ramp that grazes a branch passes dozens of
+/// nodes close to it where no join can work (859 failed attempts on one section of a dense G06
+/// spline, most of its planning), and each attempt brackets and solves the join equation.
+fn join_in_reach(view: &View, t: usize, v: f64, a: f64, target: (f64, f64), lim: &Limits) -> bool {
+    let (lo, hi) = jerk_range(view.start_geom(t), view.sign(), v, a, lim);
+    let v_min = v.min(target.0);
+    if lo > hi || v_min <= 0.0 {
+        return lo <= hi; // no jerk keeps the start node, or no time estimate: let the join decide
+    }
+    let t_s = (view.node(t + 2).s_mm - view.node(t).s_mm).abs() / v_min;
+    let half_width = 0.5 * (hi - lo);
+    let da = target.1 - a;
+    da >= (lo - half_width) * t_s && da <= (hi + half_width) * t_s
+}
+
 /// Exact join (seed 001 §3.3): from (v, a) at node t onto the backward branch's state at
 /// node t+2, through a velocity at t+1 found by bisection on the acceleration mismatch.
 pub fn join_two(
@@ -25,6 +45,9 @@ pub fn join_two(
     lim: &Limits,
     work: &mut Work,
 ) -> Option<(Interval, Interval)> {
+    if !join_in_reach(view, t, v, a, target, lim) {
+        return None;
+    }
     let (vt, at) = target;
     let (g1, g2) = (view.interval_geom(t), view.interval_geom(t + 1));
     let v_hi = view.node(t + 1).vbar_mm_s;

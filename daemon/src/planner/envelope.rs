@@ -120,7 +120,8 @@ impl Envelope {
 mod tests {
     use super::*;
 
-    /// Ten nodes with v̄ = 10 and branches (id, section end, first node, velocity) laid on them.
+    /// Ten nodes with v̄ = 10 and branches (section end, first node, velocity) laid on them, ids in
+    /// that order.
     fn envelope(branches: &[(usize, usize, f64)]) -> Envelope {
         let mut e = Envelope::from_vbar(std::iter::repeat_n(10.0, 10));
         for &(end, first, v) in branches {

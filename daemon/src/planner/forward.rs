@@ -83,8 +83,9 @@ impl Run {
 /// the section ends it passed, where a run after a repair further on can resume.
 pub struct Progress {
     intervals: Vec<Interval>,
-    /// (section end node, `final_before` there), in order; the block start first.
-    anchors: Vec<(usize, usize)>,
+    /// (section end node, `final_before` there, back-offs taken up to there), in order; the
+    /// block start first.
+    anchors: Vec<(usize, usize, usize)>,
 }
 
 /// A forward branch that got stuck: where, and how far it got.
@@ -108,9 +109,9 @@ pub fn forward_branch(
     work: &mut Work,
 ) -> Result<ForwardPlan, Failed> {
     let mut run = Run::new(0, start);
-    let mut anchors = vec![(0, nodes.len() - 1)];
+    let mut anchors = vec![(0, nodes.len() - 1, 0)];
     if let Some((p, before)) = resume {
-        let kept = p.anchors.iter().take_while(|(a, _)| *a < before).count().max(1);
+        let kept = p.anchors.iter().take_while(|(a, _, _)| *a < before).count().max(1);
         anchors = p.anchors[..kept].to_vec();
         for iv in &p.intervals[..anchors[kept - 1].0] {
             run.push(*iv);
@@ -127,16 +128,15 @@ fn run_forward(
     nodes: &[Node],
     env: &Envelope,
     run: &mut Run,
-    anchors: &mut Vec<(usize, usize)>,
+    anchors: &mut Vec<(usize, usize, usize)>,
     lim: &Limits,
     work: &mut Work,
 ) -> Result<usize, Stuck> {
     let n = nodes.len();
     let view = View::forward(nodes);
     let free = FlattenUnder { view, cap: f64::INFINITY, lim };
-    let (mut anchor, mut final_before) = *anchors.last().expect("the block start");
+    let (mut anchor, mut final_before, mut backoffs) = *anchors.last().expect("the block start");
     let mut evals_at_anchor = work.evals;
-    let mut backoffs = 0;
     while run.last() + 1 < n {
         let t = run.last();
         let (v, a) = run.state(t);
@@ -214,7 +214,7 @@ fn run_forward(
         );
         evals_at_anchor = work.evals;
         anchor = run.last();
-        anchors.push((anchor, final_before));
+        anchors.push((anchor, final_before, backoffs));
     }
     let (v, a) = run.state(n - 1);
     if v.abs() > REST_V_TOL_MM_S || a.abs() > REST_A_TOL_MM_S2 {
@@ -424,9 +424,11 @@ fn capped_section(
                 best = Some((cap, p));
                 break;
             }
-            // The forward branch got stuck below every cap still to try: the caps do not
-            // reach where it fails (a dead end the block repair must lower v̄ for), and
-            // trying them all cost three quarters of the planning on a dense spline.
+            // The forward branch got stuck below every cap still to try. A heuristic: a
+            // lower cap changes the run only where it was above that cap, and the run fails
+            // below all of them (the block repair then lowers v̄ there). Trying them all cost
+            // three quarters of the planning on a dense spline, and the motion of every
+            // example stayed the same without them.
             Err(CapFail::ForwardStuck { v_mm_s }) if v_mm_s < lo => {
                 tracing::trace!(
                     anchor,

@@ -14,24 +14,29 @@ const JOIN_ITERS: usize = 60;
 /// The joined acceleration may miss the target by this, relative to (|a| + 1).
 const JOIN_ACC_REL_TOL: f64 = 1e-6;
 
+/// The lowest middle velocity a two-interval join tries, as a share of the slower end's.
+const JOIN_LOWEST_MIDDLE_SHARE: f64 = 0.5;
+
 /// Whether a two-interval join from (v, a) at traversal position `t` can reach the branch state
-/// `target` = (v, a) at t+2 with the jerk the axes allow: a cheap test [`join_two`] runs first. The
-/// joined acceleration changes by j₁T₁ + j₂T₂. The first jerk must lie in the range the axes
-/// allow at t (the join's check at its start node is exactly that); the second, at t+1 and
-/// another state, is taken within that range widened by its width on both sides. T₁ + T₂ is
-/// taken at the slower end's velocity. A braking ramp that grazes a branch passes dozens of
-/// nodes close to it where no join can work: 859 failed attempts on two sections of a dense G06
-/// spline, 72 % of its evaluations (but only 2 % of its instructions; a ramp node costs more).
+/// `target` = (v, a) at t+2 with the jerk the axes allow: a cheap test [`join_two`] runs first.
+/// The joined acceleration changes by j₁T₁ + j₂T₂. The join checks the first interval at its
+/// start node and the second at its end node, so j₁ must lie in the jerk range the axes allow
+/// at t for (v, a), and j₂ in the one at t+2 for `target`. With T₁ + T₂ at most the distance
+/// over half the slower end's velocity (the lowest middle velocity [`join_two`] tries), the
+/// change lies between the lower ends' smaller (or zero) and the upper ends' larger (or zero)
+/// times that time. A braking ramp that grazes a branch passes dozens of nodes close to it
+/// where no join can work: 859 failed attempts on two sections of a dense G06 spline, 72 % of
+/// its evaluations (but only 2 % of its instructions; a ramp node costs more).
 fn join_in_reach(view: &View, t: usize, v: f64, a: f64, target: (f64, f64), lim: &Limits) -> bool {
-    let (lo, hi) = jerk_range(view.start_geom(t), view.sign(), v, a, lim);
-    let v_min = v.min(target.0);
-    if lo > hi || v_min <= 0.0 {
-        return lo <= hi; // no jerk keeps the start node, or no time estimate: let the join decide
+    let (lo1, hi1) = jerk_range(view.start_geom(t), view.sign(), v, a, lim);
+    let (lo2, hi2) = jerk_range(view.end_geom(t + 2), view.sign(), target.0, target.1, lim);
+    let v_low = JOIN_LOWEST_MIDDLE_SHARE * v.min(target.0);
+    if lo1 > hi1 || lo2 > hi2 || v_low <= 0.0 {
+        return true; // no estimate (the join's checks allow rounding): let the join decide
     }
-    let t_s = (view.node(t + 2).s_mm - view.node(t).s_mm).abs() / v_min;
-    let half_width = 0.5 * (hi - lo);
+    let t_max = (view.node(t + 2).s_mm - view.node(t).s_mm).abs() / v_low;
     let da = target.1 - a;
-    da >= (lo - half_width) * t_s && da <= (hi + half_width) * t_s
+    da >= lo1.min(lo2).min(0.0) * t_max && da <= hi1.max(hi2).max(0.0) * t_max
 }
 
 /// Exact join (seed 001 §3.3): from (v, a) at node t onto the backward branch's state at
@@ -57,7 +62,7 @@ pub fn join_two(
         let i2 = Interval::through(x, i1.a1(), g2.ds_mm, vt)?;
         Some((i2.a1() - at, i1, i2))
     };
-    let lo_v = 0.5 * v.min(vt);
+    let lo_v = JOIN_LOWEST_MIDDLE_SHARE * v.min(vt);
     let hi_v = v_hi.min(1.5 * v.max(vt) + 1e-9);
     let mut prev: Option<(f64, f64)> = None;
     let mut bracket = None;

@@ -10,7 +10,8 @@
 //! the acceleration-only profile says the relaxed one gains more than `RELAXED_MIN_GAIN`,
 //! under the relaxed one first, and under seed 001's too unless the relaxed plan is clearly
 //! below the acceleration-only time under it (which a plan under that ceiling can undercut only
-//! by the passes' discretisation error); the faster plan is kept. Both keep every limit (every interval is checked); they differ only in speed.
+//! by the passes' discretisation error); the faster plan is kept. Both keep every limit (every
+//! interval is checked); they differ only in speed.
 
 use super::branch::{Previous, Stuck, build_envelope};
 use super::envelope::Envelope;
@@ -205,7 +206,8 @@ fn relaxed_ceiling(nodes: &[Node], raw: &[f64], seed: &[f64], lim: &Limits) -> C
 }
 
 /// Time of the acceleration-only profile under `ceiling` (a lower bound of any jerk-limited
-/// profile under it, up to the passes' discretisation): the passes of `reach`, then Δs over the mean velocity of each interval.
+/// profile under it, up to the passes' discretisation): the passes of `reach`, then Δs over the
+/// mean velocity of each interval.
 fn acc_only_time_s(nodes: &[Node], ceiling: &[f64], v_start: f64, lim: &Limits) -> f64 {
     let mut v = ceiling.to_vec();
     super::reach::lower_to_reachable(nodes, &mut v, lim);
@@ -239,12 +241,9 @@ fn plan_repaired(
         let previous = before.as_ref().map(|(env, _, from)| Previous { env, from: *from });
         let env = build_envelope(nodes, previous, lim, work)?;
         let resume = before.as_ref().map(|(old, progress, from)| (progress, env.first_difference(old).min(*from)));
-        let stuck = match forward_branch(nodes, &env, start, resume, lim, work) {
+        let (stuck, progress) = match forward_branch(nodes, &env, start, resume, lim, work) {
             Ok(f) => return Ok((f.intervals, f.final_before)),
-            Err(Failed { stuck, progress }) => {
-                before = Some((env, progress, 0));
-                stuck
-            }
+            Err(Failed { stuck, progress }) => (stuck, progress),
         };
         work.repairs += 1;
         // Never the block end itself (a stop): lowering there changes nothing, and its zero
@@ -270,9 +269,7 @@ fn plan_repaired(
         let span = repair_span(last, k);
         last = Some((k, span));
         let lowered = lower_before(nodes, k, span, factor);
-        if let Some((_, _, from)) = before.as_mut() {
-            *from = lowered;
-        }
+        before = Some((env, progress, lowered));
     }
     Err(Stuck { node: nodes.len() - 1, reason: "too many repairs" })
 }
@@ -292,8 +289,7 @@ fn repair_span(last: Option<(usize, usize)>, k: usize) -> usize {
 
 /// Lowers v̄ at nodes `k − span ..= k` (never node 0, the block's start state) to `factor` times
 /// their lowest v̄ (node 0's included, as a section end right after the start must not be
-/// faster than the start allows).
-/// Returns the first node it may have lowered.
+/// faster than the start allows). Returns the first node it may have lowered.
 pub(super) fn lower_before(nodes: &mut [Node], k: usize, span: usize, factor: f64) -> usize {
     let from = k.saturating_sub(span);
     let base = nodes[from..=k].iter().map(|nd| nd.vbar_mm_s).fold(f64::INFINITY, f64::min);

@@ -83,9 +83,18 @@ impl Run {
 /// the section ends it passed, where a run after a repair further on can resume.
 pub struct Progress {
     intervals: Vec<Interval>,
-    /// (section end node, `final_before` there, back-offs taken up to there), in order; the
-    /// block start first.
-    anchors: Vec<(usize, usize, usize)>,
+    /// The section ends passed, in order; the block start first.
+    anchors: Vec<Anchor>,
+}
+
+/// A section end a forward branch passed, and its bookkeeping there.
+#[derive(Debug, Clone, Copy)]
+struct Anchor {
+    node: usize,
+    /// See [`ForwardPlan::final_before`].
+    final_before: usize,
+    /// Back-offs taken so far (bounded per branch, `MAX_BACK_OFFS_PER_BRANCH`).
+    backoffs: usize,
 }
 
 /// A forward branch that got stuck: where, and how far it got.
@@ -109,11 +118,11 @@ pub fn forward_branch(
     work: &mut Work,
 ) -> Result<ForwardPlan, Failed> {
     let mut run = Run::new(0, start);
-    let mut anchors = vec![(0, nodes.len() - 1, 0)];
+    let mut anchors = vec![Anchor { node: 0, final_before: nodes.len() - 1, backoffs: 0 }];
     if let Some((p, before)) = resume {
-        let kept = p.anchors.iter().take_while(|(a, _, _)| *a < before).count().max(1);
+        let kept = p.anchors.iter().take_while(|an| an.node < before).count().max(1);
         anchors = p.anchors[..kept].to_vec();
-        for iv in &p.intervals[..anchors[kept - 1].0] {
+        for iv in &p.intervals[..anchors[kept - 1].node] {
             run.push(*iv);
         }
     }
@@ -128,14 +137,14 @@ fn run_forward(
     nodes: &[Node],
     env: &Envelope,
     run: &mut Run,
-    anchors: &mut Vec<(usize, usize, usize)>,
+    anchors: &mut Vec<Anchor>,
     lim: &Limits,
     work: &mut Work,
 ) -> Result<usize, Stuck> {
     let n = nodes.len();
     let view = View::forward(nodes);
     let free = FlattenUnder { view, cap: f64::INFINITY, lim };
-    let (mut anchor, mut final_before, mut backoffs) = *anchors.last().expect("the block start");
+    let Anchor { node: mut anchor, mut final_before, mut backoffs } = *anchors.last().expect("the block start");
     let mut evals_at_anchor = work.evals;
     while run.last() + 1 < n {
         let t = run.last();
@@ -214,7 +223,7 @@ fn run_forward(
         );
         evals_at_anchor = work.evals;
         anchor = run.last();
-        anchors.push((anchor, final_before, backoffs));
+        anchors.push(Anchor { node: anchor, final_before, backoffs });
     }
     let (v, a) = run.state(n - 1);
     if v.abs() > REST_V_TOL_MM_S || a.abs() > REST_A_TOL_MM_S2 {
@@ -461,17 +470,15 @@ fn capped_section(
     Some(profile)
 }
 
-/// Why a capped run failed.
+/// Why a capped run failed, as far as the cap search acts on it (each failure is traced where
+/// it happens).
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum CapFail {
-    /// The backward branch got stuck.
-    BackwardStuck,
     /// The forward branch found no feasible and viable step, at this velocity.
     ForwardStuck { v_mm_s: f64 },
-    /// It reached the backward branch but no join onto it keeps the limits.
-    NoJoin,
-    /// It reached the section end without meeting the backward branch.
-    NotMet,
+    /// The backward branch got stuck, no join onto it keeps the limits, or the forward branch
+    /// reached the section end without meeting it.
+    Other,
 }
 
 /// Forward from `anchor` with state `fwd`, backward from `end` with state `bwd`, both under
@@ -489,7 +496,7 @@ fn capped_run(
 ) -> Result<Vec<Interval>, CapFail> {
     let Some(branch) = backward_branch(nodes, end, bwd.0, bwd.1, cap, anchor, |_, _| false, lim, work) else {
         tracing::trace!(cap, anchor, end, "capped run: backward branch stuck");
-        return Err(CapFail::BackwardStuck);
+        return Err(CapFail::Other);
     };
     // Backward states per node from the branch's leftmost node to `end`; left of it the
     // branch has flattened at the cap (or v̄).
@@ -538,7 +545,7 @@ fn capped_run(
         }
         let Some((from, ivs)) = joined else {
             tracing::trace!(cap, t, left, v, a, bv = bv[t + 1], ba = ba[t + 1], step = ?step.map(|iv| (iv.v1(), iv.a1())), "capped run: no join");
-            return Err(if step.is_none() { CapFail::ForwardStuck { v_mm_s: v } } else { CapFail::NoJoin });
+            return Err(if step.is_none() { CapFail::ForwardStuck { v_mm_s: v } } else { CapFail::Other });
         };
         run.truncate(from);
         for iv in ivs {
@@ -552,5 +559,5 @@ fn capped_run(
         return Ok(run.intervals);
     }
     tracing::trace!(cap, anchor, end, "capped run: forward reached the end without meeting");
-    Err(CapFail::NotMet)
+    Err(CapFail::Other)
 }

@@ -192,14 +192,15 @@ fn ramp_interval_from(
                 // estimate that misses this leads a branch into a dead end.
                 let nodes_ok = j > jlo1 * RAMP_JERK_STEPS[0] * (1.0 - 1e-9) && holds_at_nodes(j, (a, &r0), (a1, &r1));
                 if (check == Check::Nodes && nodes_ok) || feasible(&iv) {
-                    let same_side = t + 1 < view.len() && view.start_geom(t + 1) == g1;
-                    return Some((iv, same_side.then_some(r1)));
+                    return Some((iv, carried(view, t, g1, r1)));
                 }
                 break;
             }
             j = j_next.clamp(jlo, jhi);
         }
     }
+    // The geometry forces the jerk's sign (the window excludes zero): see below.
+    let forced = jlo > 0.0 || jhi < 0.0;
     let steps: &[f64] = if a > alo { &RAMP_JERK_STEPS[1..] } else { &RAMP_JERK_STEPS[3..] };
     let mut tried = f64::NAN;
     for &frac in steps {
@@ -217,14 +218,13 @@ fn ramp_interval_from(
             // 5-axis table's 59 k, at its swings; 5 % fewer instructions), and elsewhere the
             // extra ranges cost more than the checks they save. The window moves along the
             // interval, so the jerk must also keep clear of the end node's window edges.
-            if check == Check::Nodes && (jlo > 0.0 || jhi < 0.0) {
+            if check == Check::Nodes && forced {
                 let g1 = view.end_geom(t + 1);
                 let r1 = NodeRanges::at(g1, sign, iv.v1(), iv.a1(), lim);
                 let band = JERK_NEAR_BOUND_FRACTION * (r1.jerk.1 - r1.jerk.0);
                 let clear = j > r1.jerk.0 + band && j < r1.jerk.1 - band;
                 if clear && holds_at_nodes(j, (a, &r0), (iv.a1(), &r1)) {
-                    let same_side = t + 1 < view.len() && view.start_geom(t + 1) == g1;
-                    return Some((iv, same_side.then_some(r1)));
+                    return Some((iv, carried(view, t, g1, r1)));
                 }
             }
             if feasible(&iv) {
@@ -236,7 +236,7 @@ fn ramp_interval_from(
     // axis held at its velocity limit through a sharp swing), the window does not contain
     // zero, every step above clamps to its edge, and the edge at the start node may leave it
     // inside the interval: go into the window.
-    if jlo > 0.0 || jhi < 0.0 {
+    if forced {
         for frac in FORCED_WINDOW_FRACTIONS {
             let j = if jlo > 0.0 { jlo + frac * (jhi - jlo) } else { jhi - frac * (jhi - jlo) };
             if let Some(iv) = Interval::with_jerk(v, a, ig.ds_mm, j) {
@@ -247,6 +247,12 @@ fn ramp_interval_from(
         }
     }
     None
+}
+
+/// The end node's ranges `r1` (geometry `g1`) as the start of the next interval, where they
+/// hold there too: everywhere but at element joints, where A″ and A‴ jump.
+fn carried(view: &View, t: usize, g1: &NodeGeom, r1: NodeRanges) -> Option<NodeRanges> {
+    (t + 1 < view.len() && view.start_geom(t + 1) == g1).then_some(r1)
 }
 
 /// Whether jerk `j` keeps the end node's jerk range and both nodes' accelerations (a with its

@@ -67,19 +67,26 @@ impl FlattenUnder<'_> {
         self.flat_acc_in(t, v, None)
     }
 
+    /// Whether [`FlattenUnder::flat_acc`] at (t, v) depends on the accelerations the axes allow
+    /// there; if not, it is 0. Up to seed 001's v̄ the axes allow a = 0 (eq. 6), so the lowest
+    /// allowed acceleration is ≤ 0: the common case, without the per-axis ranges.
+    #[inline]
+    fn needs_acc_range(&self, t: usize, v: f64) -> bool {
+        if t + 1 >= self.view.len() {
+            return false;
+        }
+        let node = self.view.node(t);
+        node.reach_bound || v > node.vbar_flat_mm_s
+    }
+
     /// [`FlattenUnder::flat_acc`] with the accelerations the axes allow at (t, v) when they are
     /// known already (a ramp carries them from one interval into the next).
     #[inline]
     fn flat_acc_in(&self, t: usize, v: f64, acc: Option<(f64, f64)>) -> f64 {
-        if t + 1 >= self.view.len() {
+        if !self.needs_acc_range(t, v) {
             return 0.0;
         }
         let node = self.view.node(t);
-        // Up to seed 001's v̄ the axes allow a = 0 (eq. 6), so the lowest allowed acceleration
-        // is ≤ 0: the common case, without the per-axis ranges.
-        if !node.reach_bound && v <= node.vbar_flat_mm_s {
-            return 0.0;
-        }
         let (lo, hi) = acc.unwrap_or_else(|| acc_range(self.view.start_geom(t), self.view.sign(), v, self.lim));
         let lo = if lo <= hi { lo } else { f64::NEG_INFINITY };
         let (c0, c1) = (self.velocity(t), self.velocity(t + 1));
@@ -380,7 +387,11 @@ pub fn ramp_margin(
         }
         // The carried ranges are for this node's side and state; their acceleration range
         // depends on the acceleration limits only, which backward branches share with their
-        // ceiling (they scale the jerk limits alone).
+        // ceiling (they scale the jerk limits alone). Where the flat test needs that range,
+        // the ramp's next interval needs the node's ranges too: computed once for both.
+        if ranges.is_none() && ceiling.needs_acc_range(t, v) {
+            ranges = Some(NodeRanges::at(view.start_geom(t), view.sign(), v, a, lim));
+        }
         if a <= ceiling.flat_acc_in(t, v, ranges.map(|r: NodeRanges| r.acc)) {
             // Flat, but it must be able to go on: at an element joint A‴ (and A″) can jump,
             // and a state that kept the limits arriving can leave no jerk for the next side.

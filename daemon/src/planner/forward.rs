@@ -425,7 +425,8 @@ fn capped_section(
     for _ in 0..CAP_DESCENT_STEPS {
         gap *= CAP_DESCENT_FACTOR;
         let cap = lo + gap;
-        if cap <= lo * (1.0 + 1e-12) {
+        // Caps closer to the lowest than the bisection below resolves are not told apart.
+        if gap <= CAP_SEARCH_REL_TOL * lo {
             break;
         }
         match try_cap(cap, work) {
@@ -438,7 +439,7 @@ fn capped_section(
             // below all of them (the block repair then lowers v̄ there). Trying them all cost
             // three quarters of the planning on a dense spline, and the motion of every
             // example stayed the same without them.
-            Err(CapFail::ForwardStuck { v_mm_s }) if v_mm_s < lo => {
+            Err(CapFail::ForwardStuck { v_mm_s }) if v_mm_s <= lo => {
                 tracing::trace!(
                     anchor,
                     section_end = start.node,

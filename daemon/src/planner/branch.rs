@@ -11,7 +11,7 @@ use super::envelope::{CurveStart, END_CURVE, Envelope};
 use super::interval::Interval;
 use super::limits::Limits;
 use super::node::Node;
-use super::ramp::{CEILING_REL_TOL, Check, FlattenUnder, ramp_interval, ramp_margin};
+use super::ramp::{CEILING_REL_TOL, Check, FlattenUnder, RampTrace, ramp_interval, ramp_margin};
 use super::step::{Work, evaluate, max_feasible};
 use super::view::View;
 
@@ -45,10 +45,23 @@ pub struct Stuck {
     pub reason: &'static str,
 }
 
+/// The viability ramps a branch keeps between its greedy steps, in buffers reused from step
+/// to step: the ramp from the current state, and the best and the latest of a step's search.
+#[derive(Debug, Clone, Default)]
+pub struct Ramps {
+    current: RampTrace,
+    best: RampTrace,
+    trial: RampTrace,
+}
+
 /// The largest feasible and viable step from (v, a) at traversal position `t`: the greedy
 /// choice if viable, else the boundary of viability between it and the braking ramp's own
 /// next state (viable whenever the current state is), found by regula falsi on the ramp
 /// margin.
+///
+/// `ramps` holds the current state's own viability ramp from the step that accepted it. Where
+/// the braking ramp's next state is a state that ramp passed, its margin is known: on the
+/// 5-axis table, where branches ride their braking ramps, that saves a quarter of the ramps.
 #[allow(clippy::too_many_arguments)]
 pub fn greedy_step(
     view: &View,
@@ -59,6 +72,7 @@ pub fn greedy_step(
     ceiling: &FlattenUnder,
     lim: &Limits,
     work: &mut Work,
+    ramps: &mut Ramps,
 ) -> Option<Interval> {
     let g = view.interval_geom(t);
     // The braking ramp's own interval is feasible by construction: the fallback when the
@@ -69,18 +83,25 @@ pub fn greedy_step(
         tracing::trace!(t, v, a, v_max, "no feasible next velocity");
         return None;
     };
-    let margin = |iv: &Interval, work: &mut Work| ramp_margin(view, t + 1, iv.v1(), iv.a1(), lim, ceiling, work);
-    let m_cand = margin(&cand, work);
-    if m_cand.is_some_and(|m| m <= CEILING_REL_TOL) {
+    let margin = |iv: &Interval, work: &mut Work, into: &mut RampTrace| {
+        ramp_margin(view, t + 1, iv.v1(), iv.a1(), lim, ceiling, work, into)
+    };
+    let ok = |m: Option<f64>| m.is_some_and(|m| m <= CEILING_REL_TOL);
+    let m_cand = margin(&cand, work, &mut ramps.trial);
+    if ok(m_cand) {
+        std::mem::swap(&mut ramps.current, &mut ramps.trial);
         return Some(cand);
     }
     work.bisections += 1;
-    let ok = |m: Option<f64>| m.is_some_and(|m| m <= CEILING_REL_TOL);
-    // A viable lower end: the braking ramp's next state, else lower velocities.
+    // A viable lower end: the braking ramp's next state, else lower velocities. `on_current`:
+    // the best state so far lies on the current state's ramp (else its ramp is `ramps.best`).
+    let mut on_current = false;
     let mut lo = ramp_interval(view, t, v, a, lim, Check::Full)
         .filter(|iv| iv.v1() <= v_max * (1.0 + 1e-12) && iv.v1() < cand.v1())
         .and_then(|iv| {
-            let m = margin(&iv, work);
+            let known = ramps.current.margin_from(t + 1, iv.v1(), iv.a1());
+            on_current = ok(known);
+            let m = known.or_else(|| margin(&iv, work, &mut ramps.best));
             ok(m).then(|| (iv, m.unwrap_or(0.0)))
         });
     if lo.is_none() {
@@ -89,7 +110,7 @@ pub fn greedy_step(
         for frac in fracs.chain(halvings) {
             if let Some((iv, f)) = evaluate(v, a, frac * cand.v1(), &g, lim, work) {
                 if f <= VIOLATION_TOL {
-                    let m = margin(&iv, work);
+                    let m = margin(&iv, work, &mut ramps.best);
                     if ok(m) {
                         lo = Some((iv, m.unwrap_or(0.0)));
                         break;
@@ -117,10 +138,12 @@ pub fn greedy_step(
             _ => 0.5 * (x_lo + x_hi),
         };
         let trial = evaluate(v, a, x, &g, lim, work).filter(|(_, f)| *f <= VIOLATION_TOL);
-        let m = trial.as_ref().and_then(|(iv, _)| margin(iv, work));
+        let m = trial.as_ref().and_then(|(iv, _)| margin(iv, work, &mut ramps.trial));
         match (trial, m) {
             (Some((iv, _)), Some(m)) if m <= CEILING_REL_TOL => {
                 best = iv;
+                std::mem::swap(&mut ramps.best, &mut ramps.trial);
+                on_current = false;
                 x_lo = x;
                 m_lo = m;
                 side = 1;
@@ -131,6 +154,10 @@ pub fn greedy_step(
                 side = -1;
             }
         }
+    }
+    // The next state's own ramp: the current one passes it, or the search's best is it.
+    if !on_current {
+        std::mem::swap(&mut ramps.current, &mut ramps.best);
     }
     Some(best)
 }
@@ -228,10 +255,11 @@ pub fn backward_branch(
     let mut backoffs = 0;
     // Where the branch last got stuck and how deep its back-off went.
     let (mut stuck_at, mut depth): (Option<usize>, usize) = (None, 0);
+    let mut ramps = Ramps::default();
     while view.index(t) > stop + 1 {
         let i_next = view.index(t + 1);
         let v_max = nodes[i_next].vbar_mm_s.min(cap);
-        let iv = match greedy_step(&view, t, v, a, v_max, &ceiling, &lim_b, work) {
+        let iv = match greedy_step(&view, t, v, a, v_max, &ceiling, &lim_b, work, &mut ramps) {
             Some(iv) => iv,
             None if (v > v_max || v_max < nodes[view.index(t)].vbar_mm_s) && i_next > stop && cap.is_infinite() => {
                 // The ceiling ahead falls faster than the branch can follow (it is above the

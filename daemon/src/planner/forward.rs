@@ -10,7 +10,7 @@
 //! seed 001's "lower the faster branch locally", done once by bisection instead of by
 //! repeated recomputation, so the work per section is bounded.
 
-use super::branch::{MAX_BACK_OFFS_PER_BRANCH, Stuck, backward_branch, greedy_step};
+use super::branch::{MAX_BACK_OFFS_PER_BRANCH, Ramps, Stuck, backward_branch, greedy_step};
 use super::envelope::{END_CURVE, Envelope};
 use super::interval::Interval;
 use super::join::{join_three, join_two};
@@ -146,10 +146,11 @@ fn run_forward(
     let free = FlattenUnder { view, cap: f64::INFINITY, lim };
     let Anchor { node: mut anchor, mut final_before, mut backoffs } = *anchors.last().expect("the block start");
     let mut evals_at_anchor = work.evals;
+    let mut ramps = Ramps::default();
     while run.last() + 1 < n {
         let t = run.last();
         let (v, a) = run.state(t);
-        let step = greedy_step(&view, t, v, a, nodes[t + 1].vbar_mm_s, &free, lim, work);
+        let step = greedy_step(&view, t, v, a, nodes[t + 1].vbar_mm_s, &free, lim, work, &mut ramps);
         // Stuck with no branch right ahead: brake earlier (a branch right ahead is joined).
         if step.is_none()
             && !(t + 1..(t + 4).min(n)).any(|i| env.on_curve(i))
@@ -515,11 +516,12 @@ fn capped_run(
     let view = View::forward(nodes);
     let ceiling = FlattenUnder { view, cap, lim };
     let mut run = Run::new(anchor, fwd);
+    let mut ramps = Ramps::default();
     while run.last() < end {
         let t = run.last();
         let (v, a) = run.state(t);
         let v_max = nodes[t + 1].vbar_mm_s.min(cap).min(bv[t + 1]);
-        let step = greedy_step(&view, t, v, a, v_max, &ceiling, lim, work);
+        let step = greedy_step(&view, t, v, a, v_max, &ceiling, lim, work, &mut ramps);
         let reached = step.as_ref().is_none_or(|iv| t + 1 >= left && iv.v1() >= bv[t + 1] * (1.0 - ON_BRANCH_REL_TOL));
         if !reached {
             run.push(step.expect("a step when not reached"));

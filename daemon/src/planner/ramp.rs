@@ -362,10 +362,46 @@ fn ramp_tail_margin(
     Some(peak / lowest - 1.0)
 }
 
+/// The states a viability ramp passed after its start node, with the margin of the ramp from
+/// each. A ramp is a function of its start state (for one view, ceiling and limits), so the
+/// ramp from a state it passed is its own rest: a greedy step that searches tries the braking
+/// ramp's next state first, and where a branch rides its braking ramp the state the step
+/// before accepted ramps through exactly that state (`branch::greedy_step`).
+#[derive(Debug, Clone, Default)]
+pub struct RampTrace {
+    /// Traversal position of `states[0]`.
+    first: usize,
+    states: Vec<(f64, f64)>,
+    /// Per state, the margin of a ramp started there; filled when the ramp flattened.
+    margins: Vec<f64>,
+}
+
+impl RampTrace {
+    /// The margin of the ramp from (v, a) at traversal position `node`, if this trace passed
+    /// exactly that state.
+    #[inline]
+    pub fn margin_from(&self, node: usize, v: f64, a: f64) -> Option<f64> {
+        let i = node.checked_sub(self.first)?;
+        let &(tv, ta) = self.states.get(i)?;
+        (tv == v && ta == a).then(|| self.margins[i])
+    }
+
+    fn start(&mut self, first: usize) {
+        self.first = first;
+        self.states.clear();
+        self.margins.clear();
+    }
+}
+
 /// How far a braking ramp from (v0, a0) at traversal position `t0` rises above the ceiling
 /// before it has flattened: the largest v / ceiling − 1 at its nodes and velocity peaks.
 /// ≤ `CEILING_REL_TOL` means viable. `None` if the axes allow no braking on the way or the
 /// block ends first.
+///
+/// `trace` receives the ramp's states and the margin from each where it flattened in the
+/// simulated part; it is left empty otherwise (the closed-form tail starts a fixed number of
+/// nodes after the ramp's start, so a ramp that reached it is not its states' own rest).
+#[allow(clippy::too_many_arguments)]
 pub fn ramp_margin(
     view: &View,
     t0: usize,
@@ -374,8 +410,10 @@ pub fn ramp_margin(
     lim: &Limits,
     ceiling: &FlattenUnder,
     work: &mut Work,
+    trace: &mut RampTrace,
 ) -> Option<f64> {
     work.ramps += 1;
+    trace.start(t0 + 1);
     let last = view.len() - 1;
     let (mut v, mut a) = (v0, a0);
     let mut margin = v / ceiling.velocity(t0) - 1.0;
@@ -383,6 +421,7 @@ pub fn ramp_margin(
     let mut ranges = None;
     for t in (t0..).take(MAX_RAMP_NODES) {
         if margin > MARGIN_GIVE_UP {
+            trace.states.clear();
             return Some(margin);
         }
         // The carried ranges are for this node's side and state; their acceleration range
@@ -395,27 +434,57 @@ pub fn ramp_margin(
         if a <= ceiling.flat_acc_in(t, v, ranges.map(|r: NodeRanges| r.acc)) {
             // Flat, but it must be able to go on: at an element joint A‴ (and A″) can jump,
             // and a state that kept the limits arriving can leave no jerk for the next side.
-            return (t >= last || can_leave(view, t, v, a, lim)).then_some(margin);
+            if t >= last || can_leave(view, t, v, a, lim) {
+                trace.finish();
+                return Some(margin);
+            }
+            trace.states.clear();
+            return None;
         }
         if t >= last {
-            return None;
+            break;
         }
         // The closed-form tail needs a braking jerk; a ramp still forced to raise its
         // acceleration (into a dip of the passes' ceiling) is simulated on.
         if t - t0 >= RAMP_SIMULATED_NODES && j_last < 0.0 {
+            trace.states.clear();
             return ramp_tail_margin(view, t, v, a, j_last, ceiling, work).map(|m| margin.max(m));
         }
-        let (iv, landed, r1) = landing_ramp_interval(view, t, v, a, lim, ceiling, ranges)?;
+        let Some((iv, landed, r1)) = landing_ramp_interval(view, t, v, a, lim, ceiling, ranges) else { break };
         ranges = r1;
         j_last = iv.j;
         work.ramp_nodes += 1;
         let cap = ceiling.velocity(t).min(ceiling.velocity(t + 1));
-        margin = margin.max(peak_velocity(&iv) / cap - 1.0).max(iv.v1() / ceiling.velocity(t + 1) - 1.0);
+        let (at_peak, at_end) = (peak_velocity(&iv) / cap - 1.0, iv.v1() / ceiling.velocity(t + 1) - 1.0);
+        margin = margin.max(at_peak).max(at_end);
         v = iv.v1();
         // A landed ramp is flat: its a₁ is on target up to rounding, which must not keep it going.
         a = if landed { iv.a1().min(ceiling.flat_acc(t + 1, v)) } else { iv.a1() };
+        trace.states.push((v, a));
+        // A ramp from this state starts with this term; the peak term is the interval's own.
+        trace.margins.push(at_end);
+        trace.margins.push(at_peak);
     }
+    trace.states.clear();
     None
+}
+
+impl RampTrace {
+    /// Turns the per-interval terms (end, peak) into the margin of the ramp from each state:
+    /// its own end term and every later interval's terms.
+    fn finish(&mut self) {
+        let n = self.states.len();
+        let mut later = f64::NEG_INFINITY;
+        for i in (0..n).rev() {
+            let (at_end, at_peak) = (self.margins[2 * i], self.margins[2 * i + 1]);
+            self.margins[2 * i + 1] = at_end.max(later);
+            later = self.margins[2 * i + 1].max(at_peak);
+        }
+        for i in 0..n {
+            self.margins[i] = self.margins[2 * i + 1];
+        }
+        self.margins.truncate(n);
+    }
 }
 
 #[cfg(test)]
@@ -453,5 +522,38 @@ mod tests {
         assert!(violates(&edge, &view.interval_geom(0), &lim));
         let iv = ramp_interval(&view, 0, v, 0.0, &lim, Check::Full).expect("a jerk inside the window");
         assert!(iv.j > jlo && iv.j < jhi && !violates(&iv, &view.interval_geom(0), &lim));
+    }
+
+    /// A ramp's trace gives, for every state it passed, exactly the margin of a ramp started
+    /// there (what lets a greedy step skip that ramp), on the 5-axis table in both directions,
+    /// through its swings and elsewhere, from states below and near its ceiling.
+    #[test]
+    fn a_ramps_trace_is_the_ramp_from_each_state_it_passed() {
+        let cfg = Config::five_axis_machine();
+        let lim = Limits::from_config(&cfg);
+        let table =
+            std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/five_axis_table.csv")).unwrap();
+        let path = crate::program::parse(&table, "t.csv", &cfg).unwrap().path;
+        let nodes = crate::planner::Planner::sample_path(&cfg, &path);
+        let mut work = Work::default();
+        let (mut trace, mut fresh) = (RampTrace::default(), RampTrace::default());
+        let mut checked = 0;
+        for view in [View::forward(&nodes), View::backward(&nodes)] {
+            let ceiling = FlattenUnder { view, cap: f64::INFINITY, lim: &lim };
+            for t in (1..view.len() - 1).step_by(3) {
+                let vbar = ceiling.velocity(t);
+                for (share, a) in [(0.95, 0.0), (0.9, 300.0), (0.8, 1500.0)] {
+                    ramp_margin(&view, t, share * vbar, a, &lim, &ceiling, &mut work, &mut trace);
+                    for (i, &(v, a)) in trace.states.iter().enumerate() {
+                        let node = trace.first + i;
+                        let m = ramp_margin(&view, node, v, a, &lim, &ceiling, &mut work, &mut fresh);
+                        assert_eq!(m, Some(trace.margins[i]), "from node {node} ({v}, {a}), traced from {t}");
+                        assert_eq!(trace.margin_from(node, v, a), m);
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked > 10_000, "only {checked} traced states");
     }
 }

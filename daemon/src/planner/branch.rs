@@ -11,7 +11,7 @@ use super::envelope::{CurveStart, END_CURVE, Envelope};
 use super::interval::Interval;
 use super::limits::Limits;
 use super::node::Node;
-use super::ramp::{CEILING_REL_TOL, Check, FlattenUnder, RampTrace, ramp_interval, ramp_margin};
+use super::ramp::{CEILING_REL_TOL, Check, FlattenUnder, RampTrace, Wanted, ramp_interval, ramp_margin};
 use super::step::{Work, evaluate, max_feasible};
 use super::view::View;
 
@@ -83,11 +83,18 @@ pub fn greedy_step(
         tracing::trace!(t, v, a, v_max, "no feasible next velocity");
         return None;
     };
-    let margin = |iv: &Interval, work: &mut Work, into: &mut RampTrace| {
-        ramp_margin(view, t + 1, iv.v1(), iv.a1(), lim, ceiling, work, into)
+    let margin = |iv: &Interval, work: &mut Work, into: &mut RampTrace, wanted: Wanted| {
+        ramp_margin(view, t + 1, iv.v1(), iv.a1(), lim, ceiling, work, into, wanted)
     };
     let ok = |m: Option<f64>| m.is_some_and(|m| m <= CEILING_REL_TOL);
-    let m_cand = margin(&cand, work, &mut ramps.trial);
+    // The search's lower end: the braking ramp's next state, with its margin where the current
+    // state's own ramp passed it. Where it is viable and touches the ceiling, the search ends
+    // there at once, so of the greedy choice only the verdict counts, not its margin.
+    let braking = ramp_interval(view, t, v, a, lim, Check::Full)
+        .filter(|iv| iv.v1() <= v_max * (1.0 + 1e-12) && iv.v1() < cand.v1());
+    let known = braking.and_then(|iv| ramps.current.margin_from(t + 1, iv.v1(), iv.a1()));
+    let touching = ok(known) && known.is_some_and(|m| m >= -VIABLE_TOUCH_MARGIN);
+    let m_cand = margin(&cand, work, &mut ramps.trial, if touching { Wanted::Verdict } else { Wanted::Margin });
     if ok(m_cand) {
         std::mem::swap(&mut ramps.current, &mut ramps.trial);
         return Some(cand);
@@ -95,22 +102,18 @@ pub fn greedy_step(
     work.bisections += 1;
     // A viable lower end: the braking ramp's next state, else lower velocities. `on_current`:
     // the best state so far lies on the current state's ramp (else its ramp is `ramps.best`).
-    let mut on_current = false;
-    let mut lo = ramp_interval(view, t, v, a, lim, Check::Full)
-        .filter(|iv| iv.v1() <= v_max * (1.0 + 1e-12) && iv.v1() < cand.v1())
-        .and_then(|iv| {
-            let known = ramps.current.margin_from(t + 1, iv.v1(), iv.a1());
-            on_current = ok(known);
-            let m = known.or_else(|| margin(&iv, work, &mut ramps.best));
-            ok(m).then(|| (iv, m.unwrap_or(0.0)))
-        });
+    let mut on_current = ok(known);
+    let mut lo = braking.and_then(|iv| {
+        let m = known.or_else(|| margin(&iv, work, &mut ramps.best, Wanted::Margin));
+        ok(m).then(|| (iv, m.unwrap_or(0.0)))
+    });
     if lo.is_none() {
         let fracs = [0.999, 0.99, 0.95, 0.9, 0.7, 0.5].into_iter();
         let halvings = std::iter::successors(Some(0.25), |f| (*f > 1e-15).then_some(f * 0.5));
         for frac in fracs.chain(halvings) {
             if let Some((iv, f)) = evaluate(v, a, frac * cand.v1(), &g, lim, work) {
                 if f <= VIOLATION_TOL {
-                    let m = margin(&iv, work, &mut ramps.best);
+                    let m = margin(&iv, work, &mut ramps.best, Wanted::Margin);
                     if ok(m) {
                         lo = Some((iv, m.unwrap_or(0.0)));
                         break;
@@ -138,7 +141,7 @@ pub fn greedy_step(
             _ => 0.5 * (x_lo + x_hi),
         };
         let trial = evaluate(v, a, x, &g, lim, work).filter(|(_, f)| *f <= VIOLATION_TOL);
-        let m = trial.as_ref().and_then(|(iv, _)| margin(iv, work, &mut ramps.trial));
+        let m = trial.as_ref().and_then(|(iv, _)| margin(iv, work, &mut ramps.trial, Wanted::Margin));
         match (trial, m) {
             (Some((iv, _)), Some(m)) if m <= CEILING_REL_TOL => {
                 best = iv;

@@ -35,6 +35,15 @@ const ACC_NEAR_BOUND_FRACTION: f64 = 0.05;
 const JERK_NEAR_BOUND_FRACTION: f64 = 0.05;
 /// A ramp rising this far (relative) above the ceiling is stopped early: clearly not viable.
 const MARGIN_GIVE_UP: f64 = 0.05;
+
+/// What a caller needs of a ramp's margin.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Wanted {
+    /// Its value (up to `MARGIN_GIVE_UP`): a search interpolates on it.
+    Margin,
+    /// Only whether it is viable: the ramp stops as soon as it rises above the ceiling.
+    Verdict,
+}
 /// Shares of a forced jerk window (one not containing zero) a ramp tries, from the edge the
 /// fallback jerks clamp to inwards, when that edge breaks a limit inside the interval.
 const FORCED_WINDOW_FRACTIONS: [f64; 4] = [0.1, 0.25, 0.5, 0.75];
@@ -411,8 +420,13 @@ pub fn ramp_margin(
     ceiling: &FlattenUnder,
     work: &mut Work,
     trace: &mut RampTrace,
+    wanted: Wanted,
 ) -> Option<f64> {
     work.ramps += 1;
+    let give_up = match wanted {
+        Wanted::Margin => MARGIN_GIVE_UP,
+        Wanted::Verdict => CEILING_REL_TOL,
+    };
     trace.start(t0 + 1);
     let last = view.len() - 1;
     let (mut v, mut a) = (v0, a0);
@@ -420,7 +434,7 @@ pub fn ramp_margin(
     let mut j_last = 0.0;
     let mut ranges = None;
     for t in (t0..).take(MAX_RAMP_NODES) {
-        if margin > MARGIN_GIVE_UP {
+        if margin > give_up {
             trace.states.clear();
             return Some(margin);
         }
@@ -526,7 +540,8 @@ mod tests {
 
     /// A ramp's trace gives, for every state it passed, exactly the margin of a ramp started
     /// there (what lets a greedy step skip that ramp), on the 5-axis table in both directions,
-    /// through its swings and elsewhere, from states below and near its ceiling.
+    /// through its swings and elsewhere, from states below and near its ceiling. A ramp asked
+    /// for its verdict only stops early but judges alike.
     #[test]
     fn a_ramps_trace_is_the_ramp_from_each_state_it_passed() {
         let cfg = Config::five_axis_machine();
@@ -537,16 +552,22 @@ mod tests {
         let nodes = crate::planner::Planner::sample_path(&cfg, &path);
         let mut work = Work::default();
         let (mut trace, mut fresh) = (RampTrace::default(), RampTrace::default());
-        let mut checked = 0;
+        let (mut checked, mut verdicts) = (0, [0; 2]);
         for view in [View::forward(&nodes), View::backward(&nodes)] {
             let ceiling = FlattenUnder { view, cap: f64::INFINITY, lim: &lim };
             for t in (1..view.len() - 1).step_by(3) {
                 let vbar = ceiling.velocity(t);
                 for (share, a) in [(0.95, 0.0), (0.9, 300.0), (0.8, 1500.0)] {
-                    ramp_margin(&view, t, share * vbar, a, &lim, &ceiling, &mut work, &mut trace);
+                    let m =
+                        ramp_margin(&view, t, share * vbar, a, &lim, &ceiling, &mut work, &mut fresh, Wanted::Verdict);
+                    let viable = |m: Option<f64>| m.is_some_and(|m| m <= CEILING_REL_TOL);
+                    verdicts[usize::from(viable(m))] += 1;
+                    let full =
+                        ramp_margin(&view, t, share * vbar, a, &lim, &ceiling, &mut work, &mut trace, Wanted::Margin);
+                    assert_eq!(viable(m), viable(full), "verdict {m:?}, margin {full:?} from node {t}");
                     for (i, &(v, a)) in trace.states.iter().enumerate() {
                         let node = trace.first + i;
-                        let m = ramp_margin(&view, node, v, a, &lim, &ceiling, &mut work, &mut fresh);
+                        let m = ramp_margin(&view, node, v, a, &lim, &ceiling, &mut work, &mut fresh, Wanted::Margin);
                         assert_eq!(m, Some(trace.margins[i]), "from node {node} ({v}, {a}), traced from {t}");
                         assert_eq!(trace.margin_from(node, v, a), m);
                         checked += 1;
@@ -555,5 +576,6 @@ mod tests {
             }
         }
         assert!(checked > 10_000, "only {checked} traced states");
+        assert!(verdicts[0] > 100 && verdicts[1] > 100, "not viable / viable: {verdicts:?}");
     }
 }

@@ -73,7 +73,7 @@ pub fn violation(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> f64 {
     let mut worst = f64::NEG_INFINITY;
     for &f in &CHECK_FRACTIONS {
         let (sigma, v, a) = check_point(iv, g, f);
-        worst = worst.max(point_violation(g, sigma, v, a, iv.j, lim));
+        worst = raise_to(worst, point_violation(g, sigma, v, a, iv.j, lim));
     }
     worst
 }
@@ -119,9 +119,33 @@ pub fn point_violation(g: &IntervalGeom, sigma: f64, v: f64, a: f64, j: f64, lim
         let r_vel = vel.abs() * lim.inv_vel[k];
         let r_acc = acc * if acc >= 0.0 { lim.inv_acc_max[k] } else { lim.inv_acc_min[k] };
         let r_jerk = jerk.abs() * lim.inv_jerk[k];
-        worst = worst.max(r_vel.max(r_acc).max(r_jerk));
+        worst = raise_to(raise_to(raise_to(worst, r_vel), r_acc), r_jerk);
     }
     worst - 1.0
+}
+
+/// `worst.max(x)` for an accumulator that is never NaN (it starts at −∞ and takes only values
+/// greater than itself): a NaN `x` is skipped, as `f64::max` skips it, in one compare instead
+/// of `f64::max`'s NaN handling on both sides (a fifth of the planner's time is spent in the
+/// loop above).
+#[inline(always)]
+fn raise_to(worst: f64, x: f64) -> f64 {
+    if x > worst { x } else { worst }
+}
+
+/// `best.min(x)` for an accumulator that is never NaN (see [`raise_to`]).
+#[inline(always)]
+fn lower_to(best: f64, x: f64) -> f64 {
+    if x < best { x } else { best }
+}
+
+/// The ends of a range (lower·r, upper·r) in order, for lower ≤ upper: the sign of r orders
+/// them, exactly (rounding is monotone), without `f64::min`/`max` on both. Where one end is NaN
+/// (an infinite limit meeting an infinite curvature term) it is skipped with the other, where
+/// `min`/`max` would keep the other: no finite limit and state gets there.
+#[inline(always)]
+fn in_order(lower_r: f64, upper_r: f64, r: f64) -> (f64, f64) {
+    if r > 0.0 { (lower_r, upper_r) } else { (upper_r, lower_r) }
 }
 
 /// The path jerks j allowed at a point with geometry `g` (traversal orientation `sign`) and
@@ -140,9 +164,9 @@ pub fn jerk_range(g: &NodeGeom, sign: f64, v: f64, a: f64, lim: &Limits) -> (f64
             continue;
         }
         let r = 1.0 / d1;
-        let (x, y) = ((-jl - c) * r, (jl - c) * r);
-        lo = lo.max(x.min(y));
-        hi = hi.min(x.max(y));
+        let (x, y) = in_order((-jl - c) * r, (jl - c) * r, r);
+        lo = raise_to(lo, x);
+        hi = lower_to(hi, y);
     }
     (lo, hi)
 }
@@ -160,9 +184,9 @@ pub fn acc_range(g: &NodeGeom, sign: f64, v: f64, lim: &Limits) -> (f64, f64) {
             continue;
         }
         let r = 1.0 / d1;
-        let (x, y) = ((lim.acc_min[k] - c) * r, (lim.acc_max[k] - c) * r);
-        lo = lo.max(x.min(y));
-        hi = hi.min(x.max(y));
+        let (x, y) = in_order((lim.acc_min[k] - c) * r, (lim.acc_max[k] - c) * r, r);
+        lo = raise_to(lo, x);
+        hi = lower_to(hi, y);
     }
     (lo, hi)
 }
@@ -213,6 +237,68 @@ mod tests {
         assert!(violation(&ok, &ig, &lim()) <= 0.0);
         let bad = Interval::through(126.0, 0.0, 1.0, 126.0).unwrap();
         assert!(violation(&bad, &ig, &lim()) > 0.0);
+    }
+
+    /// The ranges and the violation with plain compares are what `f64::min`/`max` give, bit
+    /// for bit, on finite states, also with axes that do not move along the path (A′ = 0) and
+    /// states no jerk or acceleration keeps inside.
+    #[test]
+    fn the_ranges_and_violation_are_what_min_and_max_give() {
+        fn reference(g: &NodeGeom, sign: f64, v: f64, a: f64, j: f64, l: &Limits) -> [f64; 5] {
+            let (mut jlo, mut jhi, mut alo, mut ahi) =
+                (f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY);
+            let (mut jerk_empty, mut acc_empty) = (false, false);
+            let mut worst = f64::NEG_INFINITY;
+            for k in 0..l.n_axes {
+                let d1 = sign * g.d1[k];
+                let cj = sign * g.d3[k] * v * v * v + 3.0 * g.d2[k] * v * a;
+                let ca = g.d2[k] * v * v;
+                // As `point_violation` associates them.
+                let (v2, v3, d3) = (v * v, v * v * v, sign * g.d3[k]);
+                let (vel, acc, jerk) = (d1 * v, g.d2[k] * v2 + d1 * a, d3 * v3 + 3.0 * g.d2[k] * v * a + d1 * j);
+                let r_acc = acc * if acc >= 0.0 { l.inv_acc_max[k] } else { l.inv_acc_min[k] };
+                worst = worst.max((vel.abs() * l.inv_vel[k]).max(r_acc).max(jerk.abs() * l.inv_jerk[k]));
+                if d1.abs() <= f64::MIN_POSITIVE {
+                    jerk_empty |= cj.abs() > l.jerk[k];
+                    acc_empty |= ca > l.acc_max[k] || ca < l.acc_min[k];
+                    continue;
+                }
+                let r = 1.0 / d1;
+                let (x, y) = ((-l.jerk[k] - cj) * r, (l.jerk[k] - cj) * r);
+                (jlo, jhi) = (jlo.max(x.min(y)), jhi.min(x.max(y)));
+                let (x, y) = ((l.acc_min[k] - ca) * r, (l.acc_max[k] - ca) * r);
+                (alo, ahi) = (alo.max(x.min(y)), ahi.min(x.max(y)));
+            }
+            let (jlo, jhi) = if jerk_empty { (1.0, -1.0) } else { (jlo, jhi) };
+            let (alo, ahi) = if acc_empty { (1.0, -1.0) } else { (alo, ahi) };
+            [jlo, jhi, alo, ahi, worst - 1.0]
+        }
+        let l = lim();
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let mut empty = 0;
+        for i in 0..20_000 {
+            let mut g = NodeGeom::default();
+            for k in 0..2 {
+                g.d1[k] = if i % 7 == k { 0.0 } else { next() };
+                g.d2[k] = 5.0 * next();
+                g.d3[k] = 50.0 * next();
+            }
+            let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+            let (v, a, j) = (60.0 * (next() + 1.0), 2000.0 * next(), 20_000.0 * next());
+            let ((jlo, jhi), (alo, ahi)) = (jerk_range(&g, sign, v, a, &l), acc_range(&g, sign, v, &l));
+            let ig = IntervalGeom { start: &g, end: &g, ds_mm: 1.0, sign };
+            let got = [jlo, jhi, alo, ahi, point_violation(&ig, 0.0, v, a, j, &l)];
+            let want = reference(&g, sign, v, a, j, &l);
+            assert_eq!(got.map(f64::to_bits), want.map(f64::to_bits), "{g:?} sign {sign} v {v} a {a} j {j}");
+            empty += usize::from(jlo > jhi || alo > ahi);
+        }
+        assert!(empty > 100, "only {empty} empty ranges");
     }
 
     #[test]

@@ -273,14 +273,12 @@ mod tests {
             let (alo, ahi) = if acc_empty { (1.0, -1.0) } else { (alo, ahi) };
             [jlo, jhi, alo, ahi, worst - 1.0]
         }
+        use proptest::prelude::RngCore;
+        use proptest::test_runner::{RngAlgorithm, TestRng};
         let l = lim();
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rng = TestRng::deterministic_rng(RngAlgorithm::ChaCha);
+        // Uniform in [−1, 1).
+        let mut next = || (rng.next_u64() >> 11) as f64 * 2f64.powi(-52) - 1.0;
         let mut empty = 0;
         for i in 0..20_000 {
             let mut g = NodeGeom::default();

@@ -61,7 +61,8 @@ pub struct Ramps {
 ///
 /// `ramps` holds the current state's own viability ramp from the step that accepted it. Where
 /// the braking ramp's next state is a state that ramp passed, its margin is known: on the
-/// 5-axis table, where branches ride their braking ramps, that saves a quarter of the ramps.
+/// 5-axis table, where branches ride their braking ramps, in 1100 of 1598 searches (16 % of
+/// the ramps, 22 % of the ramp nodes).
 #[allow(clippy::too_many_arguments)]
 pub fn greedy_step(
     view: &View,
@@ -90,10 +91,16 @@ pub fn greedy_step(
     // The search's lower end: the braking ramp's next state, with its margin where the current
     // state's own ramp passed it. Where it is viable and touches the ceiling, the search ends
     // there at once, so of the greedy choice only the verdict counts, not its margin.
-    let braking = ramp_interval(view, t, v, a, lim, Check::Full)
-        .filter(|iv| iv.v1() <= v_max * (1.0 + 1e-12) && iv.v1() < cand.v1());
-    let known = braking.and_then(|iv| ramps.current.margin_from(t + 1, iv.v1(), iv.a1()));
+    // (Computed before the greedy choice's ramp only where that ramp reaches the next node.)
+    let braking_state = || {
+        ramp_interval(view, t, v, a, lim, Check::Full)
+            .filter(|iv| iv.v1() <= v_max * (1.0 + 1e-12) && iv.v1() < cand.v1())
+    };
+    let early = ramps.current.reaches(t + 1).then(braking_state);
+    let known = early.flatten().and_then(|iv| ramps.current.margin_from(t + 1, iv.v1(), iv.a1()));
     let touching = ok(known) && known.is_some_and(|m| m >= -VIABLE_TOUCH_MARGIN);
+    // With `Verdict` a margin above the tolerance is only a lower bound; it lands in `m_hi`
+    // below, which the search never uses then: `touching` ends it before its first trial.
     let m_cand = margin(&cand, work, &mut ramps.trial, if touching { Wanted::Verdict } else { Wanted::Margin });
     if ok(m_cand) {
         std::mem::swap(&mut ramps.current, &mut ramps.trial);
@@ -103,7 +110,7 @@ pub fn greedy_step(
     // A viable lower end: the braking ramp's next state, else lower velocities. `on_current`:
     // the best state so far lies on the current state's ramp (else its ramp is `ramps.best`).
     let mut on_current = ok(known);
-    let mut lo = braking.and_then(|iv| {
+    let mut lo = early.unwrap_or_else(braking_state).and_then(|iv| {
         let m = known.or_else(|| margin(&iv, work, &mut ramps.best, Wanted::Margin));
         ok(m).then(|| (iv, m.unwrap_or(0.0)))
     });

@@ -426,7 +426,12 @@ fn capped_section(
     for _ in 0..CAP_DESCENT_STEPS {
         gap *= CAP_DESCENT_FACTOR;
         let cap = lo + gap;
-        // Caps closer to the lowest than the bisection below resolves are not told apart.
+        // A heuristic too: caps within the bisection's tolerance above the lowest are not
+        // tried. One of them could still work where every higher cap failed (the backward
+        // branch and the ramps' ceiling change with the cap), but the descent crept towards
+        // `lo` in ever smaller steps, up to 60 capped runs of the section, where a short
+        // look-ahead on the tight machine fails whatever the cap; the motion of every
+        // example stayed the same.
         if gap <= CAP_SEARCH_REL_TOL * lo {
             break;
         }
@@ -435,9 +440,10 @@ fn capped_section(
                 best = Some((cap, p));
                 break;
             }
-            // The forward branch got stuck below every cap still to try. A heuristic: a
-            // lower cap changes the run only where it was above that cap, and the run fails
-            // below all of them (the block repair then lowers v̄ there). Trying them all cost
+            // The forward branch got stuck at or below every cap still to try (the caps lie
+            // above `lo`). A heuristic: a lower cap changes the run mainly where it was above
+            // that cap (it also lowers the backward branch and the ramps' ceiling), and the run
+            // fails below all of them (the block repair then lowers v̄ there). Trying them all cost
             // three quarters of the planning on a dense spline, and the motion of every
             // example stayed the same without them.
             Err(CapFail::ForwardStuck { v_mm_s }) if v_mm_s <= lo => {

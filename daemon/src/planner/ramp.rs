@@ -36,17 +36,20 @@ const JERK_NEAR_BOUND_FRACTION: f64 = 0.05;
 /// A ramp rising this far (relative) above the ceiling is stopped early: clearly not viable.
 const MARGIN_GIVE_UP: f64 = 0.05;
 
+/// Shares of a forced jerk window (one not containing zero) a ramp tries, from the edge the
+/// fallback jerks clamp to inwards, when that edge breaks a limit inside the interval.
+const FORCED_WINDOW_FRACTIONS: [f64; 4] = [0.1, 0.25, 0.5, 0.75];
+
 /// What a caller needs of a ramp's margin.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Wanted {
     /// Its value (up to `MARGIN_GIVE_UP`): a search interpolates on it.
     Margin,
-    /// Only whether it is viable: the ramp stops as soon as it rises above the ceiling.
+    /// Only whether it is viable: the ramp stops as soon as it rises above the ceiling, so a
+    /// margin above `CEILING_REL_TOL` is only a lower bound of the full one (the verdict is
+    /// the same: below the tolerance the ramp runs as with `Margin`).
     Verdict,
 }
-/// Shares of a forced jerk window (one not containing zero) a ramp tries, from the edge the
-/// fallback jerks clamp to inwards, when that edge breaks a limit inside the interval.
-const FORCED_WINDOW_FRACTIONS: [f64; 4] = [0.1, 0.25, 0.5, 0.75];
 
 /// The ceiling a branch runs under: the velocity bound v̄, capped at `cap`.
 #[derive(Clone, Copy)]
@@ -381,7 +384,8 @@ pub struct RampTrace {
     /// Traversal position of `states[0]`.
     first: usize,
     states: Vec<(f64, f64)>,
-    /// Per state, the margin of a ramp started there; filled when the ramp flattened.
+    /// Per state, the margin of a ramp started there (while the ramp runs: two terms per
+    /// state, its interval's end and peak; [`RampTrace::finish`] folds them).
     margins: Vec<f64>,
 }
 
@@ -395,10 +399,33 @@ impl RampTrace {
         (tv == v && ta == a).then(|| self.margins[i])
     }
 
+    /// Whether the trace passed traversal position `node`.
+    #[inline]
+    pub fn reaches(&self, node: usize) -> bool {
+        node.checked_sub(self.first).is_some_and(|i| i < self.states.len())
+    }
+
     fn start(&mut self, first: usize) {
         self.first = first;
         self.states.clear();
         self.margins.clear();
+    }
+
+    /// Turns the per-interval terms (end, peak) into the margin of the ramp from each state:
+    /// its own end term and every later interval's terms, folded with `f64::max` as the ramp
+    /// folds them (from NaN, which `max` skips: a ramp whose terms are all NaN returns NaN).
+    fn finish(&mut self) {
+        let n = self.states.len();
+        let mut later = f64::NAN;
+        for i in (0..n).rev() {
+            let (at_end, at_peak) = (self.margins[2 * i], self.margins[2 * i + 1]);
+            self.margins[2 * i + 1] = at_end.max(later);
+            later = self.margins[2 * i + 1].max(at_peak);
+        }
+        for i in 0..n {
+            self.margins[i] = self.margins[2 * i + 1];
+        }
+        self.margins.truncate(n);
     }
 }
 
@@ -423,6 +450,8 @@ pub fn ramp_margin(
     wanted: Wanted,
 ) -> Option<f64> {
     work.ramps += 1;
+    // The flat test takes the node ranges computed with `lim` (see below).
+    debug_assert!(lim.acc_max == ceiling.lim.acc_max && lim.acc_min == ceiling.lim.acc_min);
     let give_up = match wanted {
         Wanted::Margin => MARGIN_GIVE_UP,
         Wanted::Verdict => CEILING_REL_TOL,
@@ -481,24 +510,6 @@ pub fn ramp_margin(
     }
     trace.states.clear();
     None
-}
-
-impl RampTrace {
-    /// Turns the per-interval terms (end, peak) into the margin of the ramp from each state:
-    /// its own end term and every later interval's terms.
-    fn finish(&mut self) {
-        let n = self.states.len();
-        let mut later = f64::NEG_INFINITY;
-        for i in (0..n).rev() {
-            let (at_end, at_peak) = (self.margins[2 * i], self.margins[2 * i + 1]);
-            self.margins[2 * i + 1] = at_end.max(later);
-            later = self.margins[2 * i + 1].max(at_peak);
-        }
-        for i in 0..n {
-            self.margins[i] = self.margins[2 * i + 1];
-        }
-        self.margins.truncate(n);
-    }
 }
 
 #[cfg(test)]

@@ -147,6 +147,37 @@ fn every_cia402_frame_type_crosses_vcan_unchanged() {
     }
 }
 
+/// Receive queue of the capture socket, bytes. The capture thread only reads, while the master
+/// and the drives exchange in lock step: on a loaded machine (the QEMU VM of CI emulates its
+/// CPU) it can fall behind by many cycles, and the kernel drops what overflows the default
+/// queue (about 200 frames). A local CI run failed with "two RPDO1 … before SYNC 111" (a SYNC
+/// missing from the capture) while the host was busy with other jobs. 8 MiB holds the whole
+/// exchange.
+const CAPTURE_QUEUE_BYTES: libc::c_int = 8 << 20;
+
+/// Raises the socket's receive queue to `CAPTURE_QUEUE_BYTES`: past `net.core.rmem_max` where
+/// the test may (CAP_NET_ADMIN, as in the VM), else as far as that allows.
+fn deepen_receive_queue(sock: &CanSocket) {
+    use std::os::fd::AsRawFd;
+    let size = CAPTURE_QUEUE_BYTES;
+    let set = |opt: libc::c_int| {
+        // SAFETY: setsockopt reads one c_int from the valid pointer it is given, for a socket
+        // this process owns.
+        unsafe {
+            libc::setsockopt(
+                sock.as_raw_fd(),
+                libc::SOL_SOCKET,
+                opt,
+                (&size as *const libc::c_int).cast(),
+                std::mem::size_of::<libc::c_int>() as libc::socklen_t,
+            )
+        }
+    };
+    if set(libc::SO_RCVBUFFORCE) != 0 {
+        set(libc::SO_RCVBUF);
+    }
+}
+
 /// Captures every frame on the bus with the kernel's receive timestamp (as candump does).
 struct Capture {
     stop: Arc<AtomicBool>,
@@ -156,6 +187,7 @@ struct Capture {
 impl Capture {
     fn start(iface: &str) -> Capture {
         let sock = open(iface);
+        deepen_receive_queue(&sock);
         sock.set_recv_timestamp(true).expect("SO_TIMESTAMPNS");
         sock.set_read_timeout(Duration::from_millis(20)).expect("timeout");
         let stop = Arc::new(AtomicBool::new(false));

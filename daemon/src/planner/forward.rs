@@ -442,10 +442,10 @@ fn capped_section(
             }
             // The forward branch got stuck at or below every cap still to try (the caps lie
             // above `lo`). A heuristic: a lower cap changes the run mainly where it was above
-            // that cap (it also lowers the backward branch and the ramps' ceiling), and the run
-            // fails below all of them (the block repair then lowers v̄ there). Trying them all cost
-            // three quarters of the planning on a dense spline, and the motion of every
-            // example stayed the same without them.
+            // that cap (it also lowers the backward branch and the ramps' ceiling), and the
+            // run fails below all of them (the block repair then lowers v̄ there). Trying
+            // them all cost three quarters of the planning on a dense spline, and the motion
+            // of every example stayed the same without them.
             Err(CapFail::ForwardStuck { v_mm_s }) if v_mm_s <= lo => {
                 tracing::trace!(
                     anchor,

@@ -462,54 +462,57 @@ pub fn ramp_margin(
     let mut margin = v / ceiling.velocity(t0) - 1.0;
     let mut j_last = 0.0;
     let mut ranges = None;
-    for t in (t0..).take(MAX_RAMP_NODES) {
-        if margin > give_up {
-            trace.states.clear();
-            return Some(margin);
-        }
-        // The carried ranges are for this node's side and state; their acceleration range
-        // depends on the acceleration limits only, which backward branches share with their
-        // ceiling (they scale the jerk limits alone). Where the flat test needs that range,
-        // the ramp's next interval needs the node's ranges too: computed once for both.
-        if ranges.is_none() && ceiling.needs_acc_range(t, v) {
-            ranges = Some(NodeRanges::at(view.start_geom(t), view.sign(), v, a, lim));
-        }
-        if a <= ceiling.flat_acc_in(t, v, ranges.map(|r: NodeRanges| r.acc)) {
-            // Flat, but it must be able to go on: at an element joint A‴ (and A″) can jump,
-            // and a state that kept the limits arriving can leave no jerk for the next side.
-            if t >= last || can_leave(view, t, v, a, lim) {
-                trace.finish();
-                return Some(margin);
+    // The trace holds only where the ramp flattened in its simulated part.
+    let (result, flattened) = 'ramp: {
+        for t in (t0..).take(MAX_RAMP_NODES) {
+            if margin > give_up {
+                break 'ramp (Some(margin), false);
             }
-            trace.states.clear();
-            return None;
+            // The carried ranges are for this node's side and state; their acceleration range
+            // depends on the acceleration limits only, which backward branches share with their
+            // ceiling (they scale the jerk limits alone). Where the flat test needs that range,
+            // the ramp's next interval needs the node's ranges too: computed once for both.
+            if ranges.is_none() && ceiling.needs_acc_range(t, v) {
+                ranges = Some(NodeRanges::at(view.start_geom(t), view.sign(), v, a, lim));
+            }
+            if a <= ceiling.flat_acc_in(t, v, ranges.map(|r: NodeRanges| r.acc)) {
+                // Flat, but it must be able to go on: at an element joint A‴ (and A″) can jump,
+                // and a state that kept the limits arriving can leave no jerk for the next side.
+                let leaves = t >= last || can_leave(view, t, v, a, lim);
+                break 'ramp (leaves.then_some(margin), leaves);
+            }
+            if t >= last {
+                break;
+            }
+            // The closed-form tail needs a braking jerk; a ramp still forced to raise its
+            // acceleration (into a dip of the passes' ceiling) is simulated on.
+            if t - t0 >= RAMP_SIMULATED_NODES && j_last < 0.0 {
+                break 'ramp (ramp_tail_margin(view, t, v, a, j_last, ceiling, work).map(|m| margin.max(m)), false);
+            }
+            let Some((iv, landed, r1)) = landing_ramp_interval(view, t, v, a, lim, ceiling, ranges) else { break };
+            ranges = r1;
+            j_last = iv.j;
+            work.ramp_nodes += 1;
+            let cap = ceiling.velocity(t).min(ceiling.velocity(t + 1));
+            let (at_peak, at_end) = (peak_velocity(&iv) / cap - 1.0, iv.v1() / ceiling.velocity(t + 1) - 1.0);
+            margin = margin.max(at_peak).max(at_end);
+            v = iv.v1();
+            // A landed ramp is flat: its a₁ is on target up to rounding, which must not keep it
+            // going.
+            a = if landed { iv.a1().min(ceiling.flat_acc(t + 1, v)) } else { iv.a1() };
+            trace.states.push((v, a));
+            // A ramp from this state starts with this term; the peak term is the interval's own.
+            trace.margins.push(at_end);
+            trace.margins.push(at_peak);
         }
-        if t >= last {
-            break;
-        }
-        // The closed-form tail needs a braking jerk; a ramp still forced to raise its
-        // acceleration (into a dip of the passes' ceiling) is simulated on.
-        if t - t0 >= RAMP_SIMULATED_NODES && j_last < 0.0 {
-            trace.states.clear();
-            return ramp_tail_margin(view, t, v, a, j_last, ceiling, work).map(|m| margin.max(m));
-        }
-        let Some((iv, landed, r1)) = landing_ramp_interval(view, t, v, a, lim, ceiling, ranges) else { break };
-        ranges = r1;
-        j_last = iv.j;
-        work.ramp_nodes += 1;
-        let cap = ceiling.velocity(t).min(ceiling.velocity(t + 1));
-        let (at_peak, at_end) = (peak_velocity(&iv) / cap - 1.0, iv.v1() / ceiling.velocity(t + 1) - 1.0);
-        margin = margin.max(at_peak).max(at_end);
-        v = iv.v1();
-        // A landed ramp is flat: its a₁ is on target up to rounding, which must not keep it going.
-        a = if landed { iv.a1().min(ceiling.flat_acc(t + 1, v)) } else { iv.a1() };
-        trace.states.push((v, a));
-        // A ramp from this state starts with this term; the peak term is the interval's own.
-        trace.margins.push(at_end);
-        trace.margins.push(at_peak);
+        (None, false)
+    };
+    if flattened {
+        trace.finish();
+    } else {
+        trace.states.clear();
     }
-    trace.states.clear();
-    None
+    result
 }
 
 #[cfg(test)]

@@ -31,6 +31,13 @@ fn rest_to_rest_time(l: f64, v: f64, a: f64, j: f64) -> f64 {
     t_of(lo)
 }
 
+/// [`check_continuity`], and the profile reaches the path's end (`length_mm`).
+fn check_covers(segs: &[Segment], length_mm: f64) {
+    check_continuity(segs);
+    let end_mm = segs.last().expect("a profile").s1_mm();
+    assert!((end_mm - length_mm).abs() < 1e-6, "the profile ends at {end_mm} mm of {length_mm}");
+}
+
 fn check_continuity(segs: &[Segment]) {
     for w in segs.windows(2) {
         let (a, b) = (&w[0], &w[1]);
@@ -288,8 +295,7 @@ fn tight_spline(points: usize) -> (Config, Path) {
 fn a_capped_section_stuck_below_every_cap_gives_up_at_once() {
     let (tight, path) = tight_spline(10_000);
     let (segs, stats) = Planner::plan_path(&tight, &path).expect("plan");
-    check_continuity(&segs);
-    assert!((segs.last().unwrap().s1_mm() - path.length_mm()).abs() < 1e-6);
+    check_covers(&segs, path.length_mm());
     assert!(stats.work.repairs > 0, "the case no longer needs repairs: {:?}", stats.work);
     assert!(stats.work.cap_tries <= 40, "{:?}", stats.work);
 }
@@ -305,8 +311,7 @@ fn a_capped_section_stuck_below_every_cap_gives_up_at_once() {
 fn a_short_look_ahead_does_not_search_caps_that_cannot_help() {
     let (tight, path) = tight_spline(10_000);
     let (segs, _, stats) = plan_online_stats(&tight, &path, 10.0);
-    check_continuity(&segs);
-    assert!((segs.last().unwrap().s1_mm() - path.length_mm()).abs() < 1e-6);
+    check_covers(&segs, path.length_mm());
     assert!(stats.work.cap_tries > 0, "the case no longer searches caps: {:?}", stats.work);
     assert!(stats.work.cap_tries <= 650, "{:?}", stats.work);
 }
@@ -365,7 +370,6 @@ fn a_repair_rebuilds_only_from_the_lowered_node_on() {
 #[test]
 fn joins_out_of_the_jerks_reach_are_not_tried() {
     let (segs, stats, path) = plan_text(&bench_spline(10_000), &Config::default_machine());
-    check_continuity(&segs);
-    assert!((segs.last().unwrap().s1_mm() - path.length_mm()).abs() < 1e-6);
+    check_covers(&segs, path.length_mm());
     assert!(stats.work.evals < 90_000, "{:?}", stats.work);
 }

@@ -6,7 +6,7 @@
 //! the braking ramp's own next state (viable whenever the current state is) finds the largest
 //! viable one. No step ever goes back, so the work per node is bounded.
 
-use super::check::VIOLATION_TOL;
+use super::check::{VIOLATION_TOL, violates};
 use super::envelope::{CurveStart, END_CURVE, Envelope};
 use super::interval::Interval;
 use super::limits::Limits;
@@ -88,6 +88,12 @@ pub fn greedy_step(
         ramp_margin(view, t + 1, iv.v1(), iv.a1(), lim, ceiling, work, into, wanted)
     };
     let ok = |m: Option<f64>| m.is_some_and(|m| m <= CEILING_REL_TOL);
+    if let Some(land) = flat_landing(view, t, v, a, cand.v1().min(v_max), ceiling, lim) {
+        if ok(margin(&land, work, &mut ramps.trial, Wanted::Verdict)) {
+            std::mem::swap(&mut ramps.current, &mut ramps.trial);
+            return Some(land);
+        }
+    }
     // The search's lower end: the braking ramp's next state, with its margin where the current
     // state's own ramp passed it. Where it is viable and touches the ceiling, the search ends
     // there at once, so of the greedy choice only the verdict counts, not its margin.
@@ -170,6 +176,48 @@ pub fn greedy_step(
         std::mem::swap(&mut ramps.current, &mut ramps.best);
     }
     Some(best)
+}
+
+/// A flat landing is taken instead of the greedy choice when its next velocity is at most this
+/// share lower (see [`flat_landing`]).
+const FLAT_LANDING_REL_TOL: f64 = 1e-4;
+/// ... and within this share below the ceiling: a branch riding it.
+const FLAT_LANDING_NEAR_CEILING: f64 = 1e-3;
+
+/// The interval from (v, a) at `t` that ends flat at the next node (at the acceleration
+/// [`FlattenUnder::flat_acc`] counts as flat there; from a flat state, the one with j = 0),
+/// where the branch rides a ceiling that does not rise there, the interval keeps every limit,
+/// and its next velocity is within `FLAT_LANDING_REL_TOL` of `v_greedy` (the largest feasible
+/// one, capped).
+///
+/// Seed 001 §3.2: α = 1 alone makes the jerk bang-bang. Riding a flat ceiling (an axis at its
+/// velocity limit on a line), the largest viable velocity overshoots the flat state, and from
+/// a flat state just under the ceiling the braking ramp's next state already counts as
+/// touching it (`VIABLE_TOUCH_MARGIN`), so the branch chatters under the ceiling with jerks
+/// of ±J (tight machine, demo: ±2955 mm/s³ and ±4 mm/s² on a cruise at 49.74 mm/s). A
+/// forward branch chattering onto a backward branch joins it only by luck: a jerk limit
+/// 0.2 % higher cost the demo 5 % of its time in a capped section. Landing flat costs at most
+/// the tolerance at that node; where the ceiling rises the branch follows it greedily, so the
+/// per-node tolerance cannot add up along a slow rise.
+fn flat_landing(
+    view: &View,
+    t: usize,
+    v: f64,
+    a: f64,
+    v_greedy: f64,
+    ceiling: &FlattenUnder,
+    lim: &Limits,
+) -> Option<Interval> {
+    let (c0, c1) = (ceiling.velocity(t), ceiling.velocity(t + 1));
+    if c1 > c0 {
+        return None;
+    }
+    let land = Interval::landing(v, a, view.ds(t), ceiling.flat_acc(t + 1, v))?;
+    let v1 = land.v1();
+    let close = v1 >= (1.0 - FLAT_LANDING_REL_TOL) * v_greedy
+        && v1 <= v_greedy * (1.0 + 1e-12)
+        && v1 >= (1.0 - FLAT_LANDING_NEAR_CEILING) * c1;
+    (close && !violates(&land, &view.interval_geom(t), lim)).then_some(land)
 }
 
 /// Back-offs one branch may take before it gives up.

@@ -147,9 +147,9 @@ pub fn greedy_step(
         }
         let x = match m_hi {
             Some(mh) if mh > m_lo => {
-                // Regula falsi towards margin 0, Illinois-weighted against one-sided stalls.
-                let (ml, mh) = (if side == 1 { 0.5 * m_lo } else { m_lo }, if side == -1 { 0.5 * mh } else { mh });
-                x_lo + (-ml / (mh - ml)).clamp(0.02, 0.98) * (x_hi - x_lo)
+                // Regula falsi towards margin 0 (Illinois: the stored margin of an end kept
+                // twice is halved, against one-sided stalls).
+                x_lo + (-m_lo / (mh - m_lo)).clamp(0.02, 0.98) * (x_hi - x_lo)
             }
             _ => 0.5 * (x_lo + x_hi),
         };
@@ -162,11 +162,17 @@ pub fn greedy_step(
                 on_current = false;
                 x_lo = x;
                 m_lo = m;
+                if side == 1 {
+                    m_hi = m_hi.map(|mh| 0.5 * mh);
+                }
                 side = 1;
             }
             (_, m) => {
                 x_hi = x;
                 m_hi = m;
+                if side == -1 {
+                    m_lo *= 0.5;
+                }
                 side = -1;
             }
         }

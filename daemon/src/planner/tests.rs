@@ -291,14 +291,17 @@ fn tight_spline(points: usize) -> (Config, Path) {
 /// running every cap over the whole section. On this spline (the planner benchmark's, on the
 /// tight machine) that was 735 capped runs and three quarters of the planning. (The motion of
 /// every example stayed the same, compared with `interpd plan --json`; this test guards the
-/// work.)
+/// work.) Since the step searches' Illinois weighting was mended the branches meet elsewhere
+/// on this spline: 136 capped runs instead of 28, most of them in sections whose every cap
+/// fails without the branch getting stuck (the descent creeps to the lowest cap), but the
+/// plan takes 445 ms instead of 509 ms and the motion 7.5225 s instead of 7.5410 s.
 #[test]
 fn a_capped_section_stuck_below_every_cap_gives_up_at_once() {
     let (tight, path) = tight_spline(10_000);
     let (segs, stats) = Planner::plan_path(&tight, &path).expect("plan");
     check_covers(&segs, path.length_mm());
     assert!(stats.work.repairs > 0, "the case no longer needs repairs: {:?}", stats.work);
-    assert!(stats.work.cap_tries <= 40, "{:?}", stats.work);
+    assert!(stats.work.cap_tries <= 160, "{:?}", stats.work);
 }
 
 /// Online with a 10 mm look-ahead on the same spline, horizons end where the tight machine

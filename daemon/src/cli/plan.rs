@@ -191,6 +191,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             "joins": stats.work.joins,
             "repairs": stats.work.repairs,
             "horizon_stops": stats.horizon_stops,
+            "horizon_brakes": stats.horizon_brakes,
             "work": {
                 "evals": stats.work.evals,
                 "steps": stats.work.steps,

@@ -37,6 +37,10 @@ const FLAT_BELOW_CEILING: f64 = 1e-3;
 /// [1, 0.95, 0.8, 0.5, 0.2, 0], 4.669 s with these).
 const BACKWARD_START_FACTORS: [f64; 12] = [1.0, 0.97, 0.94, 0.9, 0.85, 0.8, 0.7, 0.6, 0.5, 0.35, 0.2, 0.0];
 
+/// Caps (shares of the block's highest v̄) tried for the backward branch from the block end
+/// when it gets stuck uncapped (`build_envelope`).
+const BLOCK_END_CAP_FRACTIONS: [f64; 4] = [0.75, 0.5, 0.25, 0.1];
+
 /// A block could not be planned from some node on: where, and why.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Stuck {
@@ -437,9 +441,9 @@ pub fn build_envelope(
         let id = env.starts.len() as u32;
         debug_assert!(m != n - 1 || id == END_CURVE);
         let mut built = None;
+        let lower = |i: usize, v: f64| env.on_curve(i) && v >= env.v[i] * (1.0 - 1e-12);
         for factor in BACKWARD_START_FACTORS {
             let v_start = if m == n - 1 { 0.0 } else { factor * nodes[m].vbar_mm_s };
-            let lower = |i: usize, v: f64| env.on_curve(i) && v >= env.v[i] * (1.0 - 1e-12);
             if let Some(b) = backward_branch(nodes, m, v_start, 0.0, f64::INFINITY, 0, lower, lim, work) {
                 built = Some((v_start, b));
                 break;
@@ -447,6 +451,19 @@ pub fn build_envelope(
             if m == n - 1 {
                 break;
             }
+        }
+        if built.is_none() && m == n - 1 {
+            // From rest at the block end the branch can only have run into a dead end its
+            // viability ramps did not foresee (seen online with a 60 mm look-ahead on the tight
+            // machine's dense spline: stuck 101 nodes back at 36.5 mm/s, 181 mm/s², where
+            // backing off led back into it). Under a cap it flattens before it gets there; the
+            // forward branch joins it like any branch ending flat under v̄.
+            let top = nodes.iter().map(|nd| nd.vbar_mm_s).fold(0.0, f64::max);
+            built = BLOCK_END_CAP_FRACTIONS.iter().find_map(|&f| {
+                let b = backward_branch(nodes, m, 0.0, 0.0, f * top, 0, lower, lim, work)?;
+                tracing::debug!(s_end_mm = nodes[m].s_mm, cap = f * top, "backward branch from the block end capped");
+                Some((0.0, b))
+            });
         }
         let Some((v_start, branch)) = built else {
             return Err(Stuck { node: m, reason: "no backward branch leaves this section end" });

@@ -77,7 +77,14 @@ pub struct PlanStats {
     /// Horizons that could not continue from the state the one before handed over and took
     /// that one's stop instead (see `Planner::stop_in`).
     pub horizon_stops: u64,
+    /// Horizons that could not continue from that state and braked along half of its stop
+    /// before trying again (each try counts).
+    pub horizon_brakes: u64,
 }
+
+/// A retained stop at most this long is taken whole when the next horizon cannot continue
+/// from the hand-over state; a longer one is followed half-way first (`Planner::plan_horizon`).
+const STOP_SPLIT_MIN_INTERVALS: usize = 4;
 
 /// Interval lengths of a retained stop against the node spacing
 /// ([`Planner::can_stop_within_horizon`]).
@@ -314,6 +321,8 @@ impl Planner {
         let mut handed = 0; // nodes[..=handed] are final
         let mut state = self.start;
         let mut idx = 1;
+        // Node where `stop_in` (what is left of it) starts.
+        let mut stop_from = 0;
         while idx < n {
             let is_end = idx == n - 1;
             if !(self.nodes[idx].stop || is_end) {
@@ -331,24 +340,41 @@ impl Planner {
             }
             let plan = match result {
                 Ok(plan) => plan,
-                Err(stuck) if block_start == 0 && !self.stop_in.is_empty() && self.stop_in.len() < idx => {
+                Err(stuck)
+                    if block_start == stop_from && !self.stop_in.is_empty() && stop_from + self.stop_in.len() < idx =>
+                {
                     // No continuation from the hand-over state with the longer horizon (a
                     // dead end the branches do not find their way out of): the last horizon
-                    // ended at rest and handed over only what can still stop there, so take
-                    // that stop and go on from rest.
+                    // handed over only what can still stop, along `stop_in`. Brake along
+                    // half of what is left of that stop and try again from there (a slower
+                    // state, still with its stop); where little is left, take the stop and
+                    // go on from rest. At most log₂ of the stop's length more plans.
                     let stop = std::mem::take(&mut self.stop_in);
+                    let k = if stop.len() > STOP_SPLIT_MIN_INTERVALS { stop.len() / 2 } else { stop.len() };
+                    self.emit(stop_from, &stop[..k]);
+                    stop_from += k;
+                    handed = stop_from;
+                    block_start = stop_from;
+                    idx = block_start + 1;
+                    if k < stop.len() {
+                        tracing::warn!(
+                            s_from_mm = self.nodes[stop_from - k].s_mm,
+                            s_mm = self.nodes[stop_from].s_mm,
+                            reason = stuck.reason,
+                            "planner: no continuation from the hand-over state; braking along its stop and retrying"
+                        );
+                        self.stats.horizon_brakes += 1;
+                        state = (stop[k].v0, stop[k].a0);
+                        self.stop_in = stop[k..].to_vec();
+                        continue;
+                    }
                     tracing::warn!(
-                        s_from_mm = self.nodes[0].s_mm,
-                        s_stop_mm = self.nodes[stop.len()].s_mm,
+                        s_stop_mm = self.nodes[stop_from].s_mm,
                         reason = stuck.reason,
                         "planner: no continuation from the hand-over state; stopping where the last horizon ended"
                     );
                     self.stats.horizon_stops += 1;
-                    self.emit(0, &stop);
-                    handed = stop.len();
                     state = (0.0, 0.0);
-                    block_start = handed;
-                    idx = block_start + 1;
                     continue;
                 }
                 Err(stuck) => {
@@ -360,7 +386,7 @@ impl Planner {
                     });
                 }
             };
-            if block_start == 0 {
+            if block_start == stop_from {
                 self.stop_in.clear();
             }
             self.stats.blocks += 1;

@@ -398,13 +398,51 @@ fn joins_out_of_the_jerks_reach_are_not_tried() {
 /// lines cruise at the X and Y velocity limits.
 fn tight_demo(jerk_scale: f64) -> (Vec<Segment>, PlanStats, Config) {
     let mut cfg = tight_machine();
-    for axis in &mut cfg.axes {
-        axis.max_jerk_per_s3 *= jerk_scale;
-    }
+    scale_limits(&mut cfg, 1.0, jerk_scale);
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/demo.ngc")).unwrap();
     let (segs, stats, path) = plan_text(&text, &cfg);
     check_covers(&segs, path.length_mm());
     (segs, stats, cfg)
+}
+
+/// Scales every axis's acceleration and jerk limits.
+fn scale_limits(cfg: &mut Config, acc_scale: f64, jerk_scale: f64) {
+    for axis in &mut cfg.axes {
+        axis.max_acc_per_s2 *= acc_scale;
+        axis.max_jerk_per_s3 *= jerk_scale;
+    }
+}
+
+/// Motion times with the acceleration limits scaled by `scales`, checked to fall (within
+/// `tol`, relative) as the limits rise.
+fn check_time_falls_with_acc(plan: impl Fn(&Config) -> Vec<Segment>, cfg: &Config, scales: &[f64], tol: f64) {
+    let times: Vec<f64> = scales
+        .iter()
+        .map(|&f| {
+            let mut c = cfg.clone();
+            scale_limits(&mut c, f, 1.0);
+            profile::duration_s(&plan(&c))
+        })
+        .collect();
+    for w in times.windows(2) {
+        assert!(w[1] <= w[0] * (1.0 + tol), "durations {times:?} s for acceleration limits × {scales:?}");
+    }
+}
+
+/// The same with the acceleration limits a little higher or lower. Before the flat landing and
+/// the mended Illinois searches, line–arc–line on the tight machine took 3.3861 s, but 3.7354 s
+/// (+10 %) with its acceleration limits 0.26 % lower and 3.5008 s with them 0.13 % higher; the
+/// 5-axis table took 4.5047 s, but 4.6971 s (+4.3 %) with them 0.26 % lower.
+#[test]
+fn a_slightly_different_acceleration_limit_gives_a_slightly_different_motion() {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/line_arc_line.ngc")).unwrap();
+    let lal = |c: &Config| plan_text(&text, c).0;
+    check_time_falls_with_acc(lal, &tight_machine(), &[0.9974, 0.9987, 1.0, 1.0013, 1.0026], 1e-4);
+    let table = |c: &Config| plan_table(c).0;
+    let xyzab =
+        Config::load(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config/machines/xyzab.toml")))
+            .unwrap();
+    check_time_falls_with_acc(table, &xyzab, &[0.9974, 1.0], 1e-4);
 }
 
 /// Riding a flat ceiling (an axis at its velocity limit on a line), a branch cruises with

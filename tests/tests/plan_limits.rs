@@ -15,6 +15,11 @@ struct Csv {
 }
 
 fn plan_csv(program: &str, machine: Option<&str>, period_ms: f64) -> (Csv, serde_json::Value) {
+    plan_csv_with(program, machine, period_ms, &[])
+}
+
+/// [`plan_csv`] with further `interpd plan` arguments.
+fn plan_csv_with(program: &str, machine: Option<&str>, period_ms: f64, extra: &[&str]) -> (Csv, serde_json::Value) {
     let out = std::env::temp_dir().join(format!(
         "interpd-plan-{}-{}-{}.csv",
         std::process::id(),
@@ -26,7 +31,8 @@ fn plan_csv(program: &str, machine: Option<&str>, period_ms: f64) -> (Csv, serde
         .args(["plan", program, "--json", "--period-ms"])
         .arg(period_ms.to_string())
         .arg("--out")
-        .arg(&out);
+        .arg(&out)
+        .args(extra);
     if let Some(m) = machine {
         cmd.args(["--machine", m]);
     }
@@ -73,11 +79,16 @@ const PROGRAMS: [&str; 8] = [
 ];
 
 fn check_limits(program: &str, machine: Option<&str>) {
+    check_limits_with(program, machine, &[]);
+}
+
+/// [`check_limits`] with further `interpd plan` arguments.
+fn check_limits_with(program: &str, machine: Option<&str>, extra: &[&str]) -> serde_json::Value {
     let cfg = match machine {
         Some(m) => Config::load(&repo_root().join(m)).expect("machine"),
         None => Config::default_machine(),
     };
-    let (csv, json) = plan_csv(program, machine, 0.25);
+    let (csv, json) = plan_csv_with(program, machine, 0.25, extra);
     let [v, a, j] = fd_ratios(&csv, &cfg);
     assert!(v <= 1.001 && a <= 1.001 && j <= 1.02, "{program} on {machine:?}: vel {v:.5} acc {a:.5} jerk {j:.5}");
     // The planner's own report must agree that nothing exceeds the limits.
@@ -88,6 +99,7 @@ fn check_limits(program: &str, machine: Option<&str>) {
     // It ends at the program's end point, at rest.
     let last = csv.rows.last().expect("rows");
     assert!(last[2].abs() < 1e-9, "{program}: ends with v = {}", last[2]);
+    json
 }
 
 #[test]
@@ -109,6 +121,30 @@ fn limits_hold_on_a_loose_machine() {
     for p in PROGRAMS {
         check_limits(p, Some("tests/machines/xyz_loose.toml"));
     }
+}
+
+/// Online with short look-aheads on a dense G06 spline on the tight machine, horizons find no
+/// continuation from the handed-over state and brake along the stop they kept before trying
+/// again (`horizon_brakes`): the limits hold there too.
+#[test]
+fn limits_hold_online_with_a_short_look_ahead() {
+    let mut text = String::from("G21 G90 G17\nG1 X40 Y0 F6000\nG06\n");
+    for i in 1..=1000 {
+        let u = i as f64 / 1000.0 * std::f64::consts::TAU;
+        text += &format!("X{:.9} Y{:.9} Z0;\n", 40.0 * u.cos() + 8.0 * (3.0 * u).sin(), 30.0 * (2.0 * u).sin());
+    }
+    text += "\nM30\n";
+    let program = std::env::temp_dir().join(format!("interpd-plan-limits-spline-{}.ngc", std::process::id()));
+    std::fs::write(&program, text).expect("write program");
+    let program = program.to_string_lossy().into_owned();
+    let mut brakes = 0;
+    for lookahead_mm in ["10", "30"] {
+        let json =
+            check_limits_with(&program, Some("tests/machines/xyz_tight.toml"), &["--lookahead-mm", lookahead_mm]);
+        brakes += json["horizon_brakes"].as_u64().expect("horizon_brakes");
+    }
+    std::fs::remove_file(&program).ok();
+    assert!(brakes > 0, "no horizon braked: the case no longer covers the fallback");
 }
 
 #[test]

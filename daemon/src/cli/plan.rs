@@ -199,6 +199,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
                 "ramp_nodes": stats.work.ramp_nodes,
                 "bisections": stats.work.bisections,
                 "cap_tries": stats.work.cap_tries,
+                "end_caps": stats.work.end_caps,
                 "relaxed_tried": stats.work.relaxed_tried,
                 "relaxed_kept": stats.work.relaxed_kept,
                 "seed_skipped": stats.work.seed_skipped,

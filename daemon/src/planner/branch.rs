@@ -6,7 +6,7 @@
 //! the braking ramp's own next state (viable whenever the current state is) finds the largest
 //! viable one. No step ever goes back, so the work per node is bounded.
 
-use super::check::{VIOLATION_TOL, violates};
+use super::check::{IntervalGeom, VIOLATION_TOL, violates};
 use super::envelope::{CurveStart, END_CURVE, Envelope};
 use super::interval::Interval;
 use super::limits::Limits;
@@ -92,7 +92,7 @@ pub fn greedy_step(
         ramp_margin(view, t + 1, iv.v1(), iv.a1(), lim, ceiling, work, into, wanted)
     };
     let ok = |m: Option<f64>| m.is_some_and(|m| m <= CEILING_REL_TOL);
-    if let Some(land) = flat_landing(view, t, v, a, cand.v1().min(v_max), ceiling, lim) {
+    if let Some(land) = flat_landing(t, (v, a), cand.v1().min(v_max), &g, ceiling, lim) {
         if ok(margin(&land, work, &mut ramps.trial, Wanted::Verdict)) {
             std::mem::swap(&mut ramps.current, &mut ramps.trial);
             return Some(land);
@@ -144,6 +144,10 @@ pub fn greedy_step(
         return None;
     };
     let (mut x_lo, mut x_hi, mut m_hi) = (best.v1(), cand.v1(), m_cand);
+    // Illinois weights of the two ends' margins: an end kept twice in a row has its weight
+    // halved, against one-sided stalls. The margins themselves stay true: `m_lo` is also the
+    // touch test.
+    let (mut w_lo, mut w_hi) = (1.0, 1.0);
     let mut side = 0i8;
     for _ in 0..VIABLE_SEARCH_ITERS {
         if x_hi - x_lo <= VIABLE_SEARCH_REL_TOL * x_hi.max(1e-12) || m_lo >= -VIABLE_TOUCH_MARGIN {
@@ -151,9 +155,9 @@ pub fn greedy_step(
         }
         let x = match m_hi {
             Some(mh) if mh > m_lo => {
-                // Regula falsi towards margin 0 (Illinois: the stored margin of an end kept
-                // twice is halved, against one-sided stalls).
-                x_lo + (-m_lo / (mh - m_lo)).clamp(0.02, 0.98) * (x_hi - x_lo)
+                // Regula falsi towards margin 0.
+                let (ml, mh) = (w_lo * m_lo, w_hi * mh);
+                x_lo + (-ml / (mh - ml)).clamp(0.02, 0.98) * (x_hi - x_lo)
             }
             _ => 0.5 * (x_lo + x_hi),
         };
@@ -166,16 +170,18 @@ pub fn greedy_step(
                 on_current = false;
                 x_lo = x;
                 m_lo = m;
+                w_lo = 1.0;
                 if side == 1 {
-                    m_hi = m_hi.map(|mh| 0.5 * mh);
+                    w_hi *= 0.5;
                 }
                 side = 1;
             }
             (_, m) => {
                 x_hi = x;
                 m_hi = m;
+                w_hi = 1.0;
                 if side == -1 {
-                    m_lo *= 0.5;
+                    w_lo *= 0.5;
                 }
                 side = -1;
             }
@@ -188,17 +194,15 @@ pub fn greedy_step(
     Some(best)
 }
 
-/// A flat landing is taken instead of the greedy choice when its next velocity is at most this
-/// share lower (see [`flat_landing`]).
+/// A flat landing is taken where the greedy choice reaches the ceiling within this share, and
+/// the landing's next velocity is within this share of the greedy one (see [`flat_landing`]).
 const FLAT_LANDING_REL_TOL: f64 = 1e-4;
-/// ... and within this share below the ceiling: a branch riding it.
-const FLAT_LANDING_NEAR_CEILING: f64 = 1e-3;
 
-/// The interval from (v, a) at `t` that ends flat at the next node (at the acceleration
-/// [`FlattenUnder::flat_acc`] counts as flat there; from a flat state, the one with j = 0),
-/// where the branch rides a ceiling that does not rise there, the interval keeps every limit,
-/// and its next velocity is within `FLAT_LANDING_REL_TOL` of `v_greedy` (the largest feasible
-/// one, capped).
+/// The interval from (v, a) at `t` (geometry `g`) that ends flat at the next node (at the
+/// acceleration [`FlattenUnder::flat_acc`] counts as flat there; from a flat state, the one
+/// with j = 0), where the greedy choice `v_greedy` (the largest feasible next velocity, capped)
+/// reaches a ceiling that does not rise there, the interval keeps every limit, and its next
+/// velocity is within `FLAT_LANDING_REL_TOL` of `v_greedy`.
 ///
 /// Seed 001 §3.2: α = 1 alone makes the jerk bang-bang. Riding a flat ceiling (an axis at its
 /// velocity limit on a line), the largest viable velocity overshoots the flat state, and from
@@ -206,28 +210,25 @@ const FLAT_LANDING_NEAR_CEILING: f64 = 1e-3;
 /// touching it (`VIABLE_TOUCH_MARGIN`), so the branch chatters under the ceiling with jerks
 /// of ±J (tight machine, demo: ±2955 mm/s³ and ±4 mm/s² on a cruise at 49.74 mm/s). A
 /// forward branch chattering onto a backward branch joins it only by luck: a jerk limit
-/// 0.2 % higher cost the demo 5 % of its time in a capped section. Landing flat costs at most
-/// the tolerance at that node; where the ceiling rises the branch follows it greedily, so the
-/// per-node tolerance cannot add up along a slow rise.
+/// 0.5 % higher cost the demo 4 % of its time in a capped section. A landing costs at most
+/// the tolerance at that node, and a branch cruising flat stays within twice the tolerance
+/// under the ceiling (further below, the greedy choice does not reach it and accelerates).
 fn flat_landing(
-    view: &View,
     t: usize,
-    v: f64,
-    a: f64,
+    (v, a): (f64, f64),
     v_greedy: f64,
+    g: &IntervalGeom,
     ceiling: &FlattenUnder,
     lim: &Limits,
 ) -> Option<Interval> {
     let (c0, c1) = (ceiling.velocity(t), ceiling.velocity(t + 1));
-    if c1 > c0 {
+    if c1 > c0 || v_greedy < (1.0 - FLAT_LANDING_REL_TOL) * c1 {
         return None;
     }
-    let land = Interval::landing(v, a, view.ds(t), ceiling.flat_acc(t + 1, v))?;
+    let land = Interval::landing(v, a, g.ds_mm, ceiling.flat_acc(t + 1, v))?;
     let v1 = land.v1();
-    let close = v1 >= (1.0 - FLAT_LANDING_REL_TOL) * v_greedy
-        && v1 <= v_greedy * (1.0 + 1e-12)
-        && v1 >= (1.0 - FLAT_LANDING_NEAR_CEILING) * c1;
-    (close && !violates(&land, &view.interval_geom(t), lim)).then_some(land)
+    let close = v1 >= (1.0 - FLAT_LANDING_REL_TOL) * v_greedy && v1 <= v_greedy * (1.0 + CEILING_REL_TOL);
+    (close && !violates(&land, g, lim)).then_some(land)
 }
 
 /// Back-offs one branch may take before it gives up.
@@ -396,6 +397,34 @@ pub struct Previous<'a> {
     pub from: usize,
 }
 
+/// The backward branch from the block end at rest (node `n − 1`) under the first cap of
+/// `BLOCK_END_CAP_FRACTIONS` (shares of the block's highest v̄) it runs under, after it got
+/// stuck uncapped. From rest the branch can only have run into a dead end its viability ramps
+/// did not foresee (seen online with a 60 mm look-ahead on the tight machine's dense spline:
+/// stuck 101 nodes back at 36.5 mm/s, 181 mm/s², where backing off led back into it). Under a
+/// cap it flattens before it gets there, and the forward branch joins it like any branch
+/// ending flat under v̄. This holds for every block end, online or not: a block planned under
+/// the relaxed ceiling whose end branch needs a cap competes with the plan under seed 001's.
+fn capped_from_block_end(
+    nodes: &[Node],
+    lower: impl Fn(usize, f64) -> bool + Copy,
+    lim: &Limits,
+    work: &mut Work,
+) -> Option<Vec<BranchNode>> {
+    let end = nodes.len() - 1;
+    let top_vbar_mm_s = nodes.iter().map(|nd| nd.vbar_mm_s).fold(0.0, f64::max);
+    if !top_vbar_mm_s.is_finite() {
+        return None;
+    }
+    BLOCK_END_CAP_FRACTIONS.iter().find_map(|&f| {
+        let cap = f * top_vbar_mm_s;
+        work.end_caps += 1;
+        let b = backward_branch(nodes, end, 0.0, 0.0, cap, 0, lower, lim, work)?;
+        tracing::debug!(s_end_mm = nodes[end].s_mm, cap, "backward branch from the block end capped");
+        Some(b)
+    })
+}
+
 /// The backward branches of a block: from the block end (at rest) and from every local
 /// minimum of v̄ (seed 001 §3.1), right to left.
 ///
@@ -453,17 +482,7 @@ pub fn build_envelope(
             }
         }
         if built.is_none() && m == n - 1 {
-            // From rest at the block end the branch can only have run into a dead end its
-            // viability ramps did not foresee (seen online with a 60 mm look-ahead on the tight
-            // machine's dense spline: stuck 101 nodes back at 36.5 mm/s, 181 mm/s², where
-            // backing off led back into it). Under a cap it flattens before it gets there; the
-            // forward branch joins it like any branch ending flat under v̄.
-            let top = nodes.iter().map(|nd| nd.vbar_mm_s).fold(0.0, f64::max);
-            built = BLOCK_END_CAP_FRACTIONS.iter().find_map(|&f| {
-                let b = backward_branch(nodes, m, 0.0, 0.0, f * top, 0, lower, lim, work)?;
-                tracing::debug!(s_end_mm = nodes[m].s_mm, cap = f * top, "backward branch from the block end capped");
-                Some((0.0, b))
-            });
+            built = capped_from_block_end(nodes, lower, lim, work).map(|b| (0.0, b));
         }
         let Some((v_start, branch)) = built else {
             return Err(Stuck { node: m, reason: "no backward branch leaves this section end" });

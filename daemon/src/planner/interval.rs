@@ -283,6 +283,10 @@ mod tests {
             }
         }
         assert!(moving > 10_000 && fast * 10 > moving * 9, "{fast} of {moving} moving intervals solved unbracketed");
+        // v dips below zero and recovers (j > 0): s(T) = Δs has a later root, which is no
+        // continuation (the motion would stop first).
+        assert!(Interval::with_jerk_moving(1.0, -10.0, 5.0, 30.0).is_none());
+        assert!(Interval::with_jerk(1.0, -10.0, 5.0, 30.0).is_none());
     }
 
     #[test]

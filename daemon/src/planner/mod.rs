@@ -83,8 +83,9 @@ pub struct PlanStats {
 }
 
 /// A retained stop at most this long is taken whole when the next horizon cannot continue
-/// from the hand-over state; a longer one is followed half-way first (`Planner::plan_horizon`).
-const STOP_SPLIT_MIN_INTERVALS: usize = 4;
+/// from the hand-over state; a longer one is followed half-way first
+/// (`Planner::brake_along_stop`).
+const STOP_TAKEN_WHOLE_MAX_INTERVALS: usize = 4;
 
 /// Interval lengths of a retained stop against the node spacing
 /// ([`Planner::can_stop_within_horizon`]).
@@ -311,6 +312,37 @@ impl Planner {
         }
     }
 
+    /// The next horizon found no continuation from the state at node `stop_from`, where what is
+    /// left of the last horizon's stop (`stop_in`) starts: that horizon handed over only what
+    /// can still stop along it. Emits half of it (at most log₂ of its length more plans) and
+    /// keeps the rest, or, with at most `STOP_TAKEN_WHOLE_MAX_INTERVALS` left, all of it (the
+    /// motion comes to rest). Returns the node reached and the state there.
+    fn brake_along_stop(&mut self, stop_from: usize, reason: &str) -> (usize, (f64, f64)) {
+        let stop = std::mem::take(&mut self.stop_in);
+        let k = if stop.len() > STOP_TAKEN_WHOLE_MAX_INTERVALS { stop.len() / 2 } else { stop.len() };
+        self.emit(stop_from, &stop[..k]);
+        let reached = stop_from + k;
+        if let Some(rest) = stop.get(k) {
+            tracing::warn!(
+                s_from_mm = self.nodes[stop_from].s_mm,
+                s_mm = self.nodes[reached].s_mm,
+                reason,
+                "planner: no continuation from the hand-over state; braking along its stop and retrying"
+            );
+            self.stats.horizon_brakes += 1;
+            let state = (rest.v0, rest.a0);
+            self.stop_in = stop[k..].to_vec();
+            return (reached, state);
+        }
+        tracing::warn!(
+            s_stop_mm = self.nodes[reached].s_mm,
+            reason,
+            "planner: no continuation from the hand-over state; stopping where the last horizon ended"
+        );
+        self.stats.horizon_stops += 1;
+        (reached, (0.0, 0.0))
+    }
+
     /// Plans the current horizon and hands on what is final.
     fn plan_horizon(&mut self, complete: bool) -> Result<(), PlanError> {
         self.validate_bounds()?;
@@ -344,37 +376,9 @@ impl Planner {
                     if block_start == stop_from && !self.stop_in.is_empty() && stop_from + self.stop_in.len() < idx =>
                 {
                     // No continuation from the hand-over state with the longer horizon (a
-                    // dead end the branches do not find their way out of): the last horizon
-                    // handed over only what can still stop, along `stop_in`. Brake along
-                    // half of what is left of that stop and try again from there (a slower
-                    // state, still with its stop); where little is left, take the stop and
-                    // go on from rest. At most log₂ of the stop's length more plans.
-                    let stop = std::mem::take(&mut self.stop_in);
-                    let k = if stop.len() > STOP_SPLIT_MIN_INTERVALS { stop.len() / 2 } else { stop.len() };
-                    self.emit(stop_from, &stop[..k]);
-                    stop_from += k;
-                    handed = stop_from;
-                    block_start = stop_from;
-                    idx = block_start + 1;
-                    if k < stop.len() {
-                        tracing::warn!(
-                            s_from_mm = self.nodes[stop_from - k].s_mm,
-                            s_mm = self.nodes[stop_from].s_mm,
-                            reason = stuck.reason,
-                            "planner: no continuation from the hand-over state; braking along its stop and retrying"
-                        );
-                        self.stats.horizon_brakes += 1;
-                        state = (stop[k].v0, stop[k].a0);
-                        self.stop_in = stop[k..].to_vec();
-                        continue;
-                    }
-                    tracing::warn!(
-                        s_stop_mm = self.nodes[stop_from].s_mm,
-                        reason = stuck.reason,
-                        "planner: no continuation from the hand-over state; stopping where the last horizon ended"
-                    );
-                    self.stats.horizon_stops += 1;
-                    state = (0.0, 0.0);
+                    // dead end the branches do not find their way out of).
+                    let (from, brake_state) = self.brake_along_stop(stop_from, stuck.reason);
+                    (stop_from, handed, block_start, idx, state) = (from, from, from, from + 1, brake_state);
                     continue;
                 }
                 Err(stuck) => {

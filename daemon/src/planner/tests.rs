@@ -216,6 +216,7 @@ fn a_backward_branch_from_rest_that_runs_into_a_dead_end_is_capped() {
     let (tight, path) = tight_spline(10_000);
     let (segs, _, stats) = plan_online_stats(&tight, &path, 60.0);
     check_covers(&segs, path.length_mm());
+    assert!(stats.work.end_caps > 0, "the case no longer needs the cap: {stats:?}");
     assert!(stats.horizon_stops == 0, "{stats:?}");
 }
 
@@ -460,7 +461,7 @@ fn a_cruise_at_an_axis_velocity_limit_is_flat() {
     let jerky = cruise.iter().filter(|s| s.j.abs() > 1e-3 * x.max_jerk_per_s3).count();
     let slowest = cruise.iter().map(|s| s.v0).fold(f64::INFINITY, f64::min);
     assert!(jerky == 0, "{jerky} of {} cruise intervals with jerk", cruise.len());
-    assert!(slowest >= (1.0 - 1e-3) * v_limit, "the cruise drops to {slowest} mm/s under {v_limit}");
+    assert!(slowest >= (1.0 - 2e-4) * v_limit, "the cruise drops to {slowest} mm/s under {v_limit}");
 }
 
 /// A jerk limit a few per mille higher gives the same motion or a slightly faster one. While

@@ -96,6 +96,10 @@ fn check_limits_with(program: &str, machine: Option<&str>, extra: &[&str]) -> se
     for q in ["vel", "acc", "jerk"] {
         assert!(mr[q].as_f64().expect("ratio") <= 1.0 + 1e-9, "{program}: reported {q} ratio {}", mr[q]);
     }
+    // The longest single planning call is part of the whole planning time.
+    let (call_ms, plan_ms) =
+        (json["plan_call_max_ms"].as_f64().expect("plan_call_max_ms"), json["plan_ms"].as_f64().expect("plan_ms"));
+    assert!(call_ms > 0.0 && call_ms <= plan_ms, "{program}: longest call {call_ms} ms of {plan_ms} ms");
     // It ends at the program's end point, at rest.
     let last = csv.rows.last().expect("rows");
     assert!(last[2].abs() < 1e-9, "{program}: ends with v = {}", last[2]);

@@ -79,7 +79,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
     }
 
     let t0 = Instant::now();
-    let (segments, planner) = plan_online(&config, path)?;
+    let (segments, planner, longest_call_s) = plan_online(&config, path)?;
     let plan_s = t0.elapsed().as_secs_f64();
     let stats = planner.stats;
 
@@ -179,6 +179,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             "program": args.program.display().to_string(),
             "duration_s": duration,
             "plan_ms": plan_s * 1e3,
+            "plan_call_max_ms": longest_call_s * 1e3,
             "samples": samples,
             "period_ms": period_s * 1e3,
             "axes": path.axis_names,
@@ -317,21 +318,30 @@ impl PlantRun {
     }
 }
 
-/// Plans the path the way the daemon does: elements pushed one by one, planned online.
-fn plan_online(config: &Config, path: &Path) -> Result<(Vec<Segment>, Planner), CliError> {
+/// Plans the path the way the daemon does: elements pushed one by one, planned online. Also
+/// returns the longest single `plan()` call, s: the look-ahead thread's worst step, which the
+/// motion already buffered must outlast.
+fn plan_online(config: &Config, path: &Path) -> Result<(Vec<Segment>, Planner, f64), CliError> {
     let mut planner = Planner::new(config);
     let mut segments = Vec::new();
+    let mut longest_call_s = 0.0f64;
     let bad = |e: interpd::planner::PlanError| CliError::BadInput(e.to_string());
+    let mut plan = |planner: &mut Planner, segments: &mut Vec<Segment>| -> Result<(), CliError> {
+        let t0 = Instant::now();
+        segments.extend(planner.plan().map_err(bad)?);
+        longest_call_s = longest_call_s.max(t0.elapsed().as_secs_f64());
+        Ok(())
+    };
     for e in &path.elements {
         planner.push(e.clone());
-        segments.extend(planner.plan().map_err(bad)?);
+        plan(&mut planner, &mut segments)?;
     }
     planner.finish(path.final_dwell_s);
-    segments.extend(planner.plan().map_err(bad)?);
+    plan(&mut planner, &mut segments)?;
     if !planner.done() {
         return Err(CliError::Failure("internal error: the planner did not finish the program".into()));
     }
-    Ok((segments, planner))
+    Ok((segments, planner, longest_call_s))
 }
 
 /// The planning problem and our solution at the nodes, as JSON (see benches/reference/README.md).

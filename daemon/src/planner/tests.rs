@@ -309,16 +309,15 @@ fn tight_spline(points: usize) -> (Config, Path) {
 /// tight machine) that was 735 capped runs and three quarters of the planning. (The motion of
 /// every example stayed the same, compared with `interpd plan --json`; this test guards the
 /// work.) Since the step searches' Illinois weighting was mended the branches meet elsewhere
-/// on this spline: 136 capped runs instead of 28, most of them in sections whose every cap
-/// fails without the branch getting stuck (the descent creeps to the lowest cap), but the
-/// plan takes 445 ms instead of 509 ms and the motion 7.5225 s instead of 7.5410 s.
+/// on this spline, in sections whose every cap fails without the branch getting stuck: 136
+/// capped runs while the cap descent crept (factor 0.85), 48 since it steps by 0.6.
 #[test]
 fn a_capped_section_stuck_below_every_cap_gives_up_at_once() {
     let (tight, path) = tight_spline(10_000);
     let (segs, stats) = Planner::plan_path(&tight, &path).expect("plan");
     check_covers(&segs, path.length_mm());
     assert!(stats.work.repairs > 0, "the case no longer needs repairs: {:?}", stats.work);
-    assert!(stats.work.cap_tries <= 160, "{:?}", stats.work);
+    assert!(stats.work.cap_tries <= 60, "{:?}", stats.work);
 }
 
 /// Online with a 10 mm look-ahead on the same spline, horizons end where the tight machine
@@ -327,14 +326,15 @@ fn a_capped_section_stuck_below_every_cap_gives_up_at_once() {
 /// that velocity closer than the cap bisection resolves. Both now end the search (heuristics,
 /// see `capped_section`): 558 capped runs instead of 1809, a third of the planning time. (The
 /// motion stayed the same, 7.7897 s with one horizon stop, compared with `interpd plan --json`;
-/// this test guards the work.)
+/// this test guards the work.) With the flat landing, the mended searches and the brake along
+/// the kept stop it is 410, and 174 since the cap descent steps by 0.6 instead of 0.85.
 #[test]
 fn a_short_look_ahead_does_not_search_caps_that_cannot_help() {
     let (tight, path) = tight_spline(10_000);
     let (segs, _, stats) = plan_online_stats(&tight, &path, 10.0);
     check_covers(&segs, path.length_mm());
     assert!(stats.work.cap_tries > 0, "the case no longer searches caps: {:?}", stats.work);
-    assert!(stats.work.cap_tries <= 650, "{:?}", stats.work);
+    assert!(stats.work.cap_tries <= 250, "{:?}", stats.work);
 }
 
 /// A repair lowers v̄ at a node in the middle of a 10 000-node block (the tight machine's dense

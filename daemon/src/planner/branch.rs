@@ -8,6 +8,7 @@
 
 use super::check::{IntervalGeom, VIOLATION_TOL, violates};
 use super::envelope::{CurveStart, END_CURVE, Envelope};
+use super::falsi::Illinois;
 use super::interval::Interval;
 use super::limits::Limits;
 use super::node::Node;
@@ -19,6 +20,8 @@ use super::view::View;
 const VIABLE_SEARCH_ITERS: usize = 40;
 /// Relative bracket width at which the viable search stops.
 const VIABLE_SEARCH_REL_TOL: f64 = 1e-4;
+/// The viable search's secant points keep this share of the bracket away from its ends.
+const VIABLE_SECANT_MARGIN: f64 = 0.02;
 /// The viable search also stops once the best state's braking ramp peaks within this share
 /// below the ceiling: the peak rises about as fast as the next velocity or faster, so no viable
 /// velocity is more than this share higher. Cuts the slow tail of the search (a quarter of
@@ -144,23 +147,13 @@ pub fn greedy_step(
         return None;
     };
     let (mut x_lo, mut x_hi, mut m_hi) = (best.v1(), cand.v1(), m_cand);
-    // Illinois weights of the two ends' margins: an end kept twice in a row has its weight
-    // halved, against one-sided stalls. The margins themselves stay true: `m_lo` is also the
-    // touch test.
-    let (mut w_lo, mut w_hi) = (1.0, 1.0);
-    let mut side = 0i8;
+    // The margins stay true: `m_lo` is also the touch test.
+    let mut falsi = Illinois::default();
     for _ in 0..VIABLE_SEARCH_ITERS {
         if x_hi - x_lo <= VIABLE_SEARCH_REL_TOL * x_hi.max(1e-12) || m_lo >= -VIABLE_TOUCH_MARGIN {
             break;
         }
-        let x = match m_hi {
-            Some(mh) if mh > m_lo => {
-                // Regula falsi towards margin 0.
-                let (ml, mh) = (w_lo * m_lo, w_hi * mh);
-                x_lo + (-ml / (mh - ml)).clamp(0.02, 0.98) * (x_hi - x_lo)
-            }
-            _ => 0.5 * (x_lo + x_hi),
-        };
+        let x = falsi.next((x_lo, m_lo), (x_hi, m_hi), VIABLE_SECANT_MARGIN);
         let trial = evaluate(v, a, x, &g, lim, work).filter(|(_, f)| *f <= VIOLATION_TOL);
         let m = trial.as_ref().and_then(|(iv, _)| margin(iv, work, &mut ramps.trial, Wanted::Margin));
         match (trial, m) {
@@ -170,20 +163,12 @@ pub fn greedy_step(
                 on_current = false;
                 x_lo = x;
                 m_lo = m;
-                w_lo = 1.0;
-                if side == 1 {
-                    w_hi *= 0.5;
-                }
-                side = 1;
+                falsi.lower_moved();
             }
             (_, m) => {
                 x_hi = x;
                 m_hi = m;
-                w_hi = 1.0;
-                if side == -1 {
-                    w_lo *= 0.5;
-                }
-                side = -1;
+                falsi.upper_moved();
             }
         }
     }

@@ -17,6 +17,7 @@ pub mod block;
 pub mod branch;
 pub mod check;
 pub mod envelope;
+pub mod falsi;
 pub mod forward;
 pub mod interval;
 pub mod join;

@@ -5,6 +5,7 @@
 //! `MAX_SEARCH_EVALS` evaluations.
 
 use super::check::{IntervalGeom, VIOLATION_TOL, jerk_range, violation};
+use super::falsi::Illinois;
 use super::interval::Interval;
 use super::limits::Limits;
 
@@ -12,6 +13,8 @@ use super::limits::Limits;
 pub const MAX_SEARCH_EVALS: u32 = 48;
 /// The search stops when the bracket is this narrow relative to the velocity.
 pub const SEARCH_REL_TOL: f64 = 1e-5;
+/// The search's secant points keep this share of the bracket away from its ends.
+const SEARCH_SECANT_MARGIN: f64 = 0.05;
 /// Fractions of the upper bound tried first when the jerk-free continuation is infeasible;
 /// after them the probe halves down to `MIN_PROBE_FRACTION` (near a stop the feasible end
 /// velocities can be many orders of magnitude below v̄).
@@ -86,48 +89,31 @@ pub fn max_feasible(v0: f64, a0: f64, v_max: f64, g: &IntervalGeom, lim: &Limits
             return Some(iv);
         }
     }
-    let (anchor, mut f_hi) = find_anchor(v0, a0, v_max, g, lim, work)?;
-    // Bracket: lo feasible, hi infeasible (f_hi = None when unreachable).
-    let (mut lo, mut hi) = (anchor, v_max);
-    let mut best = anchor;
-    let (mut f_lo, mut side) = (best.1, 0i8);
+    let (mut lo, mut f_hi) = find_anchor(v0, a0, v_max, g, lim, work)?;
+    // Bracket: lo feasible (its interval and f), hi infeasible (f_hi = None when unreachable).
+    let mut hi = v_max;
+    let mut falsi = Illinois::default();
     let budget_end = work.evals + MAX_SEARCH_EVALS as u64;
     while hi - lo.0.v1() > SEARCH_REL_TOL * hi.max(1e-12) && work.evals < budget_end {
-        let x_lo = lo.0.v1();
-        let x = match f_hi {
-            Some(fh) if fh > f_lo => {
-                // Regula falsi on f (Illinois: the stored f of an end kept twice is halved).
-                let t = (-f_lo / (fh - f_lo)).clamp(0.05, 0.95);
-                x_lo + t * (hi - x_lo)
-            }
-            _ => 0.5 * (x_lo + hi),
-        };
+        let x = falsi.next((lo.0.v1(), lo.1), (hi, f_hi), SEARCH_SECANT_MARGIN);
         match evaluate(v0, a0, x, g, lim, work) {
             Some((iv, f)) if f <= VIOLATION_TOL => {
                 lo = (iv, f);
-                f_lo = f;
-                best = lo;
-                if side == 1 {
-                    f_hi = f_hi.map(|fh| 0.5 * fh);
-                }
-                side = 1;
+                falsi.lower_moved();
             }
             Some((_, f)) => {
                 hi = x;
                 f_hi = Some(f);
-                if side == -1 {
-                    f_lo *= 0.5;
-                }
-                side = -1;
+                falsi.upper_moved();
             }
             None => {
                 hi = x;
                 f_hi = None;
-                side = -1;
+                falsi.upper_moved_unvalued();
             }
         }
     }
-    Some(best.0)
+    Some(lo.0)
 }
 
 /// A feasible end velocity to start the search from: the jerk-free continuation, else probes.
@@ -198,12 +184,19 @@ mod tests {
         (l, g)
     }
 
+    /// [`max_feasible`] from (v0, a0) over `ds_mm` of the one-axis line of [`setup`], with the
+    /// work it took.
+    fn solve(v0: f64, a0: f64, v_max: f64, ds_mm: f64) -> (Interval, Work) {
+        let (l, g) = setup();
+        let ig = IntervalGeom { start: &g, end: &g, ds_mm, sign: 1.0 };
+        let mut w = Work::default();
+        let iv = max_feasible(v0, a0, v_max, &ig, &l, &mut w).unwrap();
+        (iv, w)
+    }
+
     #[test]
     fn from_rest_the_jerk_limit_binds() {
-        let (l, g) = setup();
-        let ig = IntervalGeom { start: &g, end: &g, ds_mm: 0.01, sign: 1.0 };
-        let mut w = Work::default();
-        let iv = max_feasible(0.0, 0.0, 100.0, &ig, &l, &mut w).unwrap();
+        let (iv, w) = solve(0.0, 0.0, 100.0, 0.01);
         // From rest: j = 2v³/(9Δs²) ≤ J → v = (4.5 J Δs²)^(1/3)
         let expect = (4.5 * 10000.0 * 0.01f64.powi(2)).cbrt();
         assert!((iv.v1() - expect).abs() < 1e-6 * expect, "{} vs {expect}", iv.v1());
@@ -217,10 +210,7 @@ mod tests {
     /// took 31 evaluations here; now 19.)
     #[test]
     fn a_flat_violation_under_a_steep_jerk_term_converges_quickly() {
-        let (l, g) = setup();
-        let ig = IntervalGeom { start: &g, end: &g, ds_mm: 1.0, sign: 1.0 };
-        let mut w = Work::default();
-        let iv = max_feasible(98.4, 0.0, 99.9, &ig, &l, &mut w).unwrap();
+        let (iv, w) = solve(98.4, 0.0, 99.9, 1.0);
         // The jerk limit binds (to the search's resolution in v₊).
         assert!((iv.j.abs() - 10000.0).abs() < 1e-2 * 10000.0, "j {} v1 {}", iv.j, iv.v1());
         assert!(w.evals <= 24, "evaluations {}", w.evals);
@@ -228,10 +218,7 @@ mod tests {
 
     #[test]
     fn cruise_at_the_velocity_limit() {
-        let (l, g) = setup();
-        let ig = IntervalGeom { start: &g, end: &g, ds_mm: 1.0, sign: 1.0 };
-        let mut w = Work::default();
-        let iv = max_feasible(99.0, 0.0, 99.0, &ig, &l, &mut w).unwrap();
+        let (iv, _) = solve(99.0, 0.0, 99.0, 1.0);
         assert!((iv.v1() - 99.0).abs() < 1e-12 && iv.j.abs() < 1e-9);
     }
 }

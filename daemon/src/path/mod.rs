@@ -48,6 +48,19 @@ pub enum Geometry {
 }
 
 impl Geometry {
+    /// A path table's span (also seen through a suffix) and the local position where this
+    /// element starts on it: geometry that is a polynomial in s between its rows.
+    pub fn as_septic(&self) -> Option<(&SepticSpan, f64)> {
+        match self {
+            Geometry::Septic(g) => Some((g, 0.0)),
+            Geometry::Suffix(sf) => match sf.inner() {
+                Geometry::Septic(g) => Some((g, sf.offset_mm())),
+                _ => None,
+            },
+            _ => None,
+        }
+    }
+
     /// Path length of the element (mm, or the table's s units).
     pub fn length_mm(&self) -> f64 {
         match self {

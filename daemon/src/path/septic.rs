@@ -56,6 +56,30 @@ impl SepticSpan {
         })
     }
 
+    /// The span between local positions `s0_mm` and `s0_mm + ds_mm` as polynomials in σ ∈ [0, 1]:
+    /// per axis the coefficients of A(s0 + σ·ds). A piece of a degree-7 polynomial is one
+    /// itself, so the planner's limit checks can evaluate the exact geometry between its
+    /// nodes. By Taylor shift and scaling (no cancellation, unlike re-solving the Hermite
+    /// problem from the piece's ends, whose end conditions divide by ds³).
+    pub fn piece(&self, s0_mm: f64, ds_mm: f64) -> [[f64; 8]; MAX_AXES] {
+        let (t0, r) = (s0_mm / self.h, ds_mm / self.h);
+        let mut out = self.b;
+        for c in out.iter_mut() {
+            // Coefficients of p(t0 + u) by repeated synthetic division.
+            for i in 0..7 {
+                for j in (i..7).rev() {
+                    c[j] += t0 * c[j + 1];
+                }
+            }
+            let mut scale = 1.0;
+            for ci in c.iter_mut() {
+                *ci *= scale;
+                scale *= r;
+            }
+        }
+        out
+    }
+
     pub fn eval(&self, s: f64, out: &mut AxisDerivs) {
         let t = s / self.h;
         let (ih, ih2, ih3) = (1.0 / self.h, 1.0 / (self.h * self.h), 1.0 / (self.h * self.h * self.h));
@@ -124,6 +148,24 @@ mod tests {
         // Interior error of the interpolation of a smooth function is small.
         sp.eval(0.35, &mut d);
         assert!((d.pos[0] - 1.35f64.sin()).abs() < 1e-8);
+    }
+
+    /// A piece evaluates like the span over the same stretch, position and derivatives.
+    #[test]
+    fn a_piece_is_the_span_over_its_stretch() {
+        let sp = SepticSpan::new(&sample(0.2), &sample(1.4), 1.2);
+        let (s0, ds) = (0.37, 0.011);
+        let piece = sp.piece(s0, ds);
+        let mut d = AxisDerivs::default();
+        for sigma in [0.0, 0.3, 0.5, 1.0] {
+            sp.eval(s0 + sigma * ds, &mut d);
+            for (k, c) in piece.iter().enumerate().take(3) {
+                let p: f64 = c.iter().rev().fold(0.0, |acc, ci| acc * sigma + ci);
+                let d3: f64 = (3..8).rev().fold(0.0, |acc, i| acc * sigma + (i * (i - 1) * (i - 2)) as f64 * c[i]);
+                assert!((p - d.pos[k]).abs() < 1e-13, "position of axis {k} at {sigma}");
+                assert!((d3 / ds.powi(3) - d.d3[k]).abs() < 1e-9 * (1.0 + d.d3[k].abs()), "A‴ of axis {k} at {sigma}");
+            }
+        }
     }
 
     #[test]

@@ -40,6 +40,11 @@ impl Suffix {
         self.inner.eval(self.offset_mm + s_mm, out);
     }
 
+    /// Where the suffix starts on `inner`, mm.
+    pub fn offset_mm(&self) -> f64 {
+        self.offset_mm
+    }
+
     /// The element kind it was cut from.
     pub fn inner(&self) -> &Geometry {
         &self.inner

@@ -8,7 +8,7 @@
 
 use super::interval::Interval;
 use super::limits::Limits;
-use super::node::NodeGeom;
+use super::node::{NodeGeom, SpanPoly};
 
 /// Violations up to this (relative to the limit) are rounding, not a breach: the limits the
 /// planner works with already keep `planner.limit_fraction` of headroom.
@@ -25,11 +25,17 @@ pub struct IntervalGeom<'a> {
     pub end: &'a NodeGeom,
     pub ds_mm: f64,
     pub sign: f64,
+    /// The exact geometry between the nodes where the path has one as a polynomial.
+    pub span: Option<&'a SpanPoly>,
 }
 
-/// Geometry interpolated at fraction σ of the interval's length.
+/// Geometry at fraction σ of the interval's length: exact where the interval has a
+/// [`SpanPoly`], else interpolated.
 #[inline]
 pub fn geom_at(g: &IntervalGeom, sigma: f64, k: usize) -> (f64, f64, f64) {
+    if let Some(p) = g.span {
+        return span_at(g, p, &span_powers(g, sigma), k);
+    }
     let (s2, s3) = (sigma * sigma, sigma * sigma * sigma);
     let h00 = 2.0 * s3 - 3.0 * s2 + 1.0;
     let h10 = s3 - 2.0 * s2 + sigma;
@@ -40,6 +46,20 @@ pub fn geom_at(g: &IntervalGeom, sigma: f64, k: usize) -> (f64, f64, f64) {
     let d2 = h00 * a.d2[k] + h01 * b.d2[k] + sg * ds * (h10 * a.d3[k] + h11 * b.d3[k]);
     let d3 = sg * ((1.0 - sigma) * a.d3[k] + sigma * b.d3[k]);
     (d1, d2, d3)
+}
+
+/// [`SpanPoly::powers`] at fraction σ of the interval in traversal order: traversed
+/// backwards, σ counts from the far end.
+#[inline(always)]
+fn span_powers(g: &IntervalGeom, sigma: f64) -> [f64; 7] {
+    SpanPoly::powers(if g.sign > 0.0 { sigma } else { 1.0 - sigma })
+}
+
+/// The exact geometry of axis `k` in traversal order (A′ and A‴ flip backwards, see `sign`).
+#[inline(always)]
+fn span_at(g: &IntervalGeom, p: &SpanPoly, powers: &[f64; 7], k: usize) -> (f64, f64, f64) {
+    let (d1, d2, d3) = p.at(powers, k);
+    (g.sign * d1, d2, g.sign * d3)
 }
 
 /// Interior points (fractions of the length) where the velocity bound is evaluated.
@@ -105,11 +125,14 @@ fn check_point(iv: &Interval, g: &IntervalGeom, f: f64) -> (f64, f64, f64) {
 pub fn point_violation(g: &IntervalGeom, sigma: f64, v: f64, a: f64, j: f64, lim: &Limits) -> f64 {
     let mut worst = f64::NEG_INFINITY;
     let (v2, v3) = (v * v, v * v * v);
+    let exact = g.span.filter(|_| sigma != 0.0 && sigma != 1.0).map(|p| (p, span_powers(g, sigma)));
     for k in 0..lim.n_axes {
         let (d1, d2, d3) = if sigma == 0.0 {
             (g.sign * g.start.d1[k], g.start.d2[k], g.sign * g.start.d3[k])
         } else if sigma == 1.0 {
             (g.sign * g.end.d1[k], g.end.d2[k], g.sign * g.end.d3[k])
+        } else if let Some((p, powers)) = &exact {
+            span_at(g, p, powers, k)
         } else {
             geom_at(g, sigma, k)
         };
@@ -231,7 +254,7 @@ mod tests {
     #[test]
     fn line_velocity_limit() {
         let g = line_geom();
-        let ig = IntervalGeom { start: &g, end: &g, ds_mm: 1.0, sign: 1.0 };
+        let ig = IntervalGeom { start: &g, end: &g, ds_mm: 1.0, sign: 1.0, span: None };
         // 0.8·v ≤ 100 → v ≤ 125
         let ok = Interval::through(124.0, 0.0, 1.0, 124.0).unwrap();
         assert!(violation(&ok, &ig, &lim()) <= 0.0);
@@ -290,7 +313,7 @@ mod tests {
             let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
             let (v, a, j) = (60.0 * (next() + 1.0), 2000.0 * next(), 20_000.0 * next());
             let ((jlo, jhi), (alo, ahi)) = (jerk_range(&g, sign, v, a, &l), acc_range(&g, sign, v, &l));
-            let ig = IntervalGeom { start: &g, end: &g, ds_mm: 1.0, sign };
+            let ig = IntervalGeom { start: &g, end: &g, ds_mm: 1.0, sign, span: None };
             let got = [jlo, jhi, alo, ahi, point_violation(&ig, 0.0, v, a, j, &l)];
             let want = reference(&g, sign, v, a, j, &l);
             assert_eq!(got.map(f64::to_bits), want.map(f64::to_bits), "{g:?} sign {sign} v {v} a {a} j {j}");

@@ -298,7 +298,8 @@ impl Planner {
     fn refine_vbar(&mut self, from: usize) {
         for i in from..self.nodes.len().saturating_sub(1) {
             let (a, b) = (&self.nodes[i], &self.nodes[i + 1]);
-            let g = check::IntervalGeom { start: &a.right, end: &b.left, ds_mm: b.s_mm - a.s_mm, sign: 1.0 };
+            let (start, end, ds_mm) = (&a.right, &b.left, b.s_mm - a.s_mm);
+            let g = check::IntervalGeom { start, end, ds_mm, sign: 1.0, span: a.span.as_deref() };
             let (v, v_flat) = check::interior_vbar(&g, &self.lim);
             let below_both = v < a.vbar_mm_s.min(b.vbar_mm_s);
             for k in [i, i + 1] {

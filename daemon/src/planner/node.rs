@@ -3,7 +3,8 @@
 //! velocity curve (eq. 1a–1b with the path acceleration free).
 
 use super::limits::Limits;
-use crate::path::{AxisDerivs, AxisVec};
+use crate::path::{AxisDerivs, AxisVec, MAX_AXES};
+use std::sync::Arc;
 
 /// A′, A″, A‴ of every axis at one side of a node.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -16,6 +17,61 @@ pub struct NodeGeom {
 impl From<&AxisDerivs> for NodeGeom {
     fn from(d: &AxisDerivs) -> Self {
         NodeGeom { d1: d.d1, d2: d.d2, d3: d.d3 }
+    }
+}
+
+/// Coefficients per axis of a [`SpanPoly`]: A′ (degree 6), A″ (5), A‴ (4).
+const SPAN_POLY_COEFS: usize = 7 + 6 + 5;
+
+/// The exact geometry of the interval from a node to the next where the path is a polynomial
+/// in s there (a path table's degree-7 rows): A′, A″, A‴ per axis as polynomials in the
+/// fraction σ ∈ [0, 1] of the interval's length, in increasing s. The limit checks evaluate it
+/// instead of interpolating between the nodes (`check::geom_at`), so the nodes need not be
+/// dense enough for the interpolation to be accurate: only for the motion's sake.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpanPoly {
+    /// Per axis, lowest order first: A′ in `[0..7]`, A″ in `[7..13]`, A‴ in `[13..18]`.
+    coef: [[f64; SPAN_POLY_COEFS]; MAX_AXES],
+}
+
+impl SpanPoly {
+    /// From the position polynomial of every axis, A(s₀ + σ·ds) = Σ cᵢ σⁱ, over an interval
+    /// `ds_mm` long.
+    pub fn from_position(c: &[[f64; 8]; MAX_AXES], ds_mm: f64) -> Self {
+        let (i1, i2, i3) = (1.0 / ds_mm, 1.0 / (ds_mm * ds_mm), 1.0 / (ds_mm * ds_mm * ds_mm));
+        let mut coef = [[0.0; SPAN_POLY_COEFS]; MAX_AXES];
+        for (out, c) in coef.iter_mut().zip(c) {
+            for i in 0..7 {
+                out[i] = (i + 1) as f64 * c[i + 1] * i1;
+            }
+            for i in 0..6 {
+                out[7 + i] = ((i + 2) * (i + 1)) as f64 * c[i + 2] * i2;
+            }
+            for i in 0..5 {
+                out[13 + i] = ((i + 3) * (i + 2) * (i + 1)) as f64 * c[i + 3] * i3;
+            }
+        }
+        Self { coef }
+    }
+
+    /// The powers σ⁰ … σ⁶ that [`SpanPoly::at`] takes (computed once for all axes).
+    #[inline(always)]
+    pub fn powers(sigma: f64) -> [f64; 7] {
+        let s2 = sigma * sigma;
+        let s3 = s2 * sigma;
+        [1.0, sigma, s2, s3, s2 * s2, s2 * s3, s3 * s3]
+    }
+
+    /// A′, A″, A‴ of axis `k` at the fraction σ of the interval (increasing s) whose
+    /// [`SpanPoly::powers`] are `p`: sums of independent products rather than Horner's chain
+    /// of dependent steps (the limit checks spend most of their time here).
+    #[inline(always)]
+    pub fn at(&self, p: &[f64; 7], k: usize) -> (f64, f64, f64) {
+        let c = &self.coef[k];
+        let d1 = (c[0] + c[1] * p[1] + c[2] * p[2]) + (c[3] * p[3] + c[4] * p[4]) + (c[5] * p[5] + c[6] * p[6]);
+        let d2 = (c[7] + c[8] * p[1] + c[9] * p[2]) + (c[10] * p[3] + c[11] * p[4] + c[12] * p[5]);
+        let d3 = (c[13] + c[14] * p[1] + c[15] * p[2]) + (c[16] * p[3] + c[17] * p[4]);
+        (d1, d2, d3)
     }
 }
 
@@ -45,6 +101,8 @@ pub struct Node {
     /// The block's acceleration-only passes lowered the ceiling here (`reach`): a dip of the
     /// ceiling the motion brakes into and out of with a ≠ 0, not a stretch it can run flat.
     pub reach_bound: bool,
+    /// The exact geometry of the interval to the next node, where it is a polynomial in s.
+    pub span: Option<Arc<SpanPoly>>,
 }
 
 #[cfg(test)]
@@ -63,6 +121,7 @@ impl Node {
             dwell_s: 0.0,
             line: 1,
             reach_bound: false,
+            span: None,
         }
     }
 }

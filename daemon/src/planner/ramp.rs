@@ -184,6 +184,10 @@ fn ramp_interval_from(
     let alo = r0.acc.0;
     let ig = view.interval_geom(t);
     let feasible = |iv: &Interval| !violates(iv, &ig, lim);
+    // The node ranges stand for the interval only where the sampling keeps the interpolated
+    // geometry close to the nodes'; an interval with exact geometry may be long (a path
+    // table's rows) and bulge between its nodes.
+    let check = if ig.span.is_some() { Check::Full } else { check };
     if a > alo && jlo < 0.0 {
         // Steepest braking at the start, then corrected by what the end node allows.
         let mut j = RAMP_JERK_STEPS[0] * jlo;
@@ -589,7 +593,7 @@ mod tests {
                 }
             }
         }
-        assert!(checked > 10_000, "only {checked} traced states");
+        assert!(checked > 2_000, "only {checked} traced states");
         assert!(verdicts[0] > 100 && verdicts[1] > 100, "not viable / viable: {verdicts:?}");
     }
 }

@@ -9,9 +9,10 @@
 
 use super::check::{IntervalGeom, geom_at};
 use super::limits::Limits;
-use super::node::{Node, NodeGeom, curvature_jump_cap, flat_velocity_bound, velocity_bound};
+use super::node::{Node, NodeGeom, SpanPoly, curvature_jump_cap, flat_velocity_bound, velocity_bound};
 use crate::path::{AxisDerivs, Element, Feed, JointKind};
 use interpd_config::{AxisKind, Config};
+use std::sync::Arc;
 
 /// Sampling parameters derived from `[planner]`.
 #[derive(Debug, Clone)]
@@ -290,6 +291,38 @@ pub fn sample_element(
     params: &SamplingParams,
     out: &mut Vec<Node>,
 ) {
+    let first = out.len();
+    sample_nodes(prev, start_moving, e, next_stops, since_stop_mm, lim, params, out);
+    attach_spans(e, &mut out[first..]);
+}
+
+/// The exact geometry of each interval after `nodes` (the nodes of element `e`, the last one's
+/// interval ending at the element's end) where the element is a polynomial in s.
+fn attach_spans(e: &Element, nodes: &mut [Node]) {
+    let Some((span, offset_mm)) = e.geometry.as_septic() else { return };
+    let len = e.geometry.length_mm();
+    let ends: Vec<f64> = nodes.iter().skip(1).map(|n| n.s_mm - e.s_start_mm).chain([len]).collect();
+    for (node, s1) in nodes.iter_mut().zip(ends) {
+        let s0 = node.s_mm - e.s_start_mm;
+        let ds_mm = s1 - s0;
+        if ds_mm > 0.0 {
+            node.span = Some(Arc::new(SpanPoly::from_position(&span.piece(offset_mm + s0, ds_mm), ds_mm)));
+        }
+    }
+}
+
+/// [`sample_element`] without the exact geometry.
+#[allow(clippy::too_many_arguments)]
+fn sample_nodes(
+    prev: Option<&Element>,
+    start_moving: bool,
+    e: &Element,
+    next_stops: bool,
+    since_stop_mm: &mut f64,
+    lim: &Limits,
+    params: &SamplingParams,
+    out: &mut Vec<Node>,
+) {
     let len = e.geometry.length_mm();
     let feed = feed_of(e, params);
     let mut d = AxisDerivs::default();
@@ -327,6 +360,7 @@ pub fn sample_element(
         dwell_s: e.dwell_before_s,
         line: e.source.line,
         reach_bound: false,
+        span: None,
     });
 
     // A straight line between two stops is planned in closed form (`scurve`): its interior
@@ -371,7 +405,8 @@ pub fn sample_element(
         // And the node data must describe the geometry between the nodes: the limit checks
         // interpolate it (`check::geom_at`), so the step halves until the interpolation
         // error, weighed at the fastest motion possible there, is a small share of a limit.
-        if !matches!(e.geometry, crate::path::Geometry::Line(_)) {
+        // (Not for a path table: its checks evaluate the exact geometry, see `attach_spans`.)
+        if !matches!(e.geometry, crate::path::Geometry::Line(_)) && e.geometry.as_septic().is_none() {
             for _ in 0..INTERP_HALVINGS {
                 let h = ds.min(len - s);
                 if h <= GEOMETRY_MIN_STEP_MM || interpolation_error(e, s, h, feed, lim) <= INTERP_ERROR_TOL {
@@ -423,7 +458,7 @@ fn interpolation_error(e: &Element, s: f64, h: f64, feed: f64, lim: &Limits) -> 
             jerk_p = jerk_p.min(lim.jerk[k] / t);
         }
     }
-    let g = IntervalGeom { start: &a, end: &b, ds_mm: h, sign: 1.0 };
+    let g = IntervalGeom { start: &a, end: &b, ds_mm: h, sign: 1.0, span: None };
     let mut worst = 0.0f64;
     for k in 0..lim.n_axes {
         let (i1, i2, i3) = geom_at(&g, 0.5, k);
@@ -452,6 +487,7 @@ fn push_interior(e: &Element, s_local: f64, d: &mut AxisDerivs, feed: f64, lim: 
         dwell_s: 0.0,
         line: e.source.line,
         reach_bound: false,
+        span: None,
     });
 }
 
@@ -471,6 +507,7 @@ pub fn end_node(last: &Element, final_dwell_s: f64, params: &SamplingParams) -> 
         dwell_s: final_dwell_s,
         line: last.source.line,
         reach_bound: false,
+        span: None,
     }
 }
 
@@ -580,5 +617,46 @@ mod tests {
         let sharp = Sharpness::of(&path.elements[0], &lim, &params, 4.0 * len).expect("a cubic span is profiled");
         let curvature = sharp.max_over(0.0, len).0;
         assert!(curvature > 0.99 * 29.838, "largest curvature found {curvature} /mm, true 29.838 /mm");
+    }
+
+    /// Between the nodes of a path table the limit checks see the table's own geometry (its
+    /// degree-7 rows), in both traversal directions, at every interval: A′, A″, A‴ from the
+    /// element itself, to rounding. Interpolated from the nodes they would be off by up to a
+    /// few per cent of a limit on these long intervals (the 5-axis table's swings).
+    #[test]
+    fn a_tables_checks_see_its_exact_geometry_between_nodes() {
+        use crate::planner::check::geom_at;
+        use crate::planner::view::View;
+        let cfg = Config::five_axis_machine();
+        let text =
+            std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/five_axis_table.csv")).unwrap();
+        let path = crate::program::parse(&text, "t.csv", &cfg).unwrap().path;
+        let nodes = crate::planner::Planner::sample_path(&cfg, &path);
+        let n = nodes.len();
+        let at = |s_mm: f64| {
+            let e = path.elements.iter().rev().find(|e| e.s_start_mm <= s_mm).unwrap();
+            let mut d = AxisDerivs::default();
+            e.geometry.eval(s_mm - e.s_start_mm, &mut d);
+            d
+        };
+        let (mut checked, mut worst) = (0, 0.0f64);
+        for (view, sign) in [(View::forward(&nodes), 1.0), (View::backward(&nodes), -1.0)] {
+            for t in 0..n - 1 {
+                let g = view.interval_geom(t);
+                assert!(g.span.is_some() || g.ds_mm == 0.0, "interval {t} of {n} without its exact geometry");
+                for sigma in [0.3, 0.5, 0.9] {
+                    let s_mm = view.node(t).s_mm + sign * sigma * g.ds_mm;
+                    let d = at(s_mm);
+                    for k in 0..5 {
+                        let (d1, d2, d3) = geom_at(&g, sigma, k);
+                        let err = [(d1, sign * d.d1[k]), (d2, d.d2[k]), (d3, sign * d.d3[k])]
+                            .map(|(x, want)| (x - want).abs() / (1.0 + want.abs()));
+                        worst = worst.max(err.into_iter().fold(0.0, f64::max));
+                    }
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 1000 && worst < 1e-9, "{checked} points, largest relative error {worst:e}");
     }
 }

@@ -73,6 +73,14 @@ impl<'a> View<'a> {
     /// The interval t → t+1 for the limit checks.
     #[inline]
     pub fn interval_geom(&self, t: usize) -> IntervalGeom<'a> {
-        IntervalGeom { start: self.start_geom(t), end: self.end_geom(t + 1), ds_mm: self.ds(t), sign: self.sign() }
+        // The interval's exact geometry belongs to its node of lower s.
+        let span = self.nodes[self.index(t).min(self.index(t + 1))].span.as_deref();
+        IntervalGeom {
+            start: self.start_geom(t),
+            end: self.end_geom(t + 1),
+            ds_mm: self.ds(t),
+            sign: self.sign(),
+            span,
+        }
     }
 }

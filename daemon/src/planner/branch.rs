@@ -410,6 +410,19 @@ fn capped_from_block_end(
     })
 }
 
+/// Whether the forward branch can go on from a section end `m` in the state (`v_mm_s`, 0) a
+/// backward branch from there starts in: a feasible and viable step to the next node exists.
+/// The backward branch only checks its own direction; where an orientation swing forces the
+/// jerk's sign (a dip of the acceleration-only ceiling), a flat state at the dip can have no
+/// continuation forwards, and a forward branch joined onto that branch was stuck at its end
+/// (5-axis table, loose machine: 53 v̄ repairs creeping back from such dips).
+fn leaves_forward(nodes: &[Node], m: usize, v_mm_s: f64, lim: &Limits, work: &mut Work) -> bool {
+    let view = View::forward(nodes);
+    let free = FlattenUnder { view, cap: f64::INFINITY, lim };
+    let v_max = nodes[m + 1].vbar_mm_s;
+    greedy_step(&view, m, v_mm_s, 0.0, v_max, &free, lim, work, &mut Ramps::default()).is_some()
+}
+
 /// The backward branches of a block: from the block end (at rest) and from every local
 /// minimum of v̄ (seed 001 §3.1), right to left.
 ///
@@ -458,6 +471,9 @@ pub fn build_envelope(
         let lower = |i: usize, v: f64| env.on_curve(i) && v >= env.v[i] * (1.0 - 1e-12);
         for factor in BACKWARD_START_FACTORS {
             let v_start = if m == n - 1 { 0.0 } else { factor * nodes[m].vbar_mm_s };
+            if m != n - 1 && !leaves_forward(nodes, m, v_start, lim, work) {
+                continue;
+            }
             if let Some(b) = backward_branch(nodes, m, v_start, 0.0, f64::INFINITY, 0, lower, lim, work) {
                 built = Some((v_start, b));
                 break;

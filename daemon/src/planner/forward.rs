@@ -150,6 +150,8 @@ fn run_forward(
     let Anchor { node: mut anchor, mut final_before, mut backoffs } = *anchors.last().expect("the block start");
     let mut evals_at_anchor = work.evals;
     let mut ramps = Ramps::default();
+    // Where the branch last got stuck and how deep its back-off went (as `backward_branch`).
+    let (mut stuck_at, mut depth): (Option<usize>, usize) = (None, 0);
     while run.last() + 1 < n {
         let t = run.last();
         let (v, a) = run.state(t);
@@ -161,8 +163,11 @@ fn run_forward(
             && backoffs < MAX_BACK_OFFS_PER_BRANCH
         {
             backoffs += 1;
+            // Stuck again where the last back-off led: the same ramp would lead there again.
+            depth = if stuck_at == Some(t) { depth + 1 } else { 0 };
+            stuck_at = Some(t);
             let states = &run.states[anchor - run.first..];
-            if let Some((base, ramp)) = super::branch::back_off(&view, &free, lim, work, states, anchor, 0) {
+            if let Some((base, ramp)) = super::branch::back_off(&view, &free, lim, work, states, anchor, depth) {
                 run.truncate(base);
                 for iv in ramp {
                     run.push(iv);

@@ -621,17 +621,31 @@ mod tests {
 
     /// Between the nodes of a path table the limit checks see the table's own geometry (its
     /// degree-7 rows), in both traversal directions, at every interval: A′, A″, A‴ from the
-    /// element itself, to rounding. Interpolated from the nodes they would be off by up to a
-    /// few per cent of a limit on these long intervals (the 5-axis table's swings).
+    /// element itself, to rounding. Also for the rest of the table from a point inside a row
+    /// (a replan from a hold or hand-over cuts the row: `Path::suffix_from`). Interpolated from
+    /// the nodes they would be off by up to a few per cent of a limit on these long intervals
+    /// (the 5-axis table's swings).
     #[test]
     fn a_tables_checks_see_its_exact_geometry_between_nodes() {
-        use crate::planner::check::geom_at;
-        use crate::planner::view::View;
         let cfg = Config::five_axis_machine();
         let text =
             std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/five_axis_table.csv")).unwrap();
         let path = crate::program::parse(&text, "t.csv", &cfg).unwrap().path;
-        let nodes = crate::planner::Planner::sample_path(&cfg, &path);
+        let (checked, worst) = exact_geometry_error(&cfg, &path);
+        assert!(checked > 1000 && worst < 1e-9, "{checked} points, largest relative error {worst:e}");
+        let rest = path.suffix_from(450.3);
+        assert!(matches!(rest.elements[0].geometry, Geometry::Suffix(_)), "the cut lies inside a row");
+        let (checked, worst) = exact_geometry_error(&cfg, &rest);
+        assert!(checked > 100 && worst < 1e-9, "from 450.3 mm: {checked} points, largest relative error {worst:e}");
+    }
+
+    /// Points checked and the largest relative error of the checks' geometry between the
+    /// nodes of `path` against the elements' own, with every interval required to carry its
+    /// exact geometry.
+    fn exact_geometry_error(cfg: &Config, path: &Path) -> (usize, f64) {
+        use crate::planner::check::geom_at;
+        use crate::planner::view::View;
+        let nodes = crate::planner::Planner::sample_path(cfg, path);
         let n = nodes.len();
         let at = |s_mm: f64| {
             let e = path.elements.iter().rev().find(|e| e.s_start_mm <= s_mm).unwrap();
@@ -657,6 +671,6 @@ mod tests {
                 }
             }
         }
-        assert!(checked > 1000 && worst < 1e-9, "{checked} points, largest relative error {worst:e}");
+        (checked, worst)
     }
 }

@@ -33,18 +33,44 @@ pub struct IntervalGeom<'a> {
 /// [`SpanPoly`], else interpolated.
 #[inline]
 pub fn geom_at(g: &IntervalGeom, sigma: f64, k: usize) -> (f64, f64, f64) {
-    if let Some(p) = g.span {
-        return span_at(g, p, &span_powers(g, sigma), k);
+    match g.span {
+        Some(p) => span_at(g, p, &span_powers(g, sigma), k),
+        None => hermite_at(g, &HermiteBasis::at(sigma), k),
     }
-    let (s2, s3) = (sigma * sigma, sigma * sigma * sigma);
-    let h00 = 2.0 * s3 - 3.0 * s2 + 1.0;
-    let h10 = s3 - 2.0 * s2 + sigma;
-    let h01 = -2.0 * s3 + 3.0 * s2;
-    let h11 = s3 - s2;
+}
+
+/// The cubic Hermite basis at fraction σ, shared by the axes of one point.
+#[derive(Clone, Copy)]
+struct HermiteBasis {
+    sigma: f64,
+    h00: f64,
+    h10: f64,
+    h01: f64,
+    h11: f64,
+}
+
+impl HermiteBasis {
+    #[inline(always)]
+    fn at(sigma: f64) -> Self {
+        let (s2, s3) = (sigma * sigma, sigma * sigma * sigma);
+        HermiteBasis {
+            sigma,
+            h00: 2.0 * s3 - 3.0 * s2 + 1.0,
+            h10: s3 - 2.0 * s2 + sigma,
+            h01: -2.0 * s3 + 3.0 * s2,
+            h11: s3 - s2,
+        }
+    }
+}
+
+/// The geometry of axis `k` interpolated from the nodes: A′ and A″ by cubic Hermite (their
+/// derivatives are known at both ends), A‴ linearly.
+#[inline(always)]
+fn hermite_at(g: &IntervalGeom, h: &HermiteBasis, k: usize) -> (f64, f64, f64) {
     let (a, b, sg, ds) = (g.start, g.end, g.sign, g.ds_mm);
-    let d1 = sg * (h00 * a.d1[k] + h01 * b.d1[k]) + ds * (h10 * a.d2[k] + h11 * b.d2[k]);
-    let d2 = h00 * a.d2[k] + h01 * b.d2[k] + sg * ds * (h10 * a.d3[k] + h11 * b.d3[k]);
-    let d3 = sg * ((1.0 - sigma) * a.d3[k] + sigma * b.d3[k]);
+    let d1 = sg * (h.h00 * a.d1[k] + h.h01 * b.d1[k]) + ds * (h.h10 * a.d2[k] + h.h11 * b.d2[k]);
+    let d2 = h.h00 * a.d2[k] + h.h01 * b.d2[k] + sg * ds * (h.h10 * a.d3[k] + h.h11 * b.d3[k]);
+    let d3 = sg * ((1.0 - h.sigma) * a.d3[k] + h.sigma * b.d3[k]);
     (d1, d2, d3)
 }
 
@@ -123,19 +149,27 @@ fn check_point(iv: &Interval, g: &IntervalGeom, f: f64) -> (f64, f64, f64) {
 /// Normalised limit use minus one at one point with state (v, a) and jerk j.
 #[inline]
 pub fn point_violation(g: &IntervalGeom, sigma: f64, v: f64, a: f64, j: f64, lim: &Limits) -> f64 {
+    // One loop per source of the geometry, chosen once per point rather than per axis.
+    if sigma == 0.0 {
+        axes_violation(v, a, j, lim, |k| (g.sign * g.start.d1[k], g.start.d2[k], g.sign * g.start.d3[k]))
+    } else if sigma == 1.0 {
+        axes_violation(v, a, j, lim, |k| (g.sign * g.end.d1[k], g.end.d2[k], g.sign * g.end.d3[k]))
+    } else if let Some(p) = g.span {
+        let powers = span_powers(g, sigma);
+        axes_violation(v, a, j, lim, |k| span_at(g, p, &powers, k))
+    } else {
+        let h = HermiteBasis::at(sigma);
+        axes_violation(v, a, j, lim, |k| hermite_at(g, &h, k))
+    }
+}
+
+/// [`point_violation`] with the geometry (A′, A″, A‴ of axis k in traversal order) from `geom`.
+#[inline(always)]
+fn axes_violation(v: f64, a: f64, j: f64, lim: &Limits, geom: impl Fn(usize) -> (f64, f64, f64)) -> f64 {
     let mut worst = f64::NEG_INFINITY;
     let (v2, v3) = (v * v, v * v * v);
-    let exact = g.span.filter(|_| sigma != 0.0 && sigma != 1.0).map(|p| (p, span_powers(g, sigma)));
     for k in 0..lim.n_axes {
-        let (d1, d2, d3) = if sigma == 0.0 {
-            (g.sign * g.start.d1[k], g.start.d2[k], g.sign * g.start.d3[k])
-        } else if sigma == 1.0 {
-            (g.sign * g.end.d1[k], g.end.d2[k], g.sign * g.end.d3[k])
-        } else if let Some((p, powers)) = &exact {
-            span_at(g, p, powers, k)
-        } else {
-            geom_at(g, sigma, k)
-        };
+        let (d1, d2, d3) = geom(k);
         let vel = d1 * v; // seed 001 eq. 1a
         let acc = d2 * v2 + d1 * a; // eq. 1b
         let jerk = d3 * v3 + 3.0 * d2 * v * a + d1 * j; // eq. 1c

@@ -32,12 +32,16 @@ const SPAN_POLY_COEFS: usize = 7 + 6 + 5;
 pub struct SpanPoly {
     /// Per axis, lowest order first: A′ in `[0..7]`, A″ in `[7..13]`, A‴ in `[13..18]`.
     coef: [[f64; SPAN_POLY_COEFS]; MAX_AXES],
+    /// The nodes' data interpolate the interval as closely as the sampling makes them for
+    /// other elements (`sampling::INTERP_ERROR_TOL`), so the viability ramps' node-only check
+    /// (`ramp::Check::Nodes`) stands for the interval here as it does there.
+    pub interpolable: bool,
 }
 
 impl SpanPoly {
     /// From the position polynomial of every axis, A(s₀ + σ·ds) = Σ cᵢ σⁱ, over an interval
     /// `ds_mm` long.
-    pub fn from_position(c: &[[f64; 8]; MAX_AXES], ds_mm: f64) -> Self {
+    pub fn from_position(c: &[[f64; 8]; MAX_AXES], ds_mm: f64, interpolable: bool) -> Self {
         let (i1, i2, i3) = (1.0 / ds_mm, 1.0 / (ds_mm * ds_mm), 1.0 / (ds_mm * ds_mm * ds_mm));
         let mut coef = [[0.0; SPAN_POLY_COEFS]; MAX_AXES];
         for (out, c) in coef.iter_mut().zip(c) {
@@ -51,7 +55,7 @@ impl SpanPoly {
                 out[13 + i] = ((i + 3) * (i + 2) * (i + 1)) as f64 * c[i + 3] * i3;
             }
         }
-        Self { coef }
+        Self { coef, interpolable }
     }
 
     /// The powers σ⁰ … σ⁶ that [`SpanPoly::at`] takes (computed once for all axes).

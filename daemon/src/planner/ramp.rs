@@ -184,10 +184,12 @@ fn ramp_interval_from(
     let alo = r0.acc.0;
     let ig = view.interval_geom(t);
     let feasible = |iv: &Interval| !violates(iv, &ig, lim);
-    // The node ranges stand for the interval only where the sampling keeps the interpolated
-    // geometry close to the nodes'; an interval with exact geometry may be long (a path
-    // table's rows) and bulge between its nodes.
-    let check = if ig.span.is_some() { Check::Full } else { check };
+    // The node ranges stand for the interval only where the geometry interpolated from the
+    // nodes is close to the real one: the sampling makes it so except on a path table, whose
+    // intervals (its rows, split by time only) can bulge between the nodes. (Full checks on
+    // every table interval cost the tight machine's table 17 % more instructions; where the
+    // nodes interpolate well the motion is the same to 1e-6 s.)
+    let check = if ig.span.is_some_and(|p| !p.interpolable) { Check::Full } else { check };
     if a > alo && jlo < 0.0 {
         // Steepest braking at the start, then corrected by what the end node allows.
         let mut j = RAMP_JERK_STEPS[0] * jlo;

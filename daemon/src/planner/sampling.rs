@@ -293,20 +293,23 @@ pub fn sample_element(
 ) {
     let first = out.len();
     sample_nodes(prev, start_moving, e, next_stops, since_stop_mm, lim, params, out);
-    attach_spans(e, &mut out[first..]);
+    attach_spans(e, &mut out[first..], lim, params);
 }
 
 /// The exact geometry of each interval after `nodes` (the nodes of element `e`, the last one's
 /// interval ending at the element's end) where the element is a polynomial in s.
-fn attach_spans(e: &Element, nodes: &mut [Node]) {
+fn attach_spans(e: &Element, nodes: &mut [Node], lim: &Limits, params: &SamplingParams) {
     let Some((span, offset_mm)) = e.geometry.as_septic() else { return };
+    let feed = feed_of(e, params);
     let len = e.geometry.length_mm();
     let ends: Vec<f64> = nodes.iter().skip(1).map(|n| n.s_mm - e.s_start_mm).chain([len]).collect();
     for (node, s1) in nodes.iter_mut().zip(ends) {
         let s0 = node.s_mm - e.s_start_mm;
         let ds_mm = s1 - s0;
         if ds_mm > 0.0 {
-            node.span = Some(Arc::new(SpanPoly::from_position(&span.piece(offset_mm + s0, ds_mm), ds_mm)));
+            let interpolable = interpolation_error(e, s0, ds_mm, feed, lim) <= INTERP_ERROR_TOL;
+            let piece = span.piece(offset_mm + s0, ds_mm);
+            node.span = Some(Arc::new(SpanPoly::from_position(&piece, ds_mm, interpolable)));
         }
     }
 }

@@ -274,7 +274,8 @@ fn speed_from_rest(d_mm: f64, j: f64, a: f64) -> f64 {
 }
 
 /// Samples one element: pushes the node at its start (the joint with `prev`) and its interior
-/// nodes; the node at its end belongs to the next element (or [`end_node`]).
+/// nodes, on a path table with the exact geometry of the intervals after them
+/// ([`attach_spans`]); the node at its end belongs to the next element (or [`end_node`]).
 ///
 /// `since_stop_mm` is the path length from the last stop to the element start; it is updated
 /// to the element end. `next_stops` tells whether the motion must be at rest at the element end.
@@ -292,40 +293,6 @@ pub fn sample_element(
     out: &mut Vec<Node>,
 ) {
     let first = out.len();
-    sample_nodes(prev, start_moving, e, next_stops, since_stop_mm, lim, params, out);
-    attach_spans(e, &mut out[first..], lim, params);
-}
-
-/// The exact geometry of each interval after `nodes` (the nodes of element `e`, the last one's
-/// interval ending at the element's end) where the element is a polynomial in s.
-fn attach_spans(e: &Element, nodes: &mut [Node], lim: &Limits, params: &SamplingParams) {
-    let Some((span, offset_mm)) = e.geometry.as_septic() else { return };
-    let feed = feed_of(e, params);
-    let len = e.geometry.length_mm();
-    let ends: Vec<f64> = nodes.iter().skip(1).map(|n| n.s_mm - e.s_start_mm).chain([len]).collect();
-    for (node, s1) in nodes.iter_mut().zip(ends) {
-        let s0 = node.s_mm - e.s_start_mm;
-        let ds_mm = s1 - s0;
-        if ds_mm > 0.0 {
-            let interpolable = interpolation_error(e, s0, ds_mm, feed, lim) <= INTERP_ERROR_TOL;
-            let piece = span.piece(offset_mm + s0, ds_mm);
-            node.span = Some(Arc::new(SpanPoly::from_position(&piece, ds_mm, interpolable)));
-        }
-    }
-}
-
-/// [`sample_element`] without the exact geometry.
-#[allow(clippy::too_many_arguments)]
-fn sample_nodes(
-    prev: Option<&Element>,
-    start_moving: bool,
-    e: &Element,
-    next_stops: bool,
-    since_stop_mm: &mut f64,
-    lim: &Limits,
-    params: &SamplingParams,
-    out: &mut Vec<Node>,
-) {
     let len = e.geometry.length_mm();
     let feed = feed_of(e, params);
     let mut d = AxisDerivs::default();
@@ -429,7 +396,26 @@ fn sample_nodes(
         s += ds;
         push_interior(e, s, &mut d, feed, lim, out);
     }
+    attach_spans(e, &mut out[first..], lim, params);
     *since_stop_mm += len;
+}
+
+/// The exact geometry of each interval after `nodes` (the nodes of element `e`, the last one's
+/// interval ending at the element's end) where the element is a polynomial in s.
+fn attach_spans(e: &Element, nodes: &mut [Node], lim: &Limits, params: &SamplingParams) {
+    let Some((span, offset_mm)) = e.geometry.as_septic() else { return };
+    let feed = feed_of(e, params);
+    let len = e.geometry.length_mm();
+    let ends: Vec<f64> = nodes.iter().skip(1).map(|n| n.s_mm - e.s_start_mm).chain([len]).collect();
+    for (node, s1) in nodes.iter_mut().zip(ends) {
+        let s0 = node.s_mm - e.s_start_mm;
+        let ds_mm = s1 - s0;
+        if ds_mm > 0.0 {
+            let interpolable = interpolation_error(e, s0, ds_mm, feed, lim) <= INTERP_ERROR_TOL;
+            let piece = span.piece(offset_mm + s0, ds_mm);
+            node.span = Some(Arc::new(SpanPoly::from_position(&piece, ds_mm, interpolable)));
+        }
+    }
 }
 
 /// Halvings of a step at most for the interpolation error (a factor of 2⁻¹² in length).

@@ -12,8 +12,10 @@ Two problems on the same nodes:
    seed 001 eq. 2-3: per interval a constant path jerk j_i over a duration T_i, v and a
    continuous (C^1), minimise sum T_i subject to every axis' velocity, acceleration and jerk
    limit (eq. 1a-1c) at the same check points inside every interval, with the geometry
-   between nodes interpolated exactly as the planner's checks do (cubic Hermite for A' and
-   A'', linear A'''), v <= feed, rest at stops. Started from the planner's own profile.
+   between nodes as the planner's checks see it: a path table's own rows where the export
+   gives a node's "span" (A', A'', A''' to the next node as polynomials in the interval
+   fraction), else interpolated (cubic Hermite for A' and A'', linear A'''), v <= feed, rest
+   at stops. Started from the planner's own profile.
 2. The acceleration-only problem (no jerk limit): exact forward/backward passes in b = v^2
    (b linear per step, the classical time-optimal path parameterisation), on the nodes with
    every interval split into SUBSTEPS pieces of interpolated geometry. Dropping the jerk
@@ -51,9 +53,18 @@ def blocks(nodes):
     return [(a, b) for a, b in zip(stops, stops[1:]) if b > a]
 
 
-def geom_at(start, end, ds, sigma, k, m):
-    """The planner's interpolation (daemon/src/planner/check.rs geom_at), sign = +1.
-    `m` is the math module to use (math or casadi)."""
+def geom_at(start, end, ds, sigma, k, m, span=None):
+    """The planner's geometry between nodes (daemon/src/planner/check.rs geom_at), sign = +1:
+    the exact polynomial `span` (the node's export, per axis 18 coefficients: A' 0..7, A''
+    7..13, A''' 13..18) where given, else its interpolation. `m` is the math module to use
+    (math or casadi)."""
+    if span is not None:
+        c = span[k]
+
+        def poly(lo, hi):
+            return sum(c[lo + i] * sigma**i for i in range(hi - lo))
+
+        return poly(0, 7), poly(7, 13), poly(13, 18)
     s2, s3 = sigma * sigma, sigma * sigma * sigma
     h00 = 2 * s3 - 3 * s2 + 1
     h10 = s3 - 2 * s2 + sigma
@@ -118,7 +129,7 @@ def ipopt_block(data, i0, i1, verbose):
             if feed < 1e300:
                 add(vv / feed, -inf, 1.0)
             for k in range(n_ax):
-                d1, d2, d3 = geom_at(start, end, ds[q], sigma, k, ca)
+                d1, d2, d3 = geom_at(start, end, ds[q], sigma, k, ca, nodes[i].get("span"))
                 vel = d1 * vv  # eq. 1a
                 acc = d2 * vv**2 + d1 * aa  # eq. 1b
                 jerk = d3 * vv**3 + 3 * d2 * vv * aa + d1 * jq  # eq. 1c
@@ -165,7 +176,7 @@ def acc_only_block(data, i0, i1):
         ds = nodes[i + 1]["s"] - nodes[i]["s"]
         for q in range(SUBSTEPS):
             sig = q / SUBSTEPS
-            g = [geom_at(start, end, ds, sig, k, math) for k in range(n_ax)]
+            g = [geom_at(start, end, ds, sig, k, math, nodes[i].get("span")) for k in range(n_ax)]
             pts.append((nodes[i]["s"] + sig * ds, [x[0] for x in g], [x[1] for x in g], nodes[i]["feed"]))
     end = nodes[i1]["left"]
     pts.append((nodes[i1]["s"], end["d1"][:n_ax], end["d2"][:n_ax], nodes[i1 - 1]["feed"]))

@@ -319,3 +319,57 @@ fn infeasible_requests_give_a_clear_error_and_no_nan() {
         assert!(json["max_ratio"][q].as_f64().is_some_and(|r| r.is_finite() && r <= 1.0 + 1e-9), "{out}");
     }
 }
+
+/// `--export-nodes` gives the reference optimiser (benches/reference/optimum.py) the geometry
+/// the planner's checks use between the nodes: on a path table each node's "span" (per axis
+/// A′, A″, A‴ to the next node as polynomials in the interval fraction, 7 + 6 + 5
+/// coefficients), which must start at the node's own A′…A‴ and end at the next node's; none
+/// where the checks interpolate (a circle).
+#[test]
+fn the_node_export_carries_a_tables_exact_geometry() {
+    let export = |program: &str, machine: Option<&str>| -> serde_json::Value {
+        let file = std::env::temp_dir().join(format!("interpd-export-{}.json", std::process::id()));
+        let mut cmd = Command::new(binary("interpd"));
+        cmd.current_dir(repo_root()).args(["plan", program, "--export-nodes"]).arg(&file);
+        if let Some(m) = machine {
+            cmd.args(["--machine", m]);
+        }
+        let res = cmd.output().expect("run interpd plan");
+        assert!(res.status.success(), "{program}: {}", String::from_utf8_lossy(&res.stderr));
+        let json = serde_json::from_str(&std::fs::read_to_string(&file).expect("read export")).expect("JSON");
+        std::fs::remove_file(&file).ok();
+        json
+    };
+    let table = export("examples/five_axis_table.csv", Some("config/machines/xyzab.toml"));
+    let nodes = table["nodes"].as_array().expect("nodes");
+    let poly = |c: &[serde_json::Value], lo: usize, hi: usize, sigma: f64| -> f64 {
+        c[lo..hi].iter().rev().fold(0.0, |acc, x| acc * sigma + x.as_f64().unwrap())
+    };
+    let mut checked = 0;
+    for (i, pair) in nodes.windows(2).enumerate() {
+        let ds = pair[1]["s"].as_f64().unwrap() - pair[0]["s"].as_f64().unwrap();
+        if ds == 0.0 {
+            continue; // the corner's two rows
+        }
+        let span = pair[0]["span"].as_array().unwrap_or_else(|| panic!("node {i} has no span"));
+        assert_eq!(span.len(), 5, "node {i}: one polynomial set per axis");
+        for (k, c) in span.iter().enumerate() {
+            let c = c.as_array().expect("coefficients");
+            assert_eq!(c.len(), 18);
+            for (sigma, side, node) in [(0.0, "right", &pair[0]), (1.0, "left", &pair[1])] {
+                for (d, (lo, hi)) in ["d1", "d2", "d3"].iter().zip([(0, 7), (7, 13), (13, 18)]) {
+                    let want = node[side][d][k].as_f64().unwrap();
+                    let got = poly(c, lo, hi, sigma);
+                    assert!(
+                        (got - want).abs() <= 1e-6 * (1.0 + want.abs()),
+                        "node {i} axis {k} {d} at {sigma}: {got} vs {want}"
+                    );
+                }
+            }
+        }
+        checked += 1;
+    }
+    assert!(checked > 1000, "{checked} intervals");
+    let circle = export("examples/circle_r10.ngc", None);
+    assert!(circle["nodes"].as_array().unwrap().iter().all(|n| n["span"].is_null()), "a circle has no spans");
+}

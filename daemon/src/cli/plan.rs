@@ -382,6 +382,8 @@ fn export_nodes(
         "nodes": nodes.iter().map(|nd| serde_json::json!({
             "s": nd.s_mm, "vbar": nd.vbar_mm_s, "feed": if nd.feed_mm_s.is_finite() { nd.feed_mm_s } else { f64::MAX },
             "stop": nd.stop, "left": geom(&nd.left), "right": geom(&nd.right),
+            // A path table's exact geometry to the next node, which the checks evaluate there.
+            "span": nd.span.as_ref().map(|p| (0..n).map(|k| p.coefficients(k)).collect::<Vec<_>>()),
         })).collect::<Vec<_>>(),
         "profile": states,
         "duration_s": interpd::planner::profile::duration_s(segments),

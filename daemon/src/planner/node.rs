@@ -58,6 +58,12 @@ impl SpanPoly {
         Self { coef, interpolable }
     }
 
+    /// The coefficients of axis `k`, lowest order first: A′ in `[0..7]`, A″ in `[7..13]`, A‴ in
+    /// `[13..18]` (for `interpd plan --export-nodes`).
+    pub fn coefficients(&self, k: usize) -> &[f64] {
+        &self.coef[k]
+    }
+
     /// The powers σ⁰ … σ⁶ that [`SpanPoly::at`] takes (computed once for all axes).
     #[inline(always)]
     pub fn powers(sigma: f64) -> [f64; 7] {

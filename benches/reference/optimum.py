@@ -120,7 +120,8 @@ def ipopt_block(data, i0, i1, verbose):
         add((vq * tq + aq * tq**2 / 2 + jq * tq**3 / 6) / ds[q], 1.0, 1.0)
         start, end = nodes[i]["right"], nodes[i + 1]["left"]
         feed = nodes[i]["feed"]
-        for f in fracs:
+        # A table interval the nodes do not interpolate well is checked at more points.
+        for f in data["fine_check_fractions"] if nodes[i].get("fine") else fracs:
             tau = f * tq
             s_loc = vq * tau + aq * tau**2 / 2 + jq * tau**3 / 6
             vv = vq + aq * tau + jq * tau**2 / 2

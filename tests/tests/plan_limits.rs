@@ -370,6 +370,10 @@ fn the_node_export_carries_a_tables_exact_geometry() {
         checked += 1;
     }
     assert!(checked > 1000, "{checked} intervals");
+    // Intervals the nodes do not interpolate well are checked at the finer points.
+    let fine = nodes.iter().filter(|n| n["fine"].as_bool().expect("a fine flag per node")).count();
+    assert!(fine > 0 && fine < nodes.len(), "{fine} of {} nodes fine", nodes.len());
+    assert_eq!(table["fine_check_fractions"].as_array().map(Vec::len), Some(7));
     let circle = export("examples/circle_r10.ngc", None);
     assert!(circle["nodes"].as_array().unwrap().iter().all(|n| n["span"].is_null()), "a circle has no spans");
 }

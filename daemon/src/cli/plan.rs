@@ -376,6 +376,8 @@ fn export_nodes(
             "vel": &lim.vel[..n], "acc_max": &lim.acc_max[..n], "acc_min": &lim.acc_min[..n], "jerk": &lim.jerk[..n],
         },
         "check_fractions": interpd::planner::check::CHECK_FRACTIONS,
+        // The check points of a node's interval where it is "fine" (see check::check_fractions).
+        "fine_check_fractions": interpd::planner::check::FINE_CHECK_FRACTIONS,
         // At a curvature jump the axis acceleration steps by ΔA″·v²; the planner caps v there
         // so the step is what the jerk limit moves in this time (planner.curvature_jump_ms).
         "curvature_jump_s": config.planner.curvature_jump_ms * 1e-3,
@@ -384,6 +386,7 @@ fn export_nodes(
             "stop": nd.stop, "left": geom(&nd.left), "right": geom(&nd.right),
             // A path table's exact geometry to the next node, which the checks evaluate there.
             "span": nd.span.as_ref().map(|p| (0..n).map(|k| p.coefficients(k)).collect::<Vec<_>>()),
+            "fine": nd.span.as_ref().is_some_and(|p| !p.interpolable),
         })).collect::<Vec<_>>(),
         "profile": states,
         "duration_s": interpd::planner::profile::duration_s(segments),

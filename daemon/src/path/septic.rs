@@ -154,16 +154,26 @@ mod tests {
     #[test]
     fn a_piece_is_the_span_over_its_stretch() {
         let sp = SepticSpan::new(&sample(0.2), &sample(1.4), 1.2);
-        let (s0, ds) = (0.37, 0.011);
-        let piece = sp.piece(s0, ds);
         let mut d = AxisDerivs::default();
-        for sigma in [0.0, 0.3, 0.5, 1.0] {
-            sp.eval(s0 + sigma * ds, &mut d);
-            for (k, c) in piece.iter().enumerate().take(3) {
-                let p: f64 = c.iter().rev().fold(0.0, |acc, ci| acc * sigma + ci);
-                let d3: f64 = (3..8).rev().fold(0.0, |acc, i| acc * sigma + (i * (i - 1) * (i - 2)) as f64 * c[i]);
-                assert!((p - d.pos[k]).abs() < 1e-13, "position of axis {k} at {sigma}");
-                assert!((d3 / ds.powi(3) - d.d3[k]).abs() < 1e-9 * (1.0 + d.d3[k].abs()), "A‴ of axis {k} at {sigma}");
+        for (s0, ds) in [(0.37, 0.011), (1.1899, 0.0101), (0.0, 1.2)] {
+            let piece = sp.piece(s0, ds);
+            for sigma in [0.0, 0.3, 0.5, 1.0] {
+                sp.eval(s0 + sigma * ds, &mut d);
+                for (k, c) in piece.iter().enumerate().take(3) {
+                    // The m-th derivative in σ, scaled to s by 1/dsᵐ.
+                    let deriv = |m: usize| {
+                        let fall = |i: usize| ((i + 1 - m)..=i).map(|x| x as f64).product::<f64>();
+                        (m..8).rev().fold(0.0, |acc, i| acc * sigma + fall(i) * c[i]) / ds.powi(m as i32)
+                    };
+                    let want = [d.pos[k], d.d1[k], d.d2[k], d.d3[k]];
+                    for (m, w) in want.into_iter().enumerate() {
+                        let got = deriv(m);
+                        assert!(
+                            (got - w).abs() < 1e-9 * (1.0 + w.abs()),
+                            "derivative {m} of axis {k} at {s0}+{sigma}·{ds}: {got} vs {w}"
+                        );
+                    }
+                }
             }
         }
     }

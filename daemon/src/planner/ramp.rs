@@ -208,9 +208,10 @@ fn ramp_interval_from(
             }
             if j_next == j {
                 // Jerk and acceleration are inside both nodes' ranges; the peak velocity is
-                // checked against the ceiling by the caller. Between the nodes only the
-                // interpolated geometry changes, second order over one interval, so the full
-                // check runs only where a node range was binding. An acceleration close to
+                // checked against the ceiling by the caller. Between the nodes the geometry
+                // changes only to second order over one interval where the nodes interpolate
+                // it well (`check` is `Full` elsewhere, see above), so the full check runs
+                // only where a node range was binding. An acceleration close to
                 // its bound at either node counts as binding: the axis acceleration bulges
                 // between the nodes (a state on the bound whose axis jerk points outwards
                 // passes both node checks and breaks the bound inside), and a viability

@@ -386,7 +386,7 @@ fn export_nodes(
             "stop": nd.stop, "left": geom(&nd.left), "right": geom(&nd.right),
             // A path table's exact geometry to the next node, which the checks evaluate there.
             "span": nd.span.as_ref().map(|p| (0..n).map(|k| p.coefficients(k)).collect::<Vec<_>>()),
-            "fine": nd.span.as_ref().is_some_and(|p| !p.interpolable),
+            "fine": nd.span.as_deref().is_some_and(interpd::planner::node::SpanPoly::fine_checks),
         })).collect::<Vec<_>>(),
         "profile": states,
         "duration_s": interpd::planner::profile::duration_s(segments),

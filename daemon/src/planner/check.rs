@@ -17,7 +17,7 @@ pub const VIOLATION_TOL: f64 = 1e-12;
 /// Points inside an interval (fractions of its duration) where the limits are checked.
 pub const CHECK_FRACTIONS: [f64; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
 /// The same on a path table's interval that the nodes do not interpolate well
-/// ([`SpanPoly::interpolable`]): such intervals are long (rows split by time only) and their
+/// ([`SpanPoly::fine_checks`]): such intervals are long (rows split by time only) and their
 /// geometry can bulge between five points. With five, the six test tables on the three 5-axis
 /// machines reached 0.9987 × an acceleration limit and 0.9983 × a jerk limit at 0.25 ms (up
 /// to 0.35 % over the planner's own `limit_fraction` of 0.995); with these seven 0.9965 and
@@ -26,8 +26,8 @@ pub const FINE_CHECK_FRACTIONS: [f64; 7] = [0.0, 1.0 / 6.0, 2.0 / 6.0, 0.5, 4.0 
 
 /// The check points of interval `g`.
 #[inline]
-pub fn check_fractions(g: &IntervalGeom) -> &'static [f64] {
-    if g.span.is_some_and(|p| !p.interpolable) { &FINE_CHECK_FRACTIONS } else { &CHECK_FRACTIONS }
+fn check_fractions(g: &IntervalGeom) -> &'static [f64] {
+    if g.fine_checks() { &FINE_CHECK_FRACTIONS } else { &CHECK_FRACTIONS }
 }
 
 /// The geometry of one interval in traversal order. `sign` is −1 for branches computed
@@ -40,6 +40,14 @@ pub struct IntervalGeom<'a> {
     pub sign: f64,
     /// The exact geometry between the nodes where the path has one as a polynomial.
     pub span: Option<&'a SpanPoly>,
+}
+
+impl IntervalGeom<'_> {
+    /// See [`SpanPoly::fine_checks`].
+    #[inline]
+    pub fn fine_checks(&self) -> bool {
+        self.span.is_some_and(SpanPoly::fine_checks)
+    }
 }
 
 /// Geometry at fraction σ of the interval's length: exact where the interval has a
@@ -113,10 +121,8 @@ pub const VBAR_FRACTIONS: [f64; 3] = [0.25, 0.5, 0.75];
 /// (`Planner::refine_vbar`), and never at a stop.
 pub fn interior_vbar(g: &IntervalGeom, lim: &Limits) -> (f64, f64) {
     let (mut v, mut v_flat) = (f64::INFINITY, f64::INFINITY);
-    let fractions = match check_fractions(g) {
-        fine if fine.len() > CHECK_FRACTIONS.len() => &fine[1..fine.len() - 1],
-        _ => &VBAR_FRACTIONS[..],
-    };
+    let fractions =
+        if g.fine_checks() { &FINE_CHECK_FRACTIONS[1..FINE_CHECK_FRACTIONS.len() - 1] } else { &VBAR_FRACTIONS[..] };
     for &sigma in fractions {
         let mut ng = NodeGeom::default();
         for k in 0..lim.n_axes {

@@ -297,11 +297,8 @@ impl Planner {
     /// reference runs above the notch and the backward branches could not start at the swing).
     fn refine_vbar(&mut self, from: usize) {
         for i in from..self.nodes.len().saturating_sub(1) {
-            let (a, b) = (&self.nodes[i], &self.nodes[i + 1]);
-            let (start, end, ds_mm) = (&a.right, &b.left, b.s_mm - a.s_mm);
-            let g = check::IntervalGeom { start, end, ds_mm, sign: 1.0, span: a.span.as_deref() };
-            let (v, v_flat) = check::interior_vbar(&g, &self.lim);
-            let below_both = v < a.vbar_mm_s.min(b.vbar_mm_s);
+            let (v, v_flat) = check::interior_vbar(&view::View::forward(&self.nodes).interval_geom(i), &self.lim);
+            let below_both = v < self.nodes[i].vbar_mm_s.min(self.nodes[i + 1].vbar_mm_s);
             for k in [i, i + 1] {
                 let node = &mut self.nodes[k];
                 if !node.stop {

@@ -33,9 +33,8 @@ pub struct SpanPoly {
     /// Per axis, lowest order first: A′ in `[0..7]`, A″ in `[7..13]`, A‴ in `[13..18]`.
     coef: [[f64; SPAN_POLY_COEFS]; MAX_AXES],
     /// The nodes' data interpolate the interval as closely as the sampling makes them for
-    /// other elements (`sampling::INTERP_ERROR_TOL`), so the viability ramps' node-only check
-    /// (`ramp::Check::Nodes`) stands for the interval here as it does there.
-    pub interpolable: bool,
+    /// other elements (`sampling::INTERP_ERROR_TOL`).
+    interpolable: bool,
 }
 
 impl SpanPoly {
@@ -56,6 +55,13 @@ impl SpanPoly {
             }
         }
         Self { coef, interpolable }
+    }
+
+    /// The interval can bulge between the nodes (they do not interpolate it well): its limit
+    /// checks take `check::FINE_CHECK_FRACTIONS`, and its viability ramps the full interval
+    /// check, not the node-only one (`ramp::Check::Nodes`).
+    pub fn fine_checks(&self) -> bool {
+        !self.interpolable
     }
 
     /// The coefficients of axis `k`, lowest order first: A′ in `[0..7]`, A″ in `[7..13]`, A‴ in

@@ -189,7 +189,7 @@ fn ramp_interval_from(
     // intervals (its rows, split by time only) can bulge between the nodes. (Full checks on
     // every table interval cost the tight machine's table 17 % more instructions; where the
     // nodes interpolate well the motion is the same to 1e-6 s.)
-    let check = if ig.span.is_some_and(|p| !p.interpolable) { Check::Full } else { check };
+    let check = if ig.fine_checks() { Check::Full } else { check };
     if a > alo && jlo < 0.0 {
         // Steepest braking at the start, then corrected by what the end node allows.
         let mut j = RAMP_JERK_STEPS[0] * jlo;

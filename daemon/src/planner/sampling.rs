@@ -396,15 +396,15 @@ pub fn sample_element(
         s += ds;
         push_interior(e, s, &mut d, feed, lim, out);
     }
-    attach_spans(e, &mut out[first..], lim, params);
+    attach_spans(e, &mut out[first..], feed, lim);
     *since_stop_mm += len;
 }
 
 /// The exact geometry of each interval after `nodes` (the nodes of element `e`, the last one's
-/// interval ending at the element's end) where the element is a polynomial in s.
-fn attach_spans(e: &Element, nodes: &mut [Node], lim: &Limits, params: &SamplingParams) {
+/// interval ending at the element's end) where the element is a polynomial in s; `feed` is the
+/// element's, mm/s.
+fn attach_spans(e: &Element, nodes: &mut [Node], feed: f64, lim: &Limits) {
     let Some((span, offset_mm)) = e.geometry.as_septic() else { return };
-    let feed = feed_of(e, params);
     let len = e.geometry.length_mm();
     let ends: Vec<f64> = nodes.iter().skip(1).map(|n| n.s_mm - e.s_start_mm).chain([len]).collect();
     for (node, s1) in nodes.iter_mut().zip(ends) {

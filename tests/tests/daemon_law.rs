@@ -67,12 +67,15 @@ fn law_moves_stream_within_the_limits_to_the_exact_stroke() {
     let bad = c.call("motion.law", json!({ "statement": "G1 X10" }));
     assert_eq!(bad["error"]["code"], -32602, "{bad}");
 
+    // The refused requests left the axes where they were.
+    let before = collector.snapshot();
+    assert!(before.iter().all(|s| s.pos[..2] == [0.0, 0.0]), "a refused law moved the axes");
+
     // One move over JSON-RPC.
-    let from = collector.snapshot().len();
+    let from = before.len();
     let r = c.ok("motion.law", json!({ "statement": "LAW PRESET=rr7 DURATION=0.4 X=30 Y=-10" }));
     assert_eq!(r["duration_s"], 0.4, "{r}");
     let sps = run(&mut c, &collector, from);
-    assert!(sps[..from.min(sps.len())].iter().all(|s| s.pos[0] == 0.0), "moved before the law started");
     check("motion.law", &config, &sps, [30.0, -10.0, 0.0], 0.4);
 
     // A program of LAW statements, from where the first move ended.

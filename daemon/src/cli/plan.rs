@@ -199,6 +199,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
                 "ramps": stats.work.ramps,
                 "ramp_nodes": stats.work.ramp_nodes,
                 "bisections": stats.work.bisections,
+                "term_evals": stats.work.term_evals,
                 "cap_tries": stats.work.cap_tries,
                 "end_caps": stats.work.end_caps,
                 "relaxed_tried": stats.work.relaxed_tried,

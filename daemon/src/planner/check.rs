@@ -175,9 +175,9 @@ fn check_point(iv: &Interval, g: &IntervalGeom, f: f64) -> (f64, f64, f64) {
 pub fn point_violation(g: &IntervalGeom, sigma: f64, v: f64, a: f64, j: f64, lim: &Limits) -> f64 {
     // One loop per source of the geometry, chosen once per point rather than per axis.
     if sigma == 0.0 {
-        axes_violation(v, a, j, lim, |k| (g.sign * g.start.d1[k], g.start.d2[k], g.sign * g.start.d3[k]))
+        axes_violation(v, a, j, lim, |k| node_at(g, g.start, k))
     } else if sigma == 1.0 {
-        axes_violation(v, a, j, lim, |k| (g.sign * g.end.d1[k], g.end.d2[k], g.sign * g.end.d3[k]))
+        axes_violation(v, a, j, lim, |k| node_at(g, g.end, k))
     } else if let Some(p) = g.span {
         let powers = span_powers(g, sigma);
         axes_violation(v, a, j, lim, |k| span_at(g, p, &powers, k))
@@ -187,22 +187,98 @@ pub fn point_violation(g: &IntervalGeom, sigma: f64, v: f64, a: f64, j: f64, lim
     }
 }
 
+/// A node's geometry of axis `k` in traversal order (A′ and A‴ flip backwards, see `sign`).
+#[inline(always)]
+fn node_at(g: &IntervalGeom, n: &NodeGeom, k: usize) -> (f64, f64, f64) {
+    (g.sign * n.d1[k], n.d2[k], g.sign * n.d3[k])
+}
+
 /// [`point_violation`] with the geometry (A′, A″, A‴ of axis k in traversal order) from `geom`.
 #[inline(always)]
 fn axes_violation(v: f64, a: f64, j: f64, lim: &Limits, geom: impl Fn(usize) -> (f64, f64, f64)) -> f64 {
     let mut worst = f64::NEG_INFINITY;
     let (v2, v3) = (v * v, v * v * v);
     for k in 0..lim.n_axes {
-        let (d1, d2, d3) = geom(k);
-        let vel = d1 * v; // seed 001 eq. 1a
-        let acc = d2 * v2 + d1 * a; // eq. 1b
-        let jerk = d3 * v3 + 3.0 * d2 * v * a + d1 * j; // eq. 1c
-        let r_vel = vel.abs() * lim.inv_vel[k];
-        let r_acc = acc * if acc >= 0.0 { lim.inv_acc_max[k] } else { lim.inv_acc_min[k] };
-        let r_jerk = jerk.abs() * lim.inv_jerk[k];
+        let [r_vel, r_acc, r_jerk] = axis_uses(geom(k), (v, v2, v3), a, j, lim, k);
         worst = raise_to(raise_to(raise_to(worst, r_vel), r_acc), r_jerk);
     }
     worst - 1.0
+}
+
+/// Velocity, acceleration and jerk of axis `k` as shares of their limits, for geometry
+/// (A′, A″, A‴) and state (v, a) with jerk j; `powers` is (v, v², v³).
+#[inline(always)]
+fn axis_uses(
+    (d1, d2, d3): (f64, f64, f64),
+    (v, v2, v3): (f64, f64, f64),
+    a: f64,
+    j: f64,
+    lim: &Limits,
+    k: usize,
+) -> [f64; 3] {
+    let vel = d1 * v; // seed 001 eq. 1a
+    let acc = d2 * v2 + d1 * a; // eq. 1b
+    let jerk = d3 * v3 + 3.0 * d2 * v * a + d1 * j; // eq. 1c
+    let r_acc = acc * if acc >= 0.0 { lim.inv_acc_max[k] } else { lim.inv_acc_min[k] };
+    [vel.abs() * lim.inv_vel[k], r_acc, jerk.abs() * lim.inv_jerk[k]]
+}
+
+/// One term of [`violation`]: one limit (0 velocity, 1 acceleration, 2 jerk, as in
+/// [`axis_uses`]) of one axis at one check point. A step search that knows which term bounds
+/// it follows that term alone, a fraction of the cost of all of them (`step::max_feasible`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Term {
+    point: usize,
+    axis: usize,
+    limit: usize,
+}
+
+/// [`violation`] and, where it is above `VIOLATION_TOL`, the term that reaches it.
+pub fn violation_term(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> (f64, Option<Term>) {
+    let mut worst = (f64::NEG_INFINITY, 0);
+    for (i, &f) in check_fractions(g).iter().enumerate() {
+        let (sigma, v, a) = check_point(iv, g, f);
+        let x = point_violation(g, sigma, v, a, iv.j, lim);
+        if x > worst.0 {
+            worst = (x, i);
+        }
+    }
+    if worst.0 <= VIOLATION_TOL {
+        return (worst.0, None);
+    }
+    // The term itself, at the worst point: the same arithmetic as there, so it compares equal.
+    let point = worst.1;
+    let (mut best, mut term) = (f64::NEG_INFINITY, None);
+    for axis in 0..lim.n_axes {
+        for (limit, r) in term_uses(iv, g, lim, point, axis).into_iter().enumerate() {
+            if r - 1.0 > best {
+                (best, term) = (r - 1.0, Some(Term { point, axis, limit }));
+            }
+        }
+    }
+    (worst.0, term)
+}
+
+/// The value of one term of [`violation`] for interval `iv` (bit for bit the value that term
+/// has inside [`violation`]).
+pub fn term_violation(iv: &Interval, g: &IntervalGeom, lim: &Limits, t: Term) -> f64 {
+    term_uses(iv, g, lim, t.point, t.axis)[t.limit] - 1.0
+}
+
+/// [`axis_uses`] of one axis at one check point, with the geometry [`point_violation`] takes.
+#[inline]
+fn term_uses(iv: &Interval, g: &IntervalGeom, lim: &Limits, point: usize, k: usize) -> [f64; 3] {
+    let (sigma, v, a) = check_point(iv, g, check_fractions(g)[point]);
+    let geom = if sigma == 0.0 {
+        node_at(g, g.start, k)
+    } else if sigma == 1.0 {
+        node_at(g, g.end, k)
+    } else if let Some(p) = g.span {
+        span_at(g, p, &span_powers(g, sigma), k)
+    } else {
+        hermite_at(g, &HermiteBasis::at(sigma), k)
+    };
+    axis_uses(geom, (v, v * v, v * v * v), a, iv.j, lim, k)
 }
 
 /// `worst.max(x)` for an accumulator that is never NaN (it starts at −∞ and takes only values
@@ -276,6 +352,7 @@ pub fn acc_range(g: &NodeGeom, sign: f64, v: f64, lim: &Limits) -> (f64, f64) {
 mod tests {
     use super::*;
     use crate::path::{AxisVec, MAX_AXES};
+    use crate::planner::node::SpanPoly;
 
     fn lim() -> Limits {
         let mut l = Limits {
@@ -378,6 +455,47 @@ mod tests {
             empty += usize::from(jlo > jhi || alo > ahi);
         }
         assert!(empty > 100, "only {empty} empty ranges");
+    }
+
+    /// The term [`violation_term`] names has, alone, the value of the whole violation, bit for
+    /// bit, on interpolated and exact (span) geometry in both directions: the step search
+    /// follows it and relies on its sign (`step::max_feasible`).
+    #[test]
+    fn the_worst_term_alone_has_the_violations_value() {
+        use proptest::prelude::RngCore;
+        use proptest::test_runner::{RngAlgorithm, TestRng};
+        let l = lim();
+        let mut rng = TestRng::deterministic_rng(RngAlgorithm::ChaCha);
+        let mut next = || (rng.next_u64() >> 11) as f64 * 2f64.powi(-52) - 1.0;
+        let mut infeasible = 0;
+        for i in 0..4000 {
+            let (mut g0, mut g1) = (NodeGeom::default(), NodeGeom::default());
+            let mut c = [[0.0; 8]; MAX_AXES];
+            for (k, row) in c.iter_mut().enumerate().take(2) {
+                for g in [&mut g0, &mut g1] {
+                    (g.d1[k], g.d2[k], g.d3[k]) = (next(), 5.0 * next(), 50.0 * next());
+                }
+                for x in row.iter_mut() {
+                    *x = next();
+                }
+            }
+            let span = SpanPoly::from_position(&c, 2.0, i % 3 == 0);
+            let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+            let ig = IntervalGeom { start: &g0, end: &g1, ds_mm: 0.5, sign, span: (i % 4 < 2).then_some(&span) };
+            let Some(iv) = Interval::through(60.0 * (next() + 1.0), 2000.0 * next(), 0.5, 60.0 * (next() + 1.0)) else {
+                continue;
+            };
+            let (f, term) = violation_term(&iv, &ig, &l);
+            assert_eq!(f.to_bits(), violation(&iv, &ig, &l).to_bits());
+            match term {
+                Some(t) => {
+                    infeasible += 1;
+                    assert_eq!(term_violation(&iv, &ig, &l, t).to_bits(), f.to_bits(), "{t:?}");
+                }
+                None => assert!(f <= VIOLATION_TOL),
+            }
+        }
+        assert!(infeasible > 500, "only {infeasible} infeasible intervals");
     }
 
     #[test]

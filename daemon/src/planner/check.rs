@@ -206,7 +206,7 @@ fn axes_violation(v: f64, a: f64, j: f64, lim: &Limits, geom: impl Fn(usize) -> 
 }
 
 /// Velocity, acceleration and jerk of axis `k` as shares of their limits, for geometry
-/// (A′, A″, A‴) and state (v, a) with jerk j; `powers` is (v, v², v³).
+/// (A′, A″, A‴) and state (v, a) with jerk j, the velocity given as (v, v², v³).
 #[inline(always)]
 fn axis_uses(
     (d1, d2, d3): (f64, f64, f64),

@@ -171,6 +171,10 @@ fn run_forward(
             stuck_at = Some(t);
             let states = &run.states[anchor - run.first..];
             if let Some((base, ramp)) = super::branch::back_off(&view, &free, lim, work, states, anchor, depth) {
+                if base < section_start {
+                    // Backed off before a section end it had passed: it passes it anew.
+                    section_start = anchor;
+                }
                 run.truncate(base);
                 for iv in ramp {
                     run.push(iv);

@@ -265,18 +265,15 @@ pub fn term_violation(iv: &Interval, g: &IntervalGeom, lim: &Limits, t: Term) ->
     term_uses(iv, g, lim, t.point, t.axis)[t.limit] - 1.0
 }
 
-/// [`axis_uses`] of one axis at one check point, with the geometry [`point_violation`] takes.
+/// [`axis_uses`] of one axis at one check point, with the geometry [`point_violation`] takes:
+/// the nodes' own at the ends, else [`geom_at`] (which `point_violation` inlines per source).
 #[inline]
 fn term_uses(iv: &Interval, g: &IntervalGeom, lim: &Limits, point: usize, k: usize) -> [f64; 3] {
     let (sigma, v, a) = check_point(iv, g, check_fractions(g)[point]);
-    let geom = if sigma == 0.0 {
-        node_at(g, g.start, k)
-    } else if sigma == 1.0 {
-        node_at(g, g.end, k)
-    } else if let Some(p) = g.span {
-        span_at(g, p, &span_powers(g, sigma), k)
-    } else {
-        hermite_at(g, &HermiteBasis::at(sigma), k)
+    let geom = match sigma {
+        0.0 => node_at(g, g.start, k),
+        1.0 => node_at(g, g.end, k),
+        _ => geom_at(g, sigma, k),
     };
     axis_uses(geom, (v, v * v, v * v * v), a, iv.j, lim, k)
 }

@@ -100,31 +100,31 @@ pub fn max_feasible(v0: f64, a0: f64, v_max: f64, g: &IntervalGeom, lim: &Limits
         }
         term = t;
     }
-    let (mut lo, _) = find_anchor(v0, a0, v_max, g, lim, work)?;
+    let mut lo = find_anchor(v0, a0, v_max, g, lim, work)?;
     // Bracket: lo feasible, hi infeasible (by `term` where that is known).
     let mut hi = v_max;
     let budget_end = work.evals + MAX_SEARCH_EVALS as u64;
-    while hi - lo.0.v1() > SEARCH_REL_TOL * hi.max(1e-12) && work.evals < budget_end {
+    while hi - lo.v1() > SEARCH_REL_TOL * hi.max(1e-12) && work.evals < budget_end {
         let x = match term {
             Some(t) => {
-                let (x_lo, x_hi) = term_root(v0, a0, (lo.0.v1(), hi), g, lim, t, work);
+                let (x_lo, x_hi) = term_root(v0, a0, (lo.v1(), hi), g, lim, t, work);
                 hi = hi.min(x_hi);
-                if x_lo <= lo.0.v1() {
+                if x_lo <= lo.v1() {
                     // The term's root is at the feasible end (or its search ran out): bisect.
                     term = None;
                     continue;
                 }
                 x_lo
             }
-            None => 0.5 * (lo.0.v1() + hi),
+            None => 0.5 * (lo.v1() + hi),
         };
         match evaluate_term(v0, a0, x, g, lim, work) {
-            Some((iv, f, _)) if f <= VIOLATION_TOL => lo = (iv, f),
+            Some((iv, f, _)) if f <= VIOLATION_TOL => lo = iv,
             Some((_, _, t)) => (hi, term) = (x, t),
             None => (hi, term) = (x, None),
         }
     }
-    Some(lo.0)
+    Some(lo)
 }
 
 /// Evaluations of one term per [`term_root`], at most.
@@ -196,14 +196,8 @@ fn term_root(
 }
 
 /// A feasible end velocity to start the search from: the jerk-free continuation, else probes.
-fn find_anchor(
-    v0: f64,
-    a0: f64,
-    v_max: f64,
-    g: &IntervalGeom,
-    lim: &Limits,
-    work: &mut Work,
-) -> Option<((Interval, f64), Option<f64>)> {
+fn find_anchor(v0: f64, a0: f64, v_max: f64, g: &IntervalGeom, lim: &Limits, work: &mut Work) -> Option<Interval> {
+    let mut feasible_at = |v1: f64| evaluate(v0, a0, v1, g, lim, work).filter(|(_, f)| *f <= VIOLATION_TOL);
     // Constant-jerk continuations across the jerk range the axes allow at the start node:
     // the feasible end velocities are mostly bounded by jerk, so these land inside them.
     let (jlo, jhi) = jerk_range(g.start, g.sign, v0, a0, lim);
@@ -211,25 +205,15 @@ fn find_anchor(
         for frac in ANCHOR_JERK_FRACTIONS {
             let j = if frac >= 0.0 { frac * jhi.max(0.0) } else { -frac * jlo.min(0.0) };
             let Some(cont) = Interval::with_jerk(v0, a0, g.ds_mm, j) else { continue };
-            let v1 = cont.v1();
-            if v1 <= v_max {
-                if let Some((iv, f)) = evaluate(v0, a0, v1, g, lim, work) {
-                    if f <= VIOLATION_TOL {
-                        return Some(((iv, f), None));
-                    }
+            if cont.v1() <= v_max {
+                if let Some((iv, _)) = feasible_at(cont.v1()) {
+                    return Some(iv);
                 }
             }
         }
     }
     let halvings = std::iter::successors(Some(0.25), |f| (*f > MIN_PROBE_FRACTION).then_some(f * 0.5));
-    for frac in PROBE_FRACTIONS.into_iter().chain(halvings) {
-        if let Some((iv, f)) = evaluate(v0, a0, frac * v_max, g, lim, work) {
-            if f <= VIOLATION_TOL {
-                return Some(((iv, f), None));
-            }
-        }
-    }
-    None
+    PROBE_FRACTIONS.into_iter().chain(halvings).find_map(|frac| feasible_at(frac * v_max)).map(|(iv, _)| iv)
 }
 
 #[cfg(test)]

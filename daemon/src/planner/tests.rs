@@ -259,11 +259,20 @@ const TABLE_IPOPT_S: f64 = 4.4305;
 /// How far above it the planner may be (the issue asks for 1.05; it is at 1.0236).
 const TABLE_IPOPT_RATIO_MAX: f64 = 1.03;
 
-fn plan_table(cfg: &Config) -> (Vec<Segment>, PlanStats) {
+/// The 5-axis table example, parsed for `cfg`.
+fn table_path(cfg: &Config) -> Path {
     let table =
         std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/five_axis_table.csv")).unwrap();
-    let prog = program::parse(&table, "t.csv", cfg).unwrap();
-    Planner::plan_path(cfg, &prog.path).unwrap()
+    program::parse(&table, "t.csv", cfg).unwrap().path
+}
+
+/// A machine file of the repository, `rel` from its root.
+fn repo_machine(rel: &str) -> Config {
+    Config::load(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(rel)).unwrap()
+}
+
+fn plan_table(cfg: &Config) -> (Vec<Segment>, PlanStats) {
+    Planner::plan_path(cfg, &table_path(cfg)).unwrap()
 }
 
 /// The 5-axis table against its Ipopt reference: the rotary swings at s ≈ 441.5, 475.1 and
@@ -339,9 +348,9 @@ fn a_short_look_ahead_does_not_search_caps_that_cannot_help() {
 
 /// A repair lowers v̄ at a node in the middle of a 9 000-node block (the tight machine's dense
 /// spline; at 10 000 points, which this test took until 2026-11-26, the branches now meet
-/// without a repair). Rebuilt from the envelope before, the envelope takes over the branches before that
-/// node, and the forward branch resumes at its last section end before the first change: the
-/// same envelope and the same forward branch as built anew, for less work.
+/// without a repair). Rebuilt from the envelope before, the envelope takes over the branches
+/// before that node, and the forward branch resumes at its last section end before the first
+/// change: the same envelope and the same forward branch as built anew, for less work.
 #[test]
 fn a_repair_rebuilds_only_from_the_lowered_node_on() {
     let (tight, path) = tight_spline(9_000);
@@ -441,10 +450,7 @@ fn a_slightly_different_acceleration_limit_gives_a_slightly_different_motion() {
     let lal = |c: &Config| plan_text(&text, c).0;
     check_time_falls_with_acc(lal, &tight_machine(), &[0.9974, 0.9987, 1.0, 1.0013, 1.0026], 1e-4);
     let table = |c: &Config| plan_table(c).0;
-    let xyzab =
-        Config::load(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../config/machines/xyzab.toml")))
-            .unwrap();
-    check_time_falls_with_acc(table, &xyzab, &[0.9974, 1.0], 1e-4);
+    check_time_falls_with_acc(table, &repo_machine("config/machines/xyzab.toml"), &[0.9974, 1.0], 1e-4);
 }
 
 /// Riding a flat ceiling (an axis at its velocity limit on a line), a branch cruises with
@@ -481,8 +487,7 @@ fn a_slightly_higher_jerk_limit_does_not_slow_the_motion() {
 /// The 5-axis table with its nodes spaced for intervals of at most `max_interval_ms` between
 /// the table's rows: motion time and repairs.
 fn table_at_spacing(machine: &str, max_interval_ms: f64) -> (f64, u64) {
-    let file = format!("{}/../{machine}", env!("CARGO_MANIFEST_DIR"));
-    let mut cfg = Config::load(std::path::Path::new(&file)).unwrap();
+    let mut cfg = repo_machine(machine);
     cfg.planner.max_interval_ms = max_interval_ms;
     let (segs, stats) = plan_table(&cfg);
     (profile::duration_s(&segs), stats.work.repairs)
@@ -506,26 +511,21 @@ fn denser_table_nodes_do_not_lead_the_planner_into_dead_ends() {
 
 /// A forward branch that passes a section end just below its branch (not crossing it, so not
 /// joining it) starts a capped section further on from that section end, as from one it
-/// joined at. On the tight machine's table the branch passed one
-/// 1.3e-5 below; the capped section then re-planned the 200 nodes back to the section end
-/// before, and the planning work jumped with the jerk limit: 107 k / 173 k / 117 k evaluations
-/// and ramp nodes for 0.9987, 1 and 1.0026 × the limits, for the same motion (now 107 k / 113 k
-/// / 117 k).
+/// joined at. On the tight machine's table the branch passed one 1.3e-5 below; the capped
+/// section then re-planned the 200 nodes back to the section end before, and the planning work
+/// jumped with the jerk limit: 107 k / 173 k / 117 k evaluations and ramp nodes for 0.9987, 1
+/// and 1.0026 × the limits, for the same motion (now 107 k / 113 k / 117 k).
 #[test]
 fn the_planning_work_does_not_jump_with_the_limits() {
-    let file = format!("{}/../tests/machines/xyzab_tight.toml", env!("CARGO_MANIFEST_DIR"));
     let work: Vec<u64> = [0.9987, 1.0, 1.0026]
         .iter()
         .map(|f| {
-            let mut cfg = Config::load(std::path::Path::new(&file)).unwrap();
+            let mut cfg = repo_machine("tests/machines/xyzab_tight.toml");
             for axis in &mut cfg.axes {
                 axis.max_jerk_per_s3 *= f;
             }
-            let table =
-                std::fs::read_to_string(format!("{}/../examples/five_axis_table.csv", env!("CARGO_MANIFEST_DIR")));
-            let prog = program::parse(&table.unwrap(), "t.csv", &cfg).unwrap();
             // Online, as the daemon and `interpd plan` plan it (default look-ahead).
-            let (_, _, stats) = plan_online_stats(&cfg, &prog.path, cfg.planner.lookahead_mm);
+            let (_, _, stats) = plan_online_stats(&cfg, &table_path(&cfg), cfg.planner.lookahead_mm);
             stats.work.evals + stats.work.ramp_nodes
         })
         .collect();

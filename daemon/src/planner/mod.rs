@@ -21,6 +21,7 @@ pub mod falsi;
 pub mod forward;
 pub mod interval;
 pub mod join;
+mod lanes;
 pub mod limits;
 pub mod node;
 pub mod profile;

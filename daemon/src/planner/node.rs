@@ -21,7 +21,7 @@ impl From<&AxisDerivs> for NodeGeom {
 }
 
 /// Coefficients per axis of a [`SpanPoly`]: A′ (degree 6), A″ (5), A‴ (4).
-const SPAN_POLY_COEFS: usize = 7 + 6 + 5;
+pub const SPAN_POLY_COEFS: usize = 7 + 6 + 5;
 
 /// The exact geometry of the interval from a node to the next where the path is a polynomial
 /// in s there (a path table's degree-7 rows): A′, A″, A‴ per axis as polynomials in the
@@ -30,8 +30,9 @@ const SPAN_POLY_COEFS: usize = 7 + 6 + 5;
 /// dense enough for the interpolation to be accurate: only for the motion's sake.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SpanPoly {
-    /// Per axis, lowest order first: A′ in `[0..7]`, A″ in `[7..13]`, A‴ in `[13..18]`.
-    coef: [[f64; SPAN_POLY_COEFS]; MAX_AXES],
+    /// Per coefficient the axes side by side (the limit checks take two axes at a time,
+    /// `lanes`), lowest order first: A′ in `[0..7]`, A″ in `[7..13]`, A‴ in `[13..18]`.
+    coef: [[f64; MAX_AXES]; SPAN_POLY_COEFS],
     /// The nodes' data interpolate the interval as closely as the sampling makes them for
     /// other elements (`sampling::INTERP_ERROR_TOL`).
     interpolable: bool,
@@ -42,16 +43,16 @@ impl SpanPoly {
     /// `ds_mm` long.
     pub fn from_position(c: &[[f64; 8]; MAX_AXES], ds_mm: f64, interpolable: bool) -> Self {
         let (i1, i2, i3) = (1.0 / ds_mm, 1.0 / (ds_mm * ds_mm), 1.0 / (ds_mm * ds_mm * ds_mm));
-        let mut coef = [[0.0; SPAN_POLY_COEFS]; MAX_AXES];
-        for (out, c) in coef.iter_mut().zip(c) {
+        let mut coef = [[0.0; MAX_AXES]; SPAN_POLY_COEFS];
+        for (k, c) in c.iter().enumerate() {
             for i in 0..7 {
-                out[i] = (i + 1) as f64 * c[i + 1] * i1;
+                coef[i][k] = (i + 1) as f64 * c[i + 1] * i1;
             }
             for i in 0..6 {
-                out[7 + i] = ((i + 2) * (i + 1)) as f64 * c[i + 2] * i2;
+                coef[7 + i][k] = ((i + 2) * (i + 1)) as f64 * c[i + 2] * i2;
             }
             for i in 0..5 {
-                out[13 + i] = ((i + 3) * (i + 2) * (i + 1)) as f64 * c[i + 3] * i3;
+                coef[13 + i][k] = ((i + 3) * (i + 2) * (i + 1)) as f64 * c[i + 3] * i3;
             }
         }
         Self { coef, interpolable }
@@ -66,8 +67,14 @@ impl SpanPoly {
 
     /// The coefficients of axis `k`, lowest order first: A′ in `[0..7]`, A″ in `[7..13]`, A‴ in
     /// `[13..18]` (for `interpd plan --export-nodes`).
-    pub fn coefficients(&self, k: usize) -> &[f64] {
-        &self.coef[k]
+    pub fn coefficients(&self, k: usize) -> [f64; SPAN_POLY_COEFS] {
+        self.coef.map(|axes| axes[k])
+    }
+
+    /// Coefficient `i` of every axis (see [`SpanPoly::coefficients`] for the order).
+    #[inline(always)]
+    pub fn coefficient(&self, i: usize) -> &[f64; MAX_AXES] {
+        &self.coef[i]
     }
 
     /// The powers σ⁰ … σ⁶ that [`SpanPoly::at`] takes (computed once for all axes).
@@ -83,10 +90,10 @@ impl SpanPoly {
     /// of dependent steps (the limit checks spend most of their time here).
     #[inline(always)]
     pub fn at(&self, p: &[f64; 7], k: usize) -> (f64, f64, f64) {
-        let c = &self.coef[k];
-        let d1 = (c[0] + c[1] * p[1] + c[2] * p[2]) + (c[3] * p[3] + c[4] * p[4]) + (c[5] * p[5] + c[6] * p[6]);
-        let d2 = (c[7] + c[8] * p[1] + c[9] * p[2]) + (c[10] * p[3] + c[11] * p[4] + c[12] * p[5]);
-        let d3 = (c[13] + c[14] * p[1] + c[15] * p[2]) + (c[16] * p[3] + c[17] * p[4]);
+        let c = |i: usize| self.coef[i][k];
+        let d1 = (c(0) + c(1) * p[1] + c(2) * p[2]) + (c(3) * p[3] + c(4) * p[4]) + (c(5) * p[5] + c(6) * p[6]);
+        let d2 = (c(7) + c(8) * p[1] + c(9) * p[2]) + (c(10) * p[3] + c(11) * p[4] + c(12) * p[5]);
+        let d3 = (c(13) + c(14) * p[1] + c(15) * p[2]) + (c(16) * p[3] + c(17) * p[4]);
         (d1, d2, d3)
     }
 }

@@ -124,12 +124,18 @@ pub fn interior_vbar(g: &IntervalGeom, lim: &Limits) -> (f64, f64) {
     let fractions =
         if g.fine_checks() { &FINE_CHECK_FRACTIONS[1..FINE_CHECK_FRACTIONS.len() - 1] } else { &VBAR_FRACTIONS[..] };
     for &sigma in fractions {
+        // `geom_at` for every axis, the powers or basis at σ computed once.
         let mut ng = NodeGeom::default();
-        for k in 0..lim.n_axes {
-            let (d1, d2, d3) = geom_at(g, sigma, k);
-            ng.d1[k] = d1;
-            ng.d2[k] = d2;
-            ng.d3[k] = d3;
+        let mut put = |k: usize, (d1, d2, d3): (f64, f64, f64)| (ng.d1[k], ng.d2[k], ng.d3[k]) = (d1, d2, d3);
+        match g.span {
+            Some(p) => {
+                let powers = span_powers(g, sigma);
+                (0..lim.n_axes).for_each(|k| put(k, span_at(g, p, &powers, k)));
+            }
+            None => {
+                let h = HermiteBasis::at(sigma);
+                (0..lim.n_axes).for_each(|k| put(k, hermite_at(g, &h, k)));
+            }
         }
         v = v.min(super::node::velocity_bound(&ng, lim));
         v_flat = v_flat.min(super::node::flat_velocity_bound(&ng, lim));

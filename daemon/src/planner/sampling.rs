@@ -352,7 +352,8 @@ pub fn sample_element(
         let from_start = *since_stop_mm + s;
         let to_end = if next_stops { len - s } else { f64::INFINITY };
         let mut ds = if own_samples {
-            table_step(e, s, &mut d, feed, from_start, to_end, j_path, a_path, lim, params)
+            // `d` holds the geometry at s: evaluated there above, or by `push_interior`.
+            table_step(e, &d, feed, from_start, to_end, j_path, a_path, lim, params)
         } else {
             step_at(e, s, &mut d, feed, from_start, to_end, j_path, a_path, lim, params)
         };
@@ -406,12 +407,17 @@ pub fn sample_element(
 fn attach_spans(e: &Element, nodes: &mut [Node], feed: f64, lim: &Limits) {
     let Some((span, offset_mm)) = e.geometry.as_septic() else { return };
     let len = e.geometry.length_mm();
-    let ends: Vec<f64> = nodes.iter().skip(1).map(|n| n.s_mm - e.s_start_mm).chain([len]).collect();
-    for (node, s1) in nodes.iter_mut().zip(ends) {
+    // Each interval's end: position and geometry (the next node's, or the element's end).
+    let mut d = AxisDerivs::default();
+    e.geometry.eval(len, &mut d);
+    let ends: Vec<(f64, NodeGeom)> =
+        nodes.iter().skip(1).map(|n| (n.s_mm - e.s_start_mm, n.left)).chain([(len, NodeGeom::from(&d))]).collect();
+    for (node, (s1, end)) in nodes.iter_mut().zip(ends) {
         let s0 = node.s_mm - e.s_start_mm;
         let ds_mm = s1 - s0;
         if ds_mm > 0.0 {
-            let interpolable = interpolation_error(e, s0, ds_mm, feed, lim) <= INTERP_ERROR_TOL;
+            let error = interpolation_error_between(e, s0, ds_mm, (&node.right, &end), feed, lim);
+            let interpolable = error <= INTERP_ERROR_TOL;
             let piece = span.piece(offset_mm + s0, ds_mm);
             node.span = Some(Arc::new(SpanPoly::from_position(&piece, ds_mm, interpolable)));
         }
@@ -429,12 +435,25 @@ const INTERP_ERROR_TOL: f64 = 1e-3;
 /// errors of A′, A″, A‴ times v, v², v³ (and the cross terms of eq. 1b–1c with the path
 /// acceleration and jerk the axes allow along A′), v at the velocity bound.
 fn interpolation_error(e: &Element, s: f64, h: f64, feed: f64, lim: &Limits) -> f64 {
-    let (mut d0, mut d1, mut dm) = (AxisDerivs::default(), AxisDerivs::default(), AxisDerivs::default());
+    let (mut d0, mut d1) = (AxisDerivs::default(), AxisDerivs::default());
     e.geometry.eval(s, &mut d0);
     e.geometry.eval(s + h, &mut d1);
+    interpolation_error_between(e, s, h, (&NodeGeom::from(&d0), &NodeGeom::from(&d1)), feed, lim)
+}
+
+/// [`interpolation_error`] with the geometry at both ends known (a + b: the nodes').
+fn interpolation_error_between(
+    e: &Element,
+    s: f64,
+    h: f64,
+    (a, b): (&NodeGeom, &NodeGeom),
+    feed: f64,
+    lim: &Limits,
+) -> f64 {
+    let mut dm = AxisDerivs::default();
     e.geometry.eval(s + 0.5 * h, &mut dm);
-    let (a, b, m) = (NodeGeom::from(&d0), NodeGeom::from(&d1), NodeGeom::from(&dm));
-    let v = flat_velocity_bound(&a, lim).max(flat_velocity_bound(&b, lim)).max(flat_velocity_bound(&m, lim)).min(feed);
+    let m = NodeGeom::from(&dm);
+    let v = flat_velocity_bound(a, lim).max(flat_velocity_bound(b, lim)).max(flat_velocity_bound(&m, lim)).min(feed);
     if !v.is_finite() {
         return 0.0;
     }
@@ -447,7 +466,7 @@ fn interpolation_error(e: &Element, s: f64, h: f64, feed: f64, lim: &Limits) -> 
             jerk_p = jerk_p.min(lim.jerk[k] / t);
         }
     }
-    let g = IntervalGeom { start: &a, end: &b, ds_mm: h, sign: 1.0, span: None };
+    let g = IntervalGeom { start: a, end: b, ds_mm: h, sign: 1.0, span: None };
     let mut worst = 0.0f64;
     for k in 0..lim.n_axes {
         let (i1, i2, i3) = geom_at(&g, 0.5, k);
@@ -504,14 +523,13 @@ pub fn end_node(last: &Element, final_dwell_s: f64, params: &SamplingParams) -> 
 /// between: jerk can only switch at nodes, and branches cannot meet smoothly on a coarser grid.
 const TABLE_INTERVAL_FACTOR: f64 = 3.0;
 
-/// Step inside a path-table interval: the row spacing unless the motion is slow there (near
-/// a stop) or an interval would last longer than `TABLE_INTERVAL_FACTOR` × `max_interval_ms`
-/// at the velocity bound.
+/// Step inside a path-table interval from a point with geometry `d`: the row spacing unless
+/// the motion is slow there (near a stop) or an interval would last longer than
+/// `TABLE_INTERVAL_FACTOR` × `max_interval_ms` at the velocity bound.
 #[allow(clippy::too_many_arguments)]
 fn table_step(
     e: &Element,
-    s: f64,
-    d: &mut AxisDerivs,
+    d: &AxisDerivs,
     feed: f64,
     from_start_mm: f64,
     to_end_mm: f64,
@@ -520,8 +538,7 @@ fn table_step(
     lim: &Limits,
     params: &SamplingParams,
 ) -> f64 {
-    e.geometry.eval(s, d);
-    let v = flat_velocity_bound(&NodeGeom::from(&*d), lim)
+    let v = flat_velocity_bound(&NodeGeom::from(d), lim)
         .min(feed)
         .min(speed_from_rest(from_start_mm.max(0.0), j_path, a_path))
         .min(speed_from_rest(to_end_mm.max(0.0), j_path, a_path));

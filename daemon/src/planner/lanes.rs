@@ -2,9 +2,10 @@
 //! operations in the same order as the scalar `check::axis_uses`, lane by lane, so every lane
 //! rounds exactly as the scalar code would and the result is the same to the bit (a test
 //! compares them; Rust never fuses a multiply and an add). Written as plain arrays, which the
-//! compiler turns into vector instructions: SSE2 pairs on every x86-64 CPU, AVX quads where the
-//! CPU has AVX (detected at run time, `check::point_violation`). Checking the limits at the points inside
-//! the intervals is most of the planner's work (40 % of the 5-axis table's instructions).
+//! compiler turns into vector instructions: SSE2 pairs on every x86-64 CPU, AVX quads where
+//! the CPU has AVX (detected at run time, `check::point_violation`). Checking the limits at
+//! the points inside the intervals was 40 % of the 5-axis table's instructions, one axis at a
+//! time.
 //!
 //! The axes go in chunks of four that may overlap (five axes: 0–3 and 1–4), which the maximum
 //! does not mind; with fewer than four axes the lanes past the last axis are left out.
@@ -87,7 +88,7 @@ fn chunk_uses((d1, d2, d3): Geom4, st: &State, lim: &Limits, k: usize) -> Lanes 
     let (up, down) = (load(&lim.inv_acc_max, k), load(&lim.inv_acc_min, k));
     let pick = |i: usize| if acc[i] >= 0.0 { up[i] } else { down[i] };
     let r_vel = mul(abs(vel), load(&lim.inv_vel, k));
-    let r_acc = mul(acc, [pick(0), pick(1), pick(2), pick(3)]);
+    let r_acc = mul(acc, each(pick));
     let r_jerk = mul(abs(jerk), load(&lim.inv_jerk, k));
     raise(raise(raise(splat(f64::NEG_INFINITY), r_vel), r_acc), r_jerk)
 }

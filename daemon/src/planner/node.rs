@@ -30,7 +30,7 @@ pub const SPAN_POLY_COEFS: usize = 7 + 6 + 5;
 /// dense enough for the interpolation to be accurate: only for the motion's sake.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SpanPoly {
-    /// Per coefficient the axes side by side (the limit checks take two axes at a time,
+    /// Per coefficient the axes side by side (the limit checks take four axes at a time,
     /// `lanes`), lowest order first: A′ in `[0..7]`, A″ in `[7..13]`, A‴ in `[13..18]`.
     coef: [[f64; MAX_AXES]; SPAN_POLY_COEFS],
     /// The nodes' data interpolate the interval as closely as the sampling makes them for

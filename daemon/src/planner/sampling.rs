@@ -441,7 +441,7 @@ fn interpolation_error(e: &Element, s: f64, h: f64, feed: f64, lim: &Limits) -> 
     interpolation_error_between(e, s, h, (&NodeGeom::from(&d0), &NodeGeom::from(&d1)), feed, lim)
 }
 
-/// [`interpolation_error`] with the geometry at both ends known (a + b: the nodes').
+/// [`interpolation_error`] with the geometry at both ends (`a`, `b`) known: the nodes' own.
 fn interpolation_error_between(
     e: &Element,
     s: f64,

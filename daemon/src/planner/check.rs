@@ -60,6 +60,24 @@ pub fn geom_at(g: &IntervalGeom, sigma: f64, k: usize) -> (f64, f64, f64) {
     }
 }
 
+/// [`geom_at`] for the first `n_axes` axes, as a node's geometry (the powers or the basis at σ
+/// computed once for all of them).
+pub fn node_geom_at(g: &IntervalGeom, sigma: f64, n_axes: usize) -> NodeGeom {
+    let mut ng = NodeGeom::default();
+    let mut put = |k: usize, (d1, d2, d3): (f64, f64, f64)| (ng.d1[k], ng.d2[k], ng.d3[k]) = (d1, d2, d3);
+    match g.span {
+        Some(p) => {
+            let powers = span_powers(g, sigma);
+            (0..n_axes).for_each(|k| put(k, span_at(g, p, &powers, k)));
+        }
+        None => {
+            let h = HermiteBasis::at(sigma);
+            (0..n_axes).for_each(|k| put(k, hermite_at(g, &h, k)));
+        }
+    }
+    ng
+}
+
 /// The cubic Hermite basis at fraction σ, shared by the axes of one point.
 #[derive(Clone, Copy)]
 struct HermiteBasis {
@@ -124,19 +142,7 @@ pub fn interior_vbar(g: &IntervalGeom, lim: &Limits) -> (f64, f64) {
     let fractions =
         if g.fine_checks() { &FINE_CHECK_FRACTIONS[1..FINE_CHECK_FRACTIONS.len() - 1] } else { &VBAR_FRACTIONS[..] };
     for &sigma in fractions {
-        // `geom_at` for every axis, the powers or basis at σ computed once.
-        let mut ng = NodeGeom::default();
-        let mut put = |k: usize, (d1, d2, d3): (f64, f64, f64)| (ng.d1[k], ng.d2[k], ng.d3[k]) = (d1, d2, d3);
-        match g.span {
-            Some(p) => {
-                let powers = span_powers(g, sigma);
-                (0..lim.n_axes).for_each(|k| put(k, span_at(g, p, &powers, k)));
-            }
-            None => {
-                let h = HermiteBasis::at(sigma);
-                (0..lim.n_axes).for_each(|k| put(k, hermite_at(g, &h, k)));
-            }
-        }
+        let ng = node_geom_at(g, sigma, lim.n_axes);
         v = v.min(super::node::velocity_bound(&ng, lim));
         v_flat = v_flat.min(super::node::flat_velocity_bound(&ng, lim));
     }

@@ -7,7 +7,7 @@
 //! the distance from the last stop, so planning a program element by element gives the same
 //! nodes as planning it whole.
 
-use super::check::{IntervalGeom, geom_at};
+use super::check::{IntervalGeom, node_geom_at};
 use super::limits::Limits;
 use super::node::{Node, NodeGeom, SpanPoly, curvature_jump_cap, flat_velocity_bound, velocity_bound};
 use crate::path::{AxisDerivs, Element, Feed, JointKind};
@@ -467,10 +467,10 @@ fn interpolation_error_between(
         }
     }
     let g = IntervalGeom { start: a, end: b, ds_mm: h, sign: 1.0, span: None };
+    let i = node_geom_at(&g, 0.5, lim.n_axes);
     let mut worst = 0.0f64;
     for k in 0..lim.n_axes {
-        let (i1, i2, i3) = geom_at(&g, 0.5, k);
-        let (e1, e2, e3) = ((i1 - m.d1[k]).abs(), (i2 - m.d2[k]).abs(), (i3 - m.d3[k]).abs());
+        let (e1, e2, e3) = ((i.d1[k] - m.d1[k]).abs(), (i.d2[k] - m.d2[k]).abs(), (i.d3[k] - m.d3[k]).abs());
         let inv_acc = lim.inv_acc_max[k].max(-lim.inv_acc_min[k]);
         let r_vel = e1 * v * lim.inv_vel[k];
         let r_acc = (e2 * v * v + e1 * acc_p.min(f64::MAX)) * inv_acc;

@@ -6,14 +6,14 @@
 //! the braking ramp's own next state (viable whenever the current state is) finds the largest
 //! viable one. No step ever goes back, so the work per node is bounded.
 
-use super::check::{IntervalGeom, VIOLATION_TOL, violates};
+use super::check::{IntervalGeom, violates};
 use super::envelope::{CurveStart, END_CURVE, Envelope};
 use super::falsi::Illinois;
 use super::interval::Interval;
 use super::limits::Limits;
 use super::node::Node;
 use super::ramp::{CEILING_REL_TOL, Check, FlattenUnder, RampTrace, Wanted, ramp_interval, ramp_margin};
-use super::step::{Work, evaluate, max_feasible};
+use super::step::{Work, feasible, max_feasible};
 use super::view::View;
 
 /// Bisection steps when the greedy choice is not viable.
@@ -141,13 +141,11 @@ pub fn greedy_step(
         let fracs = [0.999, 0.99, 0.95, 0.9, 0.7, 0.5].into_iter();
         let halvings = std::iter::successors(Some(0.25), |f| (*f > 1e-15).then_some(f * 0.5));
         for frac in fracs.chain(halvings) {
-            if let Some((iv, f)) = evaluate(v, a, frac * cand.v1(), &g, lim, work) {
-                if f <= VIOLATION_TOL {
-                    let m = margin(&iv, work, &mut ramps.best, Wanted::Margin);
-                    if ok(m) {
-                        lo = Some((iv, m.unwrap_or(0.0)));
-                        break;
-                    }
+            if let Some(iv) = feasible(v, a, frac * cand.v1(), &g, lim, work) {
+                let m = margin(&iv, work, &mut ramps.best, Wanted::Margin);
+                if ok(m) {
+                    lo = Some((iv, m.unwrap_or(0.0)));
+                    break;
                 }
             }
         }
@@ -168,10 +166,10 @@ pub fn greedy_step(
         // −aim.
         let aimed = |m: f64| m + aim;
         let x = falsi.next((x_lo, aimed(m_lo)), (x_hi, m_hi.map(aimed)), VIABLE_SECANT_MARGIN);
-        let trial = evaluate(v, a, x, &g, lim, work).filter(|(_, f)| *f <= VIOLATION_TOL);
-        let m = trial.as_ref().and_then(|(iv, _)| margin(iv, work, &mut ramps.trial, Wanted::Margin));
+        let trial = feasible(v, a, x, &g, lim, work);
+        let m = trial.as_ref().and_then(|iv| margin(iv, work, &mut ramps.trial, Wanted::Margin));
         match (trial, m) {
-            (Some((iv, _)), Some(m)) if m <= CEILING_REL_TOL => {
+            (Some(iv), Some(m)) if m <= CEILING_REL_TOL => {
                 best = iv;
                 std::mem::swap(&mut ramps.best, &mut ramps.trial);
                 on_current = false;

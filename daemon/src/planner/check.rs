@@ -153,8 +153,9 @@ pub fn interior_vbar(g: &IntervalGeom, lim: &Limits) -> (f64, f64) {
 /// ≤ 0 means the interval keeps every limit. (value / limit − 1, per limit.)
 pub fn violation(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> f64 {
     let mut worst = f64::NEG_INFINITY;
+    let inv_ds = 1.0 / g.ds_mm;
     for &f in check_fractions(g) {
-        let (sigma, v, a) = check_point(iv, g, f);
+        let (sigma, v, a) = check_point(iv, f, inv_ds);
         worst = raise_to(worst, point_violation(g, sigma, v, a, iv.j, lim));
     }
     worst
@@ -162,22 +163,25 @@ pub fn violation(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> f64 {
 
 /// Whether the interval breaks a limit by more than `VIOLATION_TOL` (stops at the first).
 pub fn violates(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> bool {
+    let inv_ds = 1.0 / g.ds_mm;
     check_fractions(g).iter().any(|&f| {
-        let (sigma, v, a) = check_point(iv, g, f);
+        let (sigma, v, a) = check_point(iv, f, inv_ds);
         point_violation(g, sigma, v, a, iv.j, lim) > VIOLATION_TOL
     })
 }
 
-/// Geometry fraction σ, velocity and acceleration at time fraction `f` of the interval.
+/// Geometry fraction σ, velocity and acceleration at time fraction `f` of the interval, whose
+/// length's reciprocal is `inv_ds` (one division per interval rather than one per point, on
+/// whose critical path its latency sat).
 #[inline]
-fn check_point(iv: &Interval, g: &IntervalGeom, f: f64) -> (f64, f64, f64) {
+fn check_point(iv: &Interval, f: f64, inv_ds: f64) -> (f64, f64, f64) {
     let (s, v, a) = iv.state_at(f * iv.t_s);
     let sigma = if f == 0.0 {
         0.0
     } else if f == 1.0 {
         1.0
     } else {
-        (s / g.ds_mm).clamp(0.0, 1.0)
+        (s * inv_ds).clamp(0.0, 1.0)
     };
     (sigma, v, a)
 }
@@ -300,8 +304,9 @@ pub struct Term {
 /// [`violation`] and, where it is above `VIOLATION_TOL`, the term that reaches it.
 pub fn violation_term(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> (f64, Option<Term>) {
     let mut worst = (f64::NEG_INFINITY, 0);
+    let inv_ds = 1.0 / g.ds_mm;
     for (i, &f) in check_fractions(g).iter().enumerate() {
-        let (sigma, v, a) = check_point(iv, g, f);
+        let (sigma, v, a) = check_point(iv, f, inv_ds);
         let x = point_violation(g, sigma, v, a, iv.j, lim);
         if x > worst.0 {
             worst = (x, i);
@@ -333,7 +338,7 @@ pub fn term_violation(iv: &Interval, g: &IntervalGeom, lim: &Limits, t: Term) ->
 /// the nodes' own at the ends, else [`geom_at`] (which `point_violation` inlines per source).
 #[inline]
 fn term_uses(iv: &Interval, g: &IntervalGeom, lim: &Limits, point: usize, k: usize) -> [f64; 3] {
-    let (sigma, v, a) = check_point(iv, g, check_fractions(g)[point]);
+    let (sigma, v, a) = check_point(iv, check_fractions(g)[point], 1.0 / g.ds_mm);
     let geom = match sigma {
         0.0 => node_at(g, g.start, k),
         1.0 => node_at(g, g.end, k),

@@ -1,6 +1,10 @@
 //! One interval of the path-velocity profile: constant path jerk j between two nodes
 //! (seed 001 eq. 2), parameterised by the velocity at its end (eq. 3).
 
+/// 1/6, the factor of seed 001 eq. 2's jerk term: multiplied by rather than divided by, since
+/// a division's latency sits on the critical path of every time solve and check point (with
+/// the check points' division by Δs: 5-axis table 6.1 → 5.7 ms, circle 3.9 → 3.6 ms).
+const SIXTH: f64 = 1.0 / 6.0;
 /// Relative tolerance when solving s(T) = Δs for T.
 const TIME_SOLVE_REL_TOL: f64 = 1e-13;
 /// Newton steps before the solve for T gives up (it converges in a handful).
@@ -65,9 +69,9 @@ impl Interval {
         // α = a₀/v₀, β = j/v₀, so the first Halley step usually lands within the tolerance.
         let inv_v0 = 1.0 / v0;
         let (x, alpha, beta) = (ds * inv_v0, a0 * inv_v0, j * inv_v0);
-        let mut t = x * (1.0 - 0.5 * alpha * x + (0.5 * alpha * alpha - beta / 6.0) * x * x);
+        let mut t = x * (1.0 - 0.5 * alpha * x + (0.5 * alpha * alpha - beta * SIXTH) * x * x);
         for _ in 0..TIME_HALLEY_MAX_ITER {
-            let f = v0 * t + 0.5 * a0 * t * t + j * t * t * t / 6.0 - ds; // seed 001 eq. 2, s(τ) − Δs
+            let f = v0 * t + 0.5 * a0 * t * t + j * t * t * t * SIXTH - ds; // seed 001 eq. 2, s(τ) − Δs
             let v = v0 + a0 * t + 0.5 * j * t * t;
             if f.abs() <= TIME_SOLVE_REL_TOL * ds {
                 let iv = Interval { v0, a0, j, t_s: t, ds_mm: ds };
@@ -168,7 +172,7 @@ impl Interval {
     /// (s − s₀, v, a) at local time τ (seed 001 eq. 2).
     pub fn state_at(&self, tau: f64) -> (f64, f64, f64) {
         let (v0, a0, j) = (self.v0, self.a0, self.j);
-        let s = v0 * tau + 0.5 * a0 * tau * tau + j * tau * tau * tau / 6.0;
+        let s = v0 * tau + 0.5 * a0 * tau * tau + j * tau * tau * tau * SIXTH;
         let v = v0 + a0 * tau + 0.5 * j * tau * tau;
         let a = a0 + j * tau;
         (s, v, a)

@@ -266,27 +266,30 @@ fn node_at(g: &IntervalGeom, n: &NodeGeom, k: usize) -> (f64, f64, f64) {
 fn axes_violation(v: f64, a: f64, j: f64, lim: &Limits, geom: impl Fn(usize) -> (f64, f64, f64)) -> f64 {
     let mut worst = f64::NEG_INFINITY;
     let (v2, v3) = (v * v, v * v * v);
+    let va3 = 3.0 * v * a;
     for k in 0..lim.n_axes {
-        let [r_vel, r_acc, r_jerk] = axis_uses(geom(k), (v, v2, v3), a, j, lim, k);
+        let [r_vel, r_acc, r_jerk] = axis_uses(geom(k), (v, v2, v3), (a, va3), j, lim, k);
         worst = raise_to(raise_to(raise_to(worst, r_vel), r_acc), r_jerk);
     }
     worst - 1.0
 }
 
 /// Velocity, acceleration and jerk of axis `k` as shares of their limits, for geometry
-/// (A′, A″, A‴) and state (v, a) with jerk j, the velocity given as (v, v², v³).
+/// (A′, A″, A‴) and state (v, a) with jerk j, the velocity given as (v, v², v³) and the
+/// acceleration as (a, 3va): the product every axis shares is formed once per point, not on
+/// each axis's chain from its geometry to its uses.
 #[inline(always)]
 fn axis_uses(
     (d1, d2, d3): (f64, f64, f64),
     (v, v2, v3): (f64, f64, f64),
-    a: f64,
+    (a, va3): (f64, f64),
     j: f64,
     lim: &Limits,
     k: usize,
 ) -> [f64; 3] {
     let vel = d1 * v; // seed 001 eq. 1a
     let acc = d2 * v2 + d1 * a; // eq. 1b
-    let jerk = d3 * v3 + 3.0 * d2 * v * a + d1 * j; // eq. 1c
+    let jerk = d3 * v3 + d2 * va3 + d1 * j; // eq. 1c
     let r_acc = acc * if acc >= 0.0 { lim.inv_acc_max[k] } else { lim.inv_acc_min[k] };
     [vel.abs() * lim.inv_vel[k], r_acc, jerk.abs() * lim.inv_jerk[k]]
 }
@@ -344,7 +347,7 @@ fn term_uses(iv: &Interval, g: &IntervalGeom, lim: &Limits, point: usize, k: usi
         1.0 => node_at(g, g.end, k),
         _ => geom_at(g, sigma, k),
     };
-    axis_uses(geom, (v, v * v, v * v * v), a, iv.j, lim, k)
+    axis_uses(geom, (v, v * v, v * v * v), (a, 3.0 * v * a), iv.j, lim, k)
 }
 
 /// `worst.max(x)` for an accumulator that is never NaN (it starts at −∞ and takes only values
@@ -479,7 +482,7 @@ mod tests {
                 let ca = g.d2[k] * v * v;
                 // As `point_violation` associates them.
                 let (v2, v3, d3) = (v * v, v * v * v, sign * g.d3[k]);
-                let (vel, acc, jerk) = (d1 * v, g.d2[k] * v2 + d1 * a, d3 * v3 + 3.0 * g.d2[k] * v * a + d1 * j);
+                let (vel, acc, jerk) = (d1 * v, g.d2[k] * v2 + d1 * a, d3 * v3 + g.d2[k] * (3.0 * v * a) + d1 * j);
                 let r_acc = acc * if acc >= 0.0 { l.inv_acc_max[k] } else { l.inv_acc_min[k] };
                 worst = worst.max((vel.abs() * l.inv_vel[k]).max(r_acc).max(jerk.abs() * l.inv_jerk[k]));
                 if d1.abs() <= f64::MIN_POSITIVE {

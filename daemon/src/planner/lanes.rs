@@ -68,12 +68,13 @@ fn raise(m: Lanes, x: Lanes) -> Lanes {
 /// A′, A″, A‴ of four axes in traversal order.
 type Geom4 = (Lanes, Lanes, Lanes);
 
-/// The state at a check point, in every lane: v, v², v³, a, j.
+/// The state at a check point, in every lane: v, v², v³, a, 3va, j.
 struct State {
     v: Lanes,
     v2: Lanes,
     v3: Lanes,
     a: Lanes,
+    va3: Lanes,
     j: Lanes,
 }
 
@@ -83,7 +84,7 @@ struct State {
 fn chunk_uses((d1, d2, d3): Geom4, st: &State, lim: &Limits, k: usize) -> Lanes {
     let vel = mul(d1, st.v); // seed 001 eq. 1a
     let acc = add(mul(d2, st.v2), mul(d1, st.a)); // eq. 1b
-    let jerk = add(add(mul(d3, st.v3), mul(mul(mul(splat(3.0), d2), st.v), st.a)), mul(d1, st.j)); // eq. 1c
+    let jerk = add(add(mul(d3, st.v3), mul(d2, st.va3)), mul(d1, st.j)); // eq. 1c
     // acc ≥ 0 (false for NaN, as in the scalar code) takes the upper limit's reciprocal.
     let (up, down) = (load(&lim.inv_acc_max, k), load(&lim.inv_acc_min, k));
     let pick = |i: usize| if acc[i] >= 0.0 { up[i] } else { down[i] };
@@ -103,7 +104,14 @@ trait Source {
 /// `check::axes_violation` in lanes.
 #[inline(always)]
 fn axes_violation(v: f64, a: f64, j: f64, lim: &Limits, geom: &impl Source) -> f64 {
-    let st = State { v: splat(v), v2: splat(v * v), v3: splat(v * v * v), a: splat(a), j: splat(j) };
+    let st = State {
+        v: splat(v),
+        v2: splat(v * v),
+        v3: splat(v * v * v),
+        a: splat(a),
+        va3: splat(3.0 * v * a),
+        j: splat(j),
+    };
     let n = lim.n_axes;
     let worst = if n <= LANES {
         // One chunk; the lanes past the last axis hold no axis.

@@ -33,8 +33,10 @@ const VIABLE_TOUCH_MARGIN: f64 = 3e-4;
 /// and a trial that is not viable costs the most (its ramp runs on above the ceiling until it
 /// flattens: 6.5 nodes on the 5-axis table against 3). Aimed here, about 300 of its searches'
 /// ramps are not viable instead of 612, and its ramps simulate 9.6 k nodes instead of 11.5 k,
-/// for the same motion to 1e-4 s on the three 5-axis machines. (Aiming deeper, or bending the first secant for the convexity,
-/// made more trials land below the band, or above the ceiling: no fewer ramp nodes.)
+/// for the same motion to 1e-4 s on the three 5-axis machines. (Aiming deeper, at −1.5e-4 or
+/// −2e-4, saved at most 1 % more and slowed the motion a little; bending the first secant for
+/// the convexity, or a quadratic through the last two lower ends, put more trials above the
+/// ceiling.)
 ///
 /// Not where the greedy choice is the step's cap itself (the next node's ceiling, the feed):
 /// the branch is reaching a ceiling it may then ride flat, and the flat landing that keeps it

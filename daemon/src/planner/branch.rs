@@ -158,15 +158,14 @@ pub fn greedy_step(
     };
     let (mut x_lo, mut x_hi, mut m_hi) = (best.v1(), cand.v1(), m_cand);
     let aim = if x_hi >= v_max * (1.0 - CEILING_REL_TOL) { 0.0 } else { VIABLE_SEARCH_AIM };
-    // The margins stay true: `m_lo` is also the touch test.
+    // The secant runs through the margins shifted by the aim: its root is where the margin is
+    // −aim. The margins themselves stay true: `m_lo` is also the touch test.
+    let aimed = |m: f64| m + aim;
     let mut falsi = Illinois::default();
     for _ in 0..VIABLE_SEARCH_ITERS {
         if x_hi - x_lo <= VIABLE_SEARCH_REL_TOL * x_hi.max(1e-12) || m_lo >= -VIABLE_TOUCH_MARGIN {
             break;
         }
-        // The secant through the margins shifted by the aim: its root is where the margin is
-        // −aim.
-        let aimed = |m: f64| m + aim;
         let x = falsi.next((x_lo, aimed(m_lo)), (x_hi, m_hi.map(aimed)), VIABLE_SECANT_MARGIN);
         let trial = feasible(v, a, x, &g, lim, work);
         let m = trial.as_ref().and_then(|iv| margin(iv, work, &mut ramps.trial, Wanted::Margin));

@@ -152,21 +152,21 @@ pub fn interior_vbar(g: &IntervalGeom, lim: &Limits) -> (f64, f64) {
 /// Largest normalised limit use minus one over all axes, limits and check points:
 /// ≤ 0 means the interval keeps every limit. (value / limit − 1, per limit.)
 pub fn violation(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> f64 {
-    let mut worst = f64::NEG_INFINITY;
-    let inv_ds = 1.0 / g.ds_mm;
-    for &f in check_fractions(g) {
-        let (sigma, v, a) = check_point(iv, f, inv_ds);
-        worst = raise_to(worst, point_violation(g, sigma, v, a, iv.j, lim));
-    }
-    worst
+    point_violations(iv, g, lim).fold(f64::NEG_INFINITY, raise_to)
 }
 
 /// Whether the interval breaks a limit by more than `VIOLATION_TOL` (stops at the first).
 pub fn violates(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> bool {
+    point_violations(iv, g, lim).any(|x| x > VIOLATION_TOL)
+}
+
+/// [`point_violation`] at each of the interval's check points, in order.
+#[inline]
+fn point_violations<'a>(iv: &'a Interval, g: &'a IntervalGeom, lim: &'a Limits) -> impl Iterator<Item = f64> + 'a {
     let inv_ds = 1.0 / g.ds_mm;
-    check_fractions(g).iter().any(|&f| {
+    check_fractions(g).iter().map(move |&f| {
         let (sigma, v, a) = check_point(iv, f, inv_ds);
-        point_violation(g, sigma, v, a, iv.j, lim) > VIOLATION_TOL
+        point_violation(g, sigma, v, a, iv.j, lim)
     })
 }
 
@@ -307,10 +307,7 @@ pub struct Term {
 /// [`violation`] and, where it is above `VIOLATION_TOL`, the term that reaches it.
 pub fn violation_term(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> (f64, Option<Term>) {
     let mut worst = (f64::NEG_INFINITY, 0);
-    let inv_ds = 1.0 / g.ds_mm;
-    for (i, &f) in check_fractions(g).iter().enumerate() {
-        let (sigma, v, a) = check_point(iv, f, inv_ds);
-        let x = point_violation(g, sigma, v, a, iv.j, lim);
+    for (i, x) in point_violations(iv, g, lim).enumerate() {
         if x > worst.0 {
             worst = (x, i);
         }

@@ -556,7 +556,7 @@ mod tests {
                     *x = next();
                 }
             }
-            let span = SpanPoly::from_position(&c, 0.5, false);
+            let span = SpanPoly::from_position(&c, MAX_AXES, 0.5, false);
             let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
             let ig = IntervalGeom { start: &g0, end: &g1, ds_mm: 0.5, sign, span: (i % 3 == 0).then_some(&span) };
             let sigma = match i % 7 {
@@ -608,7 +608,7 @@ mod tests {
                     *x = next();
                 }
             }
-            let span = SpanPoly::from_position(&c, 2.0, i % 3 == 0);
+            let span = SpanPoly::from_position(&c, MAX_AXES, 2.0, i % 3 == 0);
             let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
             let ig = IntervalGeom { start: &g0, end: &g1, ds_mm: 0.5, sign, span: (i % 4 < 2).then_some(&span) };
             let Some(iv) = Interval::through(60.0 * (next() + 1.0), 2000.0 * next(), 0.5, 60.0 * (next() + 1.0)) else {

@@ -41,10 +41,11 @@ pub struct SpanPoly {
 impl SpanPoly {
     /// From the position polynomial of every axis, A(s₀ + σ·ds) = Σ cᵢ σⁱ, over an interval
     /// `ds_mm` long.
-    pub fn from_position(c: &[[f64; 8]; MAX_AXES], ds_mm: f64, interpolable: bool) -> Self {
+    /// Only the first `axes` axes are read: the others are zero.
+    pub fn from_position(c: &[[f64; 8]; MAX_AXES], axes: usize, ds_mm: f64, interpolable: bool) -> Self {
         let (i1, i2, i3) = (1.0 / ds_mm, 1.0 / (ds_mm * ds_mm), 1.0 / (ds_mm * ds_mm * ds_mm));
         let mut coef = [[0.0; MAX_AXES]; SPAN_POLY_COEFS];
-        for (k, c) in c.iter().enumerate() {
+        for (k, c) in c.iter().enumerate().take(axes) {
             for i in 0..7 {
                 coef[i][k] = (i + 1) as f64 * c[i + 1] * i1;
             }

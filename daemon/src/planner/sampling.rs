@@ -419,7 +419,7 @@ fn attach_spans(e: &Element, nodes: &mut [Node], feed: f64, lim: &Limits) {
             let error = interpolation_error_between(e, s0, ds_mm, (&node.right, &end), feed, lim);
             let interpolable = error <= INTERP_ERROR_TOL;
             let piece = span.piece(offset_mm + s0, ds_mm);
-            node.span = Some(Arc::new(SpanPoly::from_position(&piece, ds_mm, interpolable)));
+            node.span = Some(Arc::new(SpanPoly::from_position(&piece, span.axes(), ds_mm, interpolable)));
         }
     }
 }

@@ -7,8 +7,11 @@ use super::limits::Limits;
 use super::step::Work;
 use super::view::View;
 
-/// Samples when bracketing the join equation.
-const JOIN_SAMPLES: usize = 24;
+/// Samples when bracketing the join equation. Most joins tried fail without a bracket (a
+/// braking ramp tries one at every node near the branch), and a failed scan costs all of them:
+/// with 8 instead of 24, every example and machine plans the same motion (to 1e-15 s) with
+/// 18 % fewer evaluations (5-axis table 18.2 k → 12.9 k; line–arc–line 5.3 k → 3.0 k).
+const JOIN_SAMPLES: usize = 8;
 /// Bisection steps on the join equation.
 const JOIN_ITERS: usize = 60;
 /// The joined acceleration may miss the target by this, relative to (|a| + 1).

@@ -138,13 +138,28 @@ pub const VBAR_FRACTIONS: [f64; 3] = [0.25, 0.5, 0.75];
 /// planner lowers the acceleration-only bound only by a minimum below both nodes'
 /// (`Planner::refine_vbar`), and never at a stop.
 pub fn interior_vbar(g: &IntervalGeom, lim: &Limits) -> (f64, f64) {
+    if let Some(bounds) = g.span.and_then(SpanPoly::interior_vbar) {
+        return bounds;
+    }
+    interior_vbar_around(g, lim, None)
+}
+
+/// [`interior_vbar`] computed, with the geometry at the middle (σ = ½, one of every set of
+/// fractions) and its `flat_velocity_bound` where they are known already.
+pub fn interior_vbar_around(g: &IntervalGeom, lim: &Limits, middle: Option<(&NodeGeom, f64)>) -> (f64, f64) {
     let (mut v, mut v_flat) = (f64::INFINITY, f64::INFINITY);
     let fractions =
         if g.fine_checks() { &FINE_CHECK_FRACTIONS[1..FINE_CHECK_FRACTIONS.len() - 1] } else { &VBAR_FRACTIONS[..] };
     for &sigma in fractions {
-        let ng = node_geom_at(g, sigma, lim.n_axes);
+        let (ng, flat) = match middle {
+            Some((m, flat)) if sigma == 0.5 => (*m, flat),
+            _ => {
+                let ng = node_geom_at(g, sigma, lim.n_axes);
+                (ng, super::node::flat_velocity_bound(&ng, lim))
+            }
+        };
         v = v.min(super::node::velocity_bound(&ng, lim));
-        v_flat = v_flat.min(super::node::flat_velocity_bound(&ng, lim));
+        v_flat = v_flat.min(flat);
     }
     (v, v_flat)
 }

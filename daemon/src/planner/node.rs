@@ -36,6 +36,9 @@ pub struct SpanPoly {
     /// The nodes' data interpolate the interval as closely as the sampling makes them for
     /// other elements (`sampling::INTERP_ERROR_TOL`).
     interpolable: bool,
+    /// `check::interior_vbar` of the interval, where the sampling computed it along with the
+    /// span (it shares the middle's geometry with the interpolation test).
+    interior_vbar: Option<(f64, f64)>,
 }
 
 impl SpanPoly {
@@ -56,7 +59,22 @@ impl SpanPoly {
                 coef[13 + i][k] = ((i + 3) * (i + 2) * (i + 1)) as f64 * c[i + 3] * i3;
             }
         }
-        Self { coef, interpolable }
+        Self { coef, interpolable, interior_vbar: None }
+    }
+
+    /// Marks whether the nodes interpolate the interval well (see [`SpanPoly::fine_checks`]).
+    pub fn set_interpolable(&mut self, interpolable: bool) {
+        self.interpolable = interpolable;
+    }
+
+    /// Records `check::interior_vbar` of the interval.
+    pub fn set_interior_vbar(&mut self, bounds: (f64, f64)) {
+        self.interior_vbar = Some(bounds);
+    }
+
+    /// `check::interior_vbar` of the interval, where recorded.
+    pub fn interior_vbar(&self) -> Option<(f64, f64)> {
+        self.interior_vbar
     }
 
     /// The interval can bulge between the nodes (they do not interpolate it well): its limit

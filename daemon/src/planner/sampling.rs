@@ -7,7 +7,7 @@
 //! the distance from the last stop, so planning a program element by element gives the same
 //! nodes as planning it whole.
 
-use super::check::{IntervalGeom, node_geom_at};
+use super::check::{IntervalGeom, interior_vbar_around, node_geom_at};
 use super::limits::Limits;
 use super::node::{Node, NodeGeom, SpanPoly, curvature_jump_cap, flat_velocity_bound, velocity_bound};
 use crate::path::{AxisDerivs, Element, Feed, JointKind};
@@ -416,12 +416,24 @@ fn attach_spans(e: &Element, nodes: &mut [Node], feed: f64, lim: &Limits) {
         let s0 = node.s_mm - e.s_start_mm;
         let ds_mm = s1 - s0;
         if ds_mm > 0.0 {
-            let error = interpolation_error_between(e, s0, ds_mm, (&node.right, &end), feed, lim);
-            let interpolable = error <= INTERP_ERROR_TOL;
             let piece = span.piece(offset_mm + s0, ds_mm);
-            node.span = Some(Arc::new(SpanPoly::from_position(&piece, span.axes(), ds_mm, interpolable)));
+            let mut poly = SpanPoly::from_position(&piece, span.axes(), ds_mm, false);
+            // The middle of the piece, for the interpolation test and the interior bounds.
+            let start = &node.right;
+            let m = node_geom_at(&on_piece(start, &end, ds_mm, &poly), 0.5, lim.n_axes);
+            let m_flat = flat_velocity_bound(&m, lim);
+            let error = interpolation_error_at(ds_mm, (start, &end), (&m, m_flat), feed, lim);
+            poly.set_interpolable(error <= INTERP_ERROR_TOL);
+            let bounds = interior_vbar_around(&on_piece(start, &end, ds_mm, &poly), lim, Some((&m, m_flat)));
+            poly.set_interior_vbar(bounds);
+            node.span = Some(Arc::new(poly));
         }
     }
+}
+
+/// The interval from geometry `start` to `end`, `ds_mm` long, on its exact piece `poly`.
+fn on_piece<'a>(start: &'a NodeGeom, end: &'a NodeGeom, ds_mm: f64, poly: &'a SpanPoly) -> IntervalGeom<'a> {
+    IntervalGeom { start, end, ds_mm, sign: 1.0, span: Some(poly) }
 }
 
 /// Halvings of a step at most for the interpolation error (a factor of 2⁻¹² in length).
@@ -453,7 +465,19 @@ fn interpolation_error_between(
     let mut dm = AxisDerivs::default();
     e.geometry.eval(s + 0.5 * h, &mut dm);
     let m = NodeGeom::from(&dm);
-    let v = flat_velocity_bound(a, lim).max(flat_velocity_bound(b, lim)).max(flat_velocity_bound(&m, lim)).min(feed);
+    interpolation_error_at(h, (a, b), (&m, flat_velocity_bound(&m, lim)), feed, lim)
+}
+
+/// [`interpolation_error`] of the interval `h` long from geometry `a` to `b`, whose middle has
+/// the geometry `m` with the `flat_velocity_bound` `m_flat`.
+fn interpolation_error_at(
+    h: f64,
+    (a, b): (&NodeGeom, &NodeGeom),
+    (m, m_flat): (&NodeGeom, f64),
+    feed: f64,
+    lim: &Limits,
+) -> f64 {
+    let v = flat_velocity_bound(a, lim).max(flat_velocity_bound(b, lim)).max(m_flat).min(feed);
     if !v.is_finite() {
         return 0.0;
     }

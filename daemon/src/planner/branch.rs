@@ -79,16 +79,14 @@ pub struct Ramps {
 }
 
 /// The largest feasible and viable step from (v, a) at traversal position `t`: the greedy
-/// choice if viable, else the boundary of viability between it and the viability ramp's own
+/// choice if viable, else the boundary of viability between it and the braking ramp's own
 /// next state (viable whenever the current state is), found by regula falsi on the ramp
 /// margin.
 ///
-/// `ramps` holds the current state's own viability ramp from the step that accepted it, so
-/// that ramp's next interval and the margin of the state it ends in are known: the search's
-/// lower end without a ramp of its own. (Taking the braking ramp's interval instead, whose
-/// margin is known only where it ends exactly on a state the ramp passed, missed wherever
-/// that ramp landed flat rather than braked: 228 of the 5-axis table's 770 searches ran a
-/// ramp for their lower end.)
+/// `ramps` holds the current state's own viability ramp from the step that accepted it. Where
+/// the braking ramp's next state is a state that ramp passed, its margin is known: on the
+/// 5-axis table, where branches ride their braking ramps, in 1100 of 1598 searches (16 % of
+/// the ramps, 22 % of the ramp nodes).
 #[allow(clippy::too_many_arguments)]
 pub fn greedy_step(
     view: &View,
@@ -130,16 +128,15 @@ pub fn greedy_step(
         return Some(cand);
     }
     work.bisections += 1;
-    // A viable lower end: the current state's own ramp's next state (its interval gets the
-    // full check, which a ramp skips where the nodes' ranges hold with room), else the
-    // braking ramp's, else lower velocities. `on_current`: the best state so far lies on the
-    // current state's ramp (else its ramp is `ramps.best`).
-    let below = |iv: &Interval| iv.v1() <= v_max * (1.0 + 1e-12) && iv.v1() < cand.v1();
-    let traced = ramps.current.step_from(t, v, a).filter(|(iv, m)| below(iv) && ok(Some(*m)) && !violates(iv, &g, lim));
-    let mut on_current = traced.is_some();
-    let mut lo = traced.or_else(|| {
-        let iv = ramp_interval(view, t, v, a, lim, Check::Full).filter(below)?;
-        let m = margin(&iv, work, &mut ramps.best, Wanted::Margin);
+    // A viable lower end: the braking ramp's next state, with its margin where the current
+    // state's own ramp passed it, else lower velocities. `on_current`: the best state so far
+    // lies on the current state's ramp (else its ramp is `ramps.best`).
+    let braking = ramp_interval(view, t, v, a, lim, Check::Full)
+        .filter(|iv| iv.v1() <= v_max * (1.0 + 1e-12) && iv.v1() < cand.v1());
+    let known = braking.and_then(|iv| ramps.current.margin_from(t + 1, iv.v1(), iv.a1()));
+    let mut on_current = ok(known);
+    let mut lo = braking.and_then(|iv| {
+        let m = known.or_else(|| margin(&iv, work, &mut ramps.best, Wanted::Margin));
         ok(m).then(|| (iv, m.unwrap_or(0.0)))
     });
     if lo.is_none() {

@@ -386,34 +386,29 @@ fn ramp_tail_margin(
     Some(peak / lowest - 1.0)
 }
 
-/// The states a viability ramp passed after its start node and the intervals into them, with
-/// the margin of the ramp from each. A ramp is a function of its start state (for one view,
-/// ceiling and limits), so the ramp from a state it passed is its own rest: a greedy step that
-/// searches takes the current state's ramp's next state as its lower end, and where a branch
-/// rides that ramp the next step finds its state on the same trace (`branch::greedy_step`).
+/// The states a viability ramp passed after its start node, with the margin of the ramp from
+/// each. A ramp is a function of its start state (for one view, ceiling and limits), so the
+/// ramp from a state it passed is its own rest: a greedy step that searches tries the braking
+/// ramp's next state first, and where a branch rides its braking ramp the state the step
+/// before accepted ramps through exactly that state (`branch::greedy_step`).
 #[derive(Debug, Clone, Default)]
 pub struct RampTrace {
     /// Traversal position of `states[0]`.
     first: usize,
-    /// The ramp's start state (at `first − 1`).
-    origin: (f64, f64),
     states: Vec<(f64, f64)>,
-    /// Per state, the ramp's interval that ends there.
-    intervals: Vec<Interval>,
     /// Per state, the margin of a ramp started there (while the ramp runs: two terms per
     /// state, its interval's end and peak; [`RampTrace::finish`] folds them).
     margins: Vec<f64>,
 }
 
 impl RampTrace {
-    /// The ramp's interval leaving traversal position `node` in the state (v, a), and the margin
-    /// of the ramp from the state it ends in, if the ramp passed exactly (v, a) there.
+    /// The margin of the ramp from (v, a) at traversal position `node`, if this trace passed
+    /// exactly that state.
     #[inline]
-    pub fn step_from(&self, node: usize, v: f64, a: f64) -> Option<(Interval, f64)> {
-        let i = (node + 1).checked_sub(self.first)?;
-        let iv = *self.intervals.get(i)?;
-        let from = if i == 0 { self.origin } else { self.states[i - 1] };
-        (from == (v, a)).then(|| (iv, self.margins[i]))
+    pub fn margin_from(&self, node: usize, v: f64, a: f64) -> Option<f64> {
+        let i = node.checked_sub(self.first)?;
+        let &(tv, ta) = self.states.get(i)?;
+        (tv == v && ta == a).then(|| self.margins[i])
     }
 
     /// Whether the trace passed traversal position `node`.
@@ -422,11 +417,9 @@ impl RampTrace {
         node.checked_sub(self.first).is_some_and(|i| i < self.states.len())
     }
 
-    fn start(&mut self, first: usize, origin: (f64, f64)) {
+    fn start(&mut self, first: usize) {
         self.first = first;
-        self.origin = origin;
         self.states.clear();
-        self.intervals.clear();
         self.margins.clear();
     }
 
@@ -475,7 +468,7 @@ pub fn ramp_margin(
         Wanted::Margin => MARGIN_GIVE_UP,
         Wanted::Verdict => CEILING_REL_TOL,
     };
-    trace.start(t0 + 1, (v0, a0));
+    trace.start(t0 + 1);
     let last = view.len() - 1;
     let (mut v, mut a) = (v0, a0);
     let mut margin = v / ceiling.velocity(t0) - 1.0;
@@ -520,7 +513,6 @@ pub fn ramp_margin(
             // going.
             a = if landed { iv.a1().min(ceiling.flat_acc(t + 1, v)) } else { iv.a1() };
             trace.states.push((v, a));
-            trace.intervals.push(iv);
             // A ramp from this state starts with this term; the peak term is the interval's own.
             trace.margins.push(at_end);
             trace.margins.push(at_peak);
@@ -531,7 +523,6 @@ pub fn ramp_margin(
         trace.finish();
     } else {
         trace.states.clear();
-        trace.intervals.clear();
     }
     result
 }
@@ -600,14 +591,11 @@ mod tests {
                     let full =
                         ramp_margin(&view, t, share * vbar, a, &lim, &ceiling, &mut work, &mut trace, Wanted::Margin);
                     assert_eq!(viable(m), viable(full), "verdict {m:?}, margin {full:?} from node {t}");
-                    let mut from = trace.origin;
                     for (i, &(v, a)) in trace.states.iter().enumerate() {
                         let node = trace.first + i;
                         let m = ramp_margin(&view, node, v, a, &lim, &ceiling, &mut work, &mut fresh, Wanted::Margin);
                         assert_eq!(m, Some(trace.margins[i]), "from node {node} ({v}, {a}), traced from {t}");
-                        let (iv, m_next) = trace.step_from(node - 1, from.0, from.1).expect("a traced step");
-                        assert_eq!((iv.v1(), Some(m_next)), (v, m));
-                        from = (v, a);
+                        assert_eq!(trace.margin_from(node, v, a), m);
                         checked += 1;
                     }
                 }

@@ -175,11 +175,29 @@ pub fn violates(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> bool {
     point_violations(iv, g, lim).any(|x| x > VIOLATION_TOL)
 }
 
+/// Whether the interval breaks a limit by more than `VIOLATION_TOL` at a check point between
+/// its nodes (stops at the first): for a caller that knows the nodes keep the limits.
+pub fn violates_inside(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> bool {
+    let fractions = check_fractions(g);
+    points_violations(iv, g, lim, &fractions[1..fractions.len() - 1]).any(|x| x > VIOLATION_TOL)
+}
+
 /// [`point_violation`] at each of the interval's check points, in order.
 #[inline]
 fn point_violations<'a>(iv: &'a Interval, g: &'a IntervalGeom, lim: &'a Limits) -> impl Iterator<Item = f64> + 'a {
+    points_violations(iv, g, lim, check_fractions(g))
+}
+
+/// [`point_violation`] at the check points at the given time fractions, in order.
+#[inline]
+fn points_violations<'a>(
+    iv: &'a Interval,
+    g: &'a IntervalGeom,
+    lim: &'a Limits,
+    fractions: &'static [f64],
+) -> impl Iterator<Item = f64> + 'a {
     let inv_ds = 1.0 / g.ds_mm;
-    check_fractions(g).iter().map(move |&f| {
+    fractions.iter().map(move |&f| {
         let (sigma, v, a) = check_point(iv, f, inv_ds);
         point_violation(g, sigma, v, a, iv.j, lim)
     })

@@ -412,17 +412,22 @@ fn attach_spans(e: &Element, nodes: &mut [Node], feed: f64, lim: &Limits) {
     e.geometry.eval(len, &mut d);
     let ends: Vec<(f64, NodeGeom)> =
         nodes.iter().skip(1).map(|n| (n.s_mm - e.s_start_mm, n.left)).chain([(len, NodeGeom::from(&d))]).collect();
+    // Seed 001's v̄ of the interval's start geometry: the last one's end where the node between
+    // them has one geometry (every node but the element's first).
+    let mut start_flat = None;
     for (node, (s1, end)) in nodes.iter_mut().zip(ends) {
         let s0 = node.s_mm - e.s_start_mm;
         let ds_mm = s1 - s0;
+        let start = &node.right;
+        let flats = (start_flat.unwrap_or_else(|| flat_velocity_bound(start, lim)), flat_velocity_bound(&end, lim));
+        start_flat = Some(flats.1);
         if ds_mm > 0.0 {
             let piece = span.piece(offset_mm + s0, ds_mm);
             let mut poly = SpanPoly::from_position(&piece, span.axes(), ds_mm, false);
             // The middle of the piece, for the interpolation test and the interior bounds.
-            let start = &node.right;
             let m = node_geom_at(&on_piece(start, &end, ds_mm, &poly), 0.5, lim.n_axes);
             let m_flat = flat_velocity_bound(&m, lim);
-            let error = interpolation_error_at(ds_mm, (start, &end), (&m, m_flat), feed, lim);
+            let error = interpolation_error_at(ds_mm, (start, &end), flats, (&m, m_flat), feed, lim);
             poly.set_interpolable(error <= INTERP_ERROR_TOL);
             let bounds = interior_vbar_around(&on_piece(start, &end, ds_mm, &poly), lim, Some((&m, m_flat)));
             poly.set_interior_vbar(bounds);
@@ -465,19 +470,22 @@ fn interpolation_error_between(
     let mut dm = AxisDerivs::default();
     e.geometry.eval(s + 0.5 * h, &mut dm);
     let m = NodeGeom::from(&dm);
-    interpolation_error_at(h, (a, b), (&m, flat_velocity_bound(&m, lim)), feed, lim)
+    let flats = (flat_velocity_bound(a, lim), flat_velocity_bound(b, lim));
+    interpolation_error_at(h, (a, b), flats, (&m, flat_velocity_bound(&m, lim)), feed, lim)
 }
 
-/// [`interpolation_error`] of the interval `h` long from geometry `a` to `b`, whose middle has
-/// the geometry `m` with the `flat_velocity_bound` `m_flat`.
+/// [`interpolation_error`] of the interval `h` long from geometry `a` to `b`, whose
+/// `flat_velocity_bound`s are `flats` and whose middle has the geometry `m` with the
+/// `flat_velocity_bound` `m_flat`.
 fn interpolation_error_at(
     h: f64,
     (a, b): (&NodeGeom, &NodeGeom),
+    (a_flat, b_flat): (f64, f64),
     (m, m_flat): (&NodeGeom, f64),
     feed: f64,
     lim: &Limits,
 ) -> f64 {
-    let v = flat_velocity_bound(a, lim).max(flat_velocity_bound(b, lim)).max(m_flat).min(feed);
+    let v = a_flat.max(b_flat).max(m_flat).min(feed);
     if !v.is_finite() {
         return 0.0;
     }

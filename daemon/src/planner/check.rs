@@ -141,12 +141,20 @@ pub fn interior_vbar(g: &IntervalGeom, lim: &Limits) -> (f64, f64) {
     if let Some(bounds) = g.span.and_then(SpanPoly::interior_vbar) {
         return bounds;
     }
-    interior_vbar_around(g, lim, None)
+    interior_vbar_around(g, lim, None, f64::INFINITY)
 }
 
 /// [`interior_vbar`] computed, with the geometry at the middle (σ = ½, one of every set of
-/// fractions) and its `flat_velocity_bound` where they are known already.
-pub fn interior_vbar_around(g: &IntervalGeom, lim: &Limits, middle: Option<(&NodeGeom, f64)>) -> (f64, f64) {
+/// fractions) and its `flat_velocity_bound` where they are known already. The
+/// acceleration-only bound matters only below both nodes' (`Planner::refine_vbar`): where a
+/// point's is clearly at least `needed_below` (at least that), it is not computed, and the
+/// first value is exact only where it is below `needed_below`.
+pub fn interior_vbar_around(
+    g: &IntervalGeom,
+    lim: &Limits,
+    middle: Option<(&NodeGeom, f64)>,
+    needed_below: f64,
+) -> (f64, f64) {
     let (mut v, mut v_flat) = (f64::INFINITY, f64::INFINITY);
     let fractions =
         if g.fine_checks() { &FINE_CHECK_FRACTIONS[1..FINE_CHECK_FRACTIONS.len() - 1] } else { &VBAR_FRACTIONS[..] };
@@ -158,10 +166,24 @@ pub fn interior_vbar_around(g: &IntervalGeom, lim: &Limits, middle: Option<(&Nod
                 (ng, super::node::flat_velocity_bound(&ng, lim))
             }
         };
-        v = v.min(super::node::velocity_bound(&ng, lim));
+        if !moves_at(&ng, needed_below, lim) {
+            v = v.min(super::node::velocity_bound(&ng, lim));
+        }
         v_flat = v_flat.min(flat);
     }
     (v, v_flat)
+}
+
+/// Whether the axes can move along geometry `g` at path velocity `v_mm_s` with some path
+/// acceleration (every axis within its velocity limit, the acceleration ranges of eq. 1b
+/// intersecting): `node::velocity_bound` is at least `v_mm_s`, tested without its pairwise
+/// divisions.
+fn moves_at(g: &NodeGeom, v_mm_s: f64, lim: &Limits) -> bool {
+    let within_vel = (0..lim.n_axes).all(|k| g.d1[k].abs() * v_mm_s <= lim.vel[k]);
+    within_vel && {
+        let (lo, hi) = acc_range(g, 1.0, v_mm_s, lim);
+        lo <= hi
+    }
 }
 
 /// Largest normalised limit use minus one over all axes, limits and check points:

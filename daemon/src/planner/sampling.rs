@@ -410,12 +410,19 @@ fn attach_spans(e: &Element, nodes: &mut [Node], feed: f64, lim: &Limits) {
     // Each interval's end: position and geometry (the next node's, or the element's end).
     let mut d = AxisDerivs::default();
     e.geometry.eval(len, &mut d);
-    let ends: Vec<(f64, NodeGeom)> =
-        nodes.iter().skip(1).map(|n| (n.s_mm - e.s_start_mm, n.left)).chain([(len, NodeGeom::from(&d))]).collect();
+    // The element's end is the next element's first node, whose v̄ will be at most this.
+    let end_geom = NodeGeom::from(&d);
+    let end_vbar = velocity_bound(&end_geom, lim).min(feed);
+    let ends: Vec<(f64, NodeGeom, f64)> = nodes
+        .iter()
+        .skip(1)
+        .map(|n| (n.s_mm - e.s_start_mm, n.left, n.vbar_mm_s))
+        .chain([(len, end_geom, end_vbar)])
+        .collect();
     // Seed 001's v̄ of the interval's start geometry: the last one's end where the node between
     // them has one geometry (every node but the element's first).
     let mut start_flat = None;
-    for (node, (s1, end)) in nodes.iter_mut().zip(ends) {
+    for (node, (s1, end, end_vbar)) in nodes.iter_mut().zip(ends) {
         let s0 = node.s_mm - e.s_start_mm;
         let ds_mm = s1 - s0;
         let start = &node.right;
@@ -429,7 +436,10 @@ fn attach_spans(e: &Element, nodes: &mut [Node], feed: f64, lim: &Limits) {
             let m_flat = flat_velocity_bound(&m, lim);
             let error = interpolation_error_at(ds_mm, (start, &end), flats, (&m, m_flat), feed, lim);
             poly.set_interpolable(error <= INTERP_ERROR_TOL);
-            let bounds = interior_vbar_around(&on_piece(start, &end, ds_mm, &poly), lim, Some((&m, m_flat)));
+            // The interior's acceleration-only bound lowers the nodes' only below both.
+            let needed_below = node.vbar_mm_s.min(end_vbar);
+            let g = on_piece(start, &end, ds_mm, &poly);
+            let bounds = interior_vbar_around(&g, lim, Some((&m, m_flat)), needed_below);
             poly.set_interior_vbar(bounds);
             node.span = Some(Arc::new(poly));
         }

@@ -37,7 +37,9 @@ pub struct SpanPoly {
     /// other elements (`sampling::INTERP_ERROR_TOL`).
     interpolable: bool,
     /// `check::interior_vbar` of the interval, where the sampling computed it along with the
-    /// span (it shares the middle's geometry with the interpolation test).
+    /// span (it shares the middle's geometry with the interpolation test). The
+    /// acceleration-only bound is exact only where it is below both nodes' bounds as sampled,
+    /// the only case `Planner::refine_vbar` uses it (`check::interior_vbar_around`).
     interior_vbar: Option<(f64, f64)>,
 }
 

@@ -147,8 +147,8 @@ pub fn interior_vbar(g: &IntervalGeom, lim: &Limits) -> (f64, f64) {
 /// [`interior_vbar`] computed, with the geometry at the middle (σ = ½, one of every set of
 /// fractions) and its `flat_velocity_bound` where they are known already. The
 /// acceleration-only bound matters only below both nodes' (`Planner::refine_vbar`): where a
-/// point's is clearly at least `needed_below` (at least that), it is not computed, and the
-/// first value is exact only where it is below `needed_below`.
+/// point's is at least `needed_below` ([`moves_at`]), it is not computed, so the first value
+/// is exact only where it is below `needed_below`.
 pub fn interior_vbar_around(
     g: &IntervalGeom,
     lim: &Limits,

@@ -434,7 +434,8 @@ fn attach_spans(e: &Element, nodes: &mut [Node], feed: f64, lim: &Limits) {
             // The middle of the piece, for the interpolation test and the interior bounds.
             let m = node_geom_at(&on_piece(start, &end, ds_mm, &poly), 0.5, lim.n_axes);
             let m_flat = flat_velocity_bound(&m, lim);
-            let error = interpolation_error_at(ds_mm, (start, &end), flats, (&m, m_flat), feed, lim);
+            let v = flats.0.max(flats.1).max(m_flat).min(feed);
+            let error = interpolation_error_at(ds_mm, (start, &end), &m, v, lim);
             poly.set_interpolable(error <= INTERP_ERROR_TOL);
             // The interior's acceleration-only bound lowers the nodes' only below both.
             let needed_below = node.vbar_mm_s.min(end_vbar);
@@ -458,44 +459,25 @@ const INTERP_HALVINGS: usize = 12;
 const INTERP_ERROR_TOL: f64 = 1e-3;
 
 /// How far the geometry the limit checks interpolate between nodes at `s` and `s + h` misses
-/// the element's own at the middle, as the largest share of an axis limit it can cost: the
-/// errors of A′, A″, A‴ times v, v², v³ (and the cross terms of eq. 1b–1c with the path
-/// acceleration and jerk the axes allow along A′), v at the velocity bound.
+/// the element's own at the middle, as the largest share of an axis limit it can cost (see
+/// [`interpolation_error_at`]), weighed at the highest seed 001 v̄ of the ends and the middle.
 fn interpolation_error(e: &Element, s: f64, h: f64, feed: f64, lim: &Limits) -> f64 {
-    let (mut d0, mut d1) = (AxisDerivs::default(), AxisDerivs::default());
-    e.geometry.eval(s, &mut d0);
-    e.geometry.eval(s + h, &mut d1);
-    interpolation_error_between(e, s, h, (&NodeGeom::from(&d0), &NodeGeom::from(&d1)), feed, lim)
+    let geom_at = |x: f64| {
+        let mut d = AxisDerivs::default();
+        e.geometry.eval(x, &mut d);
+        NodeGeom::from(&d)
+    };
+    let (a, m, b) = (geom_at(s), geom_at(s + 0.5 * h), geom_at(s + h));
+    let flat = |g: &NodeGeom| flat_velocity_bound(g, lim);
+    let v = flat(&a).max(flat(&b)).max(flat(&m)).min(feed);
+    interpolation_error_at(h, (&a, &b), &m, v, lim)
 }
 
-/// [`interpolation_error`] with the geometry at both ends (`a`, `b`) known: the nodes' own.
-fn interpolation_error_between(
-    e: &Element,
-    s: f64,
-    h: f64,
-    (a, b): (&NodeGeom, &NodeGeom),
-    feed: f64,
-    lim: &Limits,
-) -> f64 {
-    let mut dm = AxisDerivs::default();
-    e.geometry.eval(s + 0.5 * h, &mut dm);
-    let m = NodeGeom::from(&dm);
-    let flats = (flat_velocity_bound(a, lim), flat_velocity_bound(b, lim));
-    interpolation_error_at(h, (a, b), flats, (&m, flat_velocity_bound(&m, lim)), feed, lim)
-}
-
-/// [`interpolation_error`] of the interval `h` long from geometry `a` to `b`, whose
-/// `flat_velocity_bound`s are `flats` and whose middle has the geometry `m` with the
-/// `flat_velocity_bound` `m_flat`.
-fn interpolation_error_at(
-    h: f64,
-    (a, b): (&NodeGeom, &NodeGeom),
-    (a_flat, b_flat): (f64, f64),
-    (m, m_flat): (&NodeGeom, f64),
-    feed: f64,
-    lim: &Limits,
-) -> f64 {
-    let v = a_flat.max(b_flat).max(m_flat).min(feed);
+/// The interpolation error of the interval `h` long from geometry `a` to `b`, whose middle has
+/// the geometry `m`, at path velocity `v`: the errors of A′, A″, A‴ at the middle times v, v²,
+/// v³ (and the cross terms of eq. 1b–1c with the path acceleration and jerk the axes allow
+/// along A′), as the largest share of an axis limit.
+fn interpolation_error_at(h: f64, (a, b): (&NodeGeom, &NodeGeom), m: &NodeGeom, v: f64, lim: &Limits) -> f64 {
     if !v.is_finite() {
         return 0.0;
     }

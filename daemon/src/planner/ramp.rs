@@ -163,6 +163,14 @@ impl NodeRanges {
     fn at(g: &NodeGeom, sign: f64, v: f64, a: f64, lim: &Limits) -> Self {
         NodeRanges { jerk: jerk_range(g, sign, v, a, lim), acc: acc_range(g, sign, v, lim) }
     }
+
+    /// Whether the state these ranges were computed for (acceleration `a`) keeps the limits
+    /// leaving the node: some jerk is allowed, and `a` is inside its range.
+    #[inline]
+    fn allow_leaving(&self, a: f64) -> bool {
+        let ((jlo, jhi), (alo, ahi)) = (self.jerk, self.acc);
+        jlo <= jhi && a >= alo && a <= ahi
+    }
 }
 
 /// The ramp's interval from traversal position `t` with state (v, a): braking with the
@@ -384,9 +392,7 @@ fn landing_ramp_interval(
 /// acceleration is inside its range (eq. 1b–1c). At an element joint A″ and A‴ jump, so a
 /// state that kept the limits arriving may have none left for the next side.
 pub fn can_leave(view: &View, t: usize, v: f64, a: f64, lim: &Limits) -> bool {
-    let r = NodeRanges::at(view.start_geom(t), view.sign(), v, a, lim);
-    let ((jlo, jhi), (alo, ahi)) = (r.jerk, r.acc);
-    jlo <= jhi && a >= alo && a <= ahi
+    NodeRanges::at(view.start_geom(t), view.sign(), v, a, lim).allow_leaving(a)
 }
 
 /// Nodes a viability ramp simulates interval by interval; beyond them (dense nodes, where an
@@ -540,7 +546,8 @@ pub fn ramp_margin(
             if a <= ceiling.flat_acc_in(t, v, ranges.map(|r: NodeRanges| r.acc)) {
                 // Flat, but it must be able to go on: at an element joint A‴ (and A″) can jump,
                 // and a state that kept the limits arriving can leave no jerk for the next side.
-                let leaves = t >= last || can_leave(view, t, v, a, lim);
+                // The ranges the ramp holds are the state's own on this side (see above).
+                let leaves = t >= last || ranges.map_or_else(|| can_leave(view, t, v, a, lim), |r| r.allow_leaving(a));
                 break 'ramp (leaves.then_some(margin), leaves);
             }
             if t >= last {

@@ -101,8 +101,8 @@ pub struct Planner {
     lookahead_samples: usize,
     /// Elements received but not yet sampled (the newest waits for its successor).
     pending: VecDeque<Element>,
-    /// The last sampled element (for the joint with the next one).
-    prev: Option<Element>,
+    /// The last sampled element and its end (for the joint with the next one).
+    prev: Option<(Element, sampling::ElementEnd)>,
     since_stop_mm: f64,
     input_done: bool,
     end_sampled: bool,
@@ -260,8 +260,8 @@ impl Planner {
                 None => break,
             };
             let count_before = self.nodes.len();
-            sampling::sample_element(
-                self.prev.as_ref(),
+            let end = sampling::sample_element(
+                self.prev.as_ref().map(|(p, end)| (p, end)),
                 self.start_moving,
                 e,
                 next_stops,
@@ -278,11 +278,11 @@ impl Planner {
             if count_before == 0 && self.start_moving {
                 resume::admit_start_state(&mut self.nodes[0], self.start);
             }
-            self.prev = self.pending.pop_front();
+            self.prev = self.pending.pop_front().map(|e| (e, end));
         }
         if self.input_done && self.pending.is_empty() && !self.end_sampled {
-            if let Some(last) = &self.prev {
-                self.nodes.push(sampling::end_node(last, self.final_dwell_s, &self.params));
+            if let Some((last, end)) = &self.prev {
+                self.nodes.push(sampling::end_node(last, end, self.final_dwell_s, &self.params));
                 self.stats.nodes += 1;
                 self.refine_vbar(self.nodes.len().saturating_sub(2));
             }

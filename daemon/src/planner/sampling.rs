@@ -283,7 +283,7 @@ fn speed_from_rest(d_mm: f64, j: f64, a: f64) -> f64 {
 /// state in motion, see `Planner::with_start_state`).
 #[allow(clippy::too_many_arguments)]
 pub fn sample_element(
-    prev: Option<&Element>,
+    prev: Option<(&Element, &ElementEnd)>,
     start_moving: bool,
     e: &Element,
     next_stops: bool,
@@ -291,28 +291,26 @@ pub fn sample_element(
     lim: &Limits,
     params: &SamplingParams,
     out: &mut Vec<Node>,
-) {
+) -> ElementEnd {
     let first = out.len();
     let len = e.geometry.length_mm();
     let feed = feed_of(e, params);
     let mut d = AxisDerivs::default();
     e.geometry.eval(0.0, &mut d);
     let right = NodeGeom::from(&d);
+    let at_right = ElementEnd::at(right, lim);
     let (left, stop) = match prev {
-        Some(p) => {
-            let mut dp = AxisDerivs::default();
-            p.geometry.eval(p.geometry.length_mm(), &mut dp);
-            (NodeGeom::from(&dp), e.stops_before())
-        }
-        None => (right, !start_moving),
+        Some((_, end)) => (*end, e.stops_before()),
+        None => (at_right, !start_moving),
     };
     if stop {
         *since_stop_mm = 0.0;
     }
-    let mut vbar = velocity_bound(&left, lim).min(velocity_bound(&right, lim)).min(feed);
-    if let Some(p) = prev {
+    let mut vbar = left.vbar_mm_s.min(at_right.vbar_mm_s).min(feed);
+    if let Some((p, _)) = prev {
         vbar = vbar.min(feed_of(p, params));
     }
+    let (flat, left) = (left.flat_mm_s.min(at_right.flat_mm_s), left.geom);
     if e.joint == JointKind::CurvatureJump {
         vbar = vbar.min(curvature_jump_cap(&left, &right, lim, params.curvature_jump_s));
     }
@@ -324,7 +322,7 @@ pub fn sample_element(
         left,
         right,
         vbar_mm_s: vbar,
-        vbar_flat_mm_s: flat_velocity_bound(&left, lim).min(flat_velocity_bound(&right, lim)).min(vbar),
+        vbar_flat_mm_s: flat.min(vbar),
         feed_mm_s: feed,
         stop,
         dwell_s: e.dwell_before_s,
@@ -339,9 +337,10 @@ pub fn sample_element(
     // Only near stops does a table get extra nodes, where the motion is too slow for its
     // rows' spacing.
     let own_samples = matches!(e.geometry, crate::path::Geometry::Septic(_));
+    let end = ElementEnd::of(e, lim);
     if stop && next_stops && matches!(e.geometry, crate::path::Geometry::Line(_)) {
         *since_stop_mm += len;
-        return;
+        return end;
     }
     let j_path = lim.min_jerk();
     let a_path = lim.min_acc();
@@ -397,36 +396,58 @@ pub fn sample_element(
         s += ds;
         push_interior(e, s, &mut d, feed, lim, out);
     }
-    attach_spans(e, &mut out[first..], feed, lim);
+    attach_spans(e, &mut out[first..], &end, feed, lim);
     *since_stop_mm += len;
+    end
+}
+
+/// The geometry at one end of an element and its bounds of eq. 6 there (the acceleration-only
+/// `velocity_bound` and seed 001's `flat_velocity_bound`, neither capped by a feed): an
+/// element's end is evaluated once, for its own last interval and the next element's first
+/// node.
+#[derive(Debug, Clone, Copy)]
+pub struct ElementEnd {
+    pub geom: NodeGeom,
+    vbar_mm_s: f64,
+    flat_mm_s: f64,
+}
+
+impl ElementEnd {
+    fn at(geom: NodeGeom, lim: &Limits) -> Self {
+        Self { geom, vbar_mm_s: velocity_bound(&geom, lim), flat_mm_s: flat_velocity_bound(&geom, lim) }
+    }
+
+    /// The end of element `e`.
+    pub fn of(e: &Element, lim: &Limits) -> Self {
+        let mut d = AxisDerivs::default();
+        e.geometry.eval(e.geometry.length_mm(), &mut d);
+        Self::at(NodeGeom::from(&d), lim)
+    }
 }
 
 /// The exact geometry of each interval after `nodes` (the nodes of element `e`, the last one's
 /// interval ending at the element's end) where the element is a polynomial in s; `feed` is the
 /// element's, mm/s.
-fn attach_spans(e: &Element, nodes: &mut [Node], feed: f64, lim: &Limits) {
+fn attach_spans(e: &Element, nodes: &mut [Node], element_end: &ElementEnd, feed: f64, lim: &Limits) {
     let Some((span, offset_mm)) = e.geometry.as_septic() else { return };
     let len = e.geometry.length_mm();
-    // Each interval's end: position and geometry (the next node's, or the element's end).
-    let mut d = AxisDerivs::default();
-    e.geometry.eval(len, &mut d);
-    // The element's end is the next element's first node, whose v̄ will be at most this.
-    let end_geom = NodeGeom::from(&d);
-    let end_vbar = velocity_bound(&end_geom, lim).min(feed);
-    let ends: Vec<(f64, NodeGeom, f64)> = nodes
+    // Each interval's end: position, geometry and both bounds of eq. 6 (the next node's, or
+    // the element's end, which is the next element's first node: its v̄ will be at most this).
+    // Seed 001's v̄ only enters below capped by the feed, as the interior nodes hold it.
+    let ends: Vec<(f64, NodeGeom, f64, f64)> = nodes
         .iter()
         .skip(1)
-        .map(|n| (n.s_mm - e.s_start_mm, n.left, n.vbar_mm_s))
-        .chain([(len, end_geom, end_vbar)])
+        .map(|n| (n.s_mm - e.s_start_mm, n.left, n.vbar_mm_s, n.vbar_flat_mm_s))
+        .chain([(len, element_end.geom, element_end.vbar_mm_s.min(feed), element_end.flat_mm_s.min(feed))])
         .collect();
     // Seed 001's v̄ of the interval's start geometry: the last one's end where the node between
     // them has one geometry (every node but the element's first).
     let mut start_flat = None;
-    for (node, (s1, end, end_vbar)) in nodes.iter_mut().zip(ends) {
+    for (node, (s1, end, end_vbar, end_flat)) in nodes.iter_mut().zip(ends) {
         let s0 = node.s_mm - e.s_start_mm;
         let ds_mm = s1 - s0;
         let start = &node.right;
-        let flats = (start_flat.unwrap_or_else(|| flat_velocity_bound(start, lim)), flat_velocity_bound(&end, lim));
+        let flats = (start_flat.unwrap_or_else(|| flat_velocity_bound(start, lim).min(feed)), end_flat);
         start_flat = Some(flats.1);
         if ds_mm > 0.0 {
             let piece = span.piece(offset_mm + s0, ds_mm);
@@ -524,10 +545,8 @@ fn push_interior(e: &Element, s_local: f64, d: &mut AxisDerivs, feed: f64, lim: 
 }
 
 /// The node at the end of the path (the motion ends at rest).
-pub fn end_node(last: &Element, final_dwell_s: f64, params: &SamplingParams) -> Node {
-    let mut d = AxisDerivs::default();
-    last.geometry.eval(last.geometry.length_mm(), &mut d);
-    let g = NodeGeom::from(&d);
+pub fn end_node(last: &Element, end: &ElementEnd, final_dwell_s: f64, params: &SamplingParams) -> Node {
+    let g = end.geom;
     Node {
         s_mm: last.s_end_mm(),
         left: g,

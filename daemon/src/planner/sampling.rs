@@ -407,7 +407,7 @@ pub fn sample_element(
 /// node.
 #[derive(Debug, Clone, Copy)]
 pub struct ElementEnd {
-    pub geom: NodeGeom,
+    geom: NodeGeom,
     vbar_mm_s: f64,
     flat_mm_s: f64,
 }
@@ -418,7 +418,7 @@ impl ElementEnd {
     }
 
     /// The end of element `e`.
-    pub fn of(e: &Element, lim: &Limits) -> Self {
+    fn of(e: &Element, lim: &Limits) -> Self {
         let mut d = AxisDerivs::default();
         e.geometry.eval(e.geometry.length_mm(), &mut d);
         Self::at(NodeGeom::from(&d), lim)

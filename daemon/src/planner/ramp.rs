@@ -230,7 +230,7 @@ fn ramp_interval_from(
             // do not interpolate the interval (`check` forced to `Full`), their ranges
             // still stand for the nodes themselves: a viability ramp checks only the points
             // between them there (5-axis table −0.9 % instructions, the same plans).
-            let nodes_ok = j > jlo1 * RAMP_JERK_STEPS[0] * (1.0 - 1e-9) && holds_at_nodes(j, (a, &r0), (a1, &r1));
+            let nodes_ok = clear_of_reserve(j, jlo1) && holds_at_nodes(j, (a, &r0), (a1, &r1));
             let keeps = match (requested, check) {
                 (Check::Nodes, Check::Nodes) if nodes_ok => true,
                 (Check::Nodes, Check::Full) if nodes_ok => !violates_inside(&iv, &ig, lim),
@@ -336,6 +336,14 @@ fn steepest_braking(
 #[inline]
 fn with_reserve_above(lo: f64) -> f64 {
     if lo < 0.0 { RAMP_JERK_STEPS[0] * lo } else { (2.0 - RAMP_JERK_STEPS[0]) * lo }
+}
+
+/// Whether jerk `j` lies beyond the reserve [`with_reserve_above`] keeps from the bound `lo`
+/// (up to rounding): where it does not, the bound was binding.
+#[inline]
+fn clear_of_reserve(j: f64, lo: f64) -> bool {
+    let edge = with_reserve_above(lo);
+    if lo < 0.0 { j > edge * (1.0 - 1e-9) } else { j > edge * (1.0 + 1e-9) }
 }
 
 /// The end node's ranges `r1` (geometry `g1`) as the start of the next interval, where they

@@ -306,7 +306,7 @@ fn steepest_braking(
 ) -> Option<(Interval, NodeRanges)> {
     // Clamped: where the geometry forces braking (jhi < 0), the window can be narrower than
     // the reserve.
-    let mut j = (RAMP_JERK_STEPS[0] * jlo).clamp(jlo, jhi);
+    let mut j = with_reserve_above(jlo).clamp(jlo, jhi);
     for _ in 0..RAMP_END_CORRECTIONS {
         let iv = Interval::with_jerk(v, a, ds_mm, j)?;
         let a1 = iv.a1();

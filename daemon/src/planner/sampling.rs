@@ -419,10 +419,15 @@ impl ElementEnd {
 
     /// The end of element `e`.
     fn of(e: &Element, lim: &Limits) -> Self {
-        let mut d = AxisDerivs::default();
-        e.geometry.eval(e.geometry.length_mm(), &mut d);
-        Self::at(NodeGeom::from(&d), lim)
+        Self::at(geom_at(e, e.geometry.length_mm()), lim)
     }
+}
+
+/// The geometry of element `e` at local position `s_mm`, as a node's.
+fn geom_at(e: &Element, s_mm: f64) -> NodeGeom {
+    let mut d = AxisDerivs::default();
+    e.geometry.eval(s_mm, &mut d);
+    NodeGeom::from(&d)
 }
 
 /// The exact geometry of each interval after `nodes` (the nodes of element `e`, the last one's
@@ -483,12 +488,7 @@ const INTERP_ERROR_TOL: f64 = 1e-3;
 /// the element's own at the middle, as the largest share of an axis limit it can cost (see
 /// [`interpolation_error_at`]), weighed at the highest seed 001 v̄ of the ends and the middle.
 fn interpolation_error(e: &Element, s: f64, h: f64, feed: f64, lim: &Limits) -> f64 {
-    let geom_at = |x: f64| {
-        let mut d = AxisDerivs::default();
-        e.geometry.eval(x, &mut d);
-        NodeGeom::from(&d)
-    };
-    let (a, m, b) = (geom_at(s), geom_at(s + 0.5 * h), geom_at(s + h));
+    let (a, m, b) = (geom_at(e, s), geom_at(e, s + 0.5 * h), geom_at(e, s + h));
     let flat = |g: &NodeGeom| flat_velocity_bound(g, lim);
     let v = flat(&a).max(flat(&b)).max(flat(&m)).min(feed);
     interpolation_error_at(h, (&a, &b), &m, v, lim)

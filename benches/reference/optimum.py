@@ -54,7 +54,7 @@ def blocks(nodes):
 
 
 def geom_at(start, end, ds, sigma, k, m, span=None):
-    """The planner's geometry between nodes (daemon/src/planner/check.rs geom_at), sign = +1:
+    """The planner's geometry between nodes (motion/src/planner/check.rs geom_at), sign = +1:
     the exact polynomial `span` (the node's export, per axis 18 coefficients: A' 0..7, A''
     7..13, A''' 13..18) where given, else its interpolation. `m` is the math module to use
     (math or casadi)."""
@@ -139,7 +139,7 @@ def ipopt_block(data, i0, i1, verbose):
                 add(ca.SX(jerk / lim["jerk"][k]), -1.0, 1.0)
     # Curvature jumps (G1 joints without G2): the axis acceleration steps by dA''.v^2 at the
     # node; the planner keeps that step within what the jerk limit moves in curvature_jump_s
-    # (daemon/src/planner/node.rs curvature_jump_cap), part of the same problem.
+    # (motion/src/planner/node.rs curvature_jump_cap), part of the same problem.
     step_s = data.get("curvature_jump_s", 0.0)
     for q in range(1, m):
         nd = nodes[i0 + q]

@@ -9,11 +9,12 @@
 //! ```
 
 use interpd::config::Config;
-use interpd::path::{AxisDerivs, Path};
-use interpd::planner::Planner;
-use interpd::planner::profile::{Cursor, duration_s};
-use interpd::prep::prepare_path;
-use interpd::program;
+use interpd_motion::Settings;
+use interpd_motion::path::{AxisDerivs, Path};
+use interpd_motion::planner::Planner;
+use interpd_motion::planner::profile::{Cursor, duration_s};
+use interpd_motion::prep::prepare_path;
+use interpd_motion::program;
 use sim_plant::{AxisTarget, Plant};
 use std::io::Write;
 
@@ -63,7 +64,7 @@ struct Figures {
 }
 
 fn simulate(config: &Config, path: &Path, corners: &[(f64, f64)]) -> Figures {
-    let (segments, _) = Planner::plan_path(config, path).expect("plans");
+    let (segments, _) = Planner::plan_path(&Settings::from(config), path).expect("plans");
     let duration = duration_s(&segments);
     let mut plant = Plant::from_config(config).expect("plant");
     let n = path.n_axes;
@@ -120,8 +121,9 @@ fn main() {
     for (name, corners) in &shapes {
         let source = repo_file(&format!("examples/{name}.ngc"));
         for mode in ["G61", "G64 P0.1", "G64 P0.01"] {
-            let path = program::parse(&with_mode(&source, mode), "bench.ngc", &config).expect("parses").path;
-            let path = prepare_path(&config, &path).expect("smoothing").path;
+            let path =
+                program::parse(&with_mode(&source, mode), "bench.ngc", &Settings::from(&config)).expect("parses").path;
+            let path = prepare_path(&Settings::from(&config), &path).expect("smoothing").path;
             let f = simulate(&config, &path, corners);
             writeln!(
                 out,

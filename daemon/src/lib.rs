@@ -6,12 +6,7 @@
 
 pub mod control;
 pub mod interp;
-pub mod law;
 pub mod motion;
-pub mod path;
-pub mod planner;
-pub mod prep;
-pub mod program;
 pub mod record;
 pub mod rt;
 pub mod sinks;

@@ -17,9 +17,10 @@
 
 use interpd::config::Config;
 use interpd::motion::approach::with_approach;
-use interpd::path::{AxisDerivs, Path};
 use interpd_e2e::daemon::{Client, Daemon};
 use interpd_e2e::vcan::{self, Capture, Proc};
+use interpd_motion::Settings;
+use interpd_motion::path::{AxisDerivs, Path};
 use interpd_protocol::candump::{self, Iface, Record, Timestamp};
 use interpd_protocol::cia402::{
     self, CanId, Emcy, Frame, Message, NmtState, NodeId, PowerState, Rpdo1, Tpdo1, emcy_code,
@@ -330,8 +331,9 @@ fn daemon_streams_a_program_to_three_simulated_drives() {
     let stream = |b: &Bus| b.cycles.iter().map(|c| c.rpdos.clone()).filter(|r| !r.is_empty()).collect::<Vec<_>>();
     assert_eq!(stream(&log_bus), stream(&bus), "the log's setpoints are the bus's, to the increment");
     // … and those setpoints lie on the program's path (1 µm, plus half an increment per axis).
-    let program = interpd::program::parse(&program(), "can_tour.ngc", &config).expect("program");
-    let path = with_approach(&program.path, &[0.0; interpd::path::MAX_AXES], &config);
+    let program =
+        interpd_motion::program::parse(&program(), "can_tour.ngc", &Settings::from(&config)).expect("program");
+    let path = with_approach(&program.path, &[0.0; interpd_motion::path::MAX_AXES], &config);
     let points: Vec<[f64; 3]> = log_bus.cycles[m0..=m1]
         .iter()
         .map(|c| {

@@ -8,6 +8,7 @@ use interpd::config::Config;
 use interpd::motion::law_run::parse_law_program;
 use interpd_e2e::daemon::{AxisLimits, Client, Collector, Daemon, limit_ratios};
 use interpd_e2e::{binary, example};
+use interpd_motion::Settings;
 use interpd_protocol::shm::Setpoints;
 use serde_json::{Value, json};
 use std::time::Duration;
@@ -95,9 +96,9 @@ fn law_moves_stream_within_the_limits_to_the_exact_stroke() {
 fn laws_duration_s(config: &Config) -> f64 {
     let text = std::fs::read_to_string(example("laws.ngc")).expect("laws.ngc");
     let prog = parse_law_program(&text, "laws.ngc").expect("parses").expect("a law program");
-    let mut here = [0.0; interpd::path::MAX_AXES];
+    let mut here = [0.0; interpd_motion::path::MAX_AXES];
     here[..2].copy_from_slice(&[30.0, -10.0]);
-    prog.moves(config, &here, "laws.ngc").expect("feasible").iter().map(|m| m.duration_s()).sum()
+    prog.moves(&Settings::from(config), &here, "laws.ngc").expect("feasible").iter().map(|m| m.duration_s()).sum()
 }
 
 #[test]

@@ -5,10 +5,11 @@
 
 use interpd::config::Config;
 use interpd::motion::approach::with_approach;
-use interpd::path::{AxisDerivs, Path};
-use interpd::program;
 use interpd_e2e::daemon::{AxisLimits, Client, Collector, Daemon, limit_ratios};
 use interpd_e2e::{example, repo_root};
+use interpd_motion::Settings;
+use interpd_motion::path::{AxisDerivs, Path};
+use interpd_motion::program;
 use interpd_protocol::shm::{Setpoints, flags};
 use serde_json::{Value, json};
 use std::time::Duration;
@@ -87,8 +88,8 @@ fn run_example(name: &str, machine: Option<&str>) -> (Config, Path, Vec<Setpoint
     let (code, stderr) = daemon.terminate();
     assert_eq!(code, Some(0), "{name}: interpd run exit status; stderr:\n{stderr}");
     let text = std::fs::read_to_string(example(name)).unwrap();
-    let parsed = program::parse(&text, name, &config).unwrap().path;
-    let path = with_approach(&parsed, &[0.0; interpd::path::MAX_AXES], &config);
+    let parsed = program::parse(&text, name, &Settings::from(&config)).unwrap().path;
+    let path = with_approach(&parsed, &[0.0; interpd_motion::path::MAX_AXES], &config);
     (config, path, sps)
 }
 
@@ -148,7 +149,7 @@ fn override_hold_resume_and_stop_keep_the_limits_and_the_path() {
     c.wait_event("stopped", Duration::from_secs(5));
     pause(100);
     let sps = collector.finish();
-    let path = program::parse(LOOP, name, &config).unwrap().path;
+    let path = program::parse(LOOP, name, &Settings::from(&config)).unwrap().path;
     let worst = check_stream(name, &config, &path, &sps);
     let last = sps.last().unwrap();
     assert!(last.v_mm_s.abs() < 1e-9 && last.flags & flags::IDLE != 0, "not standing after stop");
@@ -179,7 +180,7 @@ fn an_underrun_stops_along_the_path_and_the_program_completes() {
     pause_ms(100);
     let sps = collector.finish();
     let text = std::fs::read_to_string(example(name)).unwrap();
-    let path = program::parse(&text, name, &config).unwrap().path;
+    let path = program::parse(&text, name, &Settings::from(&config)).unwrap().path;
     check_stream(name, &config, &path, &sps);
     let underrun: Vec<&Setpoints> = sps.iter().filter(|s| s.flags & flags::UNDERRUN != 0).collect();
     assert!(!underrun.is_empty(), "no underrun was provoked");

@@ -3,27 +3,29 @@
 use super::CliError;
 use interpd::config::Config;
 use interpd::motion::law_run::{LawProgram, parse_law_program};
-use interpd::program;
+use interpd_motion::Settings;
+use interpd_motion::program;
 use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
 pub fn run(program_path: &Path, machine: Option<&Path>) -> Result<(), CliError> {
     let config = Config::load_or_default(machine)?;
+    let settings = Settings::from_config(&config);
     let t0 = Instant::now();
     if let Ok(text) = std::fs::read_to_string(program_path) {
         let name = program_path.display().to_string();
         if let Some(laws) = parse_law_program(&text, &name).map_err(CliError::BadInput)? {
-            return check_laws(&config, &laws, &name, t0);
+            return check_laws(&settings, &laws, &name, t0);
         }
     }
-    let program = program::load(program_path, &config)?;
+    let program = program::load(program_path, &settings)?;
     let elapsed = t0.elapsed();
     let s = &program.summary;
     let kinds: Vec<String> =
         s.kinds.iter().map(|(k, n)| format!("{n} {k}{}", if *n == 1 { "" } else { "s" })).collect();
     let elements: usize = s.kinds.values().sum();
-    let corners = program.path.elements.iter().filter(|e| e.joint == interpd::path::JointKind::Corner).count();
+    let corners = program.path.elements.iter().filter(|e| e.joint == interpd_motion::path::JointKind::Corner).count();
     let mut extra = String::new();
     if s.zero_length_moves > 0 {
         extra += &format!(", {} zero-length moves dropped", s.zero_length_moves);
@@ -45,14 +47,14 @@ pub fn run(program_path: &Path, machine: Option<&Path>) -> Result<(), CliError> 
 
 /// A program of `LAW` statements: every move solved and checked against the axis limits from
 /// the machine origin (the daemon checks again from where the machine stands).
-fn check_laws(config: &Config, laws: &LawProgram, name: &str, t0: Instant) -> Result<(), CliError> {
-    let here = [0.0; interpd::path::MAX_AXES];
-    let moves = laws.moves(config, &here, name).map_err(CliError::BadInput)?;
+fn check_laws(settings: &Settings, laws: &LawProgram, name: &str, t0: Instant) -> Result<(), CliError> {
+    let here = [0.0; interpd_motion::path::MAX_AXES];
+    let moves = laws.moves(settings, &here, name).map_err(CliError::BadInput)?;
     let duration_s: f64 = moves.iter().map(|m| m.duration_s()).sum();
     let line = format!(
         "{name}: ok: {} law moves, {duration_s:.3} s of motion from the origin, axes {}, checked in {:.1} ms",
         moves.len(),
-        config.axis_names().join(" "),
+        settings.axis_names().join(" "),
         t0.elapsed().as_secs_f64() * 1e3
     );
     writeln!(std::io::stdout(), "{line}").map_err(|e| CliError::Failure(format!("cannot write to stdout: {e}")))?;

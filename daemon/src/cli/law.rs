@@ -3,7 +3,8 @@
 //! residuals, VDI 2143 characteristic values, coefficients, samples and a plot.
 
 use super::CliError;
-use interpd::law::{Condition, Law, LawError, Preset, plot};
+use super::law_plot;
+use interpd_motion::law::{Condition, Law, LawError, Preset};
 use serde_json::json;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -80,7 +81,7 @@ pub fn run(args: &LawArgs) -> Result<(), CliError> {
             Some(p) if args.cond.is_empty() => format!("motion law {} (degree {})", p.name(), law.degree()),
             _ => format!("motion law of degree {} ({} conditions)", law.degree(), law.conditions().len()),
         };
-        plot::write_png(&law, &title, p, args.samples).map_err(CliError::Failure)?;
+        law_plot::write_png(&law, &title, p, args.samples).map_err(CliError::Failure)?;
     }
     let text = if args.json { report_json(&law, preset.as_ref()) } else { report_text(&law) };
     let mut stdout = std::io::stdout().lock();

@@ -3,6 +3,7 @@
 mod check;
 mod demo;
 mod law;
+mod law_plot;
 mod otg;
 mod plan;
 mod record;
@@ -89,8 +90,8 @@ impl From<interpd::config::ConfigError> for CliError {
     }
 }
 
-impl From<interpd::program::ProgramErrors> for CliError {
-    fn from(e: interpd::program::ProgramErrors) -> Self {
+impl From<interpd_motion::program::ProgramErrors> for CliError {
+    fn from(e: interpd_motion::program::ProgramErrors) -> Self {
         CliError::BadInput(e.to_string())
     }
 }

@@ -4,10 +4,11 @@
 
 use super::CliError;
 use interpd::config::Config;
-use interpd::path::{AxisDerivs, Path};
-use interpd::planner::profile::{Cursor, duration_s};
-use interpd::planner::{Planner, Segment};
-use interpd::program;
+use interpd_motion::Settings;
+use interpd_motion::path::{AxisDerivs, Path};
+use interpd_motion::planner::profile::{Cursor, duration_s};
+use interpd_motion::planner::{Planner, Segment};
+use interpd_motion::program;
 use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -70,16 +71,18 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
         Some(p) => return Err(CliError::BadInput(format!("--period-ms must be a number ≥ 0.01, got {p}"))),
         None => config.cycle_s(),
     };
-    let program = program::load(&args.program, &config)?;
+    let settings = Settings::from_config(&config);
+    let program = program::load(&args.program, &settings)?;
     // G64 runs are smoothed within their tolerance before planning (seed 000).
-    let prepared = interpd::prep::prepare_path(&config, &program.path).map_err(|e| CliError::Failure(e.to_string()))?;
+    let prepared =
+        interpd_motion::prep::prepare_path(&settings, &program.path).map_err(|e| CliError::Failure(e.to_string()))?;
     let path = &prepared.path;
     if path.elements.is_empty() {
         return Err(CliError::BadInput(format!("{}: the program has no motion", args.program.display())));
     }
 
     let t0 = Instant::now();
-    let (segments, planner, longest_call_s) = plan_online(&config, path)?;
+    let (segments, planner, longest_call_s) = plan_online(&settings, path)?;
     let plan_s = t0.elapsed().as_secs_f64();
     let stats = planner.stats;
 
@@ -103,7 +106,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
     let lim = planner.limits();
     let n = path.n_axes;
     if let Some(p) = &args.export_nodes {
-        export_nodes(p, &config, path, &segments, lim)?;
+        export_nodes(p, &settings, path, &segments, lim)?;
     }
     let mut ratios = Ratios::default();
     let mut cursor = Cursor::default();
@@ -322,11 +325,11 @@ impl PlantRun {
 /// Plans the path the way the daemon does: elements pushed one by one, planned online. Also
 /// returns the longest single `plan()` call, s: the look-ahead thread's worst step, which the
 /// motion already buffered must outlast.
-fn plan_online(config: &Config, path: &Path) -> Result<(Vec<Segment>, Planner, f64), CliError> {
-    let mut planner = Planner::new(config);
+fn plan_online(settings: &Settings, path: &Path) -> Result<(Vec<Segment>, Planner, f64), CliError> {
+    let mut planner = Planner::new(settings);
     let mut segments = Vec::new();
     let mut longest_call_s = 0.0f64;
-    let bad = |e: interpd::planner::PlanError| CliError::BadInput(e.to_string());
+    let bad = |e: interpd_motion::planner::PlanError| CliError::BadInput(e.to_string());
     let mut plan = |planner: &mut Planner, segments: &mut Vec<Segment>| -> Result<(), CliError> {
         let t0 = Instant::now();
         segments.extend(planner.plan().map_err(bad)?);
@@ -348,14 +351,14 @@ fn plan_online(config: &Config, path: &Path) -> Result<(Vec<Segment>, Planner, f
 /// The planning problem and our solution at the nodes, as JSON (see benches/reference/README.md).
 fn export_nodes(
     file: &std::path::Path,
-    config: &Config,
+    settings: &Settings,
     path: &Path,
     segments: &[Segment],
-    lim: &interpd::planner::Limits,
+    lim: &interpd_motion::planner::Limits,
 ) -> Result<(), CliError> {
-    let nodes = Planner::sample_path(config, path);
+    let nodes = Planner::sample_path(settings, path);
     let n = path.n_axes;
-    let geom = |g: &interpd::planner::node::NodeGeom| serde_json::json!({ "d1": &g.d1[..n], "d2": &g.d2[..n], "d3": &g.d3[..n] });
+    let geom = |g: &interpd_motion::planner::node::NodeGeom| serde_json::json!({ "d1": &g.d1[..n], "d2": &g.d2[..n], "d3": &g.d3[..n] });
     // Our profile at the nodes: the segment starting at each node's s (node-aligned blocks).
     let mut states = Vec::with_capacity(nodes.len());
     let mut k = 0;
@@ -376,21 +379,21 @@ fn export_nodes(
         "limits": {
             "vel": &lim.vel[..n], "acc_max": &lim.acc_max[..n], "acc_min": &lim.acc_min[..n], "jerk": &lim.jerk[..n],
         },
-        "check_fractions": interpd::planner::check::CHECK_FRACTIONS,
+        "check_fractions": interpd_motion::planner::check::CHECK_FRACTIONS,
         // The check points of a node's interval where it is "fine" (see check::check_fractions).
-        "fine_check_fractions": interpd::planner::check::FINE_CHECK_FRACTIONS,
+        "fine_check_fractions": interpd_motion::planner::check::FINE_CHECK_FRACTIONS,
         // At a curvature jump the axis acceleration steps by ΔA″·v²; the planner caps v there
         // so the step is what the jerk limit moves in this time (planner.curvature_jump_ms).
-        "curvature_jump_s": config.planner.curvature_jump_ms * 1e-3,
+        "curvature_jump_s": settings.planner.curvature_jump_ms * 1e-3,
         "nodes": nodes.iter().map(|nd| serde_json::json!({
             "s": nd.s_mm, "vbar": nd.vbar_mm_s, "feed": if nd.feed_mm_s.is_finite() { nd.feed_mm_s } else { f64::MAX },
             "stop": nd.stop, "left": geom(&nd.left), "right": geom(&nd.right),
             // A path table's exact geometry to the next node, which the checks evaluate there.
             "span": nd.span.as_ref().map(|p| (0..n).map(|k| p.coefficients(k)).collect::<Vec<_>>()),
-            "fine": nd.span.as_deref().is_some_and(interpd::planner::node::SpanPoly::fine_checks),
+            "fine": nd.span.as_deref().is_some_and(interpd_motion::planner::node::SpanPoly::fine_checks),
         })).collect::<Vec<_>>(),
         "profile": states,
-        "duration_s": interpd::planner::profile::duration_s(segments),
+        "duration_s": interpd_motion::planner::profile::duration_s(segments),
     });
     std::fs::write(file, json.to_string())
         .map_err(|e| CliError::Failure(format!("{}: cannot write: {e}", file.display())))

@@ -9,8 +9,8 @@
 //! the promise (≤ 1 µm between setpoints and geometry) is measured, not assumed.
 
 use super::hermite::{self, Kinematic};
-use crate::path::{AxisDerivs, AxisVec, Path};
-use crate::planner::Segment;
+use interpd_motion::path::{AxisDerivs, AxisVec, Path};
+use interpd_motion::planner::Segment;
 
 /// Largest deviation of the interpolated axis positions from the exact geometry that a piece
 /// may have, mm: a tenth of the 1 µm the daemon promises.
@@ -78,7 +78,7 @@ impl<'a> CoarseBuilder<'a> {
     /// `max_piece_s` bounds the duration of one piece (a few interpolation cycles);
     /// `max_jerk` per axis scales the jerk check ([`JERK_TOLERANCE`]).
     pub fn new(path: &'a Path, max_piece_s: f64, max_jerk: &AxisVec) -> Self {
-        let mut jerk_tol = [f64::INFINITY; crate::path::MAX_AXES];
+        let mut jerk_tol = [f64::INFINITY; interpd_motion::path::MAX_AXES];
         for (t, j) in jerk_tol.iter_mut().zip(max_jerk.iter()).take(path.n_axes) {
             *t = JERK_TOLERANCE * j;
         }
@@ -234,7 +234,7 @@ impl<'a> CoarseBuilder<'a> {
         start: &CoarsePoint,
         end: &CoarsePoint,
         tau: f64,
-        st: &crate::planner::PathState,
+        st: &interpd_motion::planner::PathState,
         exact: &AxisDerivs,
     ) -> bool {
         let h = end.t_s - start.t_s;
@@ -280,19 +280,20 @@ pub fn split(seg: &Segment, tau_s: f64) -> (Segment, Segment) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::planner::Planner;
-    use crate::program;
     use interpd_config::Config;
+    use interpd_motion::Settings;
+    use interpd_motion::planner::Planner;
+    use interpd_motion::program;
 
     fn check_dense(text: &str) -> (f64, usize, usize) {
         let cfg = Config::default_machine();
-        let p = program::parse(text, "t.ngc", &cfg).unwrap();
-        let (segs, _) = Planner::plan_path(&cfg, &p.path).unwrap();
-        let mut b = CoarseBuilder::new(&p.path, 0.008, &[50_000.0; crate::path::MAX_AXES]);
+        let p = program::parse(text, "t.ngc", &Settings::from(&cfg)).unwrap();
+        let (segs, _) = Planner::plan_path(&Settings::from(&cfg), &p.path).unwrap();
+        let mut b = CoarseBuilder::new(&p.path, 0.008, &[50_000.0; interpd_motion::path::MAX_AXES]);
         let mut pts = Vec::new();
         b.build(&segs, 0.0, &mut pts);
         // Independent check: every 0.1 ms, quintic vs exact geometry.
-        let mut cursor = crate::planner::profile::Cursor::default();
+        let mut cursor = interpd_motion::planner::profile::Cursor::default();
         let mut worst: f64 = 0.0;
         let mut exact = AxisDerivs::default();
         let end = pts.last().unwrap().t_s;
@@ -311,7 +312,7 @@ mod tests {
             }
             t += 1e-4;
         }
-        assert!((end - crate::planner::profile::duration_s(&segs)).abs() < 1e-9);
+        assert!((end - interpd_motion::planner::profile::duration_s(&segs)).abs() < 1e-9);
         (worst, pts.len(), segs.len())
     }
 

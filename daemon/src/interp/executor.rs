@@ -96,7 +96,7 @@ pub struct Executor {
 
 impl Executor {
     /// An executor at rest at `position` (axis units).
-    pub fn new(n_axes: usize, position: [f64; crate::path::MAX_AXES]) -> Self {
+    pub fn new(n_axes: usize, position: [f64; interpd_motion::path::MAX_AXES]) -> Self {
         Self {
             n_axes,
             epoch: 0,
@@ -242,8 +242,8 @@ impl Executor {
         self.rest = CoarsePoint {
             v_mm_s: 0.0,
             a_mm_s2: 0.0,
-            vel: [0.0; crate::path::MAX_AXES],
-            acc: [0.0; crate::path::MAX_AXES],
+            vel: [0.0; interpd_motion::path::MAX_AXES],
+            acc: [0.0; interpd_motion::path::MAX_AXES],
             ..end
         };
         self.phase = Phase::Standing;
@@ -281,8 +281,8 @@ impl Executor {
                 out.a_mm_s2 = 0.0;
                 out.line = r.line;
                 out.pos[..self.n_axes].copy_from_slice(&r.pos[..self.n_axes]);
-                out.vel = [0.0; crate::path::MAX_AXES];
-                out.acc = [0.0; crate::path::MAX_AXES];
+                out.vel = [0.0; interpd_motion::path::MAX_AXES];
+                out.acc = [0.0; interpd_motion::path::MAX_AXES];
                 out.flags = self.flags();
                 return;
             }

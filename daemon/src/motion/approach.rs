@@ -4,8 +4,8 @@
 //! the machine stands elsewhere, a straight rapid move (G0, within the axis limits, ending at
 //! rest) to the program's start runs first, as part of the same motion.
 
-use crate::path::{AxisVec, Blend, Feed, Geometry, Line, Path, Source};
 use interpd_config::{AxisKind, Config};
+use interpd_motion::path::{AxisVec, Blend, Feed, Geometry, Line, Path, Source};
 
 /// Distances below this (in every axis) count as being at the program start.
 pub const AT_START_TOL: f64 = 1e-9;

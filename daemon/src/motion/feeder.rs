@@ -5,16 +5,17 @@
 //! and restarts after a hold or an underrun (replanning from rest where the machine stands).
 //! See [`crate::interp`] for the contract with the real-time thread.
 
-use super::brake::{brake_along, next_stop_s};
 use super::law_run::LawPart;
 use crate::interp::coarse::{CoarseBuilder, CoarsePoint, split};
 use crate::interp::{Chunk, DivertCause};
-use crate::path::{Feed, Path};
-use crate::planner::resume::{STANDSTILL_A_MM_S2, STANDSTILL_V_MM_S};
-use crate::planner::{PlanError, Planner, Segment};
 use crossbeam::channel::{Receiver, Sender};
 use crossbeam::queue::ArrayQueue;
 use interpd_config::Config;
+use interpd_motion::Settings;
+use interpd_motion::path::{Feed, Path};
+use interpd_motion::planner::brake::{brake_along, next_stop_s};
+use interpd_motion::planner::resume::{STANDSTILL_A_MM_S2, STANDSTILL_V_MM_S};
+use interpd_motion::planner::{PlanError, Planner, Segment};
 use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -151,7 +152,8 @@ struct Run {
 
 /// The planner thread's state.
 pub struct Feeder {
-    config: Config,
+    settings: Settings,
+    cycle_s: f64,
     chunk_s: f64,
     queues: Queues,
     /// Chunks ready for reuse (boxed: they move through the queues as pointers).
@@ -161,7 +163,7 @@ pub struct Feeder {
     reports: Sender<FeederReport>,
     stall: Option<(f64, f64)>,
     /// Axis jerk limits (for the coarse points' jerk check).
-    max_jerk: [f64; crate::path::MAX_AXES],
+    max_jerk: [f64; interpd_motion::path::MAX_AXES],
     /// Counters for the status and tests.
     pub stats: FeederStats,
 }
@@ -181,23 +183,26 @@ pub struct FeederStats {
 }
 
 impl Feeder {
-    pub fn new(mut config: Config, queues: Queues, reports: Sender<FeederReport>) -> Self {
-        let chunk_s = config.cycle_s() * f64::from(CHUNK_CYCLES);
-        let bounded = bounded_lookahead_mm(&config);
-        if bounded < config.planner.lookahead_mm {
+    pub fn new(config: &Config, queues: Queues, reports: Sender<FeederReport>) -> Self {
+        let cycle_s = config.cycle_s();
+        let chunk_s = cycle_s * f64::from(CHUNK_CYCLES);
+        let mut settings = Settings::from_config(config);
+        let bounded = bounded_lookahead_mm(&settings);
+        if bounded < settings.planner.lookahead_mm {
             tracing::info!(
-                configured_mm = config.planner.lookahead_mm,
+                configured_mm = settings.planner.lookahead_mm,
                 used_mm = bounded,
                 "look-ahead bounded to what braking from full speed needs (replans stay fast)"
             );
-            config.planner.lookahead_mm = bounded;
+            settings.planner.lookahead_mm = bounded;
         }
-        let mut max_jerk = [f64::INFINITY; crate::path::MAX_AXES];
-        for (m, a) in max_jerk.iter_mut().zip(&config.axes) {
+        let mut max_jerk = [f64::INFINITY; interpd_motion::path::MAX_AXES];
+        for (m, a) in max_jerk.iter_mut().zip(&settings.axes) {
             *m = a.max_jerk_per_s3;
         }
         Self {
-            config,
+            settings,
+            cycle_s,
             chunk_s,
             queues,
             pool: Vec::new(),
@@ -239,13 +244,13 @@ impl Feeder {
                 self.abort();
                 let start =
                     CoarsePoint::at_rest(0.0, 0.0, path.elements.first().map_or(0, |e| e.source.line), path.start);
-                self.run = Some(Run::new(&self.config, path, feed_override, epoch, 0.0, start));
+                self.run = Some(Run::new(&self.settings, path, feed_override, epoch, 0.0, start));
             }
             FeederCommand::StartLaws { path, laws, epoch, feed_override } => {
                 self.abort();
                 let start =
                     CoarsePoint::at_rest(0.0, 0.0, path.elements.first().map_or(0, |e| e.source.line), path.start);
-                let mut run = Run::new(&self.config, path, feed_override, epoch, 0.0, start);
+                let mut run = Run::new(&self.settings, path, feed_override, epoch, 0.0, start);
                 run.law = Some(*laws);
                 self.run = Some(run);
             }
@@ -299,11 +304,11 @@ impl Feeder {
     /// Replans the rest of the program from rest at `s_mm`, as the run's current epoch.
     fn restart_at_rest(&mut self, s_mm: f64) {
         let Some(old) = self.run.take() else { return };
-        let mut pos = crate::path::AxisDerivs::default();
+        let mut pos = interpd_motion::path::AxisDerivs::default();
         old.path.eval(s_mm, &mut pos);
         let line = old.path.elements.get(old.path.element_index_at(s_mm)).map_or(0, |e| e.source.line);
         let start = CoarsePoint::at_rest(0.0, s_mm, line, pos.pos);
-        let mut run = Run::new(&self.config, old.path, old.feed_override, old.epoch, s_mm, start);
+        let mut run = Run::new(&self.settings, old.path, old.feed_override, old.epoch, s_mm, start);
         run.queued_s = old.queued_s;
         self.stats.replans += 1;
         self.run = Some(run);
@@ -323,9 +328,9 @@ impl Feeder {
         let floor = run.last_tail.clone();
         let moving = end.v_mm_s > STANDSTILL_V_MM_S || end.a_mm_s2.abs() > STANDSTILL_A_MM_S2;
         let planner = if moving {
-            Planner::with_start_state_and_floor(&self.config, end.v_mm_s, end.a_mm_s2, floor)
+            Planner::with_start_state_and_floor(&self.settings, end.v_mm_s, end.a_mm_s2, floor)
         } else {
-            Planner::new(&self.config)
+            Planner::new(&self.settings)
         };
         run.planner = planner;
         run.plan_path = scaled(&run.path.suffix_from(end.s_mm), factor);
@@ -414,7 +419,7 @@ impl Feeder {
         let s_stop = last.s1_mm();
         tracing::warn!("planner: {e}; stopping along the path at s = {s_stop:.3} mm and replanning from there");
         self.stats.recoveries += 1;
-        let mut fresh = Run::new(&self.config, run.path.clone(), run.feed_override, run.epoch, s_stop, run.end);
+        let mut fresh = Run::new(&self.settings, run.path.clone(), run.feed_override, run.epoch, s_stop, run.end);
         fresh.seq = run.seq;
         fresh.queued_s = run.queued_s;
         fresh.buffer = std::mem::take(&mut run.last_tail).into();
@@ -427,7 +432,7 @@ impl Feeder {
     /// no stop can follow its end); `Ok(false)` when nothing is left.
     fn fill_chunk(&mut self, chunk: &mut Chunk) -> Result<bool, PlanError> {
         let chunk_s = self.chunk_s;
-        let max_piece_s = 2.0 * self.config.cycle_s();
+        let max_piece_s = 2.0 * self.cycle_s;
         let Some(run) = self.run.as_mut() else { return Ok(false) };
         if run.law.is_some() {
             return Ok(self.fill_law_chunk(chunk));
@@ -470,7 +475,7 @@ impl Feeder {
     /// (longer where no stop can follow) and gives it the fastest stop along the move's line
     /// as its tail; `false` when nothing is left.
     fn fill_law_chunk(&mut self, chunk: &mut Chunk) -> bool {
-        let (chunk_s, max_piece_s) = (self.chunk_s, 2.0 * self.config.cycle_s());
+        let (chunk_s, max_piece_s) = (self.chunk_s, 2.0 * self.cycle_s);
         let Some(run) = self.run.as_mut() else { return false };
         if run.law.as_ref().is_none_or(LawPart::is_done) {
             return false;
@@ -525,9 +530,9 @@ impl Run {
         self.seq += 1;
     }
 
-    fn new(config: &Config, path: Arc<Path>, feed_override: f64, epoch: u64, s_mm: f64, end: CoarsePoint) -> Run {
+    fn new(settings: &Settings, path: Arc<Path>, feed_override: f64, epoch: u64, s_mm: f64, end: CoarsePoint) -> Run {
         let plan_path = scaled(&path.suffix_from(s_mm), feed_override);
-        let planner = Planner::new(config);
+        let planner = Planner::new(settings);
         Run {
             path,
             feed_override,
@@ -592,13 +597,13 @@ impl Run {
 /// `LOOKAHEAD_STOPS` × the longest braking distance of any axis from its top speed (further
 /// look-ahead cannot change the motion, and every replan after an override change or a
 /// restart costs time proportional to it), and at least `MIN_LOOKAHEAD_MM`.
-pub fn bounded_lookahead_mm(config: &Config) -> f64 {
-    let brake_mm = config
+pub fn bounded_lookahead_mm(settings: &Settings) -> f64 {
+    let brake_mm = settings
         .axes
         .iter()
         .map(|a| a.max_vel_per_s * (a.max_vel_per_s / a.max_acc_per_s2 + a.max_acc_per_s2 / a.max_jerk_per_s3))
         .fold(0.0, f64::max);
-    config.planner.lookahead_mm.min((LOOKAHEAD_STOPS * brake_mm).max(MIN_LOOKAHEAD_MM))
+    settings.planner.lookahead_mm.min((LOOKAHEAD_STOPS * brake_mm).max(MIN_LOOKAHEAD_MM))
 }
 
 /// See [`bounded_lookahead_mm`].

@@ -8,10 +8,11 @@
 
 use crate::interp::coarse::{CoarsePoint, JERK_TOLERANCE, TOLERANCE_MM};
 use crate::interp::hermite::{self, Kinematic};
-use crate::law::program::{self as law_program, LawBlock, is_law_statement};
-use crate::law::{AxisState, LawMove};
-use crate::path::{AxisVec, Blend, Feed, Geometry, Line, MAX_AXES, Path, Source};
-use interpd_config::{AxisKind, Config};
+use interpd_config::AxisKind;
+use interpd_motion::Settings;
+use interpd_motion::law::program::{self as law_program, LawBlock, is_law_statement};
+use interpd_motion::law::{AxisState, LawMove};
+use interpd_motion::path::{AxisVec, Blend, Feed, Geometry, Line, MAX_AXES, Path, Source};
 use std::collections::VecDeque;
 
 /// Bisections of a sampling step before a piece is accepted as it is.
@@ -39,8 +40,8 @@ struct LineFrame {
 
 /// The lines a sequence of law moves runs along (rapid feed, so a restart after a hold
 /// completes them as rapid moves), and the moves with their frames.
-pub fn law_path(config: &Config, moves: Vec<LawMove>, start: AxisVec, lines: &[u32]) -> (Path, LawPart) {
-    let names = config.axis_names();
+pub fn law_path(settings: &Settings, moves: Vec<LawMove>, start: AxisVec, lines: &[u32]) -> (Path, LawPart) {
+    let names = settings.axis_names();
     let mut path = Path::new(names, start);
     let mut pos = start;
     let mut part = LawPart { moves: VecDeque::new(), t_s: 0.0 };
@@ -50,8 +51,8 @@ pub fn law_path(config: &Config, moves: Vec<LawMove>, start: AxisVec, lines: &[u
             end[a.axis] = a.start + a.stroke;
         }
         let dist = |kind: AxisKind| {
-            (0..config.axes.len())
-                .filter(|&k| config.axes[k].kind == kind)
+            (0..settings.axes.len())
+                .filter(|&k| settings.axes[k].kind == kind)
                 .map(|k| (end[k] - pos[k]).powi(2))
                 .sum::<f64>()
                 .sqrt()
@@ -199,11 +200,11 @@ impl LawProgram {
     /// checked against the axis limits (velocity, acceleration, jerk and travel); a move
     /// that is too fast is refused with the factor its duration must grow by (or stretched
     /// when it says `STRETCH`).
-    pub fn moves(&self, config: &Config, here: &AxisVec, name: &str) -> Result<Vec<LawMove>, String> {
+    pub fn moves(&self, settings: &Settings, here: &AxisVec, name: &str) -> Result<Vec<LawMove>, String> {
         let mut pos = *here;
         let mut out = Vec::with_capacity(self.blocks.len());
         for (n, block) in &self.blocks {
-            let mv = block.to_move(config, &pos[..config.axes.len()]).map_err(|e| format!("{name}:{n}: {e}"))?;
+            let mv = block.to_move(settings, &pos[..settings.axes.len()]).map_err(|e| format!("{name}:{n}: {e}"))?;
             for a in mv.axes() {
                 pos[a.axis] = a.start + a.stroke;
             }

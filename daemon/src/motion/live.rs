@@ -2,7 +2,7 @@
 //! each cycle's values in atomics (a reader may see fields of neighbouring cycles, which is
 //! fine for a status display).
 
-use crate::path::MAX_AXES;
+use interpd_motion::path::MAX_AXES;
 use interpd_protocol::shm::Setpoints;
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering::Relaxed};
 

@@ -11,16 +11,12 @@
 //! atomic flags the real-time thread reads (hold, stop) and commands to the planner thread.
 
 pub mod approach;
-pub mod brake;
 pub mod feeder;
 pub mod law_run;
 pub mod live;
 
 use crate::control::{Motion, MotionError, ProgramSource};
 use crate::interp::{DivertCause, Executor, Io, Notice};
-use crate::law::LawMove;
-use crate::path::Path;
-use crate::program;
 use crate::rt::{self, LoopTotals, TimingSample, sched::SchedReport, stats::CycleHistograms};
 use crate::sinks::deferred::{self, DeferredStats, DeferredWorker};
 use crate::sinks::{DriveMonitor, SetpointSink, shm::ShmSink};
@@ -28,6 +24,10 @@ use crossbeam::channel::{self, Receiver, Sender};
 use crossbeam::queue::ArrayQueue;
 use feeder::{Feeder, FeederCommand, FeederReport, FeederStats, QUEUE_CHUNKS, Queues};
 use interpd_config::Config;
+use interpd_motion::Settings;
+use interpd_motion::law::LawMove;
+use interpd_motion::path::Path;
+use interpd_motion::program;
 use interpd_protocol::rpc::{Event, ProgramInfo, State, Status};
 use interpd_protocol::shm::{Setpoints, flags};
 use law_run::LawProgram;
@@ -64,7 +64,7 @@ pub struct MotionOptions {
 pub struct MotionExtras {
     pub sinks: Vec<Box<dyn SetpointSink + Send>>,
     pub drives: Option<Arc<dyn DriveMonitor>>,
-    pub start_position: Option<[f64; crate::path::MAX_AXES]>,
+    pub start_position: Option<[f64; interpd_motion::path::MAX_AXES]>,
 }
 
 /// Why the service could not start.
@@ -113,6 +113,8 @@ struct Control {
 
 struct Inner {
     config: Config,
+    /// The motion sections of `config`, as the motion library takes them.
+    settings: Settings,
     hold: AtomicBool,
     stop: AtomicBool,
     quit: AtomicBool,
@@ -169,6 +171,7 @@ impl MotionService {
         let queues = Queues::new();
         let inner = Arc::new(Inner {
             config: opts.config.clone(),
+            settings: Settings::from_config(&opts.config),
             hold: AtomicBool::new(false),
             stop: AtomicBool::new(false),
             quit: AtomicBool::new(false),
@@ -196,7 +199,7 @@ impl MotionService {
         let thread_err =
             |what: &'static str| move |e: std::io::Error| StartError::Thread { what, message: e.to_string() };
 
-        let feeder = Feeder::new(opts.config.clone(), queues, report_tx);
+        let feeder = Feeder::new(&opts.config, queues, report_tx);
         let planner_nice = opts.config.rt.planner_nice;
         let feeder = std::thread::Builder::new()
             .name("interpd-planner".into())
@@ -291,13 +294,13 @@ impl MotionService {
 fn rt_thread(
     inner: Arc<Inner>,
     mut sinks: Vec<Box<dyn SetpointSink + Send>>,
-    start_position: Option<[f64; crate::path::MAX_AXES]>,
+    start_position: Option<[f64; interpd_motion::path::MAX_AXES]>,
     ready: Sender<Result<SchedReport, StartError>>,
 ) -> (LoopTotals, crate::interp::executor::ExecutorFaults) {
     let sched = rt::sched::apply(&inner.config.rt);
     let _ = ready.send(Ok(sched));
     let n_axes = inner.config.axes.len();
-    let mut executor = Executor::new(n_axes, start_position.unwrap_or([0.0; crate::path::MAX_AXES]));
+    let mut executor = Executor::new(n_axes, start_position.unwrap_or([0.0; interpd_motion::path::MAX_AXES]));
     let mut sp = Setpoints { n_axes: n_axes as u32, ..Setpoints::default() };
     let period_ns = (inner.config.machine.cycle_ms * 1e6).round() as u64;
     let dt_s = period_ns as f64 * 1e-9;
@@ -527,9 +530,9 @@ impl MotionCore {
     fn load_laws(&self, name: String, laws: LawProgram) -> Result<(ProgramInfo, f64), MotionError> {
         let inner = &self.inner;
         let here = inner.live.load().pos;
-        let moves = laws.moves(&inner.config, &here, &name).map_err(MotionError::BadProgram)?;
+        let moves = laws.moves(&inner.settings, &here, &name).map_err(MotionError::BadProgram)?;
         let duration_s = moves.iter().map(LawMove::duration_s).sum();
-        let (path, _) = law_run::law_path(&inner.config, moves, here, &laws.lines());
+        let (path, _) = law_run::law_path(&inner.settings, moves, here, &laws.lines());
         let info = ProgramInfo {
             name,
             elements: laws.blocks.len() as u64,
@@ -572,16 +575,16 @@ impl Motion for MotionCore {
             return self.load_laws(name, laws).map(|(info, _)| info);
         }
         let (name, parsed) = match source {
-            ProgramSource::File(p) => (p.display().to_string(), program::load(&p, &inner.config)),
+            ProgramSource::File(p) => (p.display().to_string(), program::load(&p, &inner.settings)),
             ProgramSource::Text { name, text } => {
-                let parsed = program::parse(&text, &name, &inner.config);
+                let parsed = program::parse(&text, &name, &inner.settings);
                 (name, parsed)
             }
         };
         let prog = parsed.map_err(|e| MotionError::BadProgram(e.to_string()))?;
         // Tolerance-band smoothing (G64 P…) of the whole program, here in the control thread:
         // it runs ahead of the planner and never near the real-time thread.
-        let prepared = crate::prep::prepare_path(&inner.config, &prog.path)
+        let prepared = interpd_motion::prep::prepare_path(&inner.settings, &prog.path)
             .map_err(|e| MotionError::BadProgram(format!("{name}: {e}")))?;
         if prepared.stats.windows > 0 {
             tracing::info!(
@@ -609,7 +612,7 @@ impl Motion for MotionCore {
     }
 
     fn law(&self, statement: &str) -> Result<serde_json::Value, MotionError> {
-        if statement.contains('\n') || !crate::law::program::is_law_statement(statement) {
+        if statement.contains('\n') || !interpd_motion::law::program::is_law_statement(statement) {
             return Err(MotionError::InvalidParams(format!(
                 "\"statement\" must be one LAW statement, e.g. \"LAW PRESET=rr7 DURATION=0.8 X=10\"; got {:?}",
                 statement.chars().take(80).collect::<String>()
@@ -642,8 +645,8 @@ impl Motion for MotionCore {
         let motion = match &loaded {
             Loaded::Path(path) => (approach::with_approach(path, &here, &inner.config), None),
             Loaded::Laws(prog) => {
-                let moves = prog.moves(&inner.config, &here, &info.name).map_err(MotionError::BadProgram)?;
-                let (path, laws) = law_run::law_path(&inner.config, moves, here, &prog.lines());
+                let moves = prog.moves(&inner.settings, &here, &info.name).map_err(MotionError::BadProgram)?;
+                let (path, laws) = law_run::law_path(&inner.settings, moves, here, &prog.lines());
                 (path, Some(Box::new(laws)))
             }
         };

@@ -3,11 +3,12 @@
 
 use super::feeder::{Feeder, FeederCommand, FeederReport, Queues};
 use crate::interp::{DivertCause, Executor, Io, Notice};
-use crate::path::{AxisDerivs, Path};
-use crate::program;
 use crossbeam::channel;
 use crossbeam::queue::ArrayQueue;
 use interpd_config::Config;
+use interpd_motion::Settings;
+use interpd_motion::path::{AxisDerivs, Path};
+use interpd_motion::program;
 use interpd_protocol::shm::Setpoints;
 use std::sync::Arc;
 
@@ -30,8 +31,8 @@ impl Sim {
     pub fn new(config: Config) -> Sim {
         let queues = Queues::new();
         let (tx, rx) = channel::unbounded();
-        let feeder = Feeder::new(config.clone(), queues.clone(), tx);
-        let executor = Executor::new(config.axes.len(), [0.0; crate::path::MAX_AXES]);
+        let feeder = Feeder::new(&config, queues.clone(), tx);
+        let executor = Executor::new(config.axes.len(), [0.0; interpd_motion::path::MAX_AXES]);
         Sim {
             config,
             feeder,
@@ -137,7 +138,7 @@ fn example(name: &str) -> String {
 }
 
 fn load(name: &str, config: &Config) -> Arc<Path> {
-    Arc::new(program::parse(&example(name), name, config).unwrap().path)
+    Arc::new(program::parse(&example(name), name, &Settings::from(config)).unwrap().path)
 }
 
 #[test]
@@ -189,7 +190,7 @@ fn hold_stops_on_the_path_and_resume_finishes() {
 fn override_changes_apply_within_the_limits() {
     let config = Config::default_machine();
     let text = "G21 G90 G17\nG1 X0 Y0 F6000\nG1 X100 Y0\nG3 X110 Y10 I0 J10\nG1 X110 Y60\nG3 X100 Y70 I-10 J0\nG1 X0 Y70\nG3 X-10 Y60 I0 J-10\nG1 X-10 Y10\nG3 X0 Y0 I10 J0\nG1 X100 Y0\n";
-    let path = Arc::new(program::parse(text, "loop.ngc", &config).unwrap().path);
+    let path = Arc::new(program::parse(text, "loop.ngc", &Settings::from(&config)).unwrap().path);
     let mut sim = Sim::new(config.clone());
     sim.start(path.clone());
     let mut worst_chunk_s: f64 = 0.0;
@@ -222,8 +223,8 @@ fn override_changes_apply_within_the_limits() {
 fn smoothed_corner_is_passed_in_motion_within_the_limits() {
     let config = Config::default_machine();
     let text = "G21 G90 G17 G64 P0.05\nG1 X0 Y0 F6000\nG1 X40 Y0\nG1 X40 Y40\nG1 X0 Y40\n";
-    let parsed = program::parse(text, "g64.ngc", &config).unwrap().path;
-    let prepared = crate::prep::prepare_path(&config, &parsed).unwrap();
+    let parsed = program::parse(text, "g64.ngc", &Settings::from(&config)).unwrap().path;
+    let prepared = interpd_motion::prep::prepare_path(&Settings::from(&config), &parsed).unwrap();
     assert!(prepared.stats.windows > 0, "nothing was smoothed");
     let path = Arc::new(prepared.path);
     let mut sim = Sim::new(config.clone());
@@ -246,10 +247,10 @@ fn smoothed_corner_is_passed_in_motion_within_the_limits() {
 /// total duration of its moves.
 fn start_laws(sim: &mut Sim, text: &str) -> (Arc<Path>, f64) {
     let prog = super::law_run::parse_law_program(text, "laws.ngc").unwrap().expect("a law program");
-    let here = [0.0; crate::path::MAX_AXES];
-    let moves = prog.moves(&sim.config, &here, "laws.ngc").unwrap();
-    let duration_s = moves.iter().map(crate::law::LawMove::duration_s).sum();
-    let (path, laws) = super::law_run::law_path(&sim.config, moves, here, &prog.lines());
+    let here = [0.0; interpd_motion::path::MAX_AXES];
+    let moves = prog.moves(&Settings::from(&sim.config), &here, "laws.ngc").unwrap();
+    let duration_s = moves.iter().map(interpd_motion::law::LawMove::duration_s).sum();
+    let (path, laws) = super::law_run::law_path(&Settings::from(&sim.config), moves, here, &prog.lines());
     let path = Arc::new(path);
     sim.feeder.command(FeederCommand::StartLaws {
         path: path.clone(),
@@ -317,6 +318,6 @@ fn law_program_errors_name_the_line() {
     let syntax = parse("LAW PRESET=rr7 X=1\n").unwrap_err();
     assert_eq!(syntax, "p.ngc:1:19: DURATION=<seconds> is missing");
     let fast = parse("\nLAW PRESET=rr7 DURATION=0.1 X=30\n").unwrap().unwrap();
-    let e = fast.moves(&config, &[0.0; crate::path::MAX_AXES], "p.ngc").unwrap_err();
+    let e = fast.moves(&Settings::from(&config), &[0.0; interpd_motion::path::MAX_AXES], "p.ngc").unwrap_err();
     assert!(e.starts_with("p.ngc:2: axis X") && e.contains("grow by a factor of"), "{e}");
 }

@@ -1,0 +1,34 @@
+//! Motion laws (seed 003, "Bewegungsdesign nach Maß"): single-axis moves designed as one
+//! polynomial f(z) on the normalised section z ∈ [0, 1] (stroke 1, duration 1), fixed by
+//! interpolation conditions f⁽ⁱ⁾(z) = F, with the VDI 2143 characteristic values
+//! C_v = max|f′|, C_a = max|f″|, C_j = max|f‴|, and executable as synchronised axis moves.
+//!
+//! - [`condition`]: conditions and their validation; [`chebyshev`] and [`solver`]: the
+//!   well-conditioned basis and the solve; [`polynomial`]: the solved [`Law`];
+//! - [`preset`]: the seed's laws; [`characteristic`] and [`roots`]: exact extrema;
+//! - [`limits`] and [`movement`]: a law as a timed move on machine axes, checked against the
+//!   axis limits; [`program`]: the `LAW` program statement.
+
+pub mod characteristic;
+pub mod chebyshev;
+pub mod condition;
+pub mod ddouble;
+pub mod error;
+pub mod limits;
+pub mod movement;
+pub mod polynomial;
+pub mod preset;
+pub mod program;
+pub mod roots;
+pub mod solver;
+
+pub use characteristic::{Characteristics, Extreme, Peak};
+pub use condition::{Condition, ConditionSet, MAX_CONDITIONS, MAX_DEGREE};
+pub use error::LawError;
+pub use limits::{AxisLimits, LimitError, LimitKind};
+pub use movement::{AxisState, LawAxis, LawMove, LawMoveError};
+pub use polynomial::{Derivs, Law, Residual};
+pub use preset::Preset;
+
+#[cfg(test)]
+mod tests;

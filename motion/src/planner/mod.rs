@@ -1,0 +1,541 @@
+//! The look-ahead feedrate planner (seed 001): a C¹ path-velocity profile with piecewise
+//! constant path jerk under axis velocity, acceleration and jerk limits.
+//!
+//! Data flow inside the planner:
+//! elements → [`sampling`] (nodes s_i with A′…A‴ and v̄) → blocks between stops →
+//! [`branch`] (backward branches from the section ends, the forward branch, joins) →
+//! [`profile::Segment`]s handed on.
+//!
+//! The planner works online: it takes elements one at a time, keeps a horizon of at least
+//! `planner.lookahead_mm` (or `lookahead_samples`) ahead of what it handed on, and plans the
+//! horizon as if the motion had to stop at its end. It hands on only the part of the profile
+//! that does not depend on that assumed stop, so every handed-over piece ends in a state from
+//! which the machine can still stop within the planned path, and planning element by element
+//! gives the same profile as planning the whole program.
+
+pub mod block;
+pub mod brake;
+pub mod branch;
+pub mod check;
+pub mod envelope;
+pub mod falsi;
+pub mod forward;
+pub mod interval;
+pub mod join;
+mod lanes;
+pub mod limits;
+pub mod node;
+pub mod profile;
+pub mod ramp;
+pub mod reach;
+pub mod resume;
+pub mod sampling;
+pub mod scurve;
+pub mod step;
+pub mod view;
+
+pub use limits::Limits;
+pub use profile::{PathState, Segment};
+pub use step::Work;
+
+use crate::Settings;
+use crate::path::{Element, Path};
+use node::Node;
+use sampling::SamplingParams;
+use std::collections::VecDeque;
+use std::fmt;
+
+/// Why a program cannot be planned.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PlanError {
+    /// The axes cannot move along the path at some point (zero or invalid velocity bound).
+    Immovable { s_mm: f64, line: u32, reason: String },
+    /// No profile keeping the limits was found from some point on.
+    Infeasible { s_mm: f64, line: u32, reason: String },
+}
+
+impl fmt::Display for PlanError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            PlanError::Immovable { s_mm, line, reason } => {
+                write!(f, "line {line}: the axes cannot move along the path at s = {s_mm:.4} mm: {reason}")
+            }
+            PlanError::Infeasible { s_mm, line, reason } => {
+                write!(f, "line {line}: no motion within the axis limits found at s = {s_mm:.4} mm: {reason}")
+            }
+        }
+    }
+}
+
+impl std::error::Error for PlanError {}
+
+/// Totals over a planning run.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PlanStats {
+    /// Nodes sampled.
+    pub nodes: u64,
+    /// Blocks (stop to stop, or horizon pieces) planned.
+    pub blocks: u64,
+    pub work: Work,
+    /// Horizons that could not continue from the state the one before handed over and took
+    /// that one's stop instead (see `Planner::stop_in`).
+    pub horizon_stops: u64,
+    /// Horizons that could not continue from that state and braked along half of its stop
+    /// before trying again (each try counts).
+    pub horizon_brakes: u64,
+}
+
+/// A retained stop at most this long is taken whole when the next horizon cannot continue
+/// from the hand-over state; a longer one is followed half-way first
+/// (`Planner::brake_along_stop`).
+const STOP_TAKEN_WHOLE_MAX_INTERVALS: usize = 4;
+
+/// Interval lengths of a retained stop against the node spacing
+/// ([`Planner::can_stop_within_horizon`]).
+const STOP_CHECK_DS_TOL_MM: f64 = 1e-9;
+
+/// The online planner.
+pub struct Planner {
+    lim: Limits,
+    params: SamplingParams,
+    lookahead_mm: f64,
+    lookahead_samples: usize,
+    /// Elements received but not yet sampled (the newest waits for its successor).
+    pending: VecDeque<Element>,
+    /// The last sampled element and its end (for the joint with the next one).
+    prev: Option<(Element, sampling::ElementEnd)>,
+    since_stop_mm: f64,
+    input_done: bool,
+    end_sampled: bool,
+    final_dwell_s: f64,
+    /// Nodes from the hand-over point on; `nodes[0]` has the state `start`.
+    nodes: Vec<Node>,
+    start: (f64, f64),
+    /// The path starts in motion (`with_start_state`): its first node is no stop.
+    start_moving: bool,
+    t_now_s: f64,
+    /// Node count at the last plan (replan only after the horizon grew enough).
+    planned_len: usize,
+    /// A feasible profile from the start whose velocity floors the bounds (`resume`).
+    vbar_floor: Vec<Segment>,
+    /// The rest of the last horizon's plan from the hand-over node to where it came to rest
+    /// (its virtual end): the stop the hand-over state is guaranteed to have.
+    stop_in: Vec<interval::Interval>,
+    out: Vec<Segment>,
+    pub stats: PlanStats,
+}
+
+impl Planner {
+    pub fn new(settings: &Settings) -> Self {
+        Self::with_limits(settings, Limits::from_settings(settings))
+    }
+
+    pub fn with_limits(settings: &Settings, lim: Limits) -> Self {
+        let p = &settings.planner;
+        Self {
+            lim,
+            params: SamplingParams::from_settings(settings),
+            lookahead_mm: p.lookahead_mm,
+            lookahead_samples: p.lookahead_samples.unwrap_or(usize::MAX),
+            pending: VecDeque::new(),
+            prev: None,
+            since_stop_mm: 0.0,
+            input_done: false,
+            end_sampled: false,
+            final_dwell_s: 0.0,
+            nodes: Vec::new(),
+            start: (0.0, 0.0),
+            start_moving: false,
+            t_now_s: 0.0,
+            planned_len: 0,
+            vbar_floor: Vec::new(),
+            stop_in: Vec::new(),
+            out: Vec::new(),
+            stats: PlanStats::default(),
+        }
+    }
+
+    pub fn limits(&self) -> &Limits {
+        &self.lim
+    }
+
+    /// Adds the next element of the path.
+    pub fn push(&mut self, element: Element) {
+        self.pending.push_back(element);
+    }
+
+    /// No more elements follow; `final_dwell_s` is the dwell after the last one.
+    pub fn finish(&mut self, final_dwell_s: f64) {
+        self.input_done = true;
+        self.final_dwell_s = final_dwell_s;
+    }
+
+    /// Everything received has been planned and handed on.
+    pub fn done(&self) -> bool {
+        self.input_done && self.end_sampled && self.nodes.len() <= 1 && self.pending.is_empty()
+    }
+
+    /// Plans as far as the look-ahead allows and returns the segments that are final.
+    pub fn plan(&mut self) -> Result<Vec<Segment>, PlanError> {
+        self.sample_pending();
+        if self.nodes.len() < 2 {
+            return Ok(std::mem::take(&mut self.out));
+        }
+        let complete = self.end_sampled;
+        let ahead_mm = self.nodes[self.nodes.len() - 1].s_mm - self.nodes[0].s_mm;
+        let ahead_n = self.nodes.len();
+        let enough = ahead_mm >= self.lookahead_mm || ahead_n >= self.lookahead_samples;
+        // Replan when the program is complete, or when the horizon is full and has grown by a
+        // quarter since the last plan (so each node is planned a bounded number of times).
+        let grown = self.nodes.len() >= self.planned_len + self.planned_len / 4 + 16;
+        if complete || (enough && grown) {
+            self.plan_horizon(complete)?;
+        }
+        Ok(std::mem::take(&mut self.out))
+    }
+
+    /// Whether the machine, in the state handed over last, can still come to rest within the
+    /// path planned so far (the nodes held for the horizon): the invariant every hand-over
+    /// keeps. The stop the last horizon planned proves it when it starts in that state, runs
+    /// node to node and ends at rest; otherwise a stop is planned on a copy. The planner is
+    /// unchanged.
+    pub fn can_stop_within_horizon(&self) -> bool {
+        if self.nodes.len() < 2 {
+            return self.start.0.abs() < 1e-9 && self.start.1.abs() < 1e-6;
+        }
+        if self.retained_stop_holds() {
+            return true;
+        }
+        // The nodes up to the first stop (or the horizon end, taken as one).
+        let end = (1..self.nodes.len()).find(|&i| self.nodes[i].stop).unwrap_or(self.nodes.len() - 1);
+        let mut nodes = self.nodes[..=end].to_vec();
+        if let Some(last) = nodes.last_mut() {
+            last.vbar_mm_s = 0.0;
+        }
+        block::plan_block(&mut nodes, self.start, false, &self.lim).is_ok()
+    }
+
+    /// Whether `stop_in` is a stop from the hand-over state within the held nodes.
+    fn retained_stop_holds(&self) -> bool {
+        let (Some(first), Some(last)) = (self.stop_in.first(), self.stop_in.last()) else { return false };
+        let fits = self.stop_in.len() < self.nodes.len()
+            && self.stop_in.iter().enumerate().all(|(k, iv)| {
+                let ds = self.nodes[k + 1].s_mm - self.nodes[k].s_mm;
+                (iv.ds_mm - ds).abs() <= STOP_CHECK_DS_TOL_MM
+            });
+        fits && first.v0 == self.start.0
+            && first.a0 == self.start.1
+            && last.v1().abs() <= forward::REST_V_TOL_MM_S
+            && last.a1().abs() <= forward::REST_A_TOL_MM_S2
+    }
+
+    /// Plans a whole path at once (the offline use of the same online machinery).
+    pub fn plan_path(settings: &Settings, path: &Path) -> Result<(Vec<Segment>, PlanStats), PlanError> {
+        let mut planner = Planner::new(settings);
+        planner.lookahead_mm = f64::INFINITY;
+        for e in &path.elements {
+            planner.push(e.clone());
+        }
+        planner.finish(path.final_dwell_s);
+        let segments = planner.plan()?;
+        Ok((segments, planner.stats))
+    }
+
+    /// The nodes of a whole path as the planner samples them (for tests and tools).
+    pub fn sample_path(settings: &Settings, path: &Path) -> Vec<Node> {
+        let mut planner = Planner::new(settings);
+        for e in &path.elements {
+            planner.push(e.clone());
+        }
+        planner.finish(path.final_dwell_s);
+        planner.sample_pending();
+        planner.nodes
+    }
+
+    /// Samples every pending element whose successor is known (or all, at the end).
+    fn sample_pending(&mut self) {
+        while let Some(e) = self.pending.front() {
+            let next_stops = match self.pending.get(1) {
+                Some(next) => next.stops_before(),
+                None if self.input_done => true,
+                None => break,
+            };
+            let count_before = self.nodes.len();
+            let end = sampling::sample_element(
+                self.prev.as_ref().map(|(p, end)| (p, end)),
+                self.start_moving,
+                e,
+                next_stops,
+                &mut self.since_stop_mm,
+                &self.lim,
+                &self.params,
+                &mut self.nodes,
+            );
+            self.stats.nodes += (self.nodes.len() - count_before) as u64;
+            self.refine_vbar(count_before.saturating_sub(1));
+            if !self.vbar_floor.is_empty() {
+                resume::raise_to_floor(&mut self.nodes[count_before.saturating_sub(1)..], &self.vbar_floor);
+            }
+            if count_before == 0 && self.start_moving {
+                resume::admit_start_state(&mut self.nodes[0], self.start);
+            }
+            self.prev = self.pending.pop_front().map(|e| (e, end));
+        }
+        if self.input_done && self.pending.is_empty() && !self.end_sampled {
+            if let Some((last, end)) = &self.prev {
+                self.nodes.push(sampling::end_node(last, end, self.final_dwell_s, &self.params));
+                self.stats.nodes += 1;
+                self.refine_vbar(self.nodes.len().saturating_sub(2));
+            }
+            self.end_sampled = true;
+        }
+    }
+
+    /// Lowers the velocity bounds of nodes `from..` by the minimum of v̄ inside each interval
+    /// whose both nodes now exist. The acceleration-only bound is lowered only by a minimum
+    /// below both nodes' bounds: one falling across the interval is kept by the lower node
+    /// already, and lowering the higher node to it cuts a notch into a steep ceiling (5-axis
+    /// table: 7 % at a node beside a long interval into a rotary swing, where the Ipopt
+    /// reference runs above the notch and the backward branches could not start at the swing).
+    fn refine_vbar(&mut self, from: usize) {
+        for i in from..self.nodes.len().saturating_sub(1) {
+            let (v, v_flat) = check::interior_vbar(&view::View::forward(&self.nodes).interval_geom(i), &self.lim);
+            let below_both = v < self.nodes[i].vbar_mm_s.min(self.nodes[i + 1].vbar_mm_s);
+            for k in [i, i + 1] {
+                let node = &mut self.nodes[k];
+                if !node.stop {
+                    if below_both {
+                        node.vbar_mm_s = node.vbar_mm_s.min(v);
+                    }
+                    node.vbar_flat_mm_s = node.vbar_flat_mm_s.min(v_flat);
+                }
+            }
+        }
+    }
+
+    /// The next horizon found no continuation from the state at node `stop_from`, where what is
+    /// left of the last horizon's stop (`stop_in`) starts: that horizon handed over only what
+    /// can still stop along it. Emits half of it (at most log₂ of its length more plans) and
+    /// keeps the rest, or, with at most `STOP_TAKEN_WHOLE_MAX_INTERVALS` left, all of it (the
+    /// motion comes to rest). Returns the node reached and the state there.
+    fn brake_along_stop(&mut self, stop_from: usize, reason: &str) -> (usize, (f64, f64)) {
+        let stop = std::mem::take(&mut self.stop_in);
+        let k = if stop.len() > STOP_TAKEN_WHOLE_MAX_INTERVALS { stop.len() / 2 } else { stop.len() };
+        self.emit(stop_from, &stop[..k]);
+        let reached = stop_from + k;
+        if let Some(rest) = stop.get(k) {
+            tracing::warn!(
+                s_from_mm = self.nodes[stop_from].s_mm,
+                s_mm = self.nodes[reached].s_mm,
+                reason,
+                "planner: no continuation from the hand-over state; braking along its stop and retrying"
+            );
+            self.stats.horizon_brakes += 1;
+            let state = (rest.v0, rest.a0);
+            self.stop_in = stop[k..].to_vec();
+            return (reached, state);
+        }
+        tracing::warn!(
+            s_stop_mm = self.nodes[reached].s_mm,
+            reason,
+            "planner: no continuation from the hand-over state; stopping where the last horizon ended"
+        );
+        self.stats.horizon_stops += 1;
+        (reached, (0.0, 0.0))
+    }
+
+    /// Plans the current horizon and hands on what is final.
+    fn plan_horizon(&mut self, complete: bool) -> Result<(), PlanError> {
+        self.validate_bounds()?;
+        let n = self.nodes.len();
+        let last_is_real_end = complete;
+        // Blocks end at stops; the horizon end counts as one.
+        let mut block_start = 0;
+        let mut handed = 0; // nodes[..=handed] are final
+        let mut state = self.start;
+        let mut idx = 1;
+        // Node where `stop_in` (what is left of it) starts.
+        let mut stop_from = 0;
+        while idx < n {
+            let is_end = idx == n - 1;
+            if !(self.nodes[idx].stop || is_end) {
+                idx += 1;
+                continue;
+            }
+            let virtual_end = is_end && !last_is_real_end && !self.nodes[idx].stop;
+            let saved_vbar = self.nodes[idx].vbar_mm_s;
+            if virtual_end {
+                self.nodes[idx].vbar_mm_s = 0.0;
+            }
+            let result = block::plan_block(&mut self.nodes[block_start..=idx], state, !virtual_end, &self.lim);
+            if virtual_end {
+                self.nodes[idx].vbar_mm_s = saved_vbar;
+            }
+            let plan = match result {
+                Ok(plan) => plan,
+                Err(stuck)
+                    if block_start == stop_from && !self.stop_in.is_empty() && stop_from + self.stop_in.len() < idx =>
+                {
+                    // No continuation from the hand-over state with the longer horizon (a
+                    // dead end the branches do not find their way out of).
+                    let (from, brake_state) = self.brake_along_stop(stop_from, stuck.reason);
+                    (stop_from, handed, block_start, idx, state) = (from, from, from, from + 1, brake_state);
+                    continue;
+                }
+                Err(stuck) => {
+                    let node = &self.nodes[block_start + stuck.node.min(idx - block_start)];
+                    return Err(PlanError::Infeasible {
+                        s_mm: node.s_mm,
+                        line: node.line,
+                        reason: stuck.reason.to_string(),
+                    });
+                }
+            };
+            if block_start == stop_from {
+                self.stop_in.clear();
+            }
+            self.stats.blocks += 1;
+            self.stats.work.add(&plan.work);
+            tracing::debug!(
+                s_from_mm = self.nodes[block_start].s_mm,
+                s_to_mm = self.nodes[idx].s_mm,
+                nodes = idx - block_start + 1,
+                evals = plan.work.evals,
+                evals_per_node = plan.work.evals as f64 / (idx - block_start) as f64,
+                ramps = plan.work.ramps,
+                joins = plan.work.joins,
+                repairs = plan.work.repairs,
+                "planned section block"
+            );
+            if !plan.node_aligned {
+                self.emit_block(block_start, idx, &plan.intervals);
+                handed = idx;
+                state = (0.0, 0.0);
+                block_start = idx;
+                idx += 1;
+                continue;
+            }
+            let final_count = if virtual_end { plan.final_before } else { plan.intervals.len() };
+            self.emit(block_start, &plan.intervals[..final_count]);
+            handed = block_start + final_count;
+            if final_count < plan.intervals.len() {
+                let iv = &plan.intervals[final_count];
+                state = (iv.v0, iv.a0);
+                self.stop_in = plan.intervals[final_count..].to_vec();
+                break;
+            }
+            state = (0.0, 0.0);
+            block_start = idx;
+            idx += 1;
+        }
+        if handed > 0 {
+            self.nodes.drain(..handed);
+        }
+        self.start = state;
+        self.planned_len = self.nodes.len();
+        if complete && self.nodes.len() == 1 {
+            let end = &self.nodes[0];
+            if end.dwell_s > 0.0 {
+                self.out.push(Segment {
+                    s0_mm: end.s_mm,
+                    t0_s: self.t_now_s,
+                    dt_s: end.dwell_s,
+                    line: end.line,
+                    ..Segment::default()
+                });
+                self.t_now_s += end.dwell_s;
+                self.nodes[0].dwell_s = 0.0;
+            }
+        }
+        Ok(())
+    }
+
+    /// Appends the segments of `intervals`, which start at node `first`.
+    fn emit(&mut self, first: usize, intervals: &[interval::Interval]) {
+        for (k, iv) in intervals.iter().enumerate() {
+            let node = &self.nodes[first + k];
+            if node.dwell_s > 0.0 && node.stop {
+                self.out.push(Segment {
+                    s0_mm: node.s_mm,
+                    t0_s: self.t_now_s,
+                    dt_s: node.dwell_s,
+                    line: node.line,
+                    ..Segment::default()
+                });
+                self.t_now_s += node.dwell_s;
+            }
+            self.out.push(Segment {
+                s0_mm: node.s_mm,
+                t0_s: self.t_now_s,
+                v0: iv.v0,
+                a0: iv.a0,
+                j: iv.j,
+                dt_s: iv.t_s,
+                ds_mm: iv.ds_mm,
+                line: node.line,
+            });
+            self.t_now_s += iv.t_s;
+        }
+        // A dwell at the first node is emitted once: clear it on the handed-over nodes.
+        for node in &mut self.nodes[first..first + intervals.len()] {
+            node.dwell_s = 0.0;
+        }
+    }
+
+    /// Appends a time-domain profile from node `first` to node `last` (not node-aligned).
+    fn emit_block(&mut self, first: usize, last: usize, intervals: &[interval::Interval]) {
+        let start = &self.nodes[first];
+        if start.dwell_s > 0.0 && start.stop {
+            self.out.push(Segment {
+                s0_mm: start.s_mm,
+                t0_s: self.t_now_s,
+                dt_s: start.dwell_s,
+                line: start.line,
+                ..Segment::default()
+            });
+            self.t_now_s += start.dwell_s;
+        }
+        let mut s = start.s_mm;
+        let end_s = self.nodes[last].s_mm;
+        for (i, iv) in intervals.iter().enumerate() {
+            // The last piece ends exactly at the block end, whatever the rounding of the sum.
+            let ds = if i + 1 == intervals.len() { end_s - s } else { iv.ds_mm };
+            // The program line of the element the piece starts in.
+            let k = first + self.nodes[first..=last].partition_point(|n| n.s_mm <= s).saturating_sub(1);
+            let line = self.nodes[k.min(last)].line;
+            self.out.push(Segment {
+                s0_mm: s,
+                t0_s: self.t_now_s,
+                v0: iv.v0,
+                a0: iv.a0,
+                j: iv.j,
+                dt_s: iv.t_s,
+                ds_mm: ds,
+                line,
+            });
+            self.t_now_s += iv.t_s;
+            s += ds;
+        }
+        for node in &mut self.nodes[first..last] {
+            node.dwell_s = 0.0;
+        }
+    }
+
+    fn validate_bounds(&self) -> Result<(), PlanError> {
+        for (i, node) in self.nodes.iter().enumerate() {
+            let v = node.vbar_mm_s;
+            let interior = i > 0 && i + 1 < self.nodes.len() && !node.stop;
+            if v.is_nan() || (interior && v <= 0.0) {
+                return Err(PlanError::Immovable {
+                    s_mm: node.s_mm,
+                    line: node.line,
+                    reason: format!("velocity bound {v} (an axis limit or the feed does not allow motion here)"),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests;

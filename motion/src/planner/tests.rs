@@ -1,0 +1,534 @@
+use super::*;
+use crate::Settings;
+use crate::program;
+
+fn plan_text(text: &str, cfg: &Settings) -> (Vec<Segment>, PlanStats, Path) {
+    let p = program::parse(text, "t.ngc", cfg).expect("program parses");
+    let (segs, stats) = Planner::plan_path(cfg, &p.path).expect("plan");
+    (segs, stats, p.path)
+}
+
+/// Time-optimal rest-to-rest duration along one axis with symmetric limits.
+fn rest_to_rest_time(l: f64, v: f64, a: f64, j: f64) -> f64 {
+    // Full profile if L is long enough; otherwise search the peak velocity by bisection.
+    let dist = |vp: f64| {
+        let (ta, tj) = if vp * j >= a * a { (vp / a - a / j, a / j) } else { (0.0, (vp / j).sqrt()) };
+        let t_acc = ta + 2.0 * tj;
+        vp * t_acc // distance to accelerate to vp and back down to 0 (symmetric)
+    };
+    let t_of = |vp: f64| {
+        let (ta, tj) = if vp * j >= a * a { (vp / a - a / j, a / j) } else { (0.0, (vp / j).sqrt()) };
+        2.0 * (ta + 2.0 * tj)
+    };
+    if dist(v) <= l {
+        return t_of(v) + (l - dist(v)) / v;
+    }
+    let (mut lo, mut hi) = (0.0, v);
+    for _ in 0..200 {
+        let m = 0.5 * (lo + hi);
+        if dist(m) <= l { lo = m } else { hi = m }
+    }
+    t_of(lo)
+}
+
+/// The machine with tight limits (tests/machines/xyz_tight.toml).
+fn tight_machine() -> Settings {
+    Settings::from_toml_str(
+        &std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/machines/xyz_tight.toml")).unwrap(),
+        "xyz_tight.toml",
+    )
+    .unwrap()
+}
+
+/// [`check_continuity`], and the profile reaches the path's end (`length_mm`).
+fn check_covers(segs: &[Segment], length_mm: f64) {
+    check_continuity(segs);
+    let end_mm = segs.last().expect("a profile").s1_mm();
+    assert!((end_mm - length_mm).abs() < 1e-6, "the profile ends at {end_mm} mm of {length_mm}");
+}
+
+fn check_continuity(segs: &[Segment]) {
+    for w in segs.windows(2) {
+        let (a, b) = (&w[0], &w[1]);
+        let end = a.at(a.dt_s);
+        assert!((a.t1_s() - b.t0_s).abs() < 1e-9, "time gap");
+        assert!((a.s1_mm() - b.s0_mm).abs() < 1e-9, "s gap {} vs {}", a.s1_mm(), b.s0_mm);
+        assert!((end.v - b.v0).abs() < 1e-6 * (1.0 + b.v0.abs()), "v jump {} vs {}", end.v, b.v0);
+        assert!((end.a - b.a0).abs() < 1e-5 * (1.0 + b.a0.abs()), "a jump {} vs {} at s {}", end.a, b.a0, b.s0_mm);
+    }
+}
+
+#[test]
+fn straight_line_is_near_time_optimal() {
+    let cfg = Settings::default_machine();
+    let (segs, stats, _) = plan_text("G1 X100 F60000\n", &cfg);
+    check_continuity(&segs);
+    let f = cfg.planner.limit_fraction;
+    let x = &cfg.axes[0];
+    let ideal = rest_to_rest_time(100.0, x.max_vel_per_s * f, x.max_acc_per_s2 * f, x.max_jerk_per_s3 * f);
+    let t = profile::duration_s(&segs);
+    assert!(t >= ideal * 0.999, "faster than the optimum? {t} < {ideal}");
+    assert!(t <= ideal * 1.02, "duration {t} s vs optimum {ideal} s ({} nodes, {:?})", stats.nodes, stats.work);
+    let last = segs.last().unwrap();
+    assert!((last.s1_mm() - 100.0).abs() < 1e-9);
+    let end = last.at(last.dt_s);
+    assert!(end.v.abs() < 1e-9 && end.a.abs() < 1e-6);
+}
+
+#[test]
+fn short_line_and_corner() {
+    let cfg = Settings::default_machine();
+    let (segs, _, _) = plan_text("G1 X0.05 F60000\nY0.05\n", &cfg);
+    check_continuity(&segs);
+    let t = profile::duration_s(&segs);
+    let f = cfg.planner.limit_fraction;
+    let x = &cfg.axes[0];
+    let ideal = 2.0 * rest_to_rest_time(0.05, x.max_vel_per_s * f, x.max_acc_per_s2 * f, x.max_jerk_per_s3 * f);
+    assert!(t <= ideal * 1.05 && t >= ideal * 0.999, "{t} vs {ideal}");
+}
+
+#[test]
+fn circle_keeps_continuity_and_ends_at_rest() {
+    let cfg = Settings::default_machine();
+    let (segs, stats, path) = plan_text("G1 F30000\nG2 X0 Y0 I-10 J0\n", &cfg);
+    check_continuity(&segs);
+    assert!((segs.last().unwrap().s1_mm() - path.length_mm()).abs() < 1e-9);
+    assert!(stats.work.repairs == 0, "{:?}", stats.work);
+}
+
+#[test]
+#[ignore = "debugging aid: prints the envelope and the profile"]
+fn debug_dump() {
+    let _ = tracing_subscriber::fmt().with_max_level(tracing::Level::TRACE).with_writer(std::io::stderr).try_init();
+    let cfg = match std::env::var("PLAN_MACHINE") {
+        Ok(m) => Settings::load(std::path::Path::new(&m)).unwrap(),
+        Err(_) => Settings::default_machine(),
+    };
+    let p = match std::env::var("PLAN_FILE") {
+        Ok(f) => program::load(std::path::Path::new(&f), &cfg).unwrap(),
+        Err(_) => {
+            let text = std::env::var("PLAN_TEXT").unwrap_or_else(|_| "G1 X100 F60000\n".into());
+            program::parse(&text, "t.ngc", &cfg).unwrap()
+        }
+    };
+    let lim = Limits::from_settings(&cfg);
+    let nodes = Planner::sample_path(&cfg, &p.path);
+    let mut work = Work::default();
+    let env = branch::build_envelope(&nodes, None, &lim, &mut work);
+    eprintln!("after envelope: {work:?}");
+    match &env {
+        Ok(env) => {
+            for (i, node) in nodes.iter().enumerate() {
+                eprintln!(
+                    "{i:4} s={:10.6} vbar={:10.4} E.v={:10.4} E.a={:10.3} curve={}",
+                    node.s_mm, node.vbar_mm_s, env.v[i], env.a[i], env.curve[i]
+                );
+            }
+            let fw = forward::forward_branch(&nodes, env, (0.0, 0.0), None, &lim, &mut work);
+            match fw {
+                Ok(f) => {
+                    for (i, iv) in f.intervals.iter().enumerate() {
+                        eprintln!("fw {i:4} v0={:10.4} a0={:10.2} j={:12.1} T={:.6}", iv.v0, iv.a0, iv.j, iv.t_s);
+                    }
+                }
+                Err(e) => eprintln!("forward stuck: {:?}", e.stuck),
+            }
+        }
+        Err(e) => eprintln!("envelope failed: {e:?}"),
+    }
+    eprintln!("{work:?}");
+}
+
+/// A long smooth G06 path (natural spline through points on a Lissajous curve).
+fn long_spline(points: usize) -> String {
+    let mut t = String::from("G21 G90 G17\nG1 X40 Y0 F6000\nG06\n");
+    for i in 1..=points {
+        let u = i as f64 / points as f64 * std::f64::consts::TAU * 3.0;
+        t += &format!("X{:.5} Y{:.5} Z0;\n", 40.0 * (u).cos() + 8.0 * (3.0 * u).sin(), 30.0 * (2.0 * u).sin());
+    }
+    t + "\nM30\n"
+}
+
+fn plan_online(cfg: &Settings, path: &Path, lookahead_mm: f64) -> (Vec<Segment>, usize) {
+    let (segs, handovers, _) = plan_online_stats(cfg, path, lookahead_mm);
+    (segs, handovers)
+}
+
+fn plan_online_stats(cfg: &Settings, path: &Path, lookahead_mm: f64) -> (Vec<Segment>, usize, PlanStats) {
+    let mut cfg = cfg.clone();
+    cfg.planner.lookahead_mm = lookahead_mm;
+    let mut planner = Planner::new(&cfg);
+    let mut segs = Vec::new();
+    let mut handovers = 0;
+    for e in &path.elements {
+        planner.push(e.clone());
+        let got = planner.plan().expect("online plan");
+        if !got.is_empty() {
+            handovers += 1;
+            assert!(
+                planner.can_stop_within_horizon(),
+                "handed-over state cannot stop within the planned path at s = {}",
+                got.last().unwrap().s1_mm()
+            );
+        }
+        segs.extend(got);
+    }
+    planner.finish(path.final_dwell_s);
+    segs.extend(planner.plan().expect("final plan"));
+    assert!(planner.done());
+    (segs, handovers, planner.stats)
+}
+
+/// A dense G06 spline on the tight machine with a short look-ahead: some horizons cannot
+/// continue from the state the one before handed over (the branches find no join), which made
+/// the whole program infeasible. Each horizon hands over only states that can still stop within
+/// it, along the stop it keeps. The planner brakes along half of that stop and tries again from
+/// there, and takes the whole stop only where little of it is left. Here one such brake
+/// suffices: 7.365 s (the whole program planned at once: 7.444 s). Taking the stop at once, as
+/// the planner did before, came to rest twice: 7.918 s.
+#[test]
+fn a_horizon_without_continuation_brakes_along_the_stop_it_was_handed() {
+    let tight = tight_machine();
+    let mut text = String::from("G21 G90 G17\nG1 X40 Y0 F6000\nG06\n");
+    for i in 1..=1000 {
+        let u = i as f64 / 1000.0 * std::f64::consts::TAU;
+        text += &format!("X{:.9} Y{:.9} Z0;\n", 40.0 * u.cos() + 8.0 * (3.0 * u).sin(), 30.0 * (2.0 * u).sin());
+    }
+    text += "\nM30\n";
+    let prog = program::parse(&text, "t.ngc", &tight).unwrap();
+    let (segs, _, stats) = plan_online_stats(&tight, &prog.path, 30.0);
+    assert!(stats.horizon_brakes >= 1, "the case no longer needs the fallback: {stats:?}");
+    check_covers(&segs, prog.path.length_mm());
+    // Each full stop taken is a real rest in the motion.
+    let rests = segs.windows(2).filter(|w| w[0].at(w[0].dt_s).v.abs() < 1e-9 && w[1].v0 == 0.0).count();
+    assert!(rests as u64 >= stats.horizon_stops, "{rests} rests for {} horizon stops", stats.horizon_stops);
+    let (whole, _) = Planner::plan_path(&tight, &prog.path).expect("plan");
+    let (t_online, t_whole) = (profile::duration_s(&segs), profile::duration_s(&whole));
+    assert!(t_online <= 1.02 * t_whole, "online {t_online} s, whole {t_whole} s ({stats:?})");
+}
+
+/// Online with a 60 mm look-ahead on the tight machine's dense spline, a horizon's backward
+/// branch from its (virtual) end at rest ran into a dead end its viability ramps did not
+/// foresee, and backing off led back into it: the program was reported infeasible. The branch
+/// from the block end now tries caps before giving up (`branch::build_envelope`).
+#[test]
+fn a_backward_branch_from_rest_that_runs_into_a_dead_end_is_capped() {
+    let (tight, path) = tight_spline(10_000);
+    let (segs, _, stats) = plan_online_stats(&tight, &path, 60.0);
+    check_covers(&segs, path.length_mm());
+    assert!(stats.work.end_caps > 0, "the case no longer needs the cap: {stats:?}");
+    assert!(stats.horizon_stops == 0, "{stats:?}");
+}
+
+#[test]
+fn online_planning_matches_whole_program() {
+    let cfg = Settings::default_machine();
+    let five = Settings::five_axis_machine();
+    let table =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/five_axis_table.csv")).unwrap();
+    // The loose machine's repairs creep back from the table's swings (`block::repair_span`),
+    // and repairs carry over into the next horizon.
+    let loose = Settings::from_toml_str(
+        &std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/machines/xyzab_loose.toml")).unwrap(),
+        "xyzab_loose.toml",
+    )
+    .unwrap();
+    let cases: Vec<(&str, String, &Settings, f64)> = vec![
+        ("spline", long_spline(400), &cfg, 120.0),
+        ("table", table.clone(), &five, 120.0),
+        ("table", table, &loose, 120.0),
+        ("circles", format!("G1 F30000\n{}", "G2 X0 Y0 I-10 J0\n".repeat(8)), &cfg, 40.0),
+    ];
+    for (name, text, c, lookahead) in cases {
+        let origin = if name == "table" { "t.csv" } else { "t.ngc" };
+        let prog = program::parse(&text, origin, c).unwrap();
+        let (whole, _) = Planner::plan_path(c, &prog.path).unwrap();
+        let (online, handovers) = plan_online(c, &prog.path, lookahead);
+        let (tw, to) = (profile::duration_s(&whole), profile::duration_s(&online));
+        assert!(handovers > 3, "{name}: only {handovers} hand-overs: the look-ahead did not bound the horizon");
+        assert!((to - tw).abs() <= 0.005 * tw, "{name}: online {to} s vs whole {tw} s");
+        check_continuity(&online);
+        let end = online.last().unwrap();
+        assert!((end.s1_mm() - prog.path.length_mm()).abs() < 1e-6);
+    }
+}
+
+/// Ipopt's optimum for the 5-axis table on the default machine's nodes, s
+/// (`benches/reference/optimum.py`, README "Reference optimum").
+const TABLE_IPOPT_S: f64 = 4.4305;
+/// How far above it the planner may be (the issue asks for 1.05; it is at 1.0236).
+const TABLE_IPOPT_RATIO_MAX: f64 = 1.03;
+
+/// The 5-axis table example, parsed for `cfg`.
+fn table_path(cfg: &Settings) -> Path {
+    let table =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/five_axis_table.csv")).unwrap();
+    program::parse(&table, "t.csv", cfg).unwrap().path
+}
+
+/// A machine file of the repository, `rel` from its root.
+fn repo_machine(rel: &str) -> Settings {
+    Settings::load(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(rel)).unwrap()
+}
+
+fn plan_table(cfg: &Settings) -> (Vec<Segment>, PlanStats) {
+    Planner::plan_path(cfg, &table_path(cfg)).unwrap()
+}
+
+/// The 5-axis table against its Ipopt reference: the rotary swings at s ≈ 441.5, 475.1 and
+/// 508.9 mm, where the path jerk is forced and the ceiling steep, are where a planner loses most
+/// (4.669 s before the backward branches could start near the ceiling there; 4.505 s since).
+#[test]
+fn five_axis_table_within_three_percent_of_the_reference() {
+    let (segs, _) = plan_table(&Settings::five_axis_machine());
+    let t = profile::duration_s(&segs);
+    let ratio = t / TABLE_IPOPT_S;
+    assert!(ratio <= TABLE_IPOPT_RATIO_MAX, "5-axis table: {t} s, {ratio:.4} × the Ipopt reference");
+}
+
+/// Through the table's swings the relaxed plan beats what a plan under seed 001's ceiling
+/// could do, so that plan is skipped (the cost of planning twice), and the relaxed one is kept.
+#[test]
+fn five_axis_table_skips_the_plan_that_cannot_win() {
+    let (_, stats) = plan_table(&Settings::five_axis_machine());
+    let w = stats.work;
+    assert!(w.relaxed_tried >= 1 && w.relaxed_kept == w.relaxed_tried && w.seed_skipped >= 1, "{w:?}");
+}
+
+/// The planner benchmark's G06 spline through `points` support points (one turn).
+fn bench_spline(points: usize) -> String {
+    let mut text = String::from("G21 G90 G17\nG1 X40 Y0 F6000\nG06\n");
+    for i in 1..=points {
+        let u = i as f64 / points as f64 * std::f64::consts::TAU;
+        text += &format!("X{:.9} Y{:.9} Z0;\n", 40.0 * u.cos() + 8.0 * (3.0 * u).sin(), 30.0 * (2.0 * u).sin());
+    }
+    text + "\nM30\n"
+}
+
+/// [`bench_spline`] on the tight machine.
+fn tight_spline(points: usize) -> (Settings, Path) {
+    let tight = tight_machine();
+    let path = program::parse(&bench_spline(points), "t.ngc", &tight).unwrap().path;
+    (tight, path)
+}
+
+/// Where the forward branch of a capped section gets stuck below the lowest cap the search may
+/// try, no cap helps: the search gives up at once (the block repair lowers v̄ there) instead of
+/// running every cap over the whole section. On this spline (the planner benchmark's, on the
+/// tight machine) that was 735 capped runs and three quarters of the planning. (The motion of
+/// every example stayed the same, compared with `interpd plan --json`; this test guards the
+/// work.) Since the step searches' Illinois weighting was mended the branches meet elsewhere
+/// on this spline, in sections whose every cap fails without the branch getting stuck: 136
+/// capped runs while the cap descent crept (factor 0.85), 48 since it steps by 0.6.
+#[test]
+fn a_capped_section_stuck_below_every_cap_gives_up_at_once() {
+    let (tight, path) = tight_spline(10_000);
+    let (segs, stats) = Planner::plan_path(&tight, &path).expect("plan");
+    check_covers(&segs, path.length_mm());
+    assert!(stats.work.repairs > 0, "the case no longer needs repairs: {:?}", stats.work);
+    assert!(stats.work.cap_tries <= 60, "{:?}", stats.work);
+}
+
+/// Online with a 10 mm look-ahead on the same spline, horizons end where the tight machine
+/// is still braking, and many capped sections fail whatever the cap: the forward branch gets
+/// stuck at the anchor's own velocity (the lowest the search may try), or the descent nears
+/// that velocity closer than the cap bisection resolves. Both now end the search (heuristics,
+/// see `capped_section`): 558 capped runs instead of 1809, a third of the planning time. (The
+/// motion stayed the same, 7.7897 s with one horizon stop, compared with `interpd plan --json`;
+/// this test guards the work.) With the flat landing, the mended searches and the brake along
+/// the kept stop it is 410, and 174 since the cap descent steps by 0.6 instead of 0.85.
+#[test]
+fn a_short_look_ahead_does_not_search_caps_that_cannot_help() {
+    let (tight, path) = tight_spline(10_000);
+    let (segs, _, stats) = plan_online_stats(&tight, &path, 10.0);
+    check_covers(&segs, path.length_mm());
+    assert!(stats.work.cap_tries > 0, "the case no longer searches caps: {:?}", stats.work);
+    assert!(stats.work.cap_tries <= 250, "{:?}", stats.work);
+}
+
+/// A repair lowers v̄ at a node in the middle of a 9 000-node block (the tight machine's dense
+/// spline; at 10 000 points, which this test took until 2026-11-26, the branches now meet
+/// without a repair). Rebuilt from the envelope before, the envelope takes over the branches
+/// before that node, and the forward branch resumes at its last section end before the first
+/// change: the same envelope and the same forward branch as built anew, for less work.
+#[test]
+fn a_repair_rebuilds_only_from_the_lowered_node_on() {
+    let (tight, path) = tight_spline(9_000);
+    let lim = Limits::from_settings(&tight);
+    let nodes = Planner::sample_path(&tight, &path);
+    // The spline's block, from the stop where it leaves the lead-in line, under seed 001's
+    // ceiling (as `block` plans it).
+    let first = nodes.iter().position(|nd| nd.stop && nd.s_mm > 1.0).unwrap();
+    let mut block = nodes[first..].to_vec();
+    for nd in &mut block {
+        nd.vbar_mm_s = nd.vbar_mm_s.min(nd.vbar_flat_mm_s);
+    }
+    let mut work = Work::default();
+    let env = branch::build_envelope(&block, None, &lim, &mut work).unwrap();
+    let Err(failed) = forward::forward_branch(&block, &env, (0.0, 0.0), None, &lim, &mut work) else {
+        panic!("the case no longer needs a repair");
+    };
+    let k = failed.stuck.node;
+    assert!(k > block.len() / 4, "stuck at node {k} of {}: too early to show the saving", block.len());
+    let from = block::lower_before(&mut block, k, 1, 0.9);
+
+    let (mut anew_work, mut kept_work) = (Work::default(), Work::default());
+    let anew = branch::build_envelope(&block, None, &lim, &mut anew_work).unwrap();
+    let previous = branch::Previous { env: &env, from };
+    let kept = branch::build_envelope(&block, Some(previous), &lim, &mut kept_work).unwrap();
+    assert_eq!((anew.v.clone(), anew.a.clone()), (kept.v.clone(), kept.a.clone()));
+    assert_eq!(kept.first_difference(&anew), block.len());
+    assert!(kept_work.evals * 4 < anew_work.evals * 3, "rebuilt {kept_work:?}, anew {anew_work:?}");
+
+    let (mut anew_work, mut kept_work) = (Work::default(), Work::default());
+    let resume_at = kept.first_difference(&env).min(from);
+    let anew = forward::forward_branch(&block, &anew, (0.0, 0.0), None, &lim, &mut anew_work);
+    let resumed =
+        forward::forward_branch(&block, &kept, (0.0, 0.0), Some((&failed.progress, resume_at)), &lim, &mut kept_work);
+    match (anew, resumed) {
+        (Ok(a), Ok(b)) => assert!(a.intervals == b.intervals && a.final_before == b.final_before),
+        (Err(a), Err(b)) => assert_eq!(a.stuck, b.stuck),
+        _ => panic!("resumed and anew disagree"),
+    }
+    assert!(kept_work.evals * 2 < anew_work.evals, "resumed {kept_work:?}, anew {anew_work:?}");
+}
+
+/// The planner benchmark's 10 000-point G06 spline on the default machine: at two places a
+/// braking ramp grazes a backward branch for dozens of nodes, and a join was tried at each of
+/// them (859 failed attempts, 72 % of the evaluations). Joins the jerk cannot reach are now
+/// skipped before they are solved. (The motion of every example stayed the same, compared
+/// with `interpd plan --json`; this test guards the work.)
+#[test]
+fn joins_out_of_the_jerks_reach_are_not_tried() {
+    let (segs, stats, path) = plan_text(&bench_spline(10_000), &Settings::default_machine());
+    check_covers(&segs, path.length_mm());
+    assert!(stats.work.evals < 90_000, "{:?}", stats.work);
+}
+
+/// The demo program (examples/demo.ngc) on the tight machine with its jerk limits scaled: its
+/// lines cruise at the X and Y velocity limits.
+fn tight_demo(jerk_scale: f64) -> (Vec<Segment>, PlanStats, Settings) {
+    let mut cfg = tight_machine();
+    scale_limits(&mut cfg, 1.0, jerk_scale);
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/demo.ngc")).unwrap();
+    let (segs, stats, path) = plan_text(&text, &cfg);
+    check_covers(&segs, path.length_mm());
+    (segs, stats, cfg)
+}
+
+/// Scales every axis's acceleration and jerk limits.
+fn scale_limits(cfg: &mut Settings, acc_scale: f64, jerk_scale: f64) {
+    for axis in &mut cfg.axes {
+        axis.max_acc_per_s2 *= acc_scale;
+        axis.max_jerk_per_s3 *= jerk_scale;
+    }
+}
+
+/// Motion times with the acceleration limits scaled by `scales`, checked to fall (within
+/// `tol`, relative) as the limits rise.
+fn check_time_falls_with_acc(plan: impl Fn(&Settings) -> Vec<Segment>, cfg: &Settings, scales: &[f64], tol: f64) {
+    let times: Vec<f64> = scales
+        .iter()
+        .map(|&f| {
+            let mut c = cfg.clone();
+            scale_limits(&mut c, f, 1.0);
+            profile::duration_s(&plan(&c))
+        })
+        .collect();
+    for w in times.windows(2) {
+        assert!(w[1] <= w[0] * (1.0 + tol), "durations {times:?} s for acceleration limits × {scales:?}");
+    }
+}
+
+/// The same with the acceleration limits a little higher or lower. Before the flat landing and
+/// the mended Illinois searches, line–arc–line on the tight machine took 3.3861 s, but 3.7354 s
+/// (+10 %) with its acceleration limits 0.26 % lower and 3.5008 s with them 0.13 % higher; the
+/// 5-axis table took 4.5047 s, but 4.6971 s (+4.3 %) with them 0.26 % lower.
+#[test]
+fn a_slightly_different_acceleration_limit_gives_a_slightly_different_motion() {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/line_arc_line.ngc")).unwrap();
+    let lal = |c: &Settings| plan_text(&text, c).0;
+    check_time_falls_with_acc(lal, &tight_machine(), &[0.9974, 0.9987, 1.0, 1.0013, 1.0026], 1e-4);
+    let table = |c: &Settings| plan_table(c).0;
+    check_time_falls_with_acc(table, &repo_machine("config/machines/xyzab.toml"), &[0.9974, 1.0], 1e-4);
+}
+
+/// Riding a flat ceiling (an axis at its velocity limit on a line), a branch cruises with
+/// j = 0 just under it. The greedy choice alone chattered there with jerks of ±0.985 J on
+/// every interval (`branch::flat_landing`).
+#[test]
+fn a_cruise_at_an_axis_velocity_limit_is_flat() {
+    let (segs, _, cfg) = tight_demo(1.0);
+    let x = &cfg.axes[0];
+    let v_limit = x.max_vel_per_s * cfg.planner.limit_fraction;
+    // The first line runs X0 → X80 at the X limit; from 20 to 60 mm it is past the start's
+    // ramp and before the braking into the arc.
+    let cruise: Vec<&Segment> = segs.iter().filter(|s| s.s0_mm > 20.0 && s.s0_mm < 60.0).collect();
+    assert!(cruise.len() > 100, "{} intervals on the cruise", cruise.len());
+    let jerky = cruise.iter().filter(|s| s.j.abs() > 1e-3 * x.max_jerk_per_s3).count();
+    let slowest = cruise.iter().map(|s| s.v0).fold(f64::INFINITY, f64::min);
+    assert!(jerky == 0, "{jerky} of {} cruise intervals with jerk", cruise.len());
+    assert!(slowest >= (1.0 - 2e-4) * v_limit, "the cruise drops to {slowest} mm/s under {v_limit}");
+}
+
+/// A jerk limit a few per mille higher gives the same motion or a slightly faster one. While
+/// the branches chattered under a flat ceiling, whether a forward branch met a backward one
+/// depended on where in its chatter it arrived, and where it did not, a capped section cost
+/// the demo up to 4 %: 9.63, 9.53, 9.67, 9.88 and 9.61 s for these five limits.
+#[test]
+fn a_slightly_higher_jerk_limit_does_not_slow_the_motion() {
+    let times: Vec<f64> =
+        [0.0, 0.0021, 0.0042, 0.0049, 0.0084].iter().map(|d| profile::duration_s(&tight_demo(1.0 + d).0)).collect();
+    for w in times.windows(2) {
+        assert!(w[1] <= w[0] * (1.0 + 1e-4), "durations {times:?} s");
+    }
+}
+
+/// The 5-axis table with its nodes spaced for intervals of at most `max_interval_ms` between
+/// the table's rows: motion time and repairs.
+fn table_at_spacing(machine: &str, max_interval_ms: f64) -> (f64, u64) {
+    let mut cfg = repo_machine(machine);
+    cfg.planner.max_interval_ms = max_interval_ms;
+    let (segs, stats) = plan_table(&cfg);
+    (profile::duration_s(&segs), stats.work.repairs)
+}
+
+/// Denser nodes give the planner more freedom, never a slower motion through a dead end. A
+/// section end at an orientation swing was once left forwards in a state a backward branch
+/// could reach but no forward step could leave, and a forward branch stuck at the same node
+/// backed off the same way every time: with nodes for 4 ms instead of 6 ms intervals the
+/// table took 5.197 s after 839 repairs (4.534 s with 6 ms), and on the loose machine 99 repairs.
+#[test]
+fn denser_table_nodes_do_not_lead_the_planner_into_dead_ends() {
+    let normal: Vec<(f64, u64)> =
+        [1.333, 1.667, 2.0].iter().map(|&ms| table_at_spacing("config/machines/xyzab.toml", ms)).collect();
+    let (fastest, slowest) = normal.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &(t, _)| (lo.min(t), hi.max(t)));
+    assert!(slowest <= 1.015 * fastest, "motion times and repairs {normal:?}");
+    assert!(normal.iter().all(|&(_, r)| r <= 10), "motion times and repairs {normal:?}");
+    let (t, repairs) = table_at_spacing("tests/machines/xyzab_loose.toml", 2.0);
+    assert!(repairs <= 32, "loose machine: {t} s after {repairs} repairs");
+}
+
+/// A forward branch that passes a section end just below its branch (not crossing it, so not
+/// joining it) starts a capped section further on from that section end, as from one it
+/// joined at. On the tight machine's table the branch passed one 1.3e-5 below; the capped
+/// section then re-planned the 200 nodes back to the section end before, and the planning work
+/// jumped with the jerk limit: 107 k / 173 k / 117 k evaluations and ramp nodes for 0.9987, 1
+/// and 1.0026 × the limits, for the same motion (now 107 k / 113 k / 117 k).
+#[test]
+fn the_planning_work_does_not_jump_with_the_limits() {
+    let work: Vec<u64> = [0.9987, 1.0, 1.0026]
+        .iter()
+        .map(|f| {
+            let mut cfg = repo_machine("tests/machines/xyzab_tight.toml");
+            for axis in &mut cfg.axes {
+                axis.max_jerk_per_s3 *= f;
+            }
+            // Online, as the daemon and `interpd plan` plan it (default look-ahead).
+            let (_, _, stats) = plan_online_stats(&cfg, &table_path(&cfg), cfg.planner.lookahead_mm);
+            stats.work.evals + stats.work.ramp_nodes
+        })
+        .collect();
+    let (lo, hi) = (work.iter().min().unwrap(), work.iter().max().unwrap());
+    assert!(*hi as f64 <= 1.25 * *lo as f64, "evaluations and ramp nodes {work:?}");
+}

@@ -1,0 +1,64 @@
+//! Tolerance-band path smoothing (seed 000): the prep stage between path and planner.
+//!
+//! G64 P<tol> elements are smoothed so that corners and the breaks of short CAM segments are
+//! passed without stopping, within `tol` of the programmed path:
+//! [`points`] places points along the path → [`window`] solves, per axis, the QP of
+//! [`qp`] (positions and parametric derivatives, trapezoid coupling, the band of [`band`]) over
+//! a window of segments → [`pieces`] joins the committed points by quintic Hermite pieces (C²)
+//! → [`verify`] checks them against the programmed path → [`stage::Prep`] emits them as path
+//! elements. The stage is a plain object that the planner thread (or a thread of its own)
+//! feeds element by element; it never touches the interpolation thread.
+
+// Axis loops index several per-axis arrays at once; an index reads clearer than zips there.
+#![allow(clippy::needless_range_loop)]
+
+pub mod band;
+pub mod elements;
+pub mod pieces;
+pub mod points;
+pub mod qp;
+pub mod run;
+pub mod settings;
+pub mod stage;
+pub mod stats;
+pub mod verify;
+pub mod window;
+
+pub use stage::{Prep, PrepError};
+pub use stats::PrepStats;
+
+use crate::Settings;
+use crate::path::Path;
+use std::time::Instant;
+
+/// A whole path after the stage.
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    pub path: Path,
+    pub stats: PrepStats,
+    /// Wall time spent in the stage, s.
+    pub wall_s: f64,
+}
+
+/// Streams a whole path through the stage (the offline use, `interpd plan`). A path without
+/// G64 elements comes back unchanged.
+pub fn prepare_path(settings: &Settings, path: &Path) -> Result<Prepared, PrepError> {
+    let t0 = Instant::now();
+    if !path.elements.iter().any(|e| matches!(e.blend, crate::path::Blend::Tolerance { .. })) {
+        return Ok(Prepared { path: path.clone(), stats: PrepStats::default(), wall_s: 0.0 });
+    }
+    let mut prep = Prep::new(settings);
+    let mut out = Path::new(path.axis_names.clone(), path.start);
+    out.final_dwell_s = path.final_dwell_s;
+    for e in &path.elements {
+        prep.push(e.clone())?;
+        while let Some(x) = prep.pop() {
+            out.elements.push(x);
+        }
+    }
+    prep.finish()?;
+    while let Some(x) = prep.pop() {
+        out.elements.push(x);
+    }
+    Ok(Prepared { path: out, stats: prep.stats, wall_s: t0.elapsed().as_secs_f64() })
+}

@@ -1,0 +1,198 @@
+//! Where the QP points sit on the programmed path (seed 000 §3.5, §4.8: equidistant, at least
+//! 0.926 points/mm, denser near corners).
+//!
+//! Points are spaced at most `point_spacing_mm` apart. On curves the tangent turns at most
+//! `max_turn_deg` between points; on polylines a point is set on the vertex where the turn
+//! since the last point would exceed it, so short CAM segments are kept where they bend and
+//! merged where they run straight. A vertex that turns by more than `corner_deg` is a corner:
+//! a point sits on it and the spacing halves towards it down to a few tolerances, so the QP
+//! can place the blend within the band. Every ~`segment_mm` a point closes a window segment.
+
+use super::elements::{RunElems, cos_between};
+use super::settings::{CORNER_FIRST_STEP_PER_TOL, StageSettings};
+use crate::path::{AxisDerivs, AxisVec, MAX_AXES};
+
+/// One QP point: a place on the programmed path.
+#[derive(Debug, Clone, Copy)]
+pub struct Point {
+    /// Position on the programmed path.
+    pub s_mm: f64,
+    pub pos: AxisVec,
+    /// Unit tangent (at a vertex: the bisector of both sides).
+    pub tangent: AxisVec,
+    pub tol_mm: f64,
+    /// Element containing the point (the later one at a vertex).
+    pub elem: usize,
+    /// On a vertex between two elements.
+    pub vertex: bool,
+    /// Closes a window segment.
+    pub seg_end: bool,
+}
+
+/// Places points along a run as its elements become known.
+#[derive(Debug)]
+pub struct Placer {
+    s_mm: f64,
+    elem: usize,
+    tangent: AxisVec,
+    last_corner_s_mm: f64,
+    seg_start_s_mm: f64,
+    started: bool,
+}
+
+/// Steps shorter than this fraction of the nominal step are merged into the previous one.
+const SLIVER_FRACTION: f64 = 0.3;
+/// Segments do not end within this many point spacings of a corner ...
+const CALM_SPACINGS: f64 = 2.0;
+/// ... unless the segment has grown to this many `segment_mm`.
+const CALM_GIVE_UP: f64 = 2.0;
+/// A corner closer than this many first steps is reached in one step.
+const CORNER_LAND_FACTOR: f64 = 1.5;
+
+impl Placer {
+    pub fn new() -> Self {
+        Self {
+            s_mm: 0.0,
+            elem: 0,
+            tangent: [0.0; MAX_AXES],
+            last_corner_s_mm: f64::NEG_INFINITY,
+            seg_start_s_mm: 0.0,
+            started: false,
+        }
+    }
+
+    /// Places the points that the known elements determine; with `closed`, up to the run's
+    /// end (which closes the last segment).
+    pub fn place(&mut self, elems: &RunElems, st: &StageSettings, closed: bool, out: &mut Vec<Point>) {
+        let Some(last) = elems.last() else { return };
+        let run_end = last.s1_mm();
+        if !self.started {
+            let first = elems.get(elems.first_index());
+            self.s_mm = first.s0_mm;
+            self.elem = elems.first_index();
+            self.tangent = first.t_start;
+            self.seg_start_s_mm = first.s0_mm;
+            self.started = true;
+            out.push(self.point(elems, self.s_mm, self.elem, false, false));
+        }
+        // Without the run's end, stay far enough back that a corner at the end of the last
+        // element would still be approached with shrinking steps.
+        let limit = if closed { run_end } else { run_end - 2.0 * st.spacing_mm };
+        while self.s_mm < limit {
+            let (s_next, elem, vertex) = self.next(elems, st, closed, run_end);
+            if !closed && s_next > limit && s_next < run_end {
+                break;
+            }
+            let end = closed && s_next >= run_end;
+            // Segments end where the path is calm (a window that starts inside a corner blend
+            // inherits its steep derivatives), unless corners follow each other closely.
+            let run_len = s_next - self.seg_start_s_mm;
+            let calm = !self.near_corner(elems, s_next, elem, st);
+            let seg_end = end || (run_len >= st.segment_mm && (calm || run_len >= CALM_GIVE_UP * st.segment_mm));
+            let p = self.point(elems, s_next, elem, vertex, seg_end);
+            if seg_end {
+                self.seg_start_s_mm = s_next;
+            }
+            if vertex && elems.get(elem).turn_in_rad > st.corner_rad {
+                self.last_corner_s_mm = s_next;
+            }
+            self.tangent = if vertex { elems.get(elem).t_start } else { p.tangent };
+            self.s_mm = s_next;
+            self.elem = elem;
+            out.push(p);
+            if end {
+                break;
+            }
+        }
+    }
+
+    /// The next point: (s, element, on a vertex).
+    fn next(&self, elems: &RunElems, st: &StageSettings, closed: bool, run_end: f64) -> (f64, usize, bool) {
+        let n = st.n_axes;
+        let here = elems.get(self.elem);
+        let tol = here.tol_mm;
+        let first_step = CORNER_FIRST_STEP_PER_TOL * tol;
+        let mut h = st.spacing_mm;
+        // Grow away from the last corner: steps of first_step, then doubling.
+        h = h.min((self.s_mm - self.last_corner_s_mm).max(first_step));
+        // Curvature of a curved element: at most max_turn between points.
+        let mut d = AxisDerivs::default();
+        here.eval(self.s_mm, &mut d);
+        let curv = (0..n).filter(|&k| st.linear[k]).map(|k| d.d2[k] * d.d2[k]).sum::<f64>().sqrt();
+        if curv > 0.0 {
+            h = h.min(st.max_turn_rad / curv);
+        }
+        // Vertices ahead within h: stop on a corner (approaching it with halving steps) or on
+        // the vertex where the turn since this point would exceed max_turn.
+        let mut i = self.elem + 1;
+        while i < elems.end() {
+            let e = elems.get(i);
+            let dist = e.s0_mm - self.s_mm;
+            if dist > 2.0 * h {
+                break;
+            }
+            if e.turn_in_rad > st.corner_rad {
+                // Halve the steps towards the corner until one tolerance-sized step is left.
+                if dist <= CORNER_LAND_FACTOR * first_step {
+                    return (e.s0_mm, i, true);
+                }
+                h = h.min(0.5 * dist);
+                break;
+            }
+            if dist <= h && cos_between(&self.tangent, &e.t_start, n) < st.max_turn_rad.cos() {
+                return (e.s0_mm, i, true);
+            }
+            i += 1;
+        }
+        let mut s = self.s_mm + h;
+        if closed && run_end - s < SLIVER_FRACTION * h {
+            s = run_end;
+        }
+        let s = s.min(run_end);
+        let elem = elems.index_at(s, self.elem);
+        let vertex = elem > self.elem && (elems.get(elem).s0_mm - s).abs() <= f64::EPSILON * s.abs().max(1.0);
+        (s, elem, vertex)
+    }
+
+    /// Whether `s_mm` lies within `CALM_SPACINGS` point spacings of a corner.
+    fn near_corner(&self, elems: &RunElems, s_mm: f64, elem: usize, st: &StageSettings) -> bool {
+        let reach = CALM_SPACINGS * st.spacing_mm;
+        if s_mm - self.last_corner_s_mm < reach {
+            return true;
+        }
+        let mut i = elem;
+        while i < elems.end() && elems.get(i).s0_mm <= s_mm + reach {
+            let e = elems.get(i);
+            if e.s0_mm >= s_mm - reach && e.turn_in_rad > st.corner_rad {
+                return true;
+            }
+            i += 1;
+        }
+        false
+    }
+
+    fn point(&self, elems: &RunElems, s_mm: f64, elem: usize, vertex: bool, seg_end: bool) -> Point {
+        let e = elems.get(elem);
+        let mut d = AxisDerivs::default();
+        e.eval(s_mm, &mut d);
+        let mut tangent = d.d1;
+        if vertex && elem > elems.first_index() {
+            let prev = elems.get(elem - 1);
+            let mut sum = [0.0; MAX_AXES];
+            for k in 0..MAX_AXES {
+                sum[k] = prev.t_end[k] + e.t_start[k];
+            }
+            let norm = sum.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if norm > 1e-9 {
+                tangent = sum.map(|x| x / norm);
+            }
+        }
+        Point { s_mm, pos: d.pos, tangent, tol_mm: e.tol_mm, elem, vertex, seg_end }
+    }
+}
+
+impl Default for Placer {
+    fn default() -> Self {
+        Self::new()
+    }
+}

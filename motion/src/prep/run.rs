@@ -1,0 +1,88 @@
+//! A run: consecutive G64 elements smoothed as one chain, with the points not yet committed
+//! and the state of the committed node they start from.
+
+use super::elements::RunElems;
+use super::points::{Placer, Point};
+use super::settings::StageSettings;
+use super::window::State;
+use crate::path::{Element, JointKind};
+
+/// How the run ends.
+// The join state is copied once per run end; boxing it would cost more than it saves.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RunEnd {
+    /// Still open: more elements may follow.
+    Open,
+    /// The motion stops at the end (corner, dwell, program end): position only.
+    Stop,
+    /// A programmed element continues tangentially: its start state.
+    Join(State),
+}
+
+#[derive(Debug)]
+pub struct Run {
+    pub elems: RunElems,
+    pub placer: Placer,
+    /// Points from the committed node on: `points[0]` is the committed node.
+    pub points: Vec<Point>,
+    /// State at `points[0]` and how many of its levels are fixed for the next window.
+    pub state: State,
+    pub left_levels: usize,
+    pub end: RunEnd,
+    /// Joint of the next piece emitted (Start or Corner after a stop, else Smooth).
+    pub next_joint: JointKind,
+    /// Dwell before the run's first piece.
+    pub dwell_s: f64,
+}
+
+impl Run {
+    /// A run starting with `first`, from `state` with `left_levels` fixed.
+    pub fn new(first: Element, tol_mm: f64, state: State, left_levels: usize, joint: JointKind, n_axes: usize) -> Self {
+        let dwell_s = first.dwell_before_s;
+        let mut elems = RunElems::new(n_axes);
+        elems.push(first, tol_mm);
+        Self {
+            elems,
+            placer: Placer::new(),
+            points: Vec::new(),
+            state,
+            left_levels,
+            end: RunEnd::Open,
+            next_joint: joint,
+            dwell_s,
+        }
+    }
+
+    pub fn closed(&self) -> bool {
+        self.end != RunEnd::Open
+    }
+
+    /// Places the points the known elements allow.
+    pub fn place(&mut self, st: &StageSettings) {
+        let closed = self.closed();
+        self.placer.place(&self.elems, st, closed, &mut self.points);
+    }
+
+    /// Indices of the segment ends after the committed node.
+    pub fn segment_ends(&self) -> impl Iterator<Item = usize> + '_ {
+        self.points.iter().enumerate().skip(1).filter(|(_, p)| p.seg_end).map(|(i, _)| i)
+    }
+
+    /// Whether the last point placed is the run's end.
+    pub fn reached_end(&self) -> bool {
+        self.closed()
+            && self.points.len() > 1
+            && self.elems.last().is_some_and(|e| self.points.last().is_some_and(|p| p.s_mm >= e.s1_mm()))
+    }
+
+    /// Drops the points before `c` (committed) and the elements no check needs any more.
+    pub fn commit_to(&mut self, c: usize, state: State, left_levels: usize, spacing_mm: f64) {
+        self.points.drain(..c);
+        self.state = state;
+        self.left_levels = left_levels;
+        let s_keep = self.points[0].s_mm - 4.0 * spacing_mm;
+        let keep = self.elems.index_at(s_keep, self.points[0].elem);
+        self.elems.drop_before(keep.min(self.points[0].elem));
+    }
+}

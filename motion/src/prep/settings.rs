@@ -1,0 +1,59 @@
+//! The `[prep]` configuration turned into what the stage computes with.
+
+use crate::Settings;
+use interpd_config::AxisKind;
+
+/// First point spacing next to a corner, in units of the corner's tolerance; the spacing then
+/// doubles away from the corner up to `point_spacing_mm`.
+pub const CORNER_FIRST_STEP_PER_TOL: f64 = 2.0;
+
+/// The smoothing stage's settings, in the units and forms its steps use.
+#[derive(Debug, Clone)]
+pub struct StageSettings {
+    /// Derivative levels carried per point: continuity degree + 1.
+    pub levels: usize,
+    /// Objective weights per level for derivatives in τ = s / point_spacing_mm, normalised to
+    /// a largest weight of 1.
+    pub weights_tau: Vec<f64>,
+    pub segment_mm: f64,
+    pub window_segments: usize,
+    pub spacing_mm: f64,
+    pub max_turn_rad: f64,
+    pub corner_rad: f64,
+    pub max_corner_rad: f64,
+    pub band_margin: f64,
+    pub max_solve_s: f64,
+    pub linear: Vec<bool>,
+    pub n_axes: usize,
+}
+
+impl StageSettings {
+    pub fn new(settings: &Settings) -> Self {
+        let p = &settings.prep;
+        let levels = p.continuity_degree as usize + 1;
+        // A derivative of order k in σ = s/L is (L/h)^k times the one in τ = s/h.
+        let ratio = p.weight_length_mm / p.point_spacing_mm;
+        let mut weights_tau: Vec<f64> = (0..levels).map(|k| p.weights[k] * ratio.powi(2 * k as i32)).collect();
+        let max = weights_tau.iter().copied().fold(0.0, f64::max);
+        weights_tau.iter_mut().for_each(|w| *w /= max);
+        Self {
+            levels,
+            weights_tau,
+            segment_mm: p.segment_mm,
+            window_segments: p.window_segments,
+            spacing_mm: p.point_spacing_mm,
+            max_turn_rad: p.max_turn_deg.to_radians(),
+            corner_rad: p.corner_deg.to_radians(),
+            max_corner_rad: p.max_corner_deg.to_radians(),
+            band_margin: p.band_margin,
+            max_solve_s: p.max_solve_ms * 1e-3,
+            linear: settings.axes.iter().map(|a| a.kind == AxisKind::Linear).collect(),
+            n_axes: settings.axes.len(),
+        }
+    }
+
+    /// Nominal window length, mm: how far a point may slide along an unconstrained axis.
+    pub fn window_mm(&self) -> f64 {
+        self.segment_mm * self.window_segments as f64
+    }
+}

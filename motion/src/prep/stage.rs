@@ -1,0 +1,485 @@
+//! The smoothing stage: programmed elements in, smoothed elements out, online.
+//!
+//! Consecutive G64 elements form a run. Their points are placed as the elements arrive; as
+//! soon as `window_segments` segments lie ahead of the committed node, the window is solved
+//! and its first segment committed as quintic pieces (seed 000 §3.6.3, windowing III, started
+//! from the program start). A window that fails falls back to a smaller window, then to a
+//! looser end, and finally to an exact stop and the programmed path for that segment; each
+//! fallback is logged and counted. G61 elements pass through unchanged.
+
+use super::elements::{RunElem, angle_between};
+use super::pieces;
+use super::qp::QpFailure;
+use super::run::{Run, RunEnd};
+use super::settings::StageSettings;
+use super::stats::PrepStats;
+use super::verify;
+use super::window::{RightEnd, Solution, Solvers, State, WindowInput};
+use crate::Settings;
+use crate::path::{
+    AxisDerivs, AxisVec, Blend, Element, Geometry, JointKind, Line, MAX_AXES, QuinticSpan, classify_joint,
+};
+use std::collections::VecDeque;
+use std::fmt;
+use std::time::Instant;
+
+/// Re-solves with a narrower band when the check finds a piece outside the tolerance.
+const VERIFY_RETRIES: usize = 3;
+/// Band factor applied around a piece that failed the check.
+const VERIFY_SHRINK: f64 = 0.5;
+/// A committed node farther than this from the programmed path gets a connecting line before
+/// an exact stop, mm.
+const ON_PATH_MM: f64 = 1e-9;
+
+/// A failure the fallbacks could not absorb.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PrepError {
+    pub line: u32,
+    pub s_mm: f64,
+    pub reason: String,
+}
+
+impl fmt::Display for PrepError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "line {}: path smoothing failed at s = {:.4} mm: {}", self.line, self.s_mm, self.reason)
+    }
+}
+
+impl std::error::Error for PrepError {}
+
+/// Which rung of the fallback ladder a window attempt is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Rung {
+    Normal,
+    Smaller,
+    Looser,
+}
+
+/// The online smoothing stage.
+pub struct Prep {
+    st: StageSettings,
+    solvers: Solvers,
+    out: VecDeque<Element>,
+    out_s_mm: f64,
+    last_out: Option<Element>,
+    run: Option<Run>,
+    pub stats: PrepStats,
+}
+
+impl Prep {
+    pub fn new(settings: &Settings) -> Self {
+        Self {
+            st: StageSettings::new(settings),
+            solvers: Solvers::default(),
+            out: VecDeque::new(),
+            out_s_mm: 0.0,
+            last_out: None,
+            run: None,
+            stats: PrepStats { max_excess_mm: f64::NEG_INFINITY, ..PrepStats::default() },
+        }
+    }
+
+    /// Takes the next programmed element.
+    pub fn push(&mut self, e: Element) -> Result<(), PrepError> {
+        let tol = match e.blend {
+            Blend::Tolerance { tol_mm } if self.smoothable(&e) => Some(tol_mm),
+            _ => None,
+        };
+        if let Some(run) = self.run.as_mut() {
+            if let Some(t) = tol {
+                let last = run.elems.last().expect("a run holds an element");
+                let mut d = AxisDerivs::default();
+                e.geometry.eval(0.0, &mut d);
+                let turn = angle_between(&last.t_end, &d.d1, self.st.n_axes);
+                if e.dwell_before_s == 0.0 && turn <= self.st.max_corner_rad {
+                    run.elems.push(e, t);
+                    run.place(&self.st);
+                    return self.advance();
+                }
+            }
+            let tangent = matches!(e.joint, JointKind::Smooth | JointKind::CurvatureJump);
+            let end = if tol.is_none() && tangent && e.dwell_before_s == 0.0 {
+                RunEnd::Join(start_state(&e, self.st.spacing_mm))
+            } else {
+                RunEnd::Stop
+            };
+            self.close_run(end)?;
+        }
+        match tol {
+            Some(t) => self.start_run(e, t),
+            None => {
+                self.emit_programmed(e);
+                Ok(())
+            }
+        }
+    }
+
+    /// No more elements follow.
+    pub fn finish(&mut self) -> Result<(), PrepError> {
+        if self.run.is_some() {
+            self.close_run(RunEnd::Stop)?;
+        }
+        Ok(())
+    }
+
+    /// The next smoothed (or passed-through) element, when one is ready.
+    pub fn pop(&mut self) -> Option<Element> {
+        self.out.pop_front()
+    }
+
+    /// Elements ready to be taken.
+    pub fn ready(&self) -> usize {
+        self.out.len()
+    }
+
+    /// Only elements whose path length counts over the linear axes and that move no rotary
+    /// axis can be smoothed in the linear tolerance band.
+    fn smoothable(&self, e: &Element) -> bool {
+        if matches!(e.geometry, Geometry::Septic(_)) {
+            return false;
+        }
+        let (mut a, mut b) = (AxisDerivs::default(), AxisDerivs::default());
+        e.geometry.eval(0.0, &mut a);
+        e.geometry.eval(e.geometry.length_mm(), &mut b);
+        let unit = (0..self.st.n_axes).filter(|&k| self.st.linear[k]).map(|k| a.d1[k] * a.d1[k]).sum::<f64>();
+        let rotary_moves = (0..self.st.n_axes).any(|k| !self.st.linear[k] && (a.pos[k] != b.pos[k] || a.d1[k] != 0.0));
+        !rotary_moves && (unit - 1.0).abs() < 1e-6
+    }
+
+    fn start_run(&mut self, e: Element, tol: f64) -> Result<(), PrepError> {
+        let tangent = matches!(e.joint, JointKind::Smooth | JointKind::CurvatureJump) && e.dwell_before_s == 0.0;
+        let (state, levels, joint) = match &self.last_out {
+            Some(prev) if tangent => (end_state(prev, self.st.spacing_mm), 3.min(self.st.levels), JointKind::Smooth),
+            prev => {
+                let mut s = start_state(&e, self.st.spacing_mm);
+                s.iter_mut().for_each(|a| a[1..].iter_mut().for_each(|x| *x = 0.0));
+                (s, 1, if prev.is_none() { JointKind::Start } else { JointKind::Corner })
+            }
+        };
+        self.stats.runs += 1;
+        let mut run = Run::new(e, tol, state, levels, joint, self.st.n_axes);
+        run.place(&self.st);
+        self.run = Some(run);
+        self.advance()
+    }
+
+    fn close_run(&mut self, end: RunEnd) -> Result<(), PrepError> {
+        if let Some(run) = self.run.as_mut() {
+            run.end = end;
+            run.place(&self.st);
+        }
+        self.advance()?;
+        if let Some(run) = self.run.take() {
+            debug_assert!(run.points.len() <= 1, "a closed run is committed to its end");
+        }
+        Ok(())
+    }
+
+    /// Solves and commits windows while enough points lie ahead.
+    fn advance(&mut self) -> Result<(), PrepError> {
+        let w = self.st.window_segments;
+        loop {
+            let Some(run) = self.run.as_ref() else { return Ok(()) };
+            let (mut count, mut w_end, mut last_end) = (0, 0, 0);
+            for i in run.segment_ends() {
+                count += 1;
+                if count == w {
+                    w_end = i;
+                }
+                last_end = i;
+            }
+            if run.points.len() <= 1 {
+                return Ok(());
+            }
+            let at_end = run.reached_end();
+            if at_end && count >= 1 && count <= w {
+                // The run's last windows: solved to its end (a fallback may commit less).
+                self.commit_window(last_end, true)?;
+                continue;
+            }
+            if count >= w && w_end > 0 {
+                self.commit_window(w_end, false)?;
+                continue;
+            }
+            return Ok(());
+        }
+    }
+
+    /// Solves the window `points[..=last]` down the fallback ladder and commits its first
+    /// segment (all of it when it ends the run).
+    fn commit_window(&mut self, last: usize, is_final: bool) -> Result<(), PrepError> {
+        let run = self.run.as_ref().expect("advance checked");
+        let ends: Vec<usize> = run.segment_ends().take_while(|&i| i <= last).collect();
+        let first_end = ends[0];
+        tracing::debug!(
+            s_mm = run.points[0].s_mm,
+            first_end_mm = run.points[first_end].s_mm,
+            last_mm = run.points[last].s_mm,
+            points = last + 1,
+            is_final,
+            "window"
+        );
+        let final_right = match run.end {
+            RunEnd::Join(s) => RightEnd::Join(s),
+            _ => RightEnd::Position,
+        };
+        let mut ladder: Vec<(usize, RightEnd, usize, Rung)> = Vec::new();
+        ladder.push((
+            last,
+            if is_final { final_right } else { RightEnd::Position },
+            if is_final { last } else { first_end },
+            Rung::Normal,
+        ));
+        for m in (1..ends.len()).rev() {
+            ladder.push((ends[m - 1], RightEnd::Position, first_end, Rung::Smaller));
+        }
+        if !is_final {
+            ladder.push((last, RightEnd::Band, first_end, Rung::Looser));
+        } else if matches!(final_right, RightEnd::Join(_)) {
+            ladder.push((last, RightEnd::Position, last, Rung::Looser));
+        }
+        for (w_last, right, commit, rung) in ladder {
+            match self.try_window(w_last, right, commit) {
+                Ok((pieces, sol)) => {
+                    self.count_rung(rung, w_last);
+                    self.emit_pieces(pieces, commit);
+                    let state = sol.states[commit];
+                    let run = self.run.as_mut().expect("open run");
+                    run.commit_to(commit, state, 3.min(self.st.levels), self.st.spacing_mm);
+                    self.stats.windows += 1;
+                    return Ok(());
+                }
+                Err(f) => {
+                    tracing::debug!(
+                        ?rung,
+                        ?f,
+                        s_mm = self.run.as_ref().map_or(0.0, |r| r.points[0].s_mm),
+                        "window failed"
+                    )
+                }
+            }
+        }
+        self.exact_stop(if is_final { last } else { first_end })
+    }
+
+    fn count_rung(&mut self, rung: Rung, w_last: usize) {
+        let s_mm = self.run.as_ref().map_or(0.0, |r| r.points[0].s_mm);
+        match rung {
+            Rung::Normal => {}
+            Rung::Smaller => {
+                self.stats.fallback_smaller += 1;
+                tracing::warn!(s_mm, points = w_last + 1, "path smoothing: fallback to a smaller window");
+            }
+            Rung::Looser => {
+                self.stats.fallback_looser += 1;
+                tracing::warn!(s_mm, "path smoothing: fallback to a looser window end");
+            }
+        }
+    }
+
+    /// One window solve with the check; narrows the band around failing pieces and retries.
+    fn try_window(
+        &mut self,
+        last: usize,
+        right: RightEnd,
+        commit: usize,
+    ) -> Result<(Vec<QuinticSpan>, Solution), QpFailure> {
+        let mut shrink = vec![1.0; last + 1];
+        for _ in 0..=VERIFY_RETRIES {
+            let run = self.run.as_ref().expect("open run");
+            let input = WindowInput {
+                points: &run.points[..=last],
+                left: &run.state,
+                left_levels: run.left_levels,
+                right,
+                shrink: &shrink,
+            };
+            let t0 = Instant::now();
+            let result = self.solvers.solve(&self.st, &input);
+            let dt = t0.elapsed().as_secs_f64();
+            self.stats.solves += 1;
+            self.stats.solve_s_total += dt;
+            self.stats.solve_s_max = self.stats.solve_s_max.max(dt);
+            let sol = match result {
+                Ok(s) => s,
+                Err(f) => {
+                    match f {
+                        QpFailure::Infeasible => self.stats.infeasible += 1,
+                        QpFailure::Slow => self.stats.slow += 1,
+                        QpFailure::Numerical => self.stats.numerical += 1,
+                    }
+                    return Err(f);
+                }
+            };
+            self.stats.iterations += u64::from(sol.iterations);
+            match check_pieces(run, &self.st, &mut self.stats, &sol, commit) {
+                Ok(pieces) => return Ok((pieces, sol)),
+                Err(j) => {
+                    let p = &self.run.as_ref().expect("open run").points;
+                    tracing::debug!(
+                        piece = j,
+                        s_mm = p[j].s_mm,
+                        to_mm = p[j + 1].s_mm,
+                        "piece outside the band: narrowing"
+                    );
+                    for (i, (pt, z)) in p.iter().zip(&sol.states).enumerate().take(last + 1) {
+                        tracing::trace!(i, s = pt.s_mm, x = ?pt.pos[..2], zx = ?z[0], zy = ?z[1], "window point");
+                    }
+                    self.stats.verify_retries += 1;
+                    for s in &mut shrink[j.saturating_sub(1)..(j + 3).min(last + 1)] {
+                        *s *= VERIFY_SHRINK;
+                    }
+                }
+            }
+        }
+        Err(QpFailure::Numerical)
+    }
+
+    fn emit_pieces(&mut self, pieces: Vec<QuinticSpan>, commit: usize) {
+        let run = self.run.as_mut().expect("open run");
+        let srcs: Vec<Element> = (0..commit).map(|j| run.elems.get(run.points[j].elem).element.clone()).collect();
+        self.stats.points += commit as u64;
+        self.stats.smoothed_mm += run.points[commit].s_mm - run.points[0].s_mm;
+        for (piece, src) in pieces.into_iter().zip(srcs) {
+            let run = self.run.as_mut().expect("open run");
+            let joint = std::mem::replace(&mut run.next_joint, JointKind::Smooth);
+            let dwell = std::mem::take(&mut run.dwell_s);
+            self.stats.pieces += 1;
+            self.emit(Geometry::Quintic(Box::new(piece)), joint, dwell, &src);
+        }
+    }
+
+    /// The last rung: stop, return to the programmed path and follow it exactly to
+    /// `points[commit]`.
+    fn exact_stop(&mut self, commit: usize) -> Result<(), PrepError> {
+        self.stats.fallback_exact += 1;
+        let st = self.st.clone();
+        let run = self.run.as_mut().expect("open run");
+        let p0 = run.points[0];
+        let target = run.points[commit];
+        tracing::warn!(
+            s_mm = p0.s_mm,
+            to_mm = target.s_mm,
+            "path smoothing: exact stop, programmed path for one segment"
+        );
+        let c_pos: AxisVec = std::array::from_fn(|k| run.state[k][0]);
+        let from = run.elems.index_at(p0.s_mm - 2.0 * st.spacing_mm, p0.elem);
+        let (s_f, f_pos) = run.elems.nearest(&c_pos, from, p0.elem + 1);
+        let s_f = s_f.min(target.s_mm);
+        let mut parts: Vec<(Geometry, JointKind, Element)> = Vec::new();
+        let gap = (0..st.n_axes).map(|k| (c_pos[k] - f_pos[k]).powi(2)).sum::<f64>().sqrt();
+        let src_f = run.elems.get(run.elems.index_at(s_f, p0.elem)).element.clone();
+        if gap > ON_PATH_MM {
+            parts.push((Geometry::Line(Line::new(c_pos, f_pos, gap)), JointKind::Corner, src_f.clone()));
+        }
+        let i0 = run.elems.index_at(s_f, p0.elem);
+        let mut i = i0;
+        while i < run.elems.end() && run.elems.get(i).s0_mm < target.s_mm {
+            let e: &RunElem = run.elems.get(i);
+            let (a, b) = (s_f.max(e.s0_mm), target.s_mm.min(e.s1_mm()));
+            // A stop where the exact path is rejoined, then the programmed joints.
+            let mut joint = if i == i0 { JointKind::Corner } else { e.element.joint };
+            let geoms = pieces::exact_part(e, a, b, &st.linear).map_err(|err| PrepError {
+                line: e.element.source.line,
+                s_mm: a,
+                reason: format!("cannot follow the programmed element exactly: {err:?}"),
+            })?;
+            for g in geoms {
+                parts.push((g, joint, e.element.clone()));
+                joint = JointKind::Smooth;
+            }
+            i += 1;
+        }
+        // The next window starts on the programmed path: C² from its derivatives, or from
+        // rest on a vertex.
+        let e_t = run.elems.get(target.elem);
+        let (state, levels, next) = if target.vertex {
+            let mut s = pieces::programmed_state(e_t, target.s_mm, st.spacing_mm);
+            s.iter_mut().for_each(|a| a[1..].iter_mut().for_each(|x| *x = 0.0));
+            (s, 1, JointKind::Corner)
+        } else {
+            (pieces::programmed_state(e_t, target.s_mm, st.spacing_mm), 3.min(st.levels), JointKind::Smooth)
+        };
+        let dwell = std::mem::take(&mut run.dwell_s);
+        run.next_joint = next;
+        run.commit_to(commit, state, levels, st.spacing_mm);
+        let mut first = true;
+        for (g, j, src) in parts {
+            self.emit(g, j, if first { dwell } else { 0.0 }, &src);
+            first = false;
+        }
+        self.stats.windows += 1;
+        Ok(())
+    }
+
+    /// Emits a programmed element unchanged (apart from its place in s and its joint).
+    fn emit_programmed(&mut self, e: Element) {
+        let joint = match (&self.last_out, e.joint) {
+            (None, _) => JointKind::Start,
+            (_, JointKind::Corner | JointKind::Start) => JointKind::Corner,
+            (Some(prev), _) => classify_joint(&prev.geometry, &e.geometry, self.st.n_axes),
+        };
+        let dwell = e.dwell_before_s;
+        self.emit(e.geometry.clone(), joint, dwell, &e);
+    }
+
+    fn emit(&mut self, geometry: Geometry, joint: JointKind, dwell_before_s: f64, src: &Element) {
+        let len = geometry.length_mm();
+        let e = Element {
+            geometry,
+            s_start_mm: self.out_s_mm,
+            feed: src.feed,
+            source: src.source,
+            joint,
+            dwell_before_s,
+            blend: src.blend,
+        };
+        self.out_s_mm += len;
+        self.last_out = Some(e.clone());
+        self.out.push_back(e);
+    }
+}
+
+/// The pieces of `points[..=commit]`, or the index of the first one outside the tolerance.
+fn check_pieces(
+    run: &Run,
+    st: &StageSettings,
+    stats: &mut PrepStats,
+    sol: &Solution,
+    commit: usize,
+) -> Result<Vec<QuinticSpan>, usize> {
+    let p = &run.points;
+    let mut out = Vec::with_capacity(commit);
+    for j in 0..commit {
+        let delta = (p[j + 1].s_mm - p[j].s_mm) / st.spacing_mm;
+        let piece = pieces::smoothed(&sol.states[j], &sol.states[j + 1], delta, &st.linear).map_err(|_| j)?;
+        let (dev, excess) = verify::piece_excess(&piece, &p[j], &p[j + 1], &run.elems, st.spacing_mm);
+        stats.max_deviation_mm = stats.max_deviation_mm.max(dev);
+        if excess > 0.0 {
+            return Err(j);
+        }
+        stats.max_excess_mm = stats.max_excess_mm.max(excess);
+        out.push(piece);
+    }
+    Ok(out)
+}
+
+/// State in τ at the start of a programmed element.
+fn start_state(e: &Element, spacing_mm: f64) -> State {
+    state_at(&e.geometry, 0.0, spacing_mm)
+}
+
+/// State in τ at the end of an emitted element.
+fn end_state(e: &Element, spacing_mm: f64) -> State {
+    state_at(&e.geometry, e.geometry.length_mm(), spacing_mm)
+}
+
+fn state_at(g: &Geometry, s_mm: f64, h: f64) -> State {
+    let mut d = AxisDerivs::default();
+    g.eval(s_mm, &mut d);
+    let mut st = [[0.0; 4]; MAX_AXES];
+    for k in 0..MAX_AXES {
+        st[k] = [d.pos[k], d.d1[k] * h, d.d2[k] * h * h, d.d3[k] * h * h * h];
+    }
+    st
+}

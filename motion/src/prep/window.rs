@@ -1,0 +1,164 @@
+//! One window of the QP: the points from the committed node on, their bands and the end
+//! conditions turned into one solve per moving axis (seed 000 §3.6.3, windowing III).
+
+use super::band;
+use super::points::Point;
+use super::qp::{QpFailure, Rhs, Shape, WindowQp};
+use super::settings::StageSettings;
+use crate::path::{AxisVec, MAX_AXES};
+use std::collections::HashMap;
+
+/// Position and derivatives per axis in τ = s / point_spacing_mm (level 0 = position).
+pub type State = [[f64; 4]; MAX_AXES];
+
+/// How the window ends.
+// The join state is copied once per run end; boxing it would cost more than it saves.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RightEnd {
+    /// The last point is held at its programmed position, derivatives free (seed 000 §3.6.1:
+    /// position only is best).
+    Position,
+    /// The last point only keeps its band (the looser end of the fallback).
+    Band,
+    /// The run ends where a programmed element continues tangentially: position and the
+    /// first two derivatives are fixed to it, so the joint stays C².
+    Join(State),
+}
+
+/// What one window solve needs.
+pub struct WindowInput<'a> {
+    pub points: &'a [Point],
+    /// State of the committed node (`points[0]`); its first `left_levels` levels are fixed.
+    pub left: &'a State,
+    pub left_levels: usize,
+    pub right: RightEnd,
+    /// Band factor per point (1 = full band; the check after the solve lowers it).
+    pub shrink: &'a [f64],
+}
+
+/// Positions may slide this many window lengths along an unconstrained axis (a finite stand-in
+/// for "no bound", which the solver needs).
+const FREE_BAND_WINDOWS: f64 = 1.0;
+/// An axis whose points differ by less than this over a window does not move there, mm.
+const STILL_AXIS_MM: f64 = 1e-12;
+
+/// The solvers, one per window shape, reused across windows.
+#[derive(Default)]
+pub struct Solvers {
+    by_shape: HashMap<Shape, WindowQp>,
+    q: Vec<f64>,
+    b: Vec<f64>,
+    bands: Vec<(f64, f64)>,
+    deltas: Vec<f64>,
+}
+
+/// The window's solution per point.
+#[derive(Debug, Clone, Default)]
+pub struct Solution {
+    pub states: Vec<State>,
+    /// Solver iterations summed over the axes.
+    pub iterations: u32,
+}
+
+impl Solvers {
+    pub fn solve(&mut self, st: &StageSettings, w: &WindowInput<'_>) -> Result<Solution, QpFailure> {
+        let pts = w.points;
+        let n = pts.len();
+        let right_fixed = match w.right {
+            RightEnd::Position => 1,
+            RightEnd::Band => 0,
+            RightEnd::Join(_) => 3.min(st.levels),
+        };
+        let shape = Shape { n_points: n, levels: st.levels, left_fixed: w.left_levels, right_fixed };
+        let time_limit = st.max_solve_s;
+        let qp = self.by_shape.entry(shape).or_insert_with(|| WindowQp::new(shape, time_limit));
+        self.deltas.clear();
+        self.deltas.extend(pts.windows(2).map(|p| (p[1].s_mm - p[0].s_mm) / st.spacing_mm));
+        qp.load(&self.deltas, &st.weights_tau);
+
+        let active = active_axes(st, w);
+        let origin = pts[0].pos;
+        let free = FREE_BAND_WINDOWS * st.window_mm();
+        let halfwidths: Vec<AxisVec> = shape
+            .bounded()
+            .map(|j| {
+                let b = band::split(&pts[j].tangent, &active, pts[j].tol_mm);
+                b.map(|x| if x.is_finite() { x * (1.0 - st.band_margin) * w.shrink[j] } else { free })
+            })
+            .collect();
+        let mut sol = Solution { states: vec![[[0.0; 4]; MAX_AXES]; n], iterations: 0 };
+        for k in 0..MAX_AXES {
+            if !active[k] {
+                // A still axis stays where it is.
+                for s in sol.states.iter_mut() {
+                    s[k][0] = origin[k];
+                }
+                continue;
+            }
+            let left: Vec<f64> = (0..st.levels).map(|l| w.left[k][l] - if l == 0 { origin[k] } else { 0.0 }).collect();
+            let right: Vec<f64> = match &w.right {
+                RightEnd::Position => vec![pts[n - 1].pos[k] - origin[k]],
+                RightEnd::Band => Vec::new(),
+                RightEnd::Join(s) => (0..right_fixed).map(|l| s[k][l] - if l == 0 { origin[k] } else { 0.0 }).collect(),
+            };
+            self.bands.clear();
+            for (i, j) in shape.bounded().enumerate() {
+                let c = pts[j].pos[k] - origin[k];
+                self.bands.push((c - halfwidths[i][k], c + halfwidths[i][k]));
+            }
+            shape.rhs(&Rhs { left: &left, right: &right, bands: &self.bands }, &mut self.b);
+            self.q.clear();
+            self.q.resize(shape.n_vars(), 0.0);
+            if st.weights_tau[0] > 0.0 {
+                // Position weight: ½w₀q_j(z − x_j)² pulls towards the programmed point.
+                for j in 0..n {
+                    let qj = 0.5
+                        * (self.deltas.get(j.wrapping_sub(1)).copied().unwrap_or(0.0)
+                            + self.deltas.get(j).copied().unwrap_or(0.0));
+                    self.q[j * st.levels] = -st.weights_tau[0] * qj * (pts[j].pos[k] - origin[k]);
+                }
+            }
+            qp.solve(&self.q, &self.b)?;
+            sol.iterations += qp.iterations;
+            for (j, s) in sol.states.iter_mut().enumerate() {
+                for l in 0..st.levels {
+                    s[k][l] = qp.solution[j * st.levels + l] + if l == 0 { origin[k] } else { 0.0 };
+                }
+            }
+        }
+        // The fixed values exactly as given, so windows and programmed elements join exactly.
+        for k in 0..MAX_AXES {
+            for l in 0..w.left_levels {
+                sol.states[0][k][l] = w.left[k][l];
+            }
+            match &w.right {
+                RightEnd::Position => sol.states[n - 1][k][0] = pts[n - 1].pos[k],
+                RightEnd::Join(s) => {
+                    for l in 0..right_fixed {
+                        sol.states[n - 1][k][l] = s[k][l];
+                    }
+                }
+                RightEnd::Band => {}
+            }
+        }
+        Ok(sol)
+    }
+}
+
+/// Linear axes that move in the window (or whose fixed end derivatives are not zero).
+fn active_axes(st: &StageSettings, w: &WindowInput<'_>) -> [bool; MAX_AXES] {
+    let mut active = [false; MAX_AXES];
+    for k in 0..st.n_axes {
+        if !st.linear[k] {
+            continue;
+        }
+        let x0 = w.points[0].pos[k];
+        let moves =
+            w.points.iter().any(|p| (p.pos[k] - x0).abs() > STILL_AXIS_MM) || (w.left[k][0] - x0).abs() > STILL_AXIS_MM;
+        let left_d = (1..w.left_levels).any(|l| w.left[k][l] != 0.0);
+        let right_d = matches!(&w.right, RightEnd::Join(s) if (1..3).any(|l| s[k][l] != 0.0));
+        active[k] = moves || left_d || right_d;
+    }
+    active
+}

@@ -1,0 +1,934 @@
+//! Interprets RS274 / ISO 6983 blocks with the modal state of a real controller and builds the
+//! path. Supported: G0 G1 G2 G3 (centre I J K or radius R, helical with the other axes), G4 P
+//! dwell, G06 spline blocks (seed 002), G17/G18/G19, G20/G21, G61/G64 P, G90/G91, F (per
+//! minute), N, M2/M30; spindle, coolant and tool words (M3–M9, S, T) are accepted and counted as
+//! ignored, since interpd interpolates motion only.
+
+use super::error::Diagnostics;
+use super::lexer::{Line, Word, lex_line};
+use super::{G06_END_MARKER, Summary};
+use crate::Settings;
+use crate::path::Line as LineGeom;
+use crate::path::{
+    AxisVec, Blend, CubicSpan, Feed, Geometry, Helix, MAX_AXES, MIN_CURVATURE_RADIUS_MM, Path, Source, SpanError,
+    spline::natural_tangents,
+};
+use interpd_config::{AxisKind, AxisLetter};
+use std::f64::consts::PI;
+
+/// Arc end points may miss the circle by this much before the arc is rejected, mm...
+pub const ARC_RADIUS_ABS_TOL_MM: f64 = 0.002;
+/// ... plus this fraction of the radius.
+pub const ARC_RADIUS_REL_TOL: f64 = 1e-5;
+/// Arcs with a smaller radius are degenerate.
+pub const MIN_ARC_RADIUS_MM: f64 = 1e-6;
+/// Moves shorter than this are dropped (and counted) instead of becoming elements.
+pub const MIN_MOVE_MM: f64 = 1e-9;
+/// Millimetres per inch (G20).
+const MM_PER_INCH: f64 = 25.4;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Motion {
+    Rapid,
+    Linear,
+    ArcCw,
+    ArcCcw,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Plane {
+    Xy,
+    Zx,
+    Yz,
+}
+
+impl Plane {
+    /// (first, second) plane axes and the letters of their centre offsets.
+    fn axes(self) -> ((AxisLetter, char), (AxisLetter, char)) {
+        match self {
+            Plane::Xy => ((AxisLetter::X, 'I'), (AxisLetter::Y, 'J')),
+            Plane::Zx => ((AxisLetter::Z, 'K'), (AxisLetter::X, 'I')),
+            Plane::Yz => ((AxisLetter::Y, 'J'), (AxisLetter::Z, 'K')),
+        }
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Plane::Xy => "G17 (XY)",
+            Plane::Zx => "G18 (ZX)",
+            Plane::Yz => "G19 (YZ)",
+        }
+    }
+}
+
+/// The modal state a controller keeps between blocks.
+struct Modal {
+    motion: Option<Motion>,
+    plane: Plane,
+    /// mm per program length unit (1 for G21, 25.4 for G20).
+    unit_mm: f64,
+    absolute: bool,
+    feed_mm_s: Option<f64>,
+    blend: Blend,
+    pos: AxisVec,
+}
+
+/// A span record inside a G06 block.
+struct SpanRecord {
+    target: AxisVec,
+    tangent: Option<[f64; 3]>,
+    line: u32,
+    col: u32,
+    block: u32,
+}
+
+/// An open G06 block.
+struct G06Block {
+    start: AxisVec,
+    start_tangent: Option<[f64; 3]>,
+    spans: Vec<SpanRecord>,
+    line: u32,
+    col: u32,
+    /// The motion mode to return to after the spline data.
+    resume: Option<Motion>,
+    feed: Feed,
+    /// Current support point (for absolute and incremental coordinates).
+    point: AxisVec,
+    unterminated: bool,
+}
+
+pub(crate) struct Interpreter<'a> {
+    settings: &'a Settings,
+    linear: [bool; MAX_AXES],
+    modal: Modal,
+    g06: Option<G06Block>,
+    pending_dwell_s: f64,
+    default_tol_mm: f64,
+    pub path: Path,
+    pub summary: Summary,
+    ended: bool,
+}
+
+/// Words of one block, by letter, with duplicate detection.
+struct Block<'l> {
+    words: &'l [Word],
+    line: u32,
+}
+
+impl Block<'_> {
+    fn get(&self, letter: char) -> Option<&Word> {
+        self.words.iter().find(|w| w.letter == letter)
+    }
+}
+
+impl<'a> Interpreter<'a> {
+    pub fn new(settings: &'a Settings) -> Self {
+        let mut linear = [false; MAX_AXES];
+        for (k, a) in settings.axes.iter().enumerate() {
+            linear[k] = a.kind == AxisKind::Linear;
+        }
+        let blend = match settings.prep.mode {
+            interpd_config::PrepMode::Exact => Blend::Exact,
+            interpd_config::PrepMode::Smooth => Blend::Tolerance { tol_mm: settings.prep.tolerance_mm },
+        };
+        Self {
+            settings,
+            linear,
+            modal: Modal {
+                motion: None,
+                plane: Plane::Xy,
+                unit_mm: 1.0,
+                absolute: true,
+                feed_mm_s: None,
+                blend,
+                pos: [0.0; MAX_AXES],
+            },
+            g06: None,
+            pending_dwell_s: 0.0,
+            default_tol_mm: settings.prep.tolerance_mm,
+            path: Path::new(settings.axis_names(), [0.0; MAX_AXES]),
+            summary: Summary::default(),
+            ended: false,
+        }
+    }
+
+    /// Feeds one source line (1-based number).
+    pub fn line(&mut self, text: &str, line_no: u32, d: &mut Diagnostics) {
+        if self.ended {
+            return;
+        }
+        self.summary.lines = line_no;
+        if self.g06.is_some() && text.trim().eq_ignore_ascii_case(G06_END_MARKER) {
+            self.finish_g06(d);
+            return;
+        }
+        let line = match lex_line(text) {
+            Ok(l) => l,
+            Err(e) => {
+                d.error(line_no, e.col, e.message);
+                if let Some(b) = &mut self.g06 {
+                    b.unterminated = false; // a broken line inside spline data: do not pile on
+                }
+                return;
+            }
+        };
+        if self.g06.is_some() {
+            if line.blank {
+                self.finish_g06(d);
+                return;
+            }
+            if line.words.is_empty() {
+                return; // comment-only line inside spline data
+            }
+            if is_span_line(&line) {
+                self.g06_span(&line, line_no, d);
+                return;
+            }
+            self.finish_g06(d);
+        }
+        if line.words.is_empty() {
+            return;
+        }
+        self.summary.blocks += 1;
+        self.block(&line, line_no, d);
+    }
+
+    /// Ends the program text: closes an open G06 block and attaches a trailing dwell.
+    pub fn finish(&mut self, d: &mut Diagnostics) {
+        if self.g06.is_some() {
+            self.finish_g06(d);
+        }
+        self.path.final_dwell_s += self.pending_dwell_s;
+        self.pending_dwell_s = 0.0;
+    }
+
+    fn block(&mut self, line: &Line, line_no: u32, d: &mut Diagnostics) {
+        let block = Block { words: &line.words, line: line_no };
+        // Each letter at most once, except G and M (one per modal group, checked below).
+        for (i, w) in line.words.iter().enumerate() {
+            if w.letter != 'G' && w.letter != 'M' && line.words[..i].iter().any(|o| o.letter == w.letter) {
+                d.error(line_no, w.col, format!("word {} appears twice in this block", w.letter));
+                return;
+            }
+        }
+        let block_no = block.get('N').map_or(0, |w| w.value as u32);
+        if let Some(n) = block.get('N') {
+            if n.value < 0.0 || n.value.fract() != 0.0 || n.has_point {
+                d.error(line_no, n.col, "block number N must be a non-negative integer");
+                return;
+            }
+        }
+
+        let Some(g) = self.read_g_words(&block, d) else { return };
+        if !self.read_m_words(&block, d) {
+            return;
+        }
+        for w in line.words.iter() {
+            if matches!(w.letter, 'S' | 'T') {
+                self.summary.ignored_words += 1;
+            }
+        }
+
+        // Modal settings first, as a controller executes them before motion in the same block.
+        if let Some(u) = g.units {
+            self.modal.unit_mm = u;
+        }
+        if let Some(a) = g.absolute {
+            self.modal.absolute = a;
+        }
+        if let Some(p) = g.plane {
+            self.modal.plane = p;
+        }
+        if let Some(f) = block.get('F') {
+            if f.value <= 0.0 {
+                d.error(line_no, f.col, format!("feed F must be positive, got {}", f.value));
+                return;
+            }
+            self.modal.feed_mm_s = Some(f.value * self.modal.unit_mm / 60.0);
+        }
+        let p_used_by_g = g.dwell || g.blend == Some(BlendWord::Smooth) || g.spline;
+        if let Some(b) = g.blend {
+            match b {
+                BlendWord::Exact => self.modal.blend = Blend::Exact,
+                BlendWord::Smooth => {
+                    let tol = match block.get('P') {
+                        Some(p) if p.value <= 0.0 => {
+                            d.error(line_no, p.col, format!("G64 tolerance P must be positive, got {}", p.value));
+                            return;
+                        }
+                        Some(p) => p.value * self.modal.unit_mm,
+                        None => self.default_tol_mm,
+                    };
+                    self.modal.blend = Blend::Tolerance { tol_mm: tol };
+                }
+            }
+        }
+        if g.dwell {
+            match block.get('P') {
+                None => {
+                    d.error(line_no, line.end_col, "G4 dwell needs P (seconds)");
+                    return;
+                }
+                Some(p) if p.value < 0.0 => {
+                    d.error(line_no, p.col, format!("dwell time P must not be negative, got {}", p.value));
+                    return;
+                }
+                Some(p) => self.pending_dwell_s += p.value,
+            }
+        }
+        if !p_used_by_g {
+            if let Some(p) = block.get('P') {
+                d.error(line_no, p.col, "P is only valid with G4, G64 or in G06 spline data");
+                return;
+            }
+        }
+        if g.spline {
+            self.start_g06(&block, block_no, d);
+            return;
+        }
+        if let Some(m) = g.motion {
+            self.modal.motion = Some(m);
+        }
+
+        let has_axis = line.words.iter().any(|w| AxisLetter::from_char(w.letter).is_some());
+        let arc_words: Vec<&Word> = line.words.iter().filter(|w| matches!(w.letter, 'I' | 'J' | 'K' | 'R')).collect();
+        if !has_axis {
+            if let Some(w) = arc_words.first() {
+                d.error(line_no, w.col, format!("{} without an arc end point", w.letter));
+            } else if g.motion.is_some() && g.motion != Some(Motion::Rapid) && g.motion != Some(Motion::Linear) {
+                d.error(line_no, line.end_col, "arc needs an end point");
+            }
+            return;
+        }
+        if g.dwell {
+            let w = line.words.iter().find(|w| AxisLetter::from_char(w.letter).is_some()).expect("has axis");
+            d.error(line_no, w.col, "G4 dwell cannot move axes in the same block");
+            return;
+        }
+        let Some(motion) = self.modal.motion else {
+            let w = line.words.iter().find(|w| AxisLetter::from_char(w.letter).is_some()).expect("has axis");
+            d.error(line_no, w.col, "axis word without a motion mode: program G0, G1, G2 or G3 first");
+            return;
+        };
+        let Some(target) = self.target(&block, d) else { return };
+        let source = Source { line: line_no, block: block_no };
+        match motion {
+            Motion::Rapid | Motion::Linear => {
+                if let Some(w) = arc_words.first() {
+                    d.error(line_no, w.col, format!("{} is only valid with G2/G3", w.letter));
+                    return;
+                }
+                let feed = if motion == Motion::Rapid {
+                    Feed::Rapid
+                } else {
+                    match self.modal.feed_mm_s {
+                        Some(f) => Feed::Programmed { mm_per_s: f },
+                        None => {
+                            d.error(
+                                line_no,
+                                block.words[0].col,
+                                "G1 without feed: program F (mm/min) before or in this block",
+                            );
+                            return;
+                        }
+                    }
+                };
+                self.linear_move(target, feed, source);
+            }
+            Motion::ArcCw | Motion::ArcCcw => {
+                let Some(f) = self.modal.feed_mm_s else {
+                    d.error(
+                        line_no,
+                        block.words[0].col,
+                        "arc without feed: program F (mm/min) before or in this block",
+                    );
+                    return;
+                };
+                self.arc_move(&block, target, motion == Motion::ArcCcw, Feed::Programmed { mm_per_s: f }, source, d);
+            }
+        }
+    }
+
+    fn read_g_words(&self, block: &Block, d: &mut Diagnostics) -> Option<GWords> {
+        let mut g = GWords::default();
+        let mut groups: [Option<u32>; 6] = [None; 6];
+        for w in block.words.iter().filter(|w| w.letter == 'G') {
+            let code = (w.value * 10.0).round() as i64;
+            if (w.value * 10.0 - code as f64).abs() > 1e-6 || code < 0 {
+                d.error(block.line, w.col, format!("unsupported G-code G{}", w.value));
+                return None;
+            }
+            let (group, label) = match code {
+                0 => (0, {
+                    g.motion = Some(Motion::Rapid);
+                    "G0"
+                }),
+                10 => (0, {
+                    g.motion = Some(Motion::Linear);
+                    "G1"
+                }),
+                20 => (0, {
+                    g.motion = Some(Motion::ArcCw);
+                    "G2"
+                }),
+                30 => (0, {
+                    g.motion = Some(Motion::ArcCcw);
+                    "G3"
+                }),
+                60 => (0, {
+                    g.spline = true;
+                    "G06"
+                }),
+                40 => (1, {
+                    g.dwell = true;
+                    "G4"
+                }),
+                170 => (2, {
+                    g.plane = Some(Plane::Xy);
+                    "G17"
+                }),
+                180 => (2, {
+                    g.plane = Some(Plane::Zx);
+                    "G18"
+                }),
+                190 => (2, {
+                    g.plane = Some(Plane::Yz);
+                    "G19"
+                }),
+                200 => (3, {
+                    g.units = Some(MM_PER_INCH);
+                    "G20"
+                }),
+                210 => (3, {
+                    g.units = Some(1.0);
+                    "G21"
+                }),
+                900 => (4, {
+                    g.absolute = Some(true);
+                    "G90"
+                }),
+                910 => (4, {
+                    g.absolute = Some(false);
+                    "G91"
+                }),
+                610 => (5, {
+                    g.blend = Some(BlendWord::Exact);
+                    "G61"
+                }),
+                640 => (5, {
+                    g.blend = Some(BlendWord::Smooth);
+                    "G64"
+                }),
+                _ => {
+                    d.error(block.line, w.col, format!("unsupported G-code G{}", fmt_code(w.value)));
+                    return None;
+                }
+            };
+            if let Some(prev) = groups[group] {
+                d.error(
+                    block.line,
+                    w.col,
+                    format!(
+                        "{label} conflicts with G{} in the same block (same modal group)",
+                        fmt_code(prev as f64 / 10.0)
+                    ),
+                );
+                return None;
+            }
+            groups[group] = Some(code as u32);
+        }
+        Some(g)
+    }
+
+    fn read_m_words(&mut self, block: &Block, d: &mut Diagnostics) -> bool {
+        for w in block.words.iter().filter(|w| w.letter == 'M') {
+            match w.value as i64 {
+                2 | 30 if w.value.fract() == 0.0 => self.ended = true,
+                3..=9 if w.value.fract() == 0.0 => self.summary.ignored_words += 1,
+                _ => {
+                    d.error(
+                        block.line,
+                        w.col,
+                        format!("unsupported M-code M{} (interpd interpolates motion only)", fmt_code(w.value)),
+                    );
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
+    /// Target position of a motion block, after units, G90/G91 and travel checks.
+    fn target(&self, block: &Block, d: &mut Diagnostics) -> Option<AxisVec> {
+        let mut target = self.modal.pos;
+        let mut ok = true;
+        for w in block.words {
+            let Some(letter) = AxisLetter::from_char(w.letter) else { continue };
+            let Some(k) = self.settings.axis_index(letter) else {
+                d.error(
+                    block.line,
+                    w.col,
+                    format!("axis {letter} is not on this machine (axes: {})", self.settings.axis_names().join(" ")),
+                );
+                ok = false;
+                continue;
+            };
+            let scale = if self.linear[k] { self.modal.unit_mm } else { 1.0 };
+            let v = w.value * scale;
+            target[k] = if self.modal.absolute { v } else { self.modal.pos[k] + v };
+            if !target[k].is_finite() {
+                d.error(block.line, w.col, format!("{letter} target is not a finite number"));
+                ok = false;
+                continue;
+            }
+            if let Some(msg) = self.travel_violation(k, target[k]) {
+                d.error(block.line, w.col, msg);
+                ok = false;
+            }
+        }
+        ok.then_some(target)
+    }
+
+    fn travel_violation(&self, k: usize, value: f64) -> Option<String> {
+        let a = &self.settings.axes[k];
+        if value < a.min_pos || value > a.max_pos {
+            Some(format!(
+                "{} target {} {} is outside the travel range [{}, {}]",
+                a.name,
+                fmt_num(value),
+                a.kind.unit(),
+                a.min_pos,
+                a.max_pos
+            ))
+        } else {
+            None
+        }
+    }
+
+    /// Path length between two positions: over the linear axes, or the rotary axes if only
+    /// they move.
+    fn move_length(&self, a: &AxisVec, b: &AxisVec) -> f64 {
+        let n = self.settings.axes.len();
+        let sq =
+            |lin: bool| (0..n).filter(|&k| self.linear[k] == lin).map(|k| (b[k] - a[k]).powi(2)).sum::<f64>().sqrt();
+        let l = sq(true);
+        if l > MIN_MOVE_MM { l } else { sq(false) }
+    }
+
+    fn push(&mut self, geometry: Geometry, feed: Feed, source: Source) {
+        let dwell = std::mem::take(&mut self.pending_dwell_s);
+        *self.summary.kinds.entry(geometry.kind_name()).or_insert(0) += 1;
+        self.path.push(geometry, feed, source, dwell, self.modal.blend);
+    }
+
+    fn linear_move(&mut self, target: AxisVec, feed: Feed, source: Source) {
+        let len = self.move_length(&self.modal.pos, &target);
+        if len <= MIN_MOVE_MM {
+            self.summary.zero_length_moves += 1;
+            self.modal.pos = target;
+            return;
+        }
+        let g = Geometry::Line(LineGeom::new(self.modal.pos, target, len));
+        self.push(g, feed, source);
+        self.modal.pos = target;
+    }
+
+    fn arc_move(&mut self, block: &Block, target: AxisVec, ccw: bool, feed: Feed, source: Source, d: &mut Diagnostics) {
+        let line = block.line;
+        let plane = self.modal.plane;
+        let ((pl, pc), (ql, qc)) = plane.axes();
+        let (Some(p), Some(q)) = (self.settings.axis_index(pl), self.settings.axis_index(ql)) else {
+            d.error(
+                line,
+                block.words[0].col,
+                format!("arc in {} needs axes {pl} and {ql} on this machine", plane.name()),
+            );
+            return;
+        };
+        // Offsets not belonging to the plane are errors, not silently ignored.
+        for w in block.words.iter().filter(|w| matches!(w.letter, 'I' | 'J' | 'K')) {
+            if w.letter != pc && w.letter != qc {
+                d.error(line, w.col, format!("{} is not an arc centre offset in the {} plane", w.letter, plane.name()));
+                return;
+            }
+        }
+        let r_word = block.get('R');
+        let (ow_p, ow_q) = (block.get(pc), block.get(qc));
+        if r_word.is_some() && (ow_p.is_some() || ow_q.is_some()) {
+            let w = ow_p.or(ow_q).expect("one offset");
+            d.error(line, w.col, "give either the centre (I J K) or the radius R, not both");
+            return;
+        }
+        let start = self.modal.pos;
+        let (s, e) = ([start[p], start[q]], [target[p], target[q]]);
+        let chord = (e[0] - s[0]).hypot(e[1] - s[1]);
+        let unit = self.modal.unit_mm;
+        let (center, sweep) = if let Some(rw) = r_word {
+            let r = rw.value * unit;
+            if chord <= MIN_MOVE_MM {
+                d.error(line, rw.col, "an R-form arc cannot describe a full circle: use the centre form I J K");
+                return;
+            }
+            if r.abs() < MIN_ARC_RADIUS_MM {
+                d.error(line, rw.col, "degenerate arc: radius R is zero");
+                return;
+            }
+            let half = chord / 2.0;
+            let tol = ARC_RADIUS_ABS_TOL_MM + ARC_RADIUS_REL_TOL * r.abs();
+            if r.abs() < half - tol {
+                d.error(
+                    line,
+                    rw.col,
+                    format!(
+                        "arc radius R {} mm is smaller than half the chord ({} mm)",
+                        fmt_num(r.abs()),
+                        fmt_num(half)
+                    ),
+                );
+                return;
+            }
+            let h = (r * r - half * half).max(0.0).sqrt();
+            let dir = [(e[0] - s[0]) / chord, (e[1] - s[1]) / chord];
+            let left = [-dir[1], dir[0]];
+            // Short arc (R > 0): the centre lies left of the chord for G3, right for G2.
+            let side = if ccw == (r > 0.0) { 1.0 } else { -1.0 };
+            let mid = [(s[0] + e[0]) / 2.0, (s[1] + e[1]) / 2.0];
+            let c = [mid[0] + side * h * left[0], mid[1] + side * h * left[1]];
+            (c, sweep_angle(s, e, c, ccw, false))
+        } else {
+            if ow_p.is_none() && ow_q.is_none() {
+                d.error(line, block.words[0].col, format!("arc needs its centre ({pc} {qc}) or radius R"));
+                return;
+            };
+            let c = [s[0] + ow_p.map_or(0.0, |w| w.value * unit), s[1] + ow_q.map_or(0.0, |w| w.value * unit)];
+            let r0 = (s[0] - c[0]).hypot(s[1] - c[1]);
+            let r1 = (e[0] - c[0]).hypot(e[1] - c[1]);
+            let col = ow_p.or(ow_q).expect("one offset").col;
+            if r0 < MIN_ARC_RADIUS_MM {
+                d.error(line, col, "degenerate arc: the centre lies on the start point (radius zero)");
+                return;
+            }
+            let tol = ARC_RADIUS_ABS_TOL_MM + ARC_RADIUS_REL_TOL * r0;
+            if (r0 - r1).abs() > tol {
+                d.error(
+                    line,
+                    col,
+                    format!(
+                        "arc end point is not on the circle: radius {} mm at the start, {} mm at the end (difference {} mm > {} mm)",
+                        fmt_num(r0),
+                        fmt_num(r1),
+                        fmt_num((r0 - r1).abs()),
+                        fmt_num(tol)
+                    ),
+                );
+                return;
+            }
+            let full = chord <= MIN_MOVE_MM;
+            // Move the centre onto the perpendicular bisector so start and end radii agree
+            // exactly and the arc ends where programmed.
+            let c = if full { c } else { project_on_bisector(s, e, c) };
+            (c, sweep_angle(s, e, c, ccw, full))
+        };
+        let helix = Helix::new(p, q, center, sweep, start, target, &self.linear[..self.settings.axes.len()]);
+        if helix.length_mm() <= MIN_MOVE_MM {
+            d.error(line, block.words[0].col, "degenerate arc: zero length");
+            return;
+        }
+        if let Some(msg) = self.arc_travel_violation(&helix, p, q) {
+            d.error(line, block.words[0].col, msg);
+            return;
+        }
+        self.push(Geometry::Helix(helix), feed, source);
+        self.modal.pos = target;
+    }
+
+    /// Checks the extreme points of the arc in its plane against the travel limits.
+    fn arc_travel_violation(&self, h: &Helix, p: usize, q: usize) -> Option<String> {
+        let c = h.center();
+        let r = h.radius_mm();
+        let mut d = crate::path::AxisDerivs::default();
+        h.eval(0.0, &mut d);
+        let phi0 = (d.pos[q] - c[1]).atan2(d.pos[p] - c[0]);
+        let sweep = h.sweep_rad();
+        for quarter in -8..=8 {
+            let ang = quarter as f64 * PI / 2.0;
+            let rel = (ang - phi0) * sweep.signum();
+            if rel > 0.0 && rel < sweep.abs() {
+                let (pp, qq) = (c[0] + r * ang.cos(), c[1] + r * ang.sin());
+                for (k, v) in [(p, pp), (q, qq)] {
+                    let a = &self.settings.axes[k];
+                    if v < a.min_pos - ARC_RADIUS_ABS_TOL_MM || v > a.max_pos + ARC_RADIUS_ABS_TOL_MM {
+                        return Some(format!(
+                            "arc leaves the travel range of {}: it reaches {} {}, limits [{}, {}]",
+                            a.name,
+                            fmt_num(v),
+                            a.kind.unit(),
+                            a.min_pos,
+                            a.max_pos
+                        ));
+                    }
+                }
+            }
+        }
+        None
+    }
+
+    fn start_g06(&mut self, block: &Block, block_no: u32, d: &mut Diagnostics) {
+        let _ = block_no;
+        for w in block.words {
+            if AxisLetter::from_char(w.letter).is_some() || w.letter == 'R' || w.letter == 'P' || w.letter == 'Q' {
+                d.error(
+                    block.line,
+                    w.col,
+                    "the G06 block takes only the start tangent I J K; the support points follow on the next lines",
+                );
+                return;
+            }
+        }
+        let Some(feed) = self.modal.feed_mm_s else {
+            d.error(block.line, block.words[0].col, "G06 without feed: program F (mm/min) before or in this block");
+            return;
+        };
+        if !self.has_xyz(block.line, block.words[0].col, d) {
+            return;
+        }
+        let ijk = ['I', 'J', 'K'].map(|c| block.get(c).map(|w| w.value * self.modal.unit_mm));
+        let start_tangent = ijk.iter().any(Option::is_some).then(|| ijk.map(|v| v.unwrap_or(0.0)));
+        self.g06 = Some(G06Block {
+            start: self.modal.pos,
+            start_tangent,
+            spans: Vec::new(),
+            line: block.line,
+            col: block.get('G').map_or(1, |w| w.col),
+            resume: self.modal.motion,
+            feed: Feed::Programmed { mm_per_s: feed },
+            point: self.modal.pos,
+            unterminated: false,
+        });
+    }
+
+    fn has_xyz(&self, line: u32, col: u32, d: &mut Diagnostics) -> bool {
+        for l in [AxisLetter::X, AxisLetter::Y, AxisLetter::Z] {
+            if self.settings.axis_index(l).is_none() {
+                d.error(line, col, format!("G06 splines need axes X, Y and Z; this machine has no {l}"));
+                return false;
+            }
+        }
+        true
+    }
+
+    fn g06_span(&mut self, line: &Line, line_no: u32, d: &mut Diagnostics) {
+        let unit = self.modal.unit_mm;
+        let absolute = self.modal.absolute;
+        let xyz =
+            [AxisLetter::X, AxisLetter::Y, AxisLetter::Z].map(|l| self.settings.axis_index(l).expect("checked at G06"));
+        let block = self.g06.as_mut().expect("in G06 block");
+        let words = Block { words: &line.words, line: line_no };
+        let block_no = words.get('N').map_or(0, |w| w.value as u32);
+        for (i, w) in line.words.iter().enumerate() {
+            if !matches!(w.letter, 'X' | 'Y' | 'Z' | 'P' | 'Q' | 'R' | 'N') {
+                d.error(line_no, w.col, format!("{} is not allowed in G06 spline data (X Y Z P Q R only)", w.letter));
+                return;
+            }
+            if line.words[..i].iter().any(|o| o.letter == w.letter) {
+                d.error(line_no, w.col, format!("word {} appears twice in this span", w.letter));
+                return;
+            }
+        }
+        if line.semicolon_col.is_none() {
+            d.error(line_no, line.end_col, "G06 span must end with ';'");
+            block.unterminated = true;
+            return;
+        }
+        let pqr = ['P', 'Q', 'R'].map(|c| words.get(c));
+        let has_tangent = pqr.iter().any(Option::is_some);
+        if block.start_tangent.is_some() && !has_tangent {
+            d.error(line_no, line.end_col, "G06 span needs its tangent P Q R (the block gave the start tangent I J K)");
+            return;
+        }
+        if block.start_tangent.is_none() && has_tangent {
+            let w = pqr.iter().flatten().next().expect("has tangent");
+            d.error(
+                line_no,
+                w.col,
+                "tangent P Q R given but the G06 block has no start tangent I J K: give both or neither",
+            );
+            return;
+        }
+        let mut target = block.point;
+        for (i, l) in ['X', 'Y', 'Z'].iter().enumerate() {
+            if let Some(w) = words.get(*l) {
+                let v = w.value * unit;
+                target[xyz[i]] = if absolute { v } else { block.point[xyz[i]] + v };
+            }
+        }
+        for (i, l) in ['X', 'Y', 'Z'].iter().enumerate() {
+            let k = xyz[i];
+            let a = &self.settings.axes[k];
+            if target[k] < a.min_pos || target[k] > a.max_pos {
+                let col = words.get(*l).map_or(1, |w| w.col);
+                d.error(
+                    line_no,
+                    col,
+                    format!(
+                        "{} target {} mm is outside the travel range [{}, {}]",
+                        a.name,
+                        fmt_num(target[k]),
+                        a.min_pos,
+                        a.max_pos
+                    ),
+                );
+                return;
+            }
+        }
+        let tangent = has_tangent.then(|| pqr.map(|w| w.map_or(0.0, |w| w.value * unit)));
+        block.spans.push(SpanRecord {
+            target,
+            tangent,
+            line: line_no,
+            col: line.words.first().map_or(1, |w| w.col),
+            block: block_no,
+        });
+        block.point = target;
+    }
+
+    fn finish_g06(&mut self, d: &mut Diagnostics) {
+        let Some(block) = self.g06.take() else { return };
+        if block.unterminated {
+            return; // already reported at the span
+        }
+        if block.spans.is_empty() {
+            d.error(
+                block.line,
+                block.col,
+                "unterminated G06 block: no spline spans ('X.. Y.. Z.. P.. Q.. R..;') follow",
+            );
+            return;
+        }
+        let xyz = [AxisLetter::X, AxisLetter::Y, AxisLetter::Z].map(|l| self.settings.axis_index(l).expect("checked"));
+        let n = block.spans.len() + 1;
+        let mut points = vec![block.start];
+        points.extend(block.spans.iter().map(|s| s.target));
+        let mut tangents = vec![[0.0; MAX_AXES]; n];
+        match block.start_tangent {
+            Some(t0) => {
+                for i in 0..3 {
+                    tangents[0][xyz[i]] = t0[i];
+                }
+                for (j, s) in block.spans.iter().enumerate() {
+                    let t = s.tangent.expect("explicit tangents checked per span");
+                    for i in 0..3 {
+                        tangents[j + 1][xyz[i]] = t[i];
+                    }
+                }
+            }
+            None => {
+                for &k in &xyz {
+                    let coord: Vec<f64> = points.iter().map(|p| p[k]).collect();
+                    for (j, t) in natural_tangents(&coord).into_iter().enumerate() {
+                        tangents[j][k] = t; // seed 002 eq. 3
+                    }
+                }
+            }
+        }
+        let nax = self.settings.axes.len();
+        for (j, span) in block.spans.iter().enumerate() {
+            let (a, b) = (&points[j], &points[j + 1]);
+            if self.move_length(a, b) <= MIN_MOVE_MM && tangents[j].iter().all(|&t| t == 0.0) {
+                d.error(span.line, span.col, "degenerate G06 span: zero length");
+                continue;
+            }
+            match CubicSpan::hermite(a, b, &tangents[j], &tangents[j + 1], &self.linear[..nax]) {
+                Ok(c) => {
+                    let source = Source { line: span.line, block: span.block };
+                    self.push(Geometry::Cubic(Box::new(c)), block.feed, source);
+                }
+                Err(SpanError::ZeroTangent) => {
+                    d.error(span.line, span.col, "degenerate G06 span: the curve stops or turns back (its tangent vanishes)")
+                }
+                Err(SpanError::SharpTurn { radius_mm, u }) => d.error(
+                    span.line,
+                    span.col,
+                    format!(
+                        "degenerate G06 span: the curve turns on a radius of {} µm at u = {:.3} (at least {} µm needed); check the support points and tangents",
+                        fmt_num(radius_mm * 1e3),
+                        u,
+                        fmt_num(MIN_CURVATURE_RADIUS_MM * 1e3)
+                    ),
+                ),
+            }
+        }
+        self.modal.pos = *points.last().expect("n ≥ 2");
+        self.modal.motion = block.resume;
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum BlendWord {
+    Exact,
+    Smooth,
+}
+
+#[derive(Default)]
+struct GWords {
+    motion: Option<Motion>,
+    spline: bool,
+    dwell: bool,
+    plane: Option<Plane>,
+    units: Option<f64>,
+    absolute: Option<bool>,
+    blend: Option<BlendWord>,
+}
+
+/// A line of G06 spline data: only X Y Z P Q R (and N) words.
+fn is_span_line(line: &Line) -> bool {
+    line.words.iter().any(|w| matches!(w.letter, 'X' | 'Y' | 'Z' | 'P' | 'Q' | 'R'))
+        && line.words.iter().all(|w| !matches!(w.letter, 'G' | 'M' | 'F'))
+}
+
+/// Signed sweep from s to e about c: positive counter-clockwise. A full circle if `full`.
+fn sweep_angle(s: [f64; 2], e: [f64; 2], c: [f64; 2], ccw: bool, full: bool) -> f64 {
+    if full {
+        return if ccw { 2.0 * PI } else { -2.0 * PI };
+    }
+    let a0 = (s[1] - c[1]).atan2(s[0] - c[0]);
+    let a1 = (e[1] - c[1]).atan2(e[0] - c[0]);
+    let mut d = a1 - a0;
+    if ccw {
+        while d <= 0.0 {
+            d += 2.0 * PI;
+        }
+        while d > 2.0 * PI {
+            d -= 2.0 * PI;
+        }
+    } else {
+        while d >= 0.0 {
+            d -= 2.0 * PI;
+        }
+        while d < -2.0 * PI {
+            d += 2.0 * PI;
+        }
+    }
+    d
+}
+
+/// The point on the perpendicular bisector of s–e nearest to c.
+fn project_on_bisector(s: [f64; 2], e: [f64; 2], c: [f64; 2]) -> [f64; 2] {
+    let m = [(s[0] + e[0]) / 2.0, (s[1] + e[1]) / 2.0];
+    let chord = [e[0] - s[0], e[1] - s[1]];
+    let len = chord[0].hypot(chord[1]);
+    let n = [-chord[1] / len, chord[0] / len];
+    let t = (c[0] - m[0]) * n[0] + (c[1] - m[1]) * n[1];
+    [m[0] + t * n[0], m[1] + t * n[1]]
+}
+
+fn fmt_code(v: f64) -> String {
+    if v.fract() == 0.0 { format!("{}", v as i64) } else { format!("{v}") }
+}
+
+/// Numbers in messages: up to 4 decimals, trailing zeros dropped.
+pub(crate) fn fmt_num(v: f64) -> String {
+    let s = format!("{v:.4}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" { "0".to_string() } else { s.to_string() }
+}

@@ -1,0 +1,115 @@
+//! Program input: RS274 / ISO 6983 G-code with G06 spline blocks (seed 002), and path tables
+//! (seed 001's 5-axis data form), turned into a [`Path`].
+
+mod error;
+mod gcode;
+mod lexer;
+mod table;
+
+pub use error::{MAX_ERRORS, ProgramError, ProgramErrors};
+pub(crate) use gcode::fmt_num;
+pub use lexer::{Word, lex_line};
+
+use crate::Settings;
+use crate::path::Path;
+use error::Diagnostics;
+use std::collections::BTreeMap;
+
+/// A line holding only this word ends G06 spline data (seed 002's "CR", end of record); an
+/// empty line or the next ordinary block does too.
+pub const G06_END_MARKER: &str = "CR";
+
+/// Counts for the one-line summary of `interpd check`.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Summary {
+    /// Lines read.
+    pub lines: u32,
+    /// Blocks with words (G-code) or data rows (tables).
+    pub blocks: u32,
+    /// Elements per kind ("line", "arc", "spline", "table").
+    pub kinds: BTreeMap<&'static str, usize>,
+    /// Moves of zero length, dropped.
+    pub zero_length_moves: usize,
+    /// Spindle, coolant and tool words (M3–M9, S, T), accepted and ignored.
+    pub ignored_words: usize,
+}
+
+/// A parsed program: its path and what was read.
+#[derive(Debug, Clone)]
+pub struct Program {
+    pub path: Path,
+    pub summary: Summary,
+}
+
+/// Which input format a text is in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    GCode,
+    PathTable,
+}
+
+impl Format {
+    /// Path tables are `.csv` files or texts whose first data line starts with `s,`.
+    pub fn detect(origin: &str, text: &str) -> Self {
+        if origin.to_ascii_lowercase().ends_with(".csv") {
+            return Format::PathTable;
+        }
+        let first = text.lines().map(str::trim).find(|l| !l.is_empty() && !l.starts_with('#'));
+        match first {
+            Some(l) if l.starts_with("s,") || l.starts_with("s ,") => Format::PathTable,
+            _ => Format::GCode,
+        }
+    }
+}
+
+/// Parses program text; `origin` names the file in messages.
+pub fn parse(text: &str, origin: &str, settings: &Settings) -> Result<Program, ProgramErrors> {
+    let mut d = Diagnostics::new(origin);
+    let program = match Format::detect(origin, text) {
+        Format::GCode => parse_gcode(text, settings, &mut d),
+        Format::PathTable => table::parse_table(text, settings, &mut d),
+    };
+    if d.errors.is_empty() { Ok(program) } else { Err(ProgramErrors(d.errors)) }
+}
+
+/// Reads and parses a program file.
+pub fn load(path: &std::path::Path, settings: &Settings) -> Result<Program, ProgramErrors> {
+    let origin = path.display().to_string();
+    match std::fs::read(path) {
+        Ok(bytes) => match String::from_utf8(bytes) {
+            Ok(text) => parse(&text, &origin, settings),
+            Err(e) => {
+                let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+                let line = valid.iter().filter(|&&b| b == b'\n').count() as u32 + 1;
+                let col = valid.iter().rev().take_while(|&&b| b != b'\n').count() as u32 + 1;
+                Err(ProgramErrors(vec![ProgramError {
+                    file: origin,
+                    line,
+                    col,
+                    message: "the file is not UTF-8 text".into(),
+                }]))
+            }
+        },
+        Err(e) => Err(ProgramErrors(vec![ProgramError {
+            file: origin,
+            line: 0,
+            col: 0,
+            message: format!("cannot read: {e}"),
+        }])),
+    }
+}
+
+fn parse_gcode(text: &str, settings: &Settings, d: &mut Diagnostics) -> Program {
+    let mut interp = gcode::Interpreter::new(settings);
+    for (i, line) in text.lines().enumerate() {
+        if d.full() {
+            break;
+        }
+        interp.line(line, i as u32 + 1, d);
+    }
+    interp.finish(d);
+    Program { path: interp.path, summary: interp.summary }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,186 @@
+use super::*;
+use crate::Settings;
+use crate::path::{AxisDerivs, Feed, Geometry, JointKind};
+
+fn xyz() -> Settings {
+    Settings::default_machine()
+}
+
+fn ok(text: &str) -> Program {
+    parse(text, "t.ngc", &xyz()).unwrap_or_else(|e| panic!("program rejected:\n{e}"))
+}
+
+fn first_error(text: &str) -> String {
+    parse(text, "t.ngc", &xyz()).expect_err("program must be rejected").0[0].to_string()
+}
+
+fn end(p: &Program) -> [f64; 3] {
+    let e = p.path.end_position();
+    [e[0], e[1], e[2]]
+}
+
+fn close(a: [f64; 3], b: [f64; 3]) -> bool {
+    a.iter().zip(b.iter()).all(|(x, y)| (x - y).abs() < 1e-9)
+}
+
+#[test]
+fn modal_state_carries_between_blocks() {
+    let p = ok("G21 G90 G17\nG1 X10 F600\nY5\nG91 X1 Y1\nG0 Z2\n");
+    assert_eq!(p.path.elements.len(), 4);
+    assert!(close(end(&p), [11.0, 6.0, 2.0]));
+    assert_eq!(p.path.elements[1].feed, Feed::Programmed { mm_per_s: 10.0 });
+    assert_eq!(p.path.elements[3].feed, Feed::Rapid);
+    assert!((p.path.length_mm() - (10.0 + 5.0 + 2f64.sqrt() + 2.0)).abs() < 1e-12);
+}
+
+#[test]
+fn inches_convert_to_mm() {
+    let p = ok("G20 G1 X1 F10\n");
+    assert!(close(end(&p), [25.4, 0.0, 0.0]));
+    assert_eq!(p.path.elements[0].feed, Feed::Programmed { mm_per_s: 25.4 * 10.0 / 60.0 });
+}
+
+#[test]
+fn arcs_centre_and_radius_form_agree() {
+    let a = ok("G1 X10 F600\nG3 X0 Y10 I-10 J0\n");
+    let b = ok("G1 X10 F600\nG3 X0 Y10 R10\n");
+    assert!(close(end(&a), [0.0, 10.0, 0.0]) && close(end(&b), [0.0, 10.0, 0.0]));
+    let (la, lb) = (a.path.elements[1].geometry.length_mm(), b.path.elements[1].geometry.length_mm());
+    assert!((la - 5.0 * std::f64::consts::PI).abs() < 1e-12 && (la - lb).abs() < 1e-12);
+    // Negative R takes the long way round.
+    let c = ok("G1 X10 F600\nG3 X0 Y10 R-10\n");
+    assert!((c.path.elements[1].geometry.length_mm() - 15.0 * std::f64::consts::PI).abs() < 1e-9);
+}
+
+#[test]
+fn full_circle_and_helix() {
+    let p = ok("G1 X10 F600\nG2 X10 Y0 Z5 I-10 J0\n");
+    let h = &p.path.elements[1].geometry;
+    let expect = ((20.0 * std::f64::consts::PI).powi(2) + 25.0).sqrt();
+    assert!((h.length_mm() - expect).abs() < 1e-9);
+    assert!(close(end(&p), [10.0, 0.0, 5.0]));
+    // Clockwise: from (10,0) about the origin the first step goes towards −y.
+    let mut d = AxisDerivs::default();
+    h.eval(0.0, &mut d);
+    assert!(d.d1[1] < 0.0);
+}
+
+#[test]
+fn planes_g18_g19() {
+    // G18: ZX plane, centre offsets K (Z) and I (X); G3 turns counter-clockwise in (Z, X).
+    let p = ok("G18 G1 Z10 F600\nG3 Z0 X10 K-10 I0\n");
+    assert!(close(end(&p), [10.0, 0.0, 0.0]));
+    let p = ok("G19 G1 Y10 F600\nG2 Y0 Z-10 J-10 K0\n");
+    assert!(close(end(&p), [0.0, 0.0, -10.0]));
+}
+
+#[test]
+fn joints_are_classified() {
+    let p = ok("G1 X10 F600\nY10\n");
+    assert_eq!(p.path.elements[1].joint, JointKind::Corner);
+    let p = ok("G1 X10 F600\nX20\n");
+    assert_eq!(p.path.elements[1].joint, JointKind::Smooth);
+    let p = ok("G1 X10 F600\nG3 X20 Y10 I0 J10\n");
+    assert_eq!(p.path.elements[1].joint, JointKind::CurvatureJump);
+}
+
+#[test]
+fn dwell_attaches_to_next_move() {
+    let p = ok("G1 X10 F600\nG4 P0.5\nX20\nG4 P1\n");
+    assert_eq!(p.path.elements[1].dwell_before_s, 0.5);
+    assert!(p.path.elements[1].stops_before());
+    assert_eq!(p.path.final_dwell_s, 1.0);
+}
+
+#[test]
+fn g06_explicit_tangents_absolute_and_incremental() {
+    let abs = ok("G1 X0 F600\nG06 I10 J0 K0\nX10 Y10 Z0 P0 Q10 R0;\nX0 Y20 Z0 P-10 Q0 R0;\n\nG1 X0 Y0\n");
+    let inc = ok("G1 X0 F600\nG91\nG06 I10 J0 K0\nX10 Y10 Z0 P0 Q10 R0;\nX-10 Y10 Z0 P-10 Q0 R0;\nCR\n");
+    assert_eq!(abs.path.elements.iter().filter(|e| matches!(e.geometry, Geometry::Cubic(_))).count(), 2);
+    assert!(close(end(&inc), [0.0, 20.0, 0.0]));
+    let sa = &abs.path.elements[0].geometry;
+    let si = &inc.path.elements[0].geometry;
+    assert!((sa.length_mm() - si.length_mm()).abs() < 1e-12);
+    // After the spline data the earlier motion mode (G1) is back.
+    assert!(close(end(&abs), [0.0, 0.0, 0.0]));
+}
+
+#[test]
+fn g06_natural_spline_through_points() {
+    let p = ok("G1 X0 F600\nG06\nX10 Y5 Z0;\nX20 Y0 Z0;\nX30 Y5 Z0;\n");
+    assert_eq!(p.path.elements.len(), 3);
+    for e in &p.path.elements[1..] {
+        assert_eq!(e.joint, JointKind::Smooth, "natural spline is C² at its support points");
+    }
+    assert!(close(end(&p), [30.0, 5.0, 0.0]));
+}
+
+#[test]
+fn ignored_words_and_end() {
+    let p = ok("M3 S1000\nG1 X1 F100\nM30\nG1 X999999\n");
+    assert_eq!(p.summary.ignored_words, 2);
+    assert_eq!(p.path.elements.len(), 1);
+}
+
+#[test]
+fn error_positions() {
+    let cases = [
+        ("G1 X1 F100 X2\n", "t.ngc:1:12: word X appears twice in this block"),
+        ("G1 X1\n", "t.ngc:1:1: G1 without feed: program F (mm/min) before or in this block"),
+        ("G1 A1 F100\n", "t.ngc:1:4: axis A is not on this machine (axes: X Y Z)"),
+        ("G1 X2000 F100\n", "t.ngc:1:4: X target 2000 mm is outside the travel range [-1000, 1000]"),
+        ("G1 F100\nG2 X10 I0 J0\n", "t.ngc:2:8: degenerate arc: the centre lies on the start point (radius zero)"),
+        ("G42 X1\n", "t.ngc:1:1: unsupported G-code G42"),
+        ("G0 G1 X1\n", "t.ngc:1:4: G1 conflicts with G0 in the same block (same modal group)"),
+        ("F100\nG06 I1 J0 K0\nX1 Y0 Z0 P1 Q0 R0\n", "t.ngc:3:18: G06 span must end with ';'"),
+        ("F100\nG06 I1\n", "t.ngc:2:1: unterminated G06 block: no spline spans ('X.. Y.. Z.. P.. Q.. R..;') follow"),
+    ];
+    for (text, expect) in cases {
+        assert_eq!(first_error(text), expect, "program:\n{text}");
+    }
+}
+
+#[test]
+fn path_table_rows_and_corner() {
+    let text =
+        "s,X,X',X'',X''',Y,Y',Y'',Y'''\n0,0,1,0,0,0,0,0,0\n1,1,1,0,0,0,0,0,0\n1,1,0,0,0,0,1,0,0\n2,1,0,0,0,1,1,0,0\n";
+    let p = parse(text, "t.csv", &xyz()).unwrap();
+    assert_eq!(p.path.elements.len(), 2);
+    assert_eq!(p.path.elements[1].joint, JointKind::Corner);
+    assert!((p.path.length_mm() - 2.0).abs() < 1e-15);
+}
+
+#[test]
+fn path_table_errors() {
+    let e = parse("s,X,X',X'',Xq\n", "t.csv", &xyz()).unwrap_err().0[0].to_string();
+    assert_eq!(e, "t.csv:1:12: expected column 'X\'\'\'', found 'Xq'");
+    let e = parse("s,X,X',X'',X'''\n0,0,1,0,0\n1,1,1,0\n", "t.csv", &xyz()).unwrap_err().0[0].to_string();
+    assert_eq!(e, "t.csv:3:8: row has 4 fields, the header has 5");
+    let e = parse("s,X,X',X'',X'''\n0,0,1,0,0\n1,nan,1,0,0\n", "t.csv", &xyz()).unwrap_err().0[0].to_string();
+    assert_eq!(e, "t.csv:3:3: 'nan' is not a finite number");
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(2000))]
+    /// Any text: the parser returns (program or errors), never panics.
+    #[test]
+    fn parser_never_panics(text in "[GXYZIJKRFPNMQ0-9 .;()\\-\\n]{0,200}") {
+        let _ = parse(&text, "p.ngc", &xyz());
+    }
+
+    /// Random polylines of G1 moves end exactly at the last target, with the exact length.
+    #[test]
+    fn polyline_length_exact(pts in proptest::collection::vec((-100i32..100, -100i32..100), 1..20)) {
+        let mut text = String::from("G1 F1000\n");
+        let mut prev = (0.0f64, 0.0f64);
+        let mut len = 0.0;
+        for (x, y) in &pts {
+            let (x, y) = (*x as f64 / 4.0, *y as f64 / 4.0);
+            text += &format!("X{x} Y{y}\n");
+            len += (x - prev.0).hypot(y - prev.1);
+            prev = (x, y);
+        }
+        let p = ok(&text);
+        proptest::prop_assert!((p.path.length_mm() - len).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,254 @@
+//! Time-bounded fuzzing of the program parsers (G-code with G06, path tables) and the
+//! configuration loader: mutations of the example programs and of the bad-program corpus,
+//! plus grammar-shaped random programs. Every input must yield a program or errors, never a
+//! panic; an accepted program must evaluate to finite geometry everywhere.
+//!
+//! The run lasts `FUZZ_SECONDS` (default 2 s; CI's scripts/test.sh sets 60 s). Each run prints its
+//! `FUZZ_SEED`; setting it replays that run's inputs (up to the time limit).
+
+use interpd_motion::Settings;
+use interpd_motion::path::AxisDerivs;
+use interpd_motion::program;
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        // xorshift64*
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
+    }
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n.max(1) as u64) as usize
+    }
+}
+
+const TOKENS: &[&str] = &[
+    "G0",
+    "G1",
+    "G2",
+    "G3",
+    "G4",
+    "G06",
+    "G17",
+    "G18",
+    "G19",
+    "G20",
+    "G21",
+    "G61",
+    "G64",
+    "G90",
+    "G91",
+    "X",
+    "Y",
+    "Z",
+    "A",
+    "I",
+    "J",
+    "K",
+    "R",
+    "P",
+    "Q",
+    "F",
+    "N",
+    "M3",
+    "M30",
+    "S",
+    "T",
+    ";",
+    "(",
+    ")",
+    "CR",
+    "\n",
+    " ",
+    "-",
+    ".",
+    "0",
+    "1",
+    "5",
+    "10",
+    "-10",
+    "1e3",
+    "999999999",
+    "0.0001",
+    "%",
+    "/",
+    ",",
+    "s",
+    "'",
+    "nan",
+    "inf",
+];
+
+fn corpus() -> Vec<(String, String)> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut out = Vec::new();
+    for dir in ["examples", "tests/programs/bad"] {
+        let Ok(entries) = std::fs::read_dir(root.join(dir)) else { continue };
+        for e in entries.flatten() {
+            let p = e.path();
+            let name = p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+            if name.contains("dense") {
+                continue; // large; its first lines are enough
+            }
+            if let Ok(t) = std::fs::read_to_string(&p) {
+                out.push((name, t));
+            }
+        }
+    }
+    out.push((
+        "dense_head.ngc".into(),
+        "G21 G90 G17\nG0 X1 Y2 Z0\nG1 F6000\nX1.0001 Y2.0003 Z0\nX1.0003 Y2.0007 Z0.0001\n".into(),
+    ));
+    out
+}
+
+fn mutate(rng: &mut Rng, base: &str) -> String {
+    let mut s: Vec<char> = base.chars().collect();
+    for _ in 0..1 + rng.below(8) {
+        let pos = rng.below(s.len() + 1);
+        match rng.below(5) {
+            0 if !s.is_empty() => {
+                let end = (pos + rng.below(6)).min(s.len());
+                s.drain(pos.min(s.len())..end);
+            }
+            1 => {
+                let tok = TOKENS[rng.below(TOKENS.len())];
+                for (i, c) in tok.chars().enumerate() {
+                    s.insert((pos + i).min(s.len()), c);
+                }
+            }
+            2 if !s.is_empty() => {
+                let i = pos.min(s.len() - 1);
+                s[i] = char::from_u32(rng.below(0x80) as u32).unwrap_or('?');
+            }
+            3 if !s.is_empty() => {
+                // duplicate a slice (repeated blocks, long numbers)
+                let a = pos.min(s.len() - 1);
+                let b = (a + rng.below(20)).min(s.len());
+                let chunk: Vec<char> = s[a..b].to_vec();
+                for (i, c) in chunk.into_iter().enumerate() {
+                    s.insert((b + i).min(s.len()), c);
+                }
+            }
+            _ => {
+                let digit = char::from(b'0' + rng.below(10) as u8);
+                s.insert(pos.min(s.len()), digit);
+            }
+        }
+    }
+    s.into_iter().collect()
+}
+
+fn generated(rng: &mut Rng) -> String {
+    let mut s = String::new();
+    for _ in 0..rng.below(40) {
+        s.push_str(TOKENS[rng.below(TOKENS.len())]);
+        if rng.below(3) == 0 {
+            s.push(' ');
+        }
+    }
+    s
+}
+
+/// Parses `text` under each configuration; describes the first failure (a panic, or an accepted
+/// program with non-finite geometry).
+fn check_input(name: &str, text: &str, cfgs: &[Settings]) -> Result<(), String> {
+    for cfg in cfgs {
+        let result = catch_unwind(AssertUnwindSafe(|| program::parse(text, name, cfg)));
+        let Ok(result) = result else {
+            return Err(format!("the parser panicked (machine with axes {})", cfg.axis_names().join(" ")));
+        };
+        if let Ok(p) = result {
+            let mut d = AxisDerivs::default();
+            for e in &p.path.elements {
+                for f in [0.0, 0.5, 1.0] {
+                    let s_mm = e.s_start_mm + f * e.geometry.length_mm();
+                    p.path.eval(s_mm, &mut d);
+                    let finite = (0..p.path.n_axes).all(|k| {
+                        d.pos[k].is_finite() && d.d1[k].is_finite() && d.d2[k].is_finite() && d.d3[k].is_finite()
+                    });
+                    if !finite {
+                        return Err(format!(
+                            "non-finite geometry at s = {s_mm} mm (element from line {})",
+                            e.source.line
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A failure report a reader can act on: the lines where the input differs from its base,
+/// and the whole input saved to a file.
+fn report(seed: u64, name: &str, base: &str, text: &str, what: &str) -> String {
+    let file = std::env::temp_dir().join(format!("interpd-fuzz-{seed}-{name}"));
+    let saved = match std::fs::write(&file, text) {
+        Ok(()) => format!("input saved to {}", file.display()),
+        Err(e) => format!("input not saved ({e})"),
+    };
+    let (a, b): (Vec<&str>, Vec<&str>) = (base.lines().collect(), text.lines().collect());
+    let changed: Vec<String> = (0..a.len().max(b.len()))
+        .filter(|&i| a.get(i) != b.get(i))
+        .take(6)
+        .map(|i| format!("  line {}: {:?}", i + 1, b.get(i).copied().unwrap_or("<none>")))
+        .collect();
+    format!(
+        "FUZZ_SEED={seed}: {what} on input {name} ({saved}); first lines that differ from its base:\n{}",
+        changed.join("\n")
+    )
+}
+
+#[test]
+fn fuzz_program_parsers() {
+    let seconds: f64 = std::env::var("FUZZ_SECONDS").ok().and_then(|s| s.parse().ok()).unwrap_or(2.0);
+    let deadline = Instant::now() + Duration::from_secs_f64(seconds);
+    let cfgs = [Settings::default_machine(), Settings::five_axis_machine()];
+    let corpus = corpus();
+    assert!(corpus.len() > 10, "corpus not found");
+    // A fresh seed per run explores new inputs; FUZZ_SEED replays the run a failure reports.
+    let seed: u64 = match std::env::var("FUZZ_SEED") {
+        Ok(s) => s.parse().unwrap_or_else(|_| panic!("FUZZ_SEED={s:?} is not an unsigned integer")),
+        Err(_) => 0x9e37_79b9_7f4a_7c15 ^ std::process::id() as u64,
+    };
+    eprintln!("fuzz_program_parsers: FUZZ_SEED={seed}");
+    let mut rng = Rng(seed);
+    let mut runs = 0u64;
+    while Instant::now() < deadline {
+        let (name, base) = &corpus[rng.below(corpus.len())];
+        let mutated = rng.below(4) != 0;
+        let text = if mutated { mutate(&mut rng, base) } else { generated(&mut rng) };
+        // Alternate the format so tables and G-code both get mutated inputs.
+        let fname = if rng.below(2) == 0 { name.clone() } else { format!("{name}.ngc") };
+        if let Err(what) = check_input(&fname, &text, &cfgs) {
+            panic!("{}", report(seed, &fname, if mutated { base } else { "" }, &text, &what));
+        }
+        runs += 1;
+    }
+    eprintln!("fuzz_program_parsers: {runs} inputs in {seconds} s, no panic");
+    assert!(runs > 100);
+}
+
+#[test]
+fn fuzz_config_loader() {
+    let seconds: f64 = std::env::var("FUZZ_SECONDS").ok().and_then(|s| s.parse().ok()).unwrap_or(2.0) / 6.0;
+    let deadline = Instant::now() + Duration::from_secs_f64(seconds);
+    let bases = [interpd_motion::config::DEFAULT_MACHINE_TOML, interpd_motion::config::FIVE_AXIS_MACHINE_TOML];
+    let mut rng = Rng(0x1234_5678_9abc_def1);
+    let mut runs = 0u64;
+    while Instant::now() < deadline {
+        let base = bases[rng.below(2)];
+        let text = mutate(&mut rng, base);
+        let r = catch_unwind(|| interpd_motion::config::Config::from_toml_str(&text, "fuzz.toml"));
+        assert!(r.is_ok(), "config loader panicked on:\n{text}");
+        runs += 1;
+    }
+    eprintln!("fuzz_config_loader: {runs} inputs, no panic");
+}

@@ -5,15 +5,15 @@
     scripts/gen-examples.py --dense N  # only the dense CAM-like program with N segments
 
 The shapes are the test geometries of the sources:
-  circle_r10.ngc        seed 001 §2.4: circle R = 10 mm from the origin, clockwise
-  corner_90.ngc         seed 000: 90° corner with 100 mm legs
-  line_arc_line.ngc     seed 000 "GKG": line, tangent 90° arc, line (G¹, curvature jumps)
-  staircase.ngc         seed 000 "Treppe": 5 × 90° turns, 160 mm
-  zigzag.ngc            seed 000: zigzag
-  two_arcs.ngc          seed 000: two arcs with a finite curvature jump
-  ellipse_g06.ngc       seed 002: ellipse from 20 support points as G06 with tangents
+  circle_r10.ngc        Kopp et al. 2019, §2.4: circle R = 10 mm from the origin, clockwise
+  corner_90.ngc         Haas 2012: 90° corner with 100 mm legs
+  line_arc_line.ngc     Haas 2012 "GKG": line, tangent 90° arc, line (G¹, curvature jumps)
+  staircase.ngc         Haas 2012 "Treppe": 5 × 90° turns, 160 mm
+  zigzag.ngc            Haas 2012: zigzag
+  two_arcs.ngc          Haas 2012: two arcs with a finite curvature jump
+  ellipse_g06.ngc       Huan: ellipse from 20 support points as G06 with tangents
   ellipse_natural.ngc   the same points as a natural spline (G06 without tangents)
-  five_axis_table.csv   seed 001 §4: 5-axis path table (x, y, z, A, B), ~292 rows, 529.5 mm,
+  five_axis_table.csv   Kopp et al. 2019, §4: 5-axis path table (x, y, z, A, B), ~292 rows, 529.5 mm,
                         corner at s ≈ 408.1 mm
   dense_freeform.ngc    CAM output: >= 100 000 short G1 segments on a smooth free-form curve
 """
@@ -38,27 +38,27 @@ def num(v, digits=6):
 
 
 def simple_shapes():
-    write("circle_r10.ngc", """(seed 001 §2.4: circle R = 10 mm from the origin, clockwise: x = R cos[s/R] - R, y = -R sin[s/R])
+    write("circle_r10.ngc", """(Kopp et al. 2019, §2.4: circle R = 10 mm from the origin, clockwise: x = R cos[s/R] - R, y = -R sin[s/R])
 (the feed is high so that the axis limits bind)
 G21 G90 G17
 G1 F30000
 G2 X0 Y0 I-10 J0
 M30
 """)
-    write("corner_90.ngc", """(seed 000: 90° corner with 100 mm legs)
+    write("corner_90.ngc", """(Haas 2012: 90° corner with 100 mm legs)
 G21 G90 G17
 G1 X100 Y0 F12000
 X100 Y100
 M30
 """)
-    write("line_arc_line.ngc", """(seed 000 GKG: line - tangent arc - line; G1 but not G2 at both arc ends)
+    write("line_arc_line.ngc", """(Haas 2012 "GKG": line - tangent arc - line; G1 but not G2 at both arc ends)
 G21 G90 G17
 G1 X50 Y0 F12000
 G3 X70 Y20 I0 J20
 G1 X70 Y70
 M30
 """)
-    write("staircase.ngc", """(seed 000 Treppe: staircase with 5 x 90° turns, 160 mm)
+    write("staircase.ngc", """(Haas 2012 "Treppe": staircase with 5 x 90° turns, 160 mm)
 G21 G90 G17
 G1 X40 Y0 F12000
 X40 Y20
@@ -68,11 +68,11 @@ X80 Y40
 X80 Y80
 M30
 """)
-    write("zigzag.ngc", """(seed 000: zigzag, 60° corners)
+    write("zigzag.ngc", """(Haas 2012: zigzag, 60° corners)
 G21 G90 G17
 G1 F12000
 """ + "".join(f"X{10 * (i + 1)} Y{0 if i % 2 else 17.320508}\n" for i in range(8)) + "M30\n")
-    write("two_arcs.ngc", """(seed 000: two arcs with a finite curvature jump, tangent at the joint)
+    write("two_arcs.ngc", """(Haas 2012: two arcs with a finite curvature jump, tangent at the joint)
 G21 G90 G17
 G1 F12000
 G3 X20 Y20 I0 J20
@@ -86,7 +86,7 @@ def ellipse():
     dth = 2 * math.pi / n
     pts = [(a * math.cos(i * dth), b * math.sin(i * dth)) for i in range(n + 1)]
     tan = [(-a * math.sin(i * dth) * dth, b * math.cos(i * dth) * dth) for i in range(n + 1)]
-    lines = ["(seed 002: ellipse a = 40, b = 20 mm from 20 support points, G06 with tangents)",
+    lines = ["(Huan: ellipse a = 40, b = 20 mm from 20 support points, G06 with tangents)",
              "(tangents per unit span parameter: dP/dtheta * 2pi/20)",
              "G21 G90 G17", f"G0 X{num(pts[0][0])} Y{num(pts[0][1])}", "F6000",
              f"N10 G06 I{num(tan[0][0])} J{num(tan[0][1])} K0"]
@@ -95,7 +95,7 @@ def ellipse():
     lines += ["CR", "M30", ""]
     write("ellipse_g06.ngc", "\n".join(lines))
     lines = ["(the ellipse's 20 support points as a natural cubic spline: G06 without tangents)",
-             "(tangents from seed 002 eq. 3)",
+             "(tangents from Huan, eq. 3)",
              "G21 G90 G17", f"G0 X{num(pts[0][0])} Y{num(pts[0][1])}", "F6000", "N10 G06"]
     for (x, y) in pts[1:]:
         lines.append(f"X{num(x)} Y{num(y)} Z0;")
@@ -195,7 +195,7 @@ def arc_length(f, u0, u1, n=2000):
 
 
 def sample_piece(f, npts, s_offset, total_len):
-    """npts rows with spacing finer where the curvature is high (non-constant, seed 001 §2.2)."""
+    """npts rows with spacing finer where the curvature is high (non-constant, Kopp et al. 2019, §2.2)."""
     # weight density by 1 + curvature (over linear axes) and orientation rate
     fine = 4000
     us = [i / fine for i in range(fine + 1)]
@@ -225,7 +225,7 @@ def sample_piece(f, npts, s_offset, total_len):
 
 
 def five_axis():
-    # Section structure after seed 001 Table 1: 44+25+48 points up to the corner, 21+32+21+53+48
+    # Section structure after Kopp et al. 2019, Table 1: 44+25+48 points up to the corner, 21+32+21+53+48
     # after it (292 rows), 529.5 mm in all with the corner at 408.1 mm.
     ka = 408.1 / arc_length(approach, 0, 1, 4000)
     app = scaled(approach, ka)
@@ -238,7 +238,7 @@ def five_axis():
     lm = arc_length(m, 0, 1, 4000)
     rows_m, _ = sample_piece(m, 175, rows_a[-1][0], (None, 1.0))
     rows = rows_a + rows_m
-    out = ["# seed 001 §4 style 5-axis path table: x y z (mm), A B (deg); s is the arc length over",
+    out = ["# Kopp et al. 2019, §4 style 5-axis path table: x y z (mm), A B (deg); s is the arc length over",
            "# x y z; approach to s = %.1f mm, a corner there (two rows at the same s), then machining" % la,
            "# with tight turns and fast orientation changes; %d rows, %.1f mm." % (len(rows), la + lm),
            "# Generated by scripts/gen-examples.py; derivatives are analytic (chain rule to arc length).",

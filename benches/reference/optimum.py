@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Reference optimum for the look-ahead planner (seed 001 §4: the authors compared with
+"""Reference optimum for the look-ahead planner (Kopp et al. 2019, §4: the authors compared with
 pyOpt + Ipopt on the same profile definition).
 
 Input: the JSON that `interpd plan PROGRAM --export-nodes FILE` writes: the planner's nodes
@@ -9,7 +9,7 @@ the time fractions where limits are checked, and the planner's own profile at th
 Two problems on the same nodes:
 
 1. Ipopt (via CasADi): the time-optimal problem with the planner's profile definition,
-   seed 001 eq. 2-3: per interval a constant path jerk j_i over a duration T_i, v and a
+   Kopp et al. 2019, eq. 2–3: per interval a constant path jerk j_i over a duration T_i, v and a
    continuous (C^1), minimise sum T_i subject to every axis' velocity, acceleration and jerk
    limit (eq. 1a-1c) at the same check points inside every interval, with the geometry
    between nodes as the planner's checks see it: a path table's own rows where the export
@@ -114,7 +114,7 @@ def ipopt_block(data, i0, i1, verbose):
     for q in range(m):
         i = i0 + q
         vq, aq, jq, tq = V[q] * vs, A[q] * as_, J[q] * js, T[q] * ts
-        # seed 001 eq. 2 over the interval: end state and covered distance.
+        # Kopp et al. 2019, eq. 2 over the interval: end state and covered distance.
         add((vq + aq * tq + jq * tq**2 / 2) / vs - V[q + 1], 0.0, 0.0)
         add((aq + jq * tq) / as_ - A[q + 1], 0.0, 0.0)
         add((vq * tq + aq * tq**2 / 2 + jq * tq**3 / 6) / ds[q], 1.0, 1.0)

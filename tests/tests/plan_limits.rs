@@ -127,7 +127,7 @@ fn limits_hold_on_a_loose_machine() {
     }
 }
 
-/// Online with short look-aheads on a dense G06 spline on the tight machine, horizons find no
+/// Online with short look-aheads on a dense G06 spline on `tests/machines/xyz_tight.toml`, horizons find no
 /// continuation from the handed-over state and brake along the stop they kept before trying
 /// again (`horizon_brakes`): the limits hold there too.
 #[test]
@@ -221,7 +221,7 @@ fn setpoints_lie_on_the_programmed_geometry() {
 
 #[test]
 fn spline_setpoints_lie_on_the_hermite_spans() {
-    // Densely sampled spans P(u) of seed 002 eq. 1–2 (corrected R₃), independent of the
+    // Densely sampled spans P(u) of Huan, eq. 1–2 (with the corrected R₃), independent of the
     // planner's arc-length map; distance of every 4 ms setpoint to that polyline.
     let text = std::fs::read_to_string(repo_root().join("examples/ellipse_g06.ngc")).expect("read");
     let mut pts: Vec<(f64, f64)> = Vec::new();

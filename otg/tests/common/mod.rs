@@ -285,7 +285,8 @@ pub fn fill_ruckig_input(ri: &mut ruckig::InputParameter, input: &Input) {
     ri.max_jerk = (0..n).map(|d| input.limits[d].j_max).collect();
 }
 
-/// Tolerances of the independent validation (the figures).
+/// Tolerances of the independent validation: target within 1e-8 and limits within 1e-9,
+/// relative to max(1, magnitude).
 pub const TARGET_TOL: f64 = 1e-8;
 pub const LIMIT_TOL: f64 = 1e-9;
 /// An integrated acceleration within this many ulps (of the values it is computed from) of zero

@@ -1,4 +1,4 @@
-//! Exact stop vs smoothed on the Haas axis plant (seed 000 §3.6.4, §5.3): the programmed
+//! Exact stop vs smoothed on the Haas axis plant (Haas 2012, §3.6.4, §5.3): the programmed
 //! motion of the 90° corner and the staircase, sampled every cycle, drives the 3-mass axes of
 //! `config/plants/haas-laser.toml` (with crosstalk); printed are the lateral deviation of the
 //! setpoints and of the TCP (load) from the programmed path, and the excitation metric, the

@@ -2,7 +2,7 @@
 //! tests/tests/plan_limits.rs: the CSV sampled at 0.25 ms is differentiated numerically and
 //! every axis must stay within 1.001 × max_vel and max_acc and 1.02 × max_jerk. Also the motion
 //! time with smoothing against exact stops on the dense CAM program (first 5000 segments here;
-//! the full program is in `cargo bench -p interpd --bench prep_throughput`).
+//! the full program is in `cargo bench -p interpd-motion --bench prep_throughput`).
 
 use interpd::config::Config;
 use std::process::Command;

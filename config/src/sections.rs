@@ -3,7 +3,7 @@
 use crate::{ConfigError, Validator};
 use serde::Deserialize;
 
-/// `[planner]`: the look-ahead feedrate planner (seed 001).
+/// `[planner]`: the look-ahead feedrate planner (Kopp et al. 2019).
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct PlannerConfig {
@@ -82,8 +82,9 @@ pub enum PrepMode {
     Smooth,
 }
 
-/// `[prep]`: path preparation (tolerance-band smoothing, seed 000): a windowed per-axis QP moves
-/// the points of the path inside a lateral band, then quintic Hermite pieces join them C².
+/// `[prep]`: path preparation (tolerance-band smoothing, Haas 2012, §3–4): a windowed per-axis
+/// QP moves the points of the path inside a lateral band, then quintic Hermite pieces join
+/// them C².
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct PrepConfig {
@@ -94,18 +95,19 @@ pub struct PrepConfig {
     /// Derivatives per point the QP carries and makes continuous between windows: 2 (x, x′, x″)
     /// or 3 (x … x‴). The pieces are quintic, C² either way.
     pub continuity_degree: u32,
-    /// Weights of x, x′, x″, x‴ in the QP objective (seed 000 §3.3, variant 1; x‴ unused at
-    /// degree 2), with the derivatives taken with respect to s / `weight_length_mm`. A position
+    /// Weights of x, x′, x″, x‴ in the QP objective (Haas 2012, §3.3 and variant 1 of §3.7;
+    /// x‴ unused at degree 2), with the derivatives taken with respect to s / `weight_length_mm`. A position
     /// weight pulls the points towards the programmed path.
     pub weights: [f64; 4],
-    /// Length that normalises the path parameter for the weights, mm (the thesis normalised s
-    /// over the optimised piece; the default is one window).
+    /// Length that normalises the path parameter for the weights, mm (Haas 2012 normalises s over
+    /// the optimised piece; the default is one window).
     pub weight_length_mm: f64,
-    /// Length of one window segment (the unit that is committed), mm (seed 000 §3.6.3: 10 mm).
+    /// Length of one window segment (the unit that is committed), mm (Haas 2012, §3.6.3: 10 mm).
     pub segment_mm: f64,
-    /// Segments per window (seed 000 §3.6.3: 5); one is committed per solve.
+    /// Segments per window (Haas 2012, §3.6.3: 5); one is committed per solve.
     pub window_segments: usize,
-    /// Largest spacing of the QP points along the path, mm (seed 000 §4.8: ≥ 0.926 points/mm).
+    /// Largest spacing of the QP points along the path, mm (Haas 2012, Table 4.7:
+    /// ≥ 0.926 points/mm).
     pub point_spacing_mm: f64,
     /// Largest tangent turn between two QP points on curves, degrees.
     pub max_turn_deg: f64,
@@ -114,7 +116,7 @@ pub struct PrepConfig {
     pub corner_deg: f64,
     /// Corners that turn by more than this are not smoothed: exact stop. Within tolerances of
     /// 0.01–0.1 mm a sharper corner is jerk-bound at a few mm/s however it is blended, and the
-    /// blend is slower than stopping (the zigzag's 120° turns: +30 … +60 % motion time).
+    /// blend takes longer than stopping.
     pub max_corner_deg: f64,
     /// Share of the tolerance kept back from the QP band for the pieces between the points.
     pub band_margin: f64,

@@ -29,7 +29,7 @@ pub struct SinksConfig {
     pub can: CanConfig,
 }
 
-/// Default iceoryx2 service prefix (DESIGN.md: `interpd/setpoints`, `interpd/feedback`).
+/// Default iceoryx2 service prefix: the services are `interpd/setpoints` and `interpd/feedback`.
 pub const DEFAULT_SHM_PREFIX: &str = "interpd";
 
 impl Default for SinksConfig {

@@ -1,7 +1,8 @@
 //! Exact (zero-order-hold) discretisation of a linear system ẋ = A x + B u.
 //!
 //! Φ = e^{Ah}, Γ = ∫₀ʰ e^{As} ds · B, both from one exponential of the augmented matrix
-//! `[[A, B], [0, 0]]·h` (Van Loan), matching seed 004's notation x_{k+1} = Φ x_k + Γ u_k (eq. 2.23).
+//! `[[A, B], [0, 0]]·h` (Van Loan), in the notation x_{k+1} = Φ x_k + Γ u_k of Schneider 2016,
+//! eq. 2.23.
 //! The augmented matrix is balanced with a diagonal power-of-two similarity first, so entries
 //! of very different size (positions in m, forces in kN) keep their relative accuracy.
 

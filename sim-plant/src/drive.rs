@@ -2,12 +2,14 @@
 //! cascade P position / PI velocity controller with feedforward and anti-windup. The current
 //! loop (PT1 with saturation of its input) is a state of the mechanics, see [`crate::model`].
 //!
-//! Structure per seed 004 §2.1/§5a and seed 000 Table 5.2 (P position loop Kv, PI velocity loop
-//! Kp/Tn on the motor encoder, velocity feedforward, power module PT1):
+//! The structure is the cascade of position, velocity and current loop that Schneider 2016,
+//! §4.2 describes for the robot's drives; loops and gain names are those of Haas 2012,
+//! Table 5.2 (P position loop Kv, PI velocity loop Kp/Tn on the motor encoder, velocity
+//! feedforward, power module PT1):
 //! ```text
 //! x_enc = q·round(x_M/q)                           encoder quantum q
 //! v_enc = PT1_f[(x_enc,k − x_enc,k−1)/h]           backward difference, optional filter
-//! v_ref = Kv (x_cmd − x_enc) + K_vff v_cmd          (seed 000 Table 5.2: Kpv1, VV1)
+//! v_ref = Kv (x_cmd − x_enc) + K_vff v_cmd          (Haas 2012, Table 5.2: Kpv1, VV1)
 //! F_cmd = Kp [(v_ref − v_enc) + (1/Tn) ∫(v_ref − v_enc)] + K_aff m_tot a_cmd   (Kpx1, Tni1)
 //! sat(F_cmd) = clamp(F_cmd, ±F_max); the integrator holds while saturated and pushing outward
 //! ```
@@ -142,10 +144,10 @@ impl Drive {
         self.enc_prev = enc;
         self.enc = enc;
         self.v_filt += self.alpha * (v_raw - self.v_filt);
-        // seed 000 Table 5.2: P position loop with velocity feedforward VV1.
+        // Haas 2012, Table 5.2: P position loop with velocity feedforward VV1.
         let v_ref = p.kv_per_s * (cmd.pos - enc) + p.vel_ff * cmd.vel;
         let e_v = v_ref - self.v_filt;
-        // seed 000 Table 5.2: PI velocity loop Kpx1, Tni1; plus acceleration feedforward.
+        // Haas 2012, Table 5.2: PI velocity loop Kpx1, Tni1; plus acceleration feedforward.
         let integ_new = self.integ + self.h_s / p.tn_s * e_v;
         let f = p.kp * (e_v + integ_new) + self.ff_mass * cmd.acc;
         let f_sat = f.clamp(-p.force_limit, p.force_limit);

@@ -1,15 +1,17 @@
 //! Simulated axis plant: elastic multi-mass axes with a cascade drive controller.
 //!
-//! - [`model`]: the two-mass axis of seed 004 §5a (asymmetric stiffness, backlash with C¹
-//!   flanks, Coulomb and viscous friction, process force) and the 3-mass axis of seed 000 §5.2
-//!   (signs corrected, crosstalk outputs), each with the current loop as a PT1 state.
+//! - [`model`]: the two-mass axis fitted to Schneider 2016 (direction-dependent stiffness,
+//!   backlash with C¹ flanks, Coulomb and viscous friction, process force) and the 3-mass axis
+//!   of Haas 2012, §5.2 (signs of eq. 5.11 restored, crosstalk outputs), each with the current
+//!   loop as a PT1 state.
 //! - [`discretize`]: exact discretisation Φ = e^{Ah}, Γ = ∫e^{As}ds·B (matrix exponential).
 //! - [`drive`]: fine interpolation of the coarse setpoints, quantised encoder, P/PI cascade with
 //!   feedforward and anti-windup.
 //! - [`plant::Plant`]: a set of axes stepping from setpoints; [`metrics`], [`plot`] for
 //!   evaluation; [`shm`] runs the plant as an iceoryx2 node (the `sim-plant` binary).
 //! - [`analysis`]: modes and closed-loop eigenvalues; [`scenario`]: jerk-limited test moves
-//!   and the acceptance scenarios T1–T3 and the Haas positioning move.
+//!   and the acceptance scenarios (static compliance, backlash reversal, residual vibration,
+//!   the Haas positioning move).
 //!
 //! # In-process use
 //!

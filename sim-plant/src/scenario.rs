@@ -1,6 +1,6 @@
-//! Test moves and the acceptance scenarios (T1–T3 of seed 004 §5c, the Haas positioning move
-//! of seed 000 §5.2), shared by the tests and the `acceptance` example so both report the same
-//! figures. The moves are computed here, independent of the daemon's planner.
+//! Test moves and the acceptance scenarios of `tests/acceptance.rs`: T1 static compliance, T2
+//! backlash reversal, T3 residual vibration, and the positioning move of Haas 2012, §5.2,
+//! Fig. 5.6. The moves are computed here, independent of the daemon's planner.
 
 use crate::PlantError;
 use crate::metrics;
@@ -160,7 +160,7 @@ fn mean(x: &[f64]) -> f64 {
     x.iter().sum::<f64>() / x.len().max(1) as f64
 }
 
-/// T1 result (seed 004 §5c): static deflection under a process force.
+/// T1 result: static deflection under a process force.
 #[derive(Debug, Clone, Copy)]
 pub struct Compliance {
     pub force: f64,
@@ -347,7 +347,7 @@ pub fn modal_check(preset: &str, preload: f64, backlash: bool) -> Result<Modal, 
     Ok(Modal { peak_hz, expected_hz, residual_amplitude })
 }
 
-/// Result of the Haas 0 → 100 mm positioning move (seed 000 §5.2, Fig. 5.6).
+/// Result of the Haas 0 → 100 mm positioning move (Haas 2012, §5.2, Fig. 5.6).
 #[derive(Debug, Clone, Copy)]
 pub struct Positioning {
     /// Largest |crosstalk_y| during the move and after, mm.

@@ -1,7 +1,8 @@
 //! The process force on the load: a static part plus a sinusoidal part at the tooth-pass
-//! frequency (teeth × rpm / 60), the two parts Schneider 2016 distinguishes in milling
-//! forces (§2.2.4, §3.4). A positive force pushes the load towards negative positions. A linear axis takes a
-//! force ([`LinearProcess`]), a rotary one a torque ([`RotaryProcess`]); all parts default to 0.
+//! frequency (teeth × rpm / 60), the two parts Schneider 2016 distinguishes in milling forces
+//! (§2.2.4, §3.4). A positive force pushes the load towards negative positions. A linear axis
+//! takes a force ([`LinearProcess`]), a rotary one a torque ([`RotaryProcess`]); every part
+//! defaults to 0.
 
 use super::params::Check;
 use crate::ConfigError;

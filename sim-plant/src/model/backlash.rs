@@ -1,7 +1,8 @@
 //! Backlash as a dead zone with C¹ flanks, and the asymmetric transmission spring built on it.
 //!
-//! Seed 004 §5a: δ_e = δ − b/2 for δ > b/2, 0 inside, δ + b/2 below; the corners are rounded
-//! "um Diskontinuitäten … und damit Ruck in der Bewegung zu vermeiden" (seed 004 §4.1.2, eq. 4.1).
+//! δ_e = δ − b/2 for δ > b/2, 0 inside, δ + b/2 below. The corners are rounded as Schneider
+//! 2016 rounds the backlash zone of its joint compliance model with a cubic, "um
+//! Diskontinuitäten … und damit Ruck in der Bewegung zu vermeiden" (§4.1.2, eq. 4.1).
 //! The blend is the cubic Hermite piece matching value and slope at both ends of
 //! [b/2 − w, b/2 + w]; with those four conditions it is the quadratic (δ − b/2 + w)²/(4w).
 //! Outside the blends the characteristic is exactly the sharp dead zone, so the lost motion
@@ -42,7 +43,9 @@ impl DeadZone {
         } else if x >= self.half_gap + self.blend {
             (s * (x - self.half_gap), 1.0)
         } else {
-            // seed 004 eq. 4.1 style C¹ blend, written in (δ − ω₀) as the digest advises.
+            // The C¹ blend in the manner of Schneider 2016, eq. 4.1, written in the distance from
+            // the blend's start so that value and slope match at both ends (eq. 4.1 as printed
+            // has no constant term and is not centred on the zero-load point ω₀).
             let y = x - a;
             (s * y * y / (4.0 * self.blend), y / (2.0 * self.blend))
         }
@@ -65,8 +68,8 @@ impl DeadZone {
     }
 }
 
-/// The transmission spring F_S = k± δ_e + c_s δ_e′ (v_M − v_L) (seed 004 §5a with the damper
-/// acting through the contact, [I]: no damping force across an open gap).
+/// The transmission spring F_S = k± δ_e + c_s δ_e′ (v_M − v_L). The damper acts through the
+/// contact: no damping force acts across an open gap.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Transmission {
     pub zone: DeadZone,

@@ -1,11 +1,12 @@
 //! Coulomb friction, solved implicitly per step (stick/slip without chattering).
 //!
-//! Seed 004 §5a lists Coulomb plus viscous friction as user parameters; the viscous part is
-//! linear and lives in the system matrix. The Coulomb force F ∈ [−F_c, F_c] is chosen per step
-//! like a velocity-level (Moreau) time-stepping scheme: with `v_free` the end-of-step velocity
-//! without friction and `gain` the end-of-step velocity per newton of force held over the step
-//! (an entry of Γ), the force stops the mass if it can (stick), else it is −F_c·sign(v)
-//! (slip). This never injects energy and needs no smoothing velocity.
+//! Friction is Coulomb plus viscous, both user parameters (Schneider 2016 names stick/slip
+//! friction among the error sources without a value); the viscous part is linear and lives in
+//! the system matrix. The Coulomb force F ∈ [−F_c, F_c] is chosen per step like a
+//! velocity-level (Moreau) time-stepping scheme: with `v_free` the end-of-step velocity without
+//! friction and `gain` the end-of-step velocity per newton of force held over the step (an
+//! entry of Γ), the force stops the mass if it can (stick), else it is −F_c·sign(v) (slip).
+//! This never injects energy and needs no smoothing velocity.
 
 /// Friction force for one step. `gain` > 0 is ∂v_end/∂F; `f_c` ≥ 0 the Coulomb level.
 #[inline]

@@ -1,4 +1,5 @@
-//! Mechanical axis models: the two-mass axis (seed 004 §5a) and the 3-mass axis (seed 000 §5.2).
+//! Mechanical axis models: the two-mass axis (fitted to Schneider 2016) and the 3-mass axis
+//! (Haas 2012, §5.2).
 
 pub mod backlash;
 pub mod friction;

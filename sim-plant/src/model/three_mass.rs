@@ -1,13 +1,14 @@
-//! The 3-mass axis of seed 000 §5.2 (Haas): motor m₁, slide m₂, structure/TCP m₃, with the
-//! restoring-force signs corrected (seed 000 digest §4: as printed, eq. 5.11 is unstable).
+//! The 3-mass axis of Haas 2012, §5.2: motor m₁, slide m₂, structure/TCP m₃. Haas 2012,
+//! eq. 5.11 prints the restoring forces with a positive sign, which makes the axis unstable; the
+//! equations below restore the signs of a spring–damper chain.
 //!
 //! State z = [x₁, x₂, x₃, v₁, v₂, v₃, F_M], inputs u = [F_cmd (saturated), f₁, f₃]:
 //! ```text
-//! m₁ẍ₁ = F_M − k₁(x₁−x₂) − d₁(ẋ₁−ẋ₂) − d_M ẋ₁ + f₁                      (seed 000 eq. 5.11, signs corrected)
-//! m₂ẍ₂ = k₁(x₁−x₂) − k₂(x₂−x₃) + d₁(ẋ₁−ẋ₂) − d₂(ẋ₂−ẋ₃) − d_Sch ẋ₂       (seed 000 eq. 5.11, signs corrected)
-//! m₃ẍ₃ = k₂(x₂−x₃) + d₂(ẋ₂−ẋ₃) − d_S ẋ₃ + f₃                            (seed 000 eq. 5.11, signs corrected)
-//! dF_M/dt = (sat(F_cmd) − F_M)/T_el                                        (seed 000 Table 5.2 power module)
-//! Crosstalk_{y,z} = (C_T{y,z}/I_T)(x₃ − x₂)                                (seed 000 eq. 5.13, C rows 5–6)
+//! m₁ẍ₁ = F_M − k₁(x₁−x₂) − d₁(ẋ₁−ẋ₂) − d_M ẋ₁ + f₁                      (Haas 2012, eq. 5.11, signs restored)
+//! m₂ẍ₂ = k₁(x₁−x₂) − k₂(x₂−x₃) + d₁(ẋ₁−ẋ₂) − d₂(ẋ₂−ẋ₃) − d_Sch ẋ₂       (Haas 2012, eq. 5.11, signs restored)
+//! m₃ẍ₃ = k₂(x₂−x₃) + d₂(ẋ₂−ẋ₃) − d_S ẋ₃ + f₃                            (Haas 2012, eq. 5.11, signs restored)
+//! dF_M/dt = (sat(F_cmd) − F_M)/T_el                                        (Haas 2012, Table 5.2, power module)
+//! Crosstalk_{y,z} = (C_T{y,z}/I_T)(x₃ − x₂)                                (Haas 2012, eq. 5.13, output rows 5–6)
 //! ```
 //! The model is linear: one exact discretisation. f₁ carries motor Coulomb friction (0 in
 //! Table 5.1), f₃ the process force on the TCP (0 for laser cutting).
@@ -79,7 +80,7 @@ impl ThreeMass {
     pub fn spring_force(&self) -> f64 {
         self.p.k1_n_per_m * (self.z[0] - self.z[1]) + self.p.d1_n_s_per_m * (self.z[3] - self.z[4])
     }
-    /// The two crosstalk outputs (C_T/I_T)(x₃ − x₂), m (seed 000 eq. 5.13).
+    /// The two crosstalk outputs (C_T/I_T)(x₃ − x₂), m (Haas 2012, eq. 5.13).
     pub fn crosstalk(&self) -> [f64; 2] {
         let rel = self.z[2] - self.z[1];
         [self.p.crosstalk_s2[0] / self.p.intalk_s2 * rel, self.p.crosstalk_s2[1] / self.p.intalk_s2 * rel]
@@ -93,7 +94,8 @@ impl ThreeMass {
 }
 
 /// A (7×7, with the power-module row) and B for u = [F_cmd, f₁, f₃].
-/// seed 000 eq. 5.12/5.13 with A = [[0, I], [−M⁻¹K, −M⁻¹D]] (digest: A as printed is wrong).
+/// Haas 2012, eq. 5.12 prints A as diag(m₁, m₂, m₃); the state matrix of eq. 5.11 is
+/// A = [[0, I], [−M⁻¹K, −M⁻¹D]].
 pub fn continuous(p: &ThreeMassParams, t_el_s: f64) -> (SMatrix<f64, 7, 7>, SMatrix<f64, 7, 3>) {
     let (m1, m2, m3) = (p.m1_kg, p.m2_kg, p.m3_kg);
     let (k1, k2) = (p.k1_n_per_m, p.k2_n_per_m);

@@ -1,11 +1,13 @@
-//! The load-referred two-mass axis of seed 004 §5a: motor, elastic transmission with
-//! asymmetric stiffness and backlash, load; the drive's current loop as a PT1 state.
+//! The load-referred two-mass axis: motor, elastic transmission with direction-dependent
+//! stiffness and backlash, load; the drive's current loop as a PT1 state. Schneider 2016
+//! measures such a transmission (stiffness and backlash of a robot joint, §3.2, Fig. 3.6)
+//! without a two-mass model; the `schneider-*` presets fit this one to its measurements.
 //!
 //! State z = [x_M, v_M, x_L, v_L, F_M], inputs u = [F_cmd (saturated), f_M, f_L]:
 //! ```text
-//! m_M dv_M/dt = F_M − F_S − c_M v_M + f_M         (seed 004 §5a; f_M: Coulomb friction, spring residual)
+//! m_M dv_M/dt = F_M − F_S − c_M v_M + f_M         (f_M: Coulomb friction, spring residual)
 //! m_L dv_L/dt = F_S − c_L v_L + f_L               (f_L = −F_proc + spring residual + load Coulomb)
-//! dF_M/dt     = (sat(F_cmd) − F_M)/T_i            (seed 004 §5a current loop PT1)
+//! dF_M/dt     = (sat(F_cmd) − F_M)/T_i            (current loop as a PT1)
 //! F_S         = k± δ_e(δ) + c_s δ_e′(δ) (v_M − v_L),  δ = x_M − x_L
 //! ```
 //! Integration: the spring is linear in each of three regimes (gap open; contact on the
@@ -64,7 +66,7 @@ impl TwoMass {
     }
 
     /// At rest at motor position `x_m` in static equilibrium with the load force `f_load`
-    /// (positive pulls the load towards negative positions, as F_proc in seed 004 §5a).
+    /// (positive pulls the load towards negative positions, like the process force).
     pub fn set_rest(&mut self, x_m: f64, f_proc: f64) {
         let delta = self.twist_for_force(f_proc);
         self.z = SVector::from([x_m, 0.0, x_m - delta, 0.0, f_proc]);
@@ -169,7 +171,8 @@ impl TwoMass {
     }
 }
 
-/// A of the regime with spring stiffness `k` and damping `c` (seed 004 §5a, plus the PT1 row).
+/// A of the regime with spring stiffness `k` and damping `c`, plus the PT1 row of the current
+/// loop.
 #[rustfmt::skip]
 fn system_matrix(p: &TwoMassParams, k: f64, c: f64, t_i_s: f64) -> SMatrix<f64, 5, 5> {
     let (mm, ml) = (p.motor_mass, p.load_mass);

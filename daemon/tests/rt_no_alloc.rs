@@ -6,7 +6,7 @@
 use interpd::config::Config;
 use interpd::control::{Motion, ProgramSource};
 use interpd::motion::{MotionOptions, MotionService};
-use interpd_protocol::rpc::State;
+use interpd_protocol::api::State;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;

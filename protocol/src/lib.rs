@@ -2,11 +2,12 @@
 //!
 //! Only data layouts, encoders and decoders live here: no threads, no I/O policy.
 
+pub mod api;
 #[cfg(feature = "socketcan")]
 pub mod can_socket;
 pub mod candump;
 pub mod cia402;
-pub mod rpc;
+pub mod jsonrpc;
 pub mod shm;
 
 /// Most axes in any payload (one per G-code axis letter X Y Z A B C U V W).

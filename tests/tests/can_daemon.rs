@@ -21,11 +21,11 @@ use interpd_e2e::daemon::{Client, Daemon};
 use interpd_e2e::vcan::{self, Capture, Proc};
 use interpd_motion::Settings;
 use interpd_motion::path::{AxisDerivs, Path};
+use interpd_protocol::api::codes;
 use interpd_protocol::candump::{self, Iface, Record, Timestamp};
 use interpd_protocol::cia402::{
     self, CanId, Emcy, Frame, Message, NmtState, NodeId, PowerState, Rpdo1, Tpdo1, emcy_code,
 };
-use interpd_protocol::rpc::codes;
 use serde_json::{Value, json};
 use std::collections::BTreeMap;
 use std::path::PathBuf;

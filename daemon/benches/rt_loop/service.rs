@@ -7,7 +7,7 @@ use super::stream::{Monitor, StreamCheck};
 use interpd::config::Config;
 use interpd::control::{Motion, ProgramSource};
 use interpd::motion::{MotionOptions, MotionService, ShutdownReport};
-use interpd_protocol::rpc::{Event, State};
+use interpd_protocol::api::{Event, State};
 use std::path::Path;
 use std::time::{Duration, Instant};
 

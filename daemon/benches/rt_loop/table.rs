@@ -1,7 +1,7 @@
 //! The printed figures of one scenario, and the targets of issue 6 checked against them.
 
 use super::Outcome;
-use interpd_protocol::rpc::Percentiles;
+use interpd_protocol::api::Percentiles;
 use std::io::Write;
 
 /// interpd's wake-up quantiles may exceed the bare loop's by this factor …

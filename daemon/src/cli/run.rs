@@ -8,7 +8,7 @@ use interpd::control::{ControlServer, Motion};
 use interpd::motion::{MotionExtras, MotionOptions, MotionService};
 use interpd::record::{RecordFile, RecordOptions, Recorder};
 use interpd::sinks::can::CanMaster;
-use interpd_protocol::rpc::State;
+use interpd_protocol::api::State;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;

@@ -2,10 +2,8 @@
 //! requests, notifications, batches) and the calls into [`Motion`].
 
 use super::motion::{Motion, ProgramSource};
-use interpd_protocol::rpc::{
-    self, Ack, Call, ErrorObject, Event, Id, Incoming, Invalid, LoadParams, OverrideResult, Request, Response,
-    Subscribed,
-};
+use interpd_protocol::api::{self, Ack, Call, Event, LoadParams, OverrideResult, Subscribed};
+use interpd_protocol::jsonrpc::{self, ErrorObject, Id, Incoming, Invalid, Request, Response};
 use serde::Serialize;
 use serde_json::Value;
 use std::panic::{AssertUnwindSafe, catch_unwind};
@@ -61,7 +59,7 @@ impl Context {
         if line.iter().all(u8::is_ascii_whitespace) {
             return None;
         }
-        match rpc::parse_incoming(line) {
+        match jsonrpc::parse_incoming(line) {
             Err(e) => {
                 tracing::debug!(conn = session.id, error = %e.message, "unparsable line");
                 self.counters.errors.fetch_add(1, Ordering::Relaxed);
@@ -129,7 +127,7 @@ impl Context {
                 let source = match params {
                     LoadParams::Path { path } => ProgramSource::File(PathBuf::from(path)),
                     LoadParams::Text { text, name } => {
-                        ProgramSource::Text { name: name.unwrap_or_else(|| rpc::INLINE_PROGRAM_NAME.to_string()), text }
+                        ProgramSource::Text { name: name.unwrap_or_else(|| api::INLINE_PROGRAM_NAME.to_string()), text }
                     }
                 };
                 let what = match &source {
@@ -159,7 +157,7 @@ impl Context {
                 to_value(&OverrideResult { factor: p.factor })
             }
         };
-        if result.is_ok() && !matches!(method, rpc::Method::FeedOverride | rpc::Method::ProgramLoad) {
+        if result.is_ok() && !matches!(method, api::Method::FeedOverride | api::Method::ProgramLoad) {
             tracing::info!(conn = session.id, %method, "accepted");
         }
         result

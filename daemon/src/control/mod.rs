@@ -6,7 +6,8 @@
 //! - `dispatch`: one received line to one answer (JSON-RPC rules, calls into [`Motion`]).
 //! - `framing`: lines out of a byte stream, never more than 1 MiB.
 //!
-//! The message types themselves are in [`interpd_protocol::rpc`].
+//! The message types themselves are in [`interpd_protocol::jsonrpc`] (the envelope) and
+//! [`interpd_protocol::api`] (methods, parameters, results, status, events).
 //!
 //! ```no_run
 //! # use std::sync::Arc;

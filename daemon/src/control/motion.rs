@@ -4,7 +4,8 @@
 //! into a JSON-RPC error object ([`MotionError::to_error_object`]). Parameters arrive already
 //! checked: types, presence, and the override range 0.0..=2.0.
 
-use interpd_protocol::rpc::{ErrorObject, Event, ProgramInfo, State, Status, codes};
+use interpd_protocol::api::{Event, ProgramInfo, State, Status, codes};
+use interpd_protocol::jsonrpc::ErrorObject;
 use std::path::PathBuf;
 
 /// Where `program.load` takes the program from.
@@ -14,7 +15,7 @@ pub enum ProgramSource {
     /// daemon's working directory.
     File(PathBuf),
     /// Program text sent inline. `name` is the client's `name`, or
-    /// [`rpc::INLINE_PROGRAM_NAME`]; use it in error positions (`NAME:LINE:COL: message`).
+    /// [`api::INLINE_PROGRAM_NAME`](interpd_protocol::api::INLINE_PROGRAM_NAME); use it in error positions (`NAME:LINE:COL: message`).
     Text { name: String, text: String },
 }
 
@@ -168,7 +169,7 @@ mod tests {
 
     #[test]
     fn every_refusal_has_a_hint() {
-        for m in interpd_protocol::rpc::Method::ALL {
+        for m in interpd_protocol::api::Method::ALL {
             for s in State::ALL {
                 assert!(!hint(m.name(), s).is_empty());
             }

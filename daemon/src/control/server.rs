@@ -3,14 +3,15 @@
 //! Threads: one accept thread, and per client one thread reading requests (it also writes the
 //! answers) plus, once the client has subscribed, one thread forwarding events. A client can
 //! only ever hold up its own threads: reads are bounded to one line of at most
-//! [`MAX_LINE_BYTES`](rpc::MAX_LINE_BYTES), and a client that does not read what it is sent
+//! [`MAX_LINE_BYTES`], and a client that does not read what it is sent
 //! for [`ControlServerBuilder::write_timeout`] is disconnected. The motion core is only ever
 //! called, never waited on by it.
 
 use super::dispatch::{Context, Session, encode};
 use super::framing::{Frame, LineReader};
 use super::motion::Motion;
-use interpd_protocol::rpc::{self, ErrorObject, Event, Id, Response, State};
+use interpd_protocol::api::{Event, State};
+use interpd_protocol::jsonrpc::{ErrorObject, Id, MAX_LINE_BYTES, Response};
 use std::collections::HashMap;
 use std::fs;
 use std::io::{self, Read, Write};
@@ -537,7 +538,7 @@ fn serve(inner: &Arc<Inner>, id: u64, stream: UnixStream) {
     let (closed_tx, closed_rx) = crossbeam::channel::bounded::<()>(0);
     let mut events: Option<JoinHandle<()>> = None;
     let mut session = Session::new(id);
-    let mut lines = LineReader::new(&stream, rpc::MAX_LINE_BYTES);
+    let mut lines = LineReader::new(&stream, MAX_LINE_BYTES);
     loop {
         let (line, last) = match lines.next_line() {
             Ok(Frame::Line(l)) => (l, false),
@@ -548,8 +549,8 @@ fn serve(inner: &Arc<Inner>, id: u64, stream: UnixStream) {
             Ok(Frame::TooLong) => {
                 inner.ctx.counters.requests.fetch_add(1, Ordering::Relaxed);
                 inner.ctx.counters.errors.fetch_add(1, Ordering::Relaxed);
-                tracing::warn!(conn = id, limit = rpc::MAX_LINE_BYTES, "request too large; closing the connection");
-                let error = ErrorObject::request_too_large(rpc::MAX_LINE_BYTES);
+                tracing::warn!(conn = id, limit = MAX_LINE_BYTES, "request too large; closing the connection");
+                let error = ErrorObject::request_too_large(MAX_LINE_BYTES);
                 if writer.send(encode(&Response::error(Id::Null, error))).is_ok() {
                     let _ = stream.shutdown(Shutdown::Write);
                     drain(&stream);

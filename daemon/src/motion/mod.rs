@@ -28,7 +28,7 @@ use interpd_motion::Settings;
 use interpd_motion::law::LawMove;
 use interpd_motion::path::Path;
 use interpd_motion::program;
-use interpd_protocol::rpc::{Event, ProgramInfo, State, Status};
+use interpd_protocol::api::{Event, ProgramInfo, State, Status};
 use interpd_protocol::shm::{Setpoints, flags};
 use law_run::LawProgram;
 use live::LiveSetpoint;

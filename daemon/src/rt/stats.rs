@@ -4,7 +4,7 @@
 
 use super::TimingSample;
 use hdrhistogram::Histogram;
-use interpd_protocol::rpc::{CycleStats, Percentiles};
+use interpd_protocol::api::{CycleStats, Percentiles};
 use std::fmt;
 
 /// Highest value the histograms hold, ns (10 s: anything slower is clamped).

@@ -46,7 +46,7 @@ pub struct CanMaster {
 }
 
 impl DriveMonitor for BusShared {
-    fn drives(&self) -> Vec<Value> {
+    fn drives(&self) -> Vec<interpd_protocol::api::DriveStatus> {
         self.drives_report()
     }
     fn bus(&self) -> Option<Value> {

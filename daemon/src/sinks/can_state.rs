@@ -5,6 +5,7 @@
 //! mutex, used only by the receive thread and the supervisor.
 
 use crate::rt::clock;
+use interpd_protocol::api::DriveStatus;
 use interpd_protocol::cia402::{DriveCommand, NmtState, NodeId, PowerState, Scale};
 use serde_json::{Value, json};
 use std::collections::VecDeque;
@@ -136,30 +137,30 @@ impl NodeShared {
     }
 
     /// The drive's state as a status entry.
-    pub fn report(&self, now_ns: u64) -> Value {
+    pub fn report(&self, now_ns: u64) -> DriveStatus {
         let ago_ms = |t: Option<u64>| t.map(|t| now_ns.saturating_sub(t) as f64 * 1e-6);
         let state = match (self.statusword(), self.power_state()) {
             (None, _) => "unknown",
             (Some(_), None) => "undefined_statusword",
             (Some(_), Some(s)) => s.name(),
         };
-        json!({
-            "axis": self.axis_name,
-            "node": self.node.get(),
-            "state": state,
-            "statusword": self.statusword(),
-            "nmt": self.nmt().map(|s| s.to_string()),
-            "position_actual": self.position_actual(),
-            "position_actual_units": self.scale.to_units(self.position_actual()),
-            "target_position": self.target(),
-            "controlword": self.controlword(),
-            "tpdo_count": self.tpdo_count.load(Ordering::Relaxed),
-            "last_tpdo_ms_ago": ago_ms(self.last_tpdo_ns()),
-            "last_heartbeat_ms_ago": ago_ms(self.last_heartbeat_ns()),
-            "heartbeat_lost": self.heartbeat_lost.load(Ordering::Relaxed),
-            "emcy_count": self.emcy_count.load(Ordering::Relaxed),
-            "last_emcy_code": self.last_emcy_code().map(|c| format!("0x{c:04X}")),
-        })
+        DriveStatus {
+            axis: self.axis_name.clone(),
+            node: self.node.get(),
+            state: state.to_string(),
+            statusword: self.statusword(),
+            nmt: self.nmt().map(|s| s.to_string()),
+            position_actual: self.position_actual(),
+            position_actual_units: self.scale.to_units(self.position_actual()),
+            target_position: self.target(),
+            controlword: self.controlword(),
+            tpdo_count: self.tpdo_count.load(Ordering::Relaxed),
+            last_tpdo_ms_ago: ago_ms(self.last_tpdo_ns()),
+            last_heartbeat_ms_ago: ago_ms(self.last_heartbeat_ns()),
+            heartbeat_lost: self.heartbeat_lost.load(Ordering::Relaxed),
+            emcy_count: self.emcy_count.load(Ordering::Relaxed),
+            last_emcy_code: self.last_emcy_code().map(|c| format!("0x{c:04X}")),
+        }
     }
 
     /// Who this is, for messages: "drive Y (node 2)".
@@ -337,7 +338,7 @@ impl BusShared {
         }
     }
 
-    pub fn drives_report(&self) -> Vec<Value> {
+    pub fn drives_report(&self) -> Vec<DriveStatus> {
         let now = clock::now_ns();
         self.nodes.iter().map(|n| n.report(now)).collect()
     }
@@ -390,10 +391,10 @@ mod tests {
         s.nodes[0].on_sent(0x000F, 42);
         assert!(s.nodes[0].commanded_enabled());
         let r = s.drives_report();
-        assert_eq!(r[0]["last_emcy_code"], "0x8100");
-        assert_eq!(r[0]["state"], "unknown");
-        assert_eq!(r[0]["target_position"], 42);
-        assert_eq!(r[1]["emcy_count"], 0);
+        assert_eq!(r[0].last_emcy_code.as_deref(), Some("0x8100"));
+        assert_eq!(r[0].state, "unknown");
+        assert_eq!(r[0].target_position, 42);
+        assert_eq!(r[1].emcy_count, 0);
         assert!(s.take_fault().is_none());
         s.push_fault("a".into());
         s.push_fault("b".into());

@@ -36,8 +36,8 @@ pub trait SetpointSink {
 /// Drives that report their state (the CAN master): what `status` shows, whether motion may
 /// start, and faults that must stop the motion. Called outside the real-time cycle.
 pub trait DriveMonitor: Send + Sync {
-    /// One status object per drive (`status.drives`).
-    fn drives(&self) -> Vec<serde_json::Value>;
+    /// One status entry per drive (`status.drives`).
+    fn drives(&self) -> Vec<interpd_protocol::api::DriveStatus>;
     /// Bus counters (`status.can_bus`).
     fn bus(&self) -> Option<serde_json::Value>;
     /// `Ok` when every drive is ready for motion, else a message naming each drive that is not

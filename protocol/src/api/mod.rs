@@ -1,0 +1,280 @@
+//! interpd's control API on top of [`crate::jsonrpc`]: the methods, their parameters and
+//! results, the `status` snapshot and the events of `subscribe`. The reference with examples
+//! is docs/control-api.md.
+//!
+//! - [`Call::parse`] checks a method name and its parameters (deserialized with serde, see
+//!   [`params`]) and names what is wrong.
+//! - [`Status`] and [`Event`] are the result of `status` and the payloads of `subscribe`;
+//!   [`DriveStatus`] is one CAN drive in `status.drives`.
+
+pub mod params;
+pub mod status;
+
+pub use params::{LawParams, LoadParams, OverrideParams};
+pub use status::{CycleStats, DriveStatus, Percentiles, ProgramInfo, State, Status};
+
+use crate::jsonrpc::params::Params;
+use crate::jsonrpc::{ErrorObject, Notification};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use serde_json::Value;
+use std::fmt;
+
+/// Method name of the notifications that carry [`Event`]s.
+pub const EVENT_METHOD: &str = "event";
+
+/// Largest feed override factor (`feed.override {"factor": ...}`); 0 is allowed (feed stop).
+pub const OVERRIDE_MAX: f64 = 2.0;
+
+/// The same bound in percent (`feed.override {"percent": ...}`).
+pub const OVERRIDE_MAX_PERCENT: f64 = 200.0;
+
+/// Name given to a program loaded as inline text without a `name`.
+pub const INLINE_PROGRAM_NAME: &str = "inline";
+
+/// The error codes of the control API: the JSON-RPC ones and interpd's own, in −32099…−32000.
+pub mod codes {
+    pub use crate::jsonrpc::codes::*;
+
+    /// `program.load`: the program could not be read, parsed or prepared.
+    pub const BAD_PROGRAM: i32 = -32001;
+    /// The command is not allowed in the current state (`data` holds `state` and `action`).
+    pub const NOT_ALLOWED: i32 = -32002;
+    /// `motion.start`: a CAN drive is not in Operation enabled (the message names the drive).
+    pub const DRIVES_NOT_READY: i32 = -32005;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Methods
+// ---------------------------------------------------------------------------------------------
+
+/// The methods of the control API.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Method {
+    ProgramLoad,
+    MotionStart,
+    MotionHold,
+    MotionResume,
+    MotionStop,
+    FeedOverride,
+    Status,
+    Subscribe,
+    MotionLaw,
+}
+
+impl Method {
+    pub const ALL: [Method; 9] = [
+        Method::ProgramLoad,
+        Method::MotionStart,
+        Method::MotionHold,
+        Method::MotionResume,
+        Method::MotionStop,
+        Method::FeedOverride,
+        Method::Status,
+        Method::Subscribe,
+        Method::MotionLaw,
+    ];
+
+    /// The wire name, e.g. `"motion.start"`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Method::ProgramLoad => "program.load",
+            Method::MotionStart => "motion.start",
+            Method::MotionHold => "motion.hold",
+            Method::MotionResume => "motion.resume",
+            Method::MotionStop => "motion.stop",
+            Method::FeedOverride => "feed.override",
+            Method::Status => "status",
+            Method::Subscribe => "subscribe",
+            Method::MotionLaw => "motion.law",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Method> {
+        Method::ALL.into_iter().find(|m| m.name() == name)
+    }
+}
+
+impl fmt::Display for Method {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A method serializes as its wire name (the `action` of a refused command).
+impl Serialize for Method {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
+impl<'de> Deserialize<'de> for Method {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        Method::from_name(&name).ok_or_else(|| serde::de::Error::custom(format!("unknown method {name:?}")))
+    }
+}
+
+/// −32601 naming `method` and listing interpd's methods.
+pub fn method_not_found(method: &str) -> ErrorObject {
+    let valid: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
+    ErrorObject::method_not_found(method, &valid)
+}
+
+/// −32602 for `method`; `param` (if any) is the parameter at fault, also in `data`.
+pub fn invalid_params(method: Method, param: Option<&str>, detail: &str) -> ErrorObject {
+    ErrorObject::invalid_params(method.name(), param, detail)
+}
+
+/// A checked method call.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Call {
+    ProgramLoad(LoadParams),
+    MotionStart,
+    MotionHold,
+    MotionResume,
+    MotionStop,
+    FeedOverride(OverrideParams),
+    Status,
+    Subscribe,
+    MotionLaw(LawParams),
+}
+
+impl Call {
+    /// Checks the method name and its parameters: −32601 for an unknown method, −32602 naming
+    /// the parameter for missing, unknown, mistyped or out-of-range parameters.
+    pub fn parse(method: &str, params: Option<Value>) -> Result<Call, ErrorObject> {
+        let m = Method::from_name(method).ok_or_else(|| method_not_found(method))?;
+        let params = Params::new(params);
+        Ok(match m {
+            Method::ProgramLoad => Call::ProgramLoad(LoadParams::parse(params)?),
+            Method::FeedOverride => Call::FeedOverride(OverrideParams::parse(params)?),
+            Method::MotionLaw => Call::MotionLaw(LawParams::parse(params)?),
+            Method::MotionStart => params::none(m, params).map(|()| Call::MotionStart)?,
+            Method::MotionHold => params::none(m, params).map(|()| Call::MotionHold)?,
+            Method::MotionResume => params::none(m, params).map(|()| Call::MotionResume)?,
+            Method::MotionStop => params::none(m, params).map(|()| Call::MotionStop)?,
+            Method::Status => params::none(m, params).map(|()| Call::Status)?,
+            Method::Subscribe => params::none(m, params).map(|()| Call::Subscribe)?,
+        })
+    }
+
+    pub fn method(&self) -> Method {
+        match self {
+            Call::ProgramLoad(_) => Method::ProgramLoad,
+            Call::MotionStart => Method::MotionStart,
+            Call::MotionHold => Method::MotionHold,
+            Call::MotionResume => Method::MotionResume,
+            Call::MotionStop => Method::MotionStop,
+            Call::FeedOverride(_) => Method::FeedOverride,
+            Call::Status => Method::Status,
+            Call::Subscribe => Method::Subscribe,
+            Call::MotionLaw(_) => Method::MotionLaw,
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Results
+// ---------------------------------------------------------------------------------------------
+
+/// Result of `motion.start`, `motion.hold`, `motion.resume` and `motion.stop`: the command was
+/// accepted (the motion itself proceeds in the background; watch `status` or the events).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Ack {
+    pub ok: bool,
+}
+
+impl Default for Ack {
+    fn default() -> Ack {
+        Ack { ok: true }
+    }
+}
+
+/// Result of `feed.override`: the factor now in effect (targeted; the change itself is
+/// jerk-limited).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct OverrideResult {
+    #[serde(rename = "override")]
+    pub factor: f64,
+}
+
+/// Result of `subscribe`: the connection now also carries event notifications.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Subscribed {
+    pub subscribed: bool,
+    /// The event names that may follow ([`Event::NAMES`]).
+    pub events: Vec<String>,
+}
+
+impl Default for Subscribed {
+    fn default() -> Subscribed {
+        Subscribed { subscribed: true, events: Event::NAMES.iter().map(|s| s.to_string()).collect() }
+    }
+}
+
+/// Result of `motion.law`: the move's figures (it has started).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LawResult {
+    /// Duration of the move (its law's duration, stretched if it said `STRETCH`), s.
+    pub duration_s: f64,
+    /// Length of the straight line the axes move along, mm.
+    pub length_mm: f64,
+}
+
+// ---------------------------------------------------------------------------------------------
+// Events
+// ---------------------------------------------------------------------------------------------
+
+/// What a `subscribe`d connection receives, each as
+/// `{"jsonrpc":"2.0","method":"event","params":{"event":"line_reached","line":12}}`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "event", rename_all = "snake_case")]
+pub enum Event {
+    /// Motion started (`motion.start` accepted and the first cycle ran).
+    Started,
+    /// Execution reached a new program line.
+    LineReached { line: u32 },
+    /// The profile queue ran dry at path position `s_mm`: the path velocity is being brought to
+    /// zero along the path until the planner catches up.
+    Underrun { s_mm: f64 },
+    /// The planner caught up after an underrun; motion continues.
+    UnderrunCleared,
+    /// A feed hold has brought the machine to rest.
+    Held,
+    /// Motion resumed after a hold.
+    Resumed,
+    /// A stop has completed; the machine stands.
+    Stopped,
+    /// The program ran to its end after `duration_s` seconds of motion.
+    Finished { duration_s: f64 },
+    /// Motion was aborted; `message` says why.
+    Error { message: String },
+}
+
+impl Event {
+    /// The `event` tag of every variant, in declaration order.
+    pub const NAMES: [&'static str; 9] =
+        ["started", "line_reached", "underrun", "underrun_cleared", "held", "resumed", "stopped", "finished", "error"];
+
+    pub fn name(&self) -> &'static str {
+        match self {
+            Event::Started => "started",
+            Event::LineReached { .. } => "line_reached",
+            Event::Underrun { .. } => "underrun",
+            Event::UnderrunCleared => "underrun_cleared",
+            Event::Held => "held",
+            Event::Resumed => "resumed",
+            Event::Stopped => "stopped",
+            Event::Finished { .. } => "finished",
+            Event::Error { .. } => "error",
+        }
+    }
+
+    /// The notification that carries this event.
+    pub fn to_notification(&self) -> Notification<&Event> {
+        Notification::new(EVENT_METHOD, self)
+    }
+}
+
+#[cfg(test)]
+mod tests;

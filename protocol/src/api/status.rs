@@ -1,0 +1,181 @@
+//! The result of `status`: the machine state, the motion, the timing of the cycles and the
+//! CAN drives.
+//!
+//! Missing members deserialize to their defaults so that clients keep working when the daemon
+//! adds members, and a daemon's newer members are ignored by older clients.
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use std::fmt;
+
+/// The machine state as `status` reports it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum State {
+    /// No motion; a program may or may not be loaded.
+    #[default]
+    Idle,
+    Running,
+    /// Feed hold active or being approached (the path velocity is brought to zero on the path).
+    Holding,
+    /// A stop is being executed; the state becomes `idle` when the machine stands.
+    Stopping,
+    /// The program ran to its end.
+    Finished,
+    /// Motion was aborted by an error (see `last_error`).
+    Error,
+}
+
+impl State {
+    pub const ALL: [State; 6] =
+        [State::Idle, State::Running, State::Holding, State::Stopping, State::Finished, State::Error];
+
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            State::Idle => "idle",
+            State::Running => "running",
+            State::Holding => "holding",
+            State::Stopping => "stopping",
+            State::Finished => "finished",
+            State::Error => "error",
+        }
+    }
+}
+
+impl fmt::Display for State {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// Percentiles of a per-cycle measurement, microseconds.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Percentiles {
+    pub p50: f64,
+    pub p99: f64,
+    pub p999: f64,
+    pub max: f64,
+}
+
+/// Statistics of the interpolation cycles since motion started.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct CycleStats {
+    /// Wake-up latency: actual wake-up time minus the cycle's deadline.
+    pub wakeup_us: Percentiles,
+    /// Time spent computing one cycle.
+    pub compute_us: Percentiles,
+    /// Cycles whose computation ran past the next deadline.
+    pub overruns: u64,
+    /// Cycles that started late (woke after their deadline by more than the allowed slack).
+    pub late: u64,
+}
+
+/// The loaded program.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct ProgramInfo {
+    /// The path it was loaded from, or the `name` given with inline text.
+    pub name: String,
+    /// Geometry elements (lines, arcs, spline spans, table rows).
+    pub elements: u64,
+    /// Path length, mm.
+    pub length_mm: f64,
+    /// Source lines.
+    pub lines: u32,
+}
+
+/// One CAN drive as the master sees it (`status.drives`). Members the master has not received
+/// yet are `null`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct DriveStatus {
+    /// Axis name, e.g. `"X"`.
+    pub axis: String,
+    /// CANopen node-ID, 1..=127.
+    pub node: u8,
+    /// CiA 402 state of the last statusword in snake case (`"operation_enabled"`, …),
+    /// `"unknown"` before the first TPDO1, `"undefined_statusword"` for a bit pattern CiA 402
+    /// does not define.
+    pub state: String,
+    /// Statusword of the last TPDO1.
+    pub statusword: Option<u16>,
+    /// NMT state of the last heartbeat (`"operational"`, `"pre-operational"`, …).
+    pub nmt: Option<String>,
+    /// Position actual value of the last TPDO1, increments.
+    pub position_actual: i32,
+    /// The same in axis units (mm or deg).
+    pub position_actual_units: f64,
+    /// Target position of the last RPDO1 sent, increments.
+    pub target_position: i32,
+    /// Controlword of the last RPDO1 sent.
+    pub controlword: Option<u16>,
+    /// TPDO1 frames received.
+    pub tpdo_count: u64,
+    pub last_tpdo_ms_ago: Option<f64>,
+    pub last_heartbeat_ms_ago: Option<f64>,
+    /// A heartbeat-lost fault was reported and no heartbeat came since.
+    pub heartbeat_lost: bool,
+    /// Emergency messages received.
+    pub emcy_count: u64,
+    /// Error code of the last EMCY, as `"0x8100"`.
+    pub last_emcy_code: Option<String>,
+}
+
+/// The result of `status`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Status {
+    pub state: State,
+    /// Program line being executed (1-based, 0 if none).
+    pub line: u32,
+    /// Path position, mm.
+    pub s_mm: f64,
+    /// Current path velocity, mm/s (after the override).
+    pub feed_mm_s: f64,
+    /// Feed override factor in effect, 0.0..=2.0.
+    #[serde(rename = "override")]
+    pub feed_override: f64,
+    /// Fill of the planner-to-interpolator profile queue, 0..=1.
+    pub queue_fill: f64,
+    /// Seconds of motion planned ahead in the queue.
+    pub queue_s: f64,
+    /// Interpolation cycle number (0 when motion starts).
+    pub cycle: u64,
+    pub cycles: CycleStats,
+    pub last_error: Option<String>,
+    pub program: Option<ProgramInfo>,
+    /// Axis names in configuration order.
+    pub axes: Vec<String>,
+    /// Commanded position per axis, in the order of `axes` (mm or deg).
+    pub position: Vec<f64>,
+    /// CAN drives, one per axis when the CAN sink runs (empty otherwise).
+    pub drives: Vec<DriveStatus>,
+    /// CAN bus counters of the master (frames sent and received, malformed frames by kind,
+    /// send failures by errno class, error frames, candump log records); absent without CAN.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub can_bus: Option<Value>,
+}
+
+impl Default for Status {
+    fn default() -> Status {
+        Status {
+            state: State::Idle,
+            line: 0,
+            s_mm: 0.0,
+            feed_mm_s: 0.0,
+            feed_override: 1.0,
+            queue_fill: 0.0,
+            queue_s: 0.0,
+            cycle: 0,
+            cycles: CycleStats::default(),
+            last_error: None,
+            program: None,
+            axes: Vec::new(),
+            position: Vec::new(),
+            drives: Vec::new(),
+            can_bus: None,
+        }
+    }
+}

@@ -6,9 +6,9 @@
 
 pub mod control;
 pub mod interp;
-pub mod motion;
 pub mod record;
 pub mod rt;
+pub mod service;
 pub mod sinks;
 
 pub use interpd_config as config;

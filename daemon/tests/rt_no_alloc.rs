@@ -5,7 +5,7 @@
 
 use interpd::config::Config;
 use interpd::control::{Motion, ProgramSource};
-use interpd::motion::{MotionOptions, MotionService};
+use interpd::service::{Service, ServiceOptions};
 use interpd_protocol::api::State;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -45,7 +45,7 @@ static GLOBAL: Counting = Counting;
 const PROGRAM: &str =
     "G21 G90 G17\nG1 X20 F6000\nG2 X40 Y0 I10 J0\nG1 X40 Y30\nG3 X20 Y30 I-10 J0\nG1 X0 Y0\nG4 P0.1\nG1 X10 Y10\nM30\n";
 
-fn run(core: &interpd::motion::MotionCore, steps: &[(&str, u64)]) {
+fn run(core: &interpd::service::ServiceCore, steps: &[(&str, u64)]) {
     core.load(ProgramSource::Text { name: "alloc.ngc".into(), text: PROGRAM.into() }).expect("load");
     core.start().expect("start");
     for &(what, after_ms) in steps {
@@ -76,7 +76,7 @@ fn the_cycle_never_allocates() {
     );
     let mut config = Config::default_machine();
     config.sinks.shm_prefix = format!("interpd-test/alloc{}", std::process::id());
-    let service = MotionService::start(MotionOptions { config, shm: true }).expect("service");
+    let service = Service::start(ServiceOptions { config, shm: true }).expect("service");
     let core = service.core();
     // A whole program; one with hold, resume and override changes; one stopped midway; one
     // with a stalled planner (underrun).

@@ -16,7 +16,7 @@
 //!   written with the log's timestamps is the identical file.
 
 use interpd::config::Config;
-use interpd::motion::approach::with_approach;
+use interpd::service::approach::with_approach;
 use interpd_e2e::daemon::{Client, Daemon};
 use interpd_e2e::vcan::{self, Capture, Proc};
 use interpd_motion::Settings;

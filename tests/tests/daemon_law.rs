@@ -5,7 +5,7 @@
 //! Then through the simulated plant: `interpd demo --program examples/laws.ngc`.
 
 use interpd::config::Config;
-use interpd::motion::law_run::parse_law_program;
+use interpd::service::law_run::parse_law_program;
 use interpd_e2e::daemon::{AxisLimits, Client, Collector, Daemon, limit_ratios};
 use interpd_e2e::{binary, example};
 use interpd_motion::Settings;

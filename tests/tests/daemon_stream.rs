@@ -4,7 +4,7 @@
 //! ending exactly at the program's end point; feed override, hold, resume, stop; underrun.
 
 use interpd::config::Config;
-use interpd::motion::approach::with_approach;
+use interpd::service::approach::with_approach;
 use interpd_e2e::daemon::{AxisLimits, Client, Collector, Daemon, limit_ratios};
 use interpd_e2e::{example, repo_root};
 use interpd_motion::Settings;

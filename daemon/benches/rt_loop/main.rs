@@ -10,7 +10,7 @@
 //! synthetic computation calibrated to interpd's median cycle length, the baseline of the
 //! compute-time figures),
 //! half of its cycles before and half after the service run so slow drifts of a shared
-//! machine hit both alike; then the **real service** (`MotionService`, iceoryx2 on, a service
+//! machine hit both alike; then the **real service** (`Service`, iceoryx2 on, a service
 //! prefix of its own) for the same number of cycles while it plans and executes a program,
 //! restarted each time it ends. A real-time subscriber on the other CPU checks that every cycle
 //! number arrives exactly once, computed for its own time (late ones flagged `LATE`), and times

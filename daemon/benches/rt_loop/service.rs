@@ -1,4 +1,4 @@
-//! The real service under load: `MotionService` with shared memory on (a service prefix of its
+//! The real service under load: `Service` with shared memory on (a service prefix of its
 //! own), a program loaded and started through its control interface and restarted each time
 //! it finishes, until the loop has run the requested number of cycles; then a controlled stop
 //! and the report of `shutdown` (the same figures `interpd run` prints at exit).
@@ -6,7 +6,7 @@
 use super::stream::{Monitor, StreamCheck};
 use interpd::config::Config;
 use interpd::control::{Motion, ProgramSource};
-use interpd::motion::{MotionOptions, MotionService, ShutdownReport};
+use interpd::service::{Service, ServiceOptions, ShutdownReport};
 use interpd_protocol::api::{Event, State};
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -42,7 +42,7 @@ pub fn run(
     let period_ns = (config.machine.cycle_ms * 1e6).round() as u64;
     let monitor = Monitor::start(prefix, period_ns, monitor_cpu, monitor_priority)?;
     let t0 = Instant::now();
-    let service = MotionService::start(MotionOptions { config, shm: true }).map_err(|e| e.to_string())?;
+    let service = Service::start(ServiceOptions { config, shm: true }).map_err(|e| e.to_string())?;
     let core = service.core();
     let events = core.subscribe();
     core.load(ProgramSource::File(program.to_path_buf())).map_err(|e| format!("{}: {e}", program.display()))?;

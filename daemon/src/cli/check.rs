@@ -2,7 +2,7 @@
 
 use super::CliError;
 use interpd::config::Config;
-use interpd::motion::law_run::{LawProgram, parse_law_program};
+use interpd::service::law_run::{LawProgram, parse_law_program};
 use interpd_motion::Settings;
 use interpd_motion::program;
 use std::io::Write;

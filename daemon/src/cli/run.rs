@@ -5,8 +5,8 @@ use super::CliError;
 use super::signals::TerminationSignals;
 use interpd::config::Config;
 use interpd::control::{ControlServer, Motion};
-use interpd::motion::{MotionExtras, MotionOptions, MotionService};
 use interpd::record::{RecordFile, RecordOptions, Recorder};
+use interpd::service::{Service, ServiceExtras, ServiceOptions};
 use interpd::sinks::can::CanMaster;
 use interpd_protocol::api::State;
 use std::path::PathBuf;
@@ -79,7 +79,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     // The recorder subscribes before the real-time thread publishes its first setpoint.
     let recorder = record_file.map(|f| start_recorder(f, &config)).transpose()?;
 
-    let mut extras = MotionExtras::default();
+    let mut extras = ServiceExtras::default();
     let can = if config.sinks.can.enabled() {
         let start = CanMaster::start(&config, args.candump.as_deref()).map_err(|e| CliError::Failure(e.to_string()))?;
         eprintln!(
@@ -95,11 +95,9 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     } else {
         None
     };
-    let service = MotionService::start_with(
-        MotionOptions { config: config.clone(), shm: config.sinks.shm && !args.no_shm },
-        extras,
-    )
-    .map_err(|e| CliError::Failure(e.to_string()))?;
+    let service =
+        Service::start_with(ServiceOptions { config: config.clone(), shm: config.sinks.shm && !args.no_shm }, extras)
+            .map_err(|e| CliError::Failure(e.to_string()))?;
     if service.sched().all_granted() {
         tracing::info!("real-time thread: {}", service.sched());
     } else {

@@ -1,6 +1,7 @@
 //! The unit the planner thread hands to the real-time thread.
 
 use super::coarse::CoarsePoint;
+use super::epoch::Epoch;
 
 /// A stretch of planned motion, a few interpolation cycles long, with the fastest stop that
 /// can follow it. The real-time thread runs `points`; at their end it continues with the next
@@ -9,9 +10,9 @@ use super::coarse::CoarsePoint;
 /// through the recycle queue, so the real-time thread never allocates or frees memory.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Chunk {
-    /// Motion generation: a restart after a stop begins a new epoch; chunks of an older epoch
-    /// are discarded.
-    pub epoch: u64,
+    /// Motion generation (see [`super::epoch`]): chunks of an epoch older than the one the
+    /// executor expects are discarded.
+    pub epoch: Epoch,
     /// Sequence number within the epoch, from 0.
     pub seq: u64,
     /// The motion; `points[0]` (at t = 0) is where the previous chunk ended.

@@ -7,6 +7,7 @@
 
 use super::chunk::Chunk;
 use super::coarse::CoarsePoint;
+use super::epoch::Epoch;
 use super::hermite;
 use crossbeam::queue::ArrayQueue;
 use interpd_protocol::shm::{Setpoints, flags};
@@ -26,14 +27,14 @@ pub enum DivertCause {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Notice {
     /// Motion of `epoch` began (from rest).
-    Started { epoch: u64, cycle: u64 },
+    Started { epoch: Epoch, cycle: u64 },
     /// The executor left the planned motion at the end of chunk `seq` of `epoch` and runs its
     /// tail; chunks of `epoch` are discarded from now on.
-    Diverted { epoch: u64, seq: u64, cause: DivertCause, cycle: u64 },
+    Diverted { epoch: Epoch, seq: u64, cause: DivertCause, cycle: u64 },
     /// The tail ended: the machine stands at `s_mm`.
-    Stood { epoch: u64, seq: u64, cause: DivertCause, s_mm: f64, cycle: u64 },
+    Stood { epoch: Epoch, seq: u64, cause: DivertCause, s_mm: f64, cycle: u64 },
     /// The last chunk of the program ended: the machine stands at the program end.
-    Finished { epoch: u64, s_mm: f64, cycle: u64 },
+    Finished { epoch: Epoch, s_mm: f64, cycle: u64 },
     /// The setpoints entered program line `line`.
     Line { line: u32, cycle: u64 },
 }
@@ -78,7 +79,7 @@ pub struct ExecutorFaults {
 pub struct Executor {
     n_axes: usize,
     /// Chunks of this epoch continue the motion.
-    epoch: u64,
+    epoch: Epoch,
     chunk: Option<Box<Chunk>>,
     phase: Phase,
     /// Index of the piece (points[piece] → points[piece + 1]) last evaluated.
@@ -99,7 +100,7 @@ impl Executor {
     pub fn new(n_axes: usize, position: [f64; interpd_motion::path::MAX_AXES]) -> Self {
         Self {
             n_axes,
-            epoch: 0,
+            epoch: Epoch::NONE,
             chunk: None,
             phase: Phase::Standing,
             piece: 0,
@@ -118,7 +119,7 @@ impl Executor {
     }
 
     /// The epoch whose chunks the executor takes next.
-    pub fn epoch(&self) -> u64 {
+    pub fn epoch(&self) -> Epoch {
         self.epoch
     }
 
@@ -204,7 +205,7 @@ impl Executor {
                         }
                     };
                     if let Some(cause) = cause {
-                        self.epoch = epoch + 1;
+                        self.epoch = epoch.replan();
                         self.phase = Phase::Tail(cause);
                         self.t_s = over;
                         self.piece = 0;
@@ -226,7 +227,7 @@ impl Executor {
     }
 
     /// The next chunk of `epoch` after `seq`, discarding older ones.
-    fn next_chunk(&mut self, io: &Io, epoch: u64, seq: u64) -> Option<Box<Chunk>> {
+    fn next_chunk(&mut self, io: &Io, epoch: Epoch, seq: u64) -> Option<Box<Chunk>> {
         while let Some(next) = io.chunks.pop() {
             if next.epoch == epoch && next.seq == seq + 1 && next.points.len() >= 2 {
                 return Some(next);

@@ -31,9 +31,11 @@
 
 pub mod chunk;
 pub mod coarse;
+pub mod epoch;
 pub mod executor;
 pub mod hermite;
 
 pub use chunk::Chunk;
 pub use coarse::{CoarseBuilder, CoarsePoint};
+pub use epoch::{Epoch, Epochs};
 pub use executor::{DivertCause, Executor, Io, Notice, Phase};

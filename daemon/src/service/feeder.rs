@@ -7,7 +7,7 @@
 
 use super::law_run::LawPart;
 use crate::interp::coarse::{CoarseBuilder, CoarsePoint, split};
-use crate::interp::{Chunk, DivertCause};
+use crate::interp::{Chunk, DivertCause, Epoch};
 use crossbeam::channel::{Receiver, Sender};
 use crossbeam::queue::ArrayQueue;
 use interpd_config::Config;
@@ -39,7 +39,7 @@ pub enum FeederCommand {
     /// Plan and queue `path` from its start, at rest, as epoch `epoch`.
     Start {
         path: Arc<Path>,
-        epoch: u64,
+        epoch: Epoch,
         feed_override: f64,
     },
     /// Queue the motion-law moves `laws` along `path` (its lines, one per move) from its
@@ -48,19 +48,19 @@ pub enum FeederCommand {
     StartLaws {
         path: Arc<Path>,
         laws: Box<LawPart>,
-        epoch: u64,
+        epoch: Epoch,
         feed_override: f64,
     },
     /// New feed override factor (> 0).
     Override(f64),
     /// The executor left the planned motion (it runs a tail).
     Diverted {
-        epoch: u64,
+        epoch: Epoch,
         cause: DivertCause,
     },
     /// The executor stands at `s_mm` after a tail.
     Stood {
-        epoch: u64,
+        epoch: Epoch,
         cause: DivertCause,
         s_mm: f64,
     },
@@ -82,7 +82,7 @@ pub enum FeederReport {
     /// Planning failed: the motion stops at the end of the queue.
     Error(String),
     /// The last chunk of the program is queued.
-    Complete { epoch: u64 },
+    Complete { epoch: Epoch },
 }
 
 /// The queues shared with the real-time thread.
@@ -123,7 +123,7 @@ struct Run {
     /// The program as loaded (geometry for coarse points, suffixes for replanning).
     path: Arc<Path>,
     feed_override: f64,
-    epoch: u64,
+    epoch: Epoch,
     seq: u64,
     planner: Planner,
     /// The path the planner is fed (a suffix of `path` with scaled feeds).
@@ -257,7 +257,7 @@ impl Feeder {
             FeederCommand::Override(factor) => self.set_override(factor),
             FeederCommand::Diverted { epoch, cause } => {
                 if let Some(run) = self.run.as_mut().filter(|r| r.epoch == epoch) {
-                    run.epoch = epoch + 1;
+                    run.epoch = epoch.replan();
                     run.seq = 0;
                     run.wait = Wait::Stand { cause, resume_requested: false };
                     run.buffer.clear();
@@ -280,10 +280,11 @@ impl Feeder {
         }
     }
 
-    /// The executor stands after a tail of `epoch - 1` (the run moved to `epoch` on divert).
-    fn stood(&mut self, epoch: u64, cause: DivertCause, s_mm: f64) {
+    /// The executor stands after the tail of `epoch` (the run moved to `epoch.replan()` when
+    /// told of the divert).
+    fn stood(&mut self, epoch: Epoch, cause: DivertCause, s_mm: f64) {
         let Some(run) = self.run.as_mut() else { return };
-        if run.epoch != epoch + 1 {
+        if run.epoch != epoch.replan() {
             return;
         }
         let resume_requested = matches!(run.wait, Wait::Stand { resume_requested: true, .. });
@@ -530,7 +531,7 @@ impl Run {
         self.seq += 1;
     }
 
-    fn new(settings: &Settings, path: Arc<Path>, feed_override: f64, epoch: u64, s_mm: f64, end: CoarsePoint) -> Run {
+    fn new(settings: &Settings, path: Arc<Path>, feed_override: f64, epoch: Epoch, s_mm: f64, end: CoarsePoint) -> Run {
         let plan_path = scaled(&path.suffix_from(s_mm), feed_override);
         let planner = Planner::new(settings);
         Run {

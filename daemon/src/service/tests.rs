@@ -2,7 +2,7 @@
 //! from program to setpoints, deterministic, without threads or clocks.
 
 use super::feeder::{Feeder, FeederCommand, FeederReport, Queues};
-use crate::interp::{DivertCause, Executor, Io, Notice};
+use crate::interp::{DivertCause, Epoch, Executor, Io, Notice};
 use crossbeam::channel;
 use crossbeam::queue::ArrayQueue;
 use interpd_config::Config;
@@ -49,7 +49,7 @@ impl Sim {
     }
 
     pub fn start(&mut self, path: Arc<Path>) {
-        self.feeder.command(FeederCommand::Start { path, epoch: 1, feed_override: 1.0 });
+        self.feeder.command(FeederCommand::Start { path, epoch: Epoch::FIRST, feed_override: 1.0 });
     }
 
     /// One cycle: the planner thread tops up the queue (as if it were fast enough), then the
@@ -255,7 +255,7 @@ fn start_laws(sim: &mut Sim, text: &str) -> (Arc<Path>, f64) {
     sim.feeder.command(FeederCommand::StartLaws {
         path: path.clone(),
         laws: Box::new(laws),
-        epoch: 1,
+        epoch: Epoch::FIRST,
         feed_override: 1.0,
     });
     (path, duration_s)

@@ -1,0 +1,92 @@
+//! `program.load`: reading, parsing and preparing a program in the control thread that asked
+//! (never near the real-time thread), then installing it if the state still allows.
+//!
+//! A program is either G-code or a path table, prepared into a path (with the tolerance-band
+//! smoothing of its G64 runs), or a program of `LAW` statements, whose moves are made and
+//! checked from where the machine stands (again at every start).
+
+use super::law_run::{self, LawProgram};
+use super::state::Loaded;
+use super::{ServiceCore, lock};
+use crate::control::{MotionError, ProgramSource};
+use interpd_motion::law::LawMove;
+use interpd_motion::program;
+use interpd_protocol::api::{Method, ProgramInfo};
+use std::borrow::Cow;
+use std::sync::Arc;
+
+impl ServiceCore {
+    pub(super) fn load_program(&self, source: ProgramSource) -> Result<ProgramInfo, MotionError> {
+        let shared = &self.shared;
+        lock(&shared.control).check(Method::ProgramLoad)?;
+        if let Some((name, laws)) = law_program_of(&source)? {
+            return self.load_laws(name, laws).map(|(info, _)| info);
+        }
+        let (name, parsed) = match source {
+            ProgramSource::File(p) => (p.display().to_string(), program::load(&p, &shared.settings)),
+            ProgramSource::Text { name, text } => {
+                let parsed = program::parse(&text, &name, &shared.settings);
+                (name, parsed)
+            }
+        };
+        let prog = parsed.map_err(|e| MotionError::BadProgram(e.to_string()))?;
+        // Tolerance-band smoothing (G64 P…) of the whole program, here in the control thread:
+        // it runs ahead of the planner and never near the real-time thread.
+        let prepared = interpd_motion::prep::prepare_path(&shared.settings, &prog.path)
+            .map_err(|e| MotionError::BadProgram(format!("{name}: {e}")))?;
+        if prepared.stats.windows > 0 {
+            tracing::info!(
+                program = %name,
+                windows = prepared.stats.windows,
+                wall_ms = prepared.wall_s * 1e3,
+                "path smoothing (G64) prepared"
+            );
+        }
+        let info = ProgramInfo {
+            name,
+            elements: prepared.path.elements.len() as u64,
+            length_mm: prepared.path.length_mm(),
+            lines: prog.summary.lines,
+        };
+        let mut ctl = lock(&shared.control);
+        // The state may have changed while the program was prepared.
+        ctl.check(Method::ProgramLoad)?;
+        ctl.loaded(info.clone(), Loaded::Path(Arc::new(prepared.path)));
+        Ok(info)
+    }
+
+    /// `program.load` of a law program: the moves are made and checked from where the machine
+    /// stands now (and again at `motion.start`, from where it stands then).
+    /// Returns the program's info and the moves' total duration.
+    pub(super) fn load_laws(&self, name: String, laws: LawProgram) -> Result<(ProgramInfo, f64), MotionError> {
+        let shared = &self.shared;
+        let here = shared.live.load().pos;
+        let moves = laws.moves(&shared.settings, &here, &name).map_err(MotionError::BadProgram)?;
+        let duration_s = moves.iter().map(LawMove::duration_s).sum();
+        let (path, _) = law_run::law_path(&shared.settings, moves, here, &laws.lines());
+        let info = ProgramInfo {
+            name,
+            elements: laws.blocks.len() as u64,
+            length_mm: path.length_mm(),
+            lines: laws.blocks.last().map_or(0, |(n, _)| *n),
+        };
+        let mut ctl = lock(&shared.control);
+        ctl.check(Method::ProgramLoad)?;
+        ctl.loaded(info.clone(), Loaded::Laws(Arc::new(laws)));
+        Ok((info, duration_s))
+    }
+}
+
+/// The law program in `source`, if it is one (see [`law_run::parse_law_program`]).
+fn law_program_of(source: &ProgramSource) -> Result<Option<(String, LawProgram)>, MotionError> {
+    let (name, text) = match source {
+        ProgramSource::Text { name, text } => (name.clone(), Cow::Borrowed(text.as_str())),
+        ProgramSource::File(p) => match std::fs::read_to_string(p) {
+            Ok(t) => (p.display().to_string(), Cow::Owned(t)),
+            // Unreadable or not text: the program reader reports it.
+            Err(_) => return Ok(None),
+        },
+    };
+    let laws = law_run::parse_law_program(&text, &name).map_err(MotionError::BadProgram)?;
+    Ok(laws.map(|l| (name, l)))
+}

@@ -1,0 +1,269 @@
+//! The running service: the threads behind `interpd run` and the state machine the control
+//! API drives.
+//!
+//! - the real-time thread ([`rt_loop`]) runs the executor ([`crate::interp`]) every cycle and
+//!   publishes the setpoints to the sinks;
+//! - the planner thread ([`feeder`]) plans ahead and keeps the chunk queue filled;
+//! - the supervisor thread ([`supervisor`]) turns the executor's notices into state changes and
+//!   events, and the timing samples into histograms;
+//! - [`ServiceCore`] implements [`crate::control::Motion`] ([`commands`], [`load`]): the
+//!   control server's calls become atomic flags the real-time thread reads (hold, stop) and
+//!   commands to the planner thread, checked against the state machine in [`state`].
+//!
+//! The contract between the planner thread and the real-time thread is in [`crate::interp`];
+//! docs/architecture.md draws the threads and queues.
+
+pub mod approach;
+mod commands;
+pub mod feeder;
+pub mod law_run;
+pub mod live;
+mod load;
+mod rt_loop;
+mod state;
+mod supervisor;
+
+use crate::interp::Notice;
+use crate::interp::executor::ExecutorFaults;
+use crate::rt::{self, LoopTotals, TimingSample, sched::SchedReport, stats::CycleHistograms};
+use crate::sinks::deferred::{self, DeferredStats, DeferredWorker};
+use crate::sinks::{DriveMonitor, SetpointSink, shm::ShmSink};
+use crossbeam::channel::{self, Sender};
+use crossbeam::queue::ArrayQueue;
+use feeder::{Feeder, FeederCommand, FeederStats, Queues};
+use interpd_config::Config;
+use interpd_motion::Settings;
+use interpd_motion::path::MAX_AXES;
+use interpd_protocol::api::Event;
+use live::LiveSetpoint;
+use state::Control;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::thread::JoinHandle;
+
+/// Capacity of the notice and timing queues out of the real-time thread.
+const NOTICE_CAPACITY: usize = 1024;
+const TIMING_CAPACITY: usize = 8192;
+/// Events buffered per subscriber before events are dropped for it.
+const SUBSCRIBER_CAPACITY: usize = 1024;
+
+/// How the service is set up.
+#[derive(Debug, Clone)]
+pub struct ServiceOptions {
+    pub config: Config,
+    /// Publish on iceoryx2 (`[sinks] shm`).
+    pub shm: bool,
+}
+
+/// What the caller sets up besides the configured sinks (the CAN master): more sinks for the
+/// real-time thread, the drives to ask before motion and to watch for faults, and the position
+/// the machine stands at (the drives' actual positions) instead of the origin.
+#[derive(Default)]
+pub struct ServiceExtras {
+    pub sinks: Vec<Box<dyn SetpointSink + Send>>,
+    pub drives: Option<Arc<dyn DriveMonitor>>,
+    pub start_position: Option<[f64; MAX_AXES]>,
+}
+
+/// Why the service could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum StartupError {
+    #[error("{0}")]
+    Sink(#[from] crate::sinks::SinkError),
+    #[error("cannot start the {what} thread: {source}")]
+    Thread {
+        what: &'static str,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("cannot start the real-time thread: exited during start-up")]
+    RealTimeExited,
+}
+
+/// What the service did, reported at shutdown.
+#[derive(Debug, Clone)]
+pub struct ShutdownReport {
+    pub sched: SchedReport,
+    pub totals: LoopTotals,
+    pub histograms: CycleHistograms,
+    pub feeder: FeederStats,
+    pub publish_errors: u64,
+    pub executor_faults: ExecutorFaults,
+    /// Per deferred publisher (shared memory): published, dropped, failed.
+    pub publishers: Vec<DeferredStats>,
+}
+
+/// What the threads of the service share.
+struct Shared {
+    config: Config,
+    /// The motion sections of `config`, as the motion library takes them.
+    settings: Settings,
+    /// Requests the real-time thread reads every cycle.
+    hold: AtomicBool,
+    stop: AtomicBool,
+    quit: AtomicBool,
+    live: LiveSetpoint,
+    control: Mutex<Control>,
+    feeder: Sender<FeederCommand>,
+    subscribers: Mutex<Vec<Sender<Event>>>,
+    histograms: Mutex<CycleHistograms>,
+    queues: Queues,
+    notices: ArrayQueue<Notice>,
+    timing: ArrayQueue<TimingSample>,
+    publish_errors: AtomicU64,
+    drives: Option<Arc<dyn DriveMonitor>>,
+}
+
+impl Shared {
+    /// Sends `event` to every subscriber without waiting: a full subscriber misses it, a gone
+    /// one is forgotten.
+    fn emit(&self, event: Event) {
+        let mut subs = lock(&self.subscribers);
+        subs.retain(|s| !matches!(s.try_send(event.clone()), Err(channel::TrySendError::Disconnected(_))));
+    }
+}
+
+/// The service as the control API sees it (cheap to clone).
+#[derive(Clone)]
+pub struct ServiceCore {
+    shared: Arc<Shared>,
+}
+
+/// The running service: the core and its threads.
+pub struct Service {
+    core: ServiceCore,
+    sched: SchedReport,
+    rt: Option<JoinHandle<(LoopTotals, ExecutorFaults)>>,
+    publishers: Vec<DeferredWorker>,
+    feeder: Option<JoinHandle<FeederStats>>,
+    supervisor: Option<JoinHandle<()>>,
+}
+
+/// A poisoned lock only means another thread panicked while holding it; the state behind it
+/// is updated in single assignments and stays consistent, so carry on.
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+impl Service {
+    /// Starts the real-time, planner and supervisor threads. Side effect: the calling thread
+    /// and the threads it starts afterwards are kept off the real-time CPU
+    /// ([`rt::sched::keep_off_rt_cpu`]).
+    pub fn start(opts: ServiceOptions) -> Result<Service, StartupError> {
+        Self::start_with(opts, ServiceExtras::default())
+    }
+
+    /// [`Service::start`] with extra sinks and drives (see [`ServiceExtras`]).
+    pub fn start_with(opts: ServiceOptions, extras: ServiceExtras) -> Result<Service, StartupError> {
+        let ServiceExtras { sinks: extra_sinks, drives, start_position } = extras;
+        // Before any thread starts: they all inherit it; the real-time thread pins itself.
+        match rt::sched::keep_off_rt_cpu(&opts.config.rt) {
+            Ok(cpu) => tracing::info!(cpu, "non-real-time threads kept off the real-time CPU"),
+            Err(why) => tracing::info!("non-real-time threads share the real-time CPU: {why}"),
+        }
+        let (feeder_tx, feeder_rx) = channel::unbounded();
+        let (report_tx, report_rx) = channel::unbounded();
+        let queues = Queues::new();
+        let shared = Arc::new(Shared {
+            config: opts.config.clone(),
+            settings: Settings::from_config(&opts.config),
+            hold: AtomicBool::new(false),
+            stop: AtomicBool::new(false),
+            quit: AtomicBool::new(false),
+            live: LiveSetpoint::default(),
+            control: Mutex::new(Control::new()),
+            feeder: feeder_tx,
+            subscribers: Mutex::new(Vec::new()),
+            histograms: Mutex::new(CycleHistograms::new()),
+            queues: queues.clone(),
+            notices: ArrayQueue::new(NOTICE_CAPACITY),
+            timing: ArrayQueue::new(TIMING_CAPACITY),
+            publish_errors: AtomicU64::new(0),
+            drives,
+        });
+        let thread_err = |what: &'static str| move |source| StartupError::Thread { what, source };
+
+        let feeder = Feeder::new(&opts.config, queues, report_tx);
+        let planner_nice = opts.config.rt.planner_nice;
+        let feeder = std::thread::Builder::new()
+            .name("interpd-planner".into())
+            .spawn(move || {
+                match rt::sched::set_thread_nice(planner_nice) {
+                    Ok(()) => tracing::info!(nice = planner_nice, "planner thread scheduled"),
+                    Err(why) => tracing::info!("planner thread at the default nice value: {why}"),
+                }
+                feeder.run(feeder_rx)
+            })
+            .map_err(thread_err("planner"))?;
+
+        // Sinks: iceoryx2 publishes from a thread of its own (its loan allocates).
+        let mut sinks: Vec<Box<dyn SetpointSink + Send>> = Vec::new();
+        let mut publishers = Vec::new();
+        if opts.shm {
+            let prefix = opts.config.sinks.shm_prefix.clone();
+            let priority = (opts.config.rt.priority - 1).max(0);
+            let (sink, worker) = deferred::spawn("shm", priority, move || ShmSink::create(&prefix))?;
+            sinks.push(Box::new(sink));
+            publishers.push(worker);
+        }
+        // The caller's sinks (the CAN master's) publish in the cycle itself: they neither
+        // allocate nor block.
+        sinks.extend(extra_sinks);
+        let (ready_tx, ready_rx) = channel::bounded(1);
+        let rt_shared = shared.clone();
+        let rt = std::thread::Builder::new()
+            .name("interpd-rt".into())
+            .spawn(move || rt_loop::run(rt_shared, sinks, start_position, ready_tx))
+            .map_err(thread_err("real-time"))?;
+        let Ok(sched) = ready_rx.recv() else { return Err(StartupError::RealTimeExited) };
+
+        let sup_shared = shared.clone();
+        let supervisor = std::thread::Builder::new()
+            .name("interpd-supervisor".into())
+            .spawn(move || supervisor::run(sup_shared, report_rx))
+            .map_err(thread_err("supervisor"))?;
+        Ok(Service {
+            core: ServiceCore { shared },
+            sched,
+            rt: Some(rt),
+            publishers,
+            feeder: Some(feeder),
+            supervisor: Some(supervisor),
+        })
+    }
+
+    pub fn core(&self) -> ServiceCore {
+        self.core.clone()
+    }
+
+    /// What the real-time set-up achieved.
+    pub fn sched(&self) -> &SchedReport {
+        &self.sched
+    }
+
+    /// Stops the threads (call after the motion came to rest) and reports.
+    pub fn shutdown(mut self) -> ShutdownReport {
+        let shared = &self.core.shared;
+        shared.quit.store(true, Ordering::SeqCst);
+        let _ = shared.feeder.send(FeederCommand::Shutdown);
+        let (totals, executor_faults) = self.rt.take().and_then(|h| h.join().ok()).unwrap_or_default();
+        let feeder = self.feeder.take().and_then(|h| h.join().ok()).unwrap_or_default();
+        if let Some(h) = self.supervisor.take() {
+            let _ = h.join();
+        }
+        supervisor::drain_timing(shared);
+        let publishers = self.publishers.drain(..).map(DeferredWorker::stop).collect();
+        ShutdownReport {
+            sched: self.sched.clone(),
+            totals,
+            histograms: lock(&shared.histograms).clone(),
+            feeder,
+            publish_errors: shared.publish_errors.load(Ordering::Relaxed),
+            executor_faults,
+            publishers,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

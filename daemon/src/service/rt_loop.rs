@@ -1,0 +1,70 @@
+//! The real-time thread: its scheduling, then the loop over the executor and the sinks.
+//!
+//! The body of the cycle (the closure given to [`rt::run_loop`]) runs under the real-time
+//! contract of [`crate::interp`]: it reads two atomic flags, steps the executor, hands the
+//! setpoint to each sink and stores it for `status`. It never allocates, locks, blocks or logs
+//! (daemon/tests/rt_no_alloc.rs proves the allocation part).
+
+use super::Shared;
+use crate::interp::executor::ExecutorFaults;
+use crate::interp::{Executor, Io};
+use crate::rt::{self, LoopTotals, sched::SchedReport};
+use crate::sinks::SetpointSink;
+use crossbeam::channel::Sender;
+use interpd_motion::path::MAX_AXES;
+use interpd_protocol::shm::{Setpoints, flags};
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+
+/// Delay from start-up to the first cycle (lets the threads settle).
+const FIRST_CYCLE_DELAY_NS: u64 = 20_000_000;
+
+/// Publish errors are copied to the shared counter this often (cycles), so the cycle touches
+/// the shared cache line rarely.
+const PUBLISH_ERRORS_EVERY: u64 = 256;
+
+/// The thread's body: applies the real-time scheduling, reports it on `ready`, then runs the
+/// cycles until `shared.quit`.
+pub(super) fn run(
+    shared: Arc<Shared>,
+    mut sinks: Vec<Box<dyn SetpointSink + Send>>,
+    start_position: Option<[f64; MAX_AXES]>,
+    ready: Sender<SchedReport>,
+) -> (LoopTotals, ExecutorFaults) {
+    let sched = rt::sched::apply(&shared.config.rt);
+    let _ = ready.send(sched);
+    let n_axes = shared.config.axes.len();
+    let mut executor = Executor::new(n_axes, start_position.unwrap_or([0.0; MAX_AXES]));
+    let mut sp = Setpoints { n_axes: n_axes as u32, ..Setpoints::default() };
+    let period_ns = (shared.config.machine.cycle_ms * 1e6).round() as u64;
+    let dt_s = period_ns as f64 * 1e-9;
+    let start_ns = rt::clock::now_ns() + FIRST_CYCLE_DELAY_NS;
+    let mut publish_errors = 0u64;
+    let totals = rt::run_loop(start_ns, period_ns, &shared.quit, &shared.timing, |cycle, deadline_ns, late| {
+        let io = Io {
+            chunks: &shared.queues.chunks,
+            recycle: &shared.queues.recycle,
+            notices: &shared.notices,
+            hold: shared.hold.load(Ordering::Relaxed),
+            stop: shared.stop.load(Ordering::Relaxed),
+        };
+        executor.step(cycle, dt_s, &io, &mut sp);
+        sp.cycle = cycle;
+        sp.time_ns = deadline_ns;
+        if late {
+            sp.flags |= flags::LATE;
+        }
+        for sink in sinks.iter_mut() {
+            if sink.publish(&sp).is_err() {
+                publish_errors += 1;
+            }
+        }
+        shared.live.store(&sp);
+        if publish_errors > 0 && cycle % PUBLISH_ERRORS_EVERY == 0 {
+            shared.publish_errors.store(publish_errors, Ordering::Relaxed);
+        }
+        true
+    });
+    shared.publish_errors.store(publish_errors, Ordering::Relaxed);
+    (totals, executor.faults)
+}

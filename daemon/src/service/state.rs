@@ -1,0 +1,115 @@
+//! The control-side state machine: which command is allowed in which state, what the loaded
+//! program is, and the bookkeeping of a run (its epochs, the start event, the underrun flag).
+//!
+//! | state    | program.load | motion.start     | motion.hold | motion.resume | motion.stop |
+//! |----------|--------------|------------------|-------------|---------------|-------------|
+//! | idle     | idle         | running¹ ²       | refused     | refused       | no-op       |
+//! | running  | refused      | refused          | holding     | refused       | stopping    |
+//! | holding  | refused      | refused          | refused     | running³      | stopping    |
+//! | stopping | refused      | refused          | refused     | refused       | no-op       |
+//! | finished | idle         | running¹         | refused     | refused       | no-op       |
+//! | error    | refused      | refused          | refused     | refused       | stopping    |
+//!
+//! ¹ holding instead while the feed override is 0 %; ² with a program loaded; ³ not while the
+//! override is 0 %. `motion.law` is a load and a start in one. `feed.override` is allowed in
+//! every state; setting 0 % while running holds, raising it again resumes that hold.
+//!
+//! The threads move the state on their own: running or holding becomes finished at the end of
+//! the program, stopping becomes idle when the machine stands, a planning failure becomes
+//! error, and a drive fault while moving stops the machine like `motion.stop` with the fault as
+//! `last_error`.
+//!
+//! Only the rules and the bookkeeping are here; the calls that carry the transitions out are
+//! in [`super::commands`] (the control server's) and [`super::supervisor`] (the executor's
+//! notices).
+
+use super::law_run::LawProgram;
+use crate::control::MotionError;
+use crate::interp::Epochs;
+use interpd_motion::path::Path;
+use interpd_protocol::api::{Method, ProgramInfo, State};
+use std::sync::Arc;
+
+/// Override factors below this act as a feed hold (0 % feed).
+pub const OVERRIDE_HOLD_BELOW: f64 = 1e-3;
+
+/// A loaded program: a path to plan, or motion-law moves (made from where the machine stands
+/// when it starts).
+#[derive(Clone)]
+pub(super) enum Loaded {
+    Path(Arc<Path>),
+    Laws(Arc<LawProgram>),
+}
+
+/// The control-side state, behind one mutex.
+pub(super) struct Control {
+    pub state: State,
+    pub program: Option<(ProgramInfo, Loaded)>,
+    /// The factor last set with `feed.override`; below [`OVERRIDE_HOLD_BELOW`] it holds.
+    pub feed_override: f64,
+    /// The current hold comes from a 0 % override (raising the override resumes it).
+    pub held_by_override: bool,
+    pub last_error: Option<String>,
+    pub epochs: Epochs,
+    /// `started` is emitted at the first motion of a run, not after a restart.
+    pub start_event_pending: bool,
+    /// An underrun is in progress (`underrun_cleared` follows when motion resumes).
+    pub underrun: bool,
+    /// The cycle the run started in, for the duration in `finished`.
+    pub start_cycle: u64,
+}
+
+impl Control {
+    pub fn new() -> Control {
+        Control {
+            state: State::Idle,
+            program: None,
+            feed_override: 1.0,
+            held_by_override: false,
+            last_error: None,
+            epochs: Epochs::default(),
+            start_event_pending: false,
+            underrun: false,
+            start_cycle: 0,
+        }
+    }
+
+    /// Whether `action` is allowed now: a program is loaded only while nothing moves, a
+    /// start needs a loaded program, a hold a running motion, a resume a held one. The other
+    /// commands are allowed in every state.
+    pub fn check(&self, action: Method) -> Result<(), MotionError> {
+        let at_rest = matches!(self.state, State::Idle | State::Finished);
+        let allowed = match action {
+            Method::ProgramLoad => at_rest,
+            Method::MotionStart => at_rest && self.program.is_some(),
+            Method::MotionHold => self.state == State::Running,
+            Method::MotionResume => self.state == State::Holding,
+            _ => true,
+        };
+        if allowed { Ok(()) } else { Err(MotionError::NotAllowed { state: self.state, action: action.name() }) }
+    }
+
+    /// `program.load` succeeded: `program` replaces the loaded one.
+    pub fn loaded(&mut self, info: ProgramInfo, program: Loaded) {
+        self.program = Some((info, program));
+        self.state = State::Idle;
+        self.last_error = None;
+    }
+
+    /// A run begins (the start is checked): running, or holding if the override is at 0 %.
+    /// Returns the run's epoch.
+    pub fn begin_run(&mut self) -> crate::interp::Epoch {
+        let epoch = self.epochs.start();
+        self.state = if self.held_by_override { State::Holding } else { State::Running };
+        self.start_event_pending = true;
+        self.underrun = false;
+        self.last_error = None;
+        epoch
+    }
+
+    /// The factor a run is planned with: the override, or 100 % while it holds at 0 % (the
+    /// hold flag keeps the machine at rest until the override is raised).
+    pub fn planned_override(&self) -> f64 {
+        if self.feed_override < OVERRIDE_HOLD_BELOW { 1.0 } else { self.feed_override }
+    }
+}

@@ -1,0 +1,159 @@
+//! The supervisor thread: what the real-time and planner threads report becomes state changes
+//! and events, timing samples become histograms, drive faults stop the machine.
+//!
+//! It polls rather than blocks: the real-time thread reports through lock-free queues it
+//! cannot wake anyone on.
+
+use super::feeder::{FeederCommand, FeederReport};
+use super::{Shared, lock};
+use crate::interp::{DivertCause, Notice};
+use crossbeam::channel::Receiver;
+use interpd_protocol::api::{Event, State};
+use interpd_protocol::shm::flags;
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::time::Duration;
+
+/// Poll period: events and state changes lag the motion by at most this.
+const PERIOD: Duration = Duration::from_millis(2);
+
+/// The thread's body, until `shared.quit`.
+pub(super) fn run(shared: Arc<Shared>, reports: Receiver<FeederReport>) {
+    while !shared.quit.load(Ordering::SeqCst) {
+        while let Some(n) = shared.notices.pop() {
+            on_notice(&shared, n);
+        }
+        while let Ok(r) = reports.try_recv() {
+            on_report(&shared, r);
+        }
+        drain_timing(&shared);
+        check_drives(&shared);
+        finish_stop_if_standing(&shared);
+        std::thread::sleep(PERIOD);
+    }
+}
+
+/// Moves the queued timing samples into the histograms.
+pub(super) fn drain_timing(shared: &Shared) {
+    let mut h = lock(&shared.histograms);
+    while let Some(s) = shared.timing.pop() {
+        h.record(&s);
+    }
+}
+
+fn on_notice(shared: &Shared, n: Notice) {
+    let mut ctl = lock(&shared.control);
+    match n {
+        Notice::Started { epoch, cycle } => {
+            ctl.epochs.saw(epoch);
+            if ctl.start_event_pending {
+                ctl.start_event_pending = false;
+                ctl.start_cycle = cycle;
+                drop(ctl);
+                shared.emit(Event::Started);
+            } else if ctl.underrun {
+                ctl.underrun = false;
+                drop(ctl);
+                shared.emit(Event::UnderrunCleared);
+            }
+        }
+        Notice::Diverted { epoch, cause, .. } => {
+            ctl.epochs.saw(epoch);
+            let _ = shared.feeder.send(FeederCommand::Diverted { epoch, cause });
+            if cause == DivertCause::Underrun {
+                ctl.underrun = true;
+                drop(ctl);
+                tracing::warn!("underrun: the planner did not keep up; stopping along the path");
+                shared.emit(Event::Underrun { s_mm: shared.live.load().s_mm });
+            }
+        }
+        Notice::Stood { epoch, cause, s_mm, .. } => {
+            ctl.epochs.saw(epoch);
+            let _ = shared.feeder.send(FeederCommand::Stood { epoch, cause, s_mm });
+            if ctl.state == State::Stopping {
+                drop(ctl);
+                complete_stop(shared);
+            } else if cause == DivertCause::Hold && ctl.state == State::Holding {
+                drop(ctl);
+                shared.emit(Event::Held);
+            }
+        }
+        Notice::Finished { epoch, cycle, .. } => {
+            ctl.epochs.saw(epoch);
+            if ctl.state == State::Stopping {
+                drop(ctl);
+                complete_stop(shared);
+                return;
+            }
+            ctl.state = State::Finished;
+            let duration_s = (cycle - ctl.start_cycle) as f64 * shared.config.cycle_s();
+            drop(ctl);
+            shared.emit(Event::Finished { duration_s });
+        }
+        Notice::Line { line, .. } => {
+            drop(ctl);
+            shared.emit(Event::LineReached { line });
+        }
+    }
+}
+
+fn on_report(shared: &Shared, r: FeederReport) {
+    match r {
+        FeederReport::Error(message) => {
+            let mut ctl = lock(&shared.control);
+            ctl.state = State::Error;
+            ctl.last_error = Some(message.clone());
+            drop(ctl);
+            shared.emit(Event::Error { message });
+        }
+        FeederReport::Complete { .. } => {}
+    }
+}
+
+/// A drive fault (reported by the drive monitor) while the machine moves: a controlled stop
+/// along the path, the fault as `last_error` and an error event. At rest it is only logged
+/// (motion.start refuses until the drives are ready again).
+fn check_drives(shared: &Shared) {
+    let Some(drives) = &shared.drives else { return };
+    while let Some(message) = drives.take_fault() {
+        let mut ctl = lock(&shared.control);
+        if !matches!(ctl.state, State::Running | State::Holding) {
+            continue;
+        }
+        shared.stop.store(true, Ordering::SeqCst);
+        ctl.state = State::Stopping;
+        ctl.last_error = Some(message.clone());
+        let _ = shared.feeder.send(FeederCommand::Abort);
+        drop(ctl);
+        tracing::error!("drive fault during motion: {message}; stopping");
+        shared.emit(Event::Error { message });
+    }
+}
+
+/// A stop requested while the machine already stood (held, or after an underrun) completes
+/// without a tail.
+fn finish_stop_if_standing(shared: &Shared) {
+    let stopping = lock(&shared.control).state == State::Stopping;
+    if stopping && shared.live.load().flags & flags::IDLE != 0 {
+        complete_stop(shared);
+    }
+}
+
+/// The machine stands after a stop: drop what is queued, clear the requests, go idle.
+fn complete_stop(shared: &Shared) {
+    let _ = shared.feeder.send(FeederCommand::Abort);
+    // The executor takes no chunk while the stop flag is set: empty the queue first.
+    while let Some(c) = shared.queues.chunks.pop() {
+        let _ = shared.queues.recycle.push(c);
+    }
+    let mut ctl = lock(&shared.control);
+    if ctl.state != State::Stopping {
+        return;
+    }
+    ctl.state = State::Idle;
+    ctl.held_by_override = false;
+    shared.hold.store(false, Ordering::SeqCst);
+    shared.stop.store(false, Ordering::SeqCst);
+    drop(ctl);
+    shared.emit(Event::Stopped);
+}

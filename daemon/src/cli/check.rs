@@ -15,7 +15,7 @@ pub fn run(program_path: &Path, machine: Option<&Path>) -> Result<(), CliError> 
     let t0 = Instant::now();
     if let Ok(text) = std::fs::read_to_string(program_path) {
         let name = program_path.display().to_string();
-        if let Some(laws) = parse_law_program(&text, &name).map_err(CliError::BadInput)? {
+        if let Some(laws) = parse_law_program(&text, &name).map_err(|e| CliError::BadInput(e.to_string()))? {
             return check_laws(&settings, &laws, &name, t0);
         }
     }
@@ -49,7 +49,7 @@ pub fn run(program_path: &Path, machine: Option<&Path>) -> Result<(), CliError> 
 /// the machine origin (the daemon checks again from where the machine stands).
 fn check_laws(settings: &Settings, laws: &LawProgram, name: &str, t0: Instant) -> Result<(), CliError> {
     let here = [0.0; interpd_motion::path::MAX_AXES];
-    let moves = laws.moves(settings, &here, name).map_err(CliError::BadInput)?;
+    let moves = laws.moves(settings, &here, name).map_err(|e| CliError::BadInput(e.to_string()))?;
     let duration_s: f64 = moves.iter().map(|m| m.duration_s()).sum();
     let line = format!(
         "{name}: ok: {} law moves, {duration_s:.3} s of motion from the origin, axes {}, checked in {:.1} ms",

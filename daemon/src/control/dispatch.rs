@@ -1,8 +1,10 @@
 //! From one received line to the line sent back: the JSON-RPC rules (parse errors, invalid
-//! requests, notifications, batches) and the calls into [`Motion`].
+//! requests, notifications, batches), the calls into [`Motion`], and the error codes of its
+//! refusals.
 
+use super::errors::{LawError, LoadError, NotAllowed, ResumeError, StartError};
 use super::motion::{Motion, ProgramSource};
-use interpd_protocol::api::{self, Ack, Call, Event, LoadParams, OverrideResult, Subscribed};
+use interpd_protocol::api::{self, Ack, Call, Event, LoadParams, OverrideResult, Subscribed, codes};
 use interpd_protocol::jsonrpc::{self, ErrorObject, Id, Incoming, Invalid, Request, Response};
 use serde::Serialize;
 use serde_json::Value;
@@ -145,14 +147,17 @@ impl Context {
             }
             Call::MotionHold => motion.hold().map_err(ErrorObject::from).and_then(|()| to_value(&Ack::default())),
             Call::MotionResume => motion.resume().map_err(ErrorObject::from).and_then(|()| to_value(&Ack::default())),
-            Call::MotionStop => motion.stop().map_err(ErrorObject::from).and_then(|()| to_value(&Ack::default())),
+            Call::MotionStop => {
+                let Ok(()) = motion.stop();
+                to_value(&Ack::default())
+            }
             Call::MotionLaw(p) => {
-                let info = motion.law(&p.statement)?;
+                let figures = motion.law(&p.statement)?;
                 *self.start_owner.lock().unwrap_or_else(|p| p.into_inner()) = Some(session.id);
-                Ok(info)
+                to_value(&figures)
             }
             Call::FeedOverride(p) => {
-                motion.set_override(p.factor)?;
+                let Ok(()) = motion.set_override(p.factor);
                 tracing::info!(conn = session.id, factor = p.factor, "feed override");
                 to_value(&OverrideResult { factor: p.factor })
             }
@@ -183,5 +188,138 @@ fn excerpt(s: &str) -> &str {
     match s.char_indices().nth(64) {
         Some((i, _)) => &s[..i],
         None => s,
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Refusals on the wire: the code of each error; its `Display` is the message
+// ---------------------------------------------------------------------------------------------
+
+/// −32002 with `data` holding `state` and `action`.
+impl From<NotAllowed> for ErrorObject {
+    fn from(e: NotAllowed) -> ErrorObject {
+        ErrorObject::new(codes::NOT_ALLOWED, e.to_string())
+            .with_data(serde_json::json!({ "state": e.state, "action": e.action }))
+    }
+}
+
+impl From<LoadError> for ErrorObject {
+    fn from(e: LoadError) -> ErrorObject {
+        match e {
+            LoadError::NotAllowed(e) => e.into(),
+            LoadError::Program(_) | LoadError::Laws(_) | LoadError::Prep { .. } => {
+                ErrorObject::new(codes::BAD_PROGRAM, e.to_string())
+            }
+        }
+    }
+}
+
+impl From<StartError> for ErrorObject {
+    fn from(e: StartError) -> ErrorObject {
+        let code = match e {
+            StartError::NotAllowed(e) => return e.into(),
+            StartError::DrivesNotReady(_) => codes::DRIVES_NOT_READY,
+            StartError::Laws(_) => codes::BAD_PROGRAM,
+            StartError::PlannerGone => codes::INTERNAL_ERROR,
+        };
+        ErrorObject::new(code, e.to_string())
+    }
+}
+
+impl From<ResumeError> for ErrorObject {
+    fn from(e: ResumeError) -> ErrorObject {
+        match e {
+            ResumeError::NotAllowed(e) => e.into(),
+            ResumeError::OverrideZero => ErrorObject::new(codes::INVALID_PARAMS, e.to_string()),
+        }
+    }
+}
+
+impl From<LawError> for ErrorObject {
+    fn from(e: LawError) -> ErrorObject {
+        let code = match e {
+            LawError::Load(e) => return e.into(),
+            LawError::Start(e) => return e.into(),
+            LawError::NotAStatement { .. } | LawError::Unsupported => codes::INVALID_PARAMS,
+            LawError::Laws(_) => codes::BAD_PROGRAM,
+        };
+        ErrorObject::new(code, e.to_string())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::control::errors::hint;
+    use crate::service::law_run::LawProgramError;
+    use crate::sinks::{DriveNotReady, DrivesNotReady, NotReady};
+    use interpd_motion::program::{ProgramError, ProgramErrors};
+    use interpd_protocol::api::{Method, State};
+
+    #[test]
+    fn error_codes_and_messages() {
+        let e = NotAllowed { state: State::Idle, action: Method::MotionResume };
+        assert_eq!(
+            e.to_string(),
+            "motion.resume is not allowed while idle: load a program and call motion.start first"
+        );
+        let o = ErrorObject::from(e);
+        assert_eq!(o.code, codes::NOT_ALLOWED);
+        assert_eq!(o.data, Some(serde_json::json!({"state": "idle", "action": "motion.resume"})));
+        let program = |message: &str| {
+            LoadError::Program(ProgramErrors(vec![ProgramError {
+                file: "a.ngc".into(),
+                line: 2,
+                col: 8,
+                message: message.into(),
+            }]))
+        };
+        assert_eq!(ErrorObject::from(program("word 'Y' has no number")).code, codes::BAD_PROGRAM);
+        let o = ErrorObject::from(program("x"));
+        assert_eq!((o.code, o.message.as_str(), o.data), (codes::BAD_PROGRAM, "bad program: a.ngc:2:8: x", None));
+        assert_eq!(ErrorObject::from(ResumeError::OverrideZero).code, codes::INVALID_PARAMS);
+        assert_eq!(ErrorObject::from(LawError::Unsupported).code, codes::INVALID_PARAMS);
+        let o = ErrorObject::from(StartError::PlannerGone);
+        assert_eq!(
+            (o.code, o.message.as_str()),
+            (codes::INTERNAL_ERROR, "internal error: the planner thread has ended")
+        );
+        // Refusals nested in motion.law keep their own codes.
+        let nested =
+            LawError::Start(StartError::NotAllowed(NotAllowed { state: State::Running, action: Method::MotionStart }));
+        assert_eq!(ErrorObject::from(nested).code, codes::NOT_ALLOWED);
+        let laws = LawProgramError::Mixed { file: "l.ngc".into(), line: 3, text: "G1 X1".into() };
+        let o = ErrorObject::from(LoadError::Laws(laws));
+        assert_eq!(o.code, codes::BAD_PROGRAM);
+        assert!(
+            o.message.starts_with("bad program: l.ngc:3: \"G1 X1\" in a program of LAW statements"),
+            "{}",
+            o.message
+        );
+    }
+
+    #[test]
+    fn drives_not_ready_names_each_drive() {
+        let e = StartError::DrivesNotReady(DrivesNotReady {
+            drives: vec![DriveNotReady { axis: "Y".into(), node: 2, reason: NotReady::HeartbeatLost }],
+            silent_interface: Some("vcan0".into()),
+        });
+        let o = ErrorObject::from(e);
+        assert_eq!(o.code, codes::DRIVES_NOT_READY);
+        assert_eq!(
+            o.message,
+            "CAN drives not ready for motion: drive Y (node 2) has lost its heartbeat; CAN interface vcan0 does not \
+             receive (down?); the master enables drives at standstill once they answer (see status.drives)"
+        );
+    }
+
+    #[test]
+    fn every_refusal_has_a_hint() {
+        for m in Method::ALL {
+            for s in State::ALL {
+                assert!(!hint(m, s).is_empty());
+            }
+        }
+        assert!(hint(Method::MotionStart, State::Idle).contains("program.load"));
     }
 }

@@ -1,9 +1,11 @@
-//! The control API: JSON-RPC 2.0, one message per line, on a Unix socket (DESIGN.md "Control
-//! API"; reference with examples in docs/control-api.md).
+//! The control API: JSON-RPC 2.0, one message per line, on a Unix socket (reference with
+//! examples in docs/control-api.md).
 //!
-//! - [`motion`]: the [`Motion`] trait the motion core implements, and its errors.
-//! - [`server`]: [`ControlServer`], the socket, its clients and their threads.
-//! - `dispatch`: one received line to one answer (JSON-RPC rules, calls into [`Motion`]).
+//! - [`motion`]: the [`Motion`] trait the service implements;
+//! - [`errors`]: why it refuses a command, one error type per operation;
+//! - [`server`]: [`ControlServer`], the socket, its clients and their threads;
+//! - `dispatch`: one received line to one answer (JSON-RPC rules, calls into [`Motion`], error
+//!   codes);
 //! - `framing`: lines out of a byte stream, never more than 1 MiB.
 //!
 //! The message types themselves are in [`interpd_protocol::jsonrpc`] (the envelope) and
@@ -24,9 +26,11 @@
 //! ```
 
 mod dispatch;
+pub mod errors;
 mod framing;
 pub mod motion;
 pub mod server;
 
-pub use motion::{Motion, MotionError, ProgramSource};
+pub use errors::{LawError, LoadError, NotAllowed, ResumeError, StartError};
+pub use motion::{Motion, ProgramSource};
 pub use server::{ControlServer, ControlServerBuilder, ServerError, ServerStats};

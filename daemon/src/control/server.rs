@@ -666,7 +666,5 @@ fn after_disconnect(inner: &Inner, id: u64) {
         return;
     }
     tracing::warn!(conn = id, %state, "the client that started the motion disconnected; stopping (stop_on_disconnect)");
-    if let Err(e) = inner.ctx.motion.stop() {
-        tracing::error!(conn = id, error = %e, "stop after disconnect refused");
-    }
+    let Ok(()) = inner.ctx.motion.stop();
 }

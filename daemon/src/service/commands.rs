@@ -8,10 +8,11 @@ use super::feeder::{self, FeederCommand, QUEUE_CHUNKS};
 use super::law_run;
 use super::state::{Control, Loaded, OVERRIDE_HOLD_BELOW};
 use super::{SUBSCRIBER_CAPACITY, ServiceCore, lock};
-use crate::control::{Motion, MotionError, ProgramSource};
+use crate::control::{LawError, LoadError, Motion, NotAllowed, ProgramSource, ResumeError, StartError};
 use crossbeam::channel::{self, Receiver};
-use interpd_protocol::api::{Event, Method, ProgramInfo, State, Status};
+use interpd_protocol::api::{Event, LawResult, Method, ProgramInfo, State, Status};
 use interpd_protocol::shm::flags;
+use std::convert::Infallible;
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
@@ -54,42 +55,37 @@ impl ServiceCore {
 }
 
 impl Motion for ServiceCore {
-    fn load(&self, source: ProgramSource) -> Result<ProgramInfo, MotionError> {
+    fn load(&self, source: ProgramSource) -> Result<ProgramInfo, LoadError> {
         self.load_program(source)
     }
 
-    fn law(&self, statement: &str) -> Result<serde_json::Value, MotionError> {
-        if statement.contains('\n') || !interpd_motion::law::program::is_law_statement(statement) {
-            return Err(MotionError::InvalidParams(format!(
-                "\"statement\" must be one LAW statement, e.g. \"LAW PRESET=rr7 DURATION=0.8 X=10\"; got {:?}",
-                statement.chars().take(80).collect::<String>()
-            )));
-        }
-        let name = "motion.law";
-        let laws = law_run::parse_law_program(statement, name)
-            .map_err(MotionError::BadProgram)?
-            .ok_or_else(|| MotionError::Internal("a LAW statement did not parse as a law program".into()))?;
-        let (info, duration_s) = self.load_laws(name.to_owned(), laws)?;
+    fn law(&self, statement: &str) -> Result<LawResult, LawError> {
+        // The name the move's errors and `status.program` show.
+        const NAME: &str = "motion.law";
+        let Some(laws) = law_run::LawProgram::statement(statement, NAME) else {
+            return Err(LawError::NotAStatement { got: statement.chars().take(80).collect() });
+        };
+        let (info, duration_s) = self.load_laws(NAME.to_owned(), laws?)?;
         self.start()?;
-        Ok(serde_json::json!({ "duration_s": duration_s, "length_mm": info.length_mm }))
+        Ok(LawResult { duration_s, length_mm: info.length_mm })
     }
 
-    fn start(&self) -> Result<(), MotionError> {
+    fn start(&self) -> Result<(), StartError> {
         let shared = &self.shared;
         let mut ctl = lock(&shared.control);
         ctl.check(Method::MotionStart)?;
         let Some((info, loaded)) = ctl.program.clone() else {
-            return Err(MotionError::NotAllowed { state: ctl.state, action: "motion.start" });
+            return Err(NotAllowed { state: ctl.state, action: Method::MotionStart }.into());
         };
         if let Some(drives) = &shared.drives {
-            drives.ready_for_motion().map_err(MotionError::DrivesNotReady)?;
+            drives.ready_for_motion()?;
         }
         let here = shared.live.load().pos;
         // Law moves are made (and checked against the limits) from where the machine stands.
         let motion = match &loaded {
             Loaded::Path(path) => (approach::with_approach(path, &here, &shared.config), None),
             Loaded::Laws(prog) => {
-                let moves = prog.moves(&shared.settings, &here, &info.name).map_err(MotionError::BadProgram)?;
+                let moves = prog.moves(&shared.settings, &here, &info.name)?;
                 let (path, laws) = law_run::law_path(&shared.settings, moves, here, &prog.lines());
                 (path, Some(Box::new(laws)))
             }
@@ -102,29 +98,27 @@ impl Motion for ServiceCore {
             (path, Some(laws)) => FeederCommand::StartLaws { path: Arc::new(path), laws, epoch, feed_override },
             (path, None) => FeederCommand::Start { path: Arc::new(path), epoch, feed_override },
         };
-        shared.feeder.send(command).map_err(|_| MotionError::Internal("the planner thread has ended".into()))
+        shared.feeder.send(command).map_err(|_| StartError::PlannerGone)
     }
 
-    fn hold(&self) -> Result<(), MotionError> {
+    fn hold(&self) -> Result<(), NotAllowed> {
         let mut ctl = lock(&self.shared.control);
         ctl.check(Method::MotionHold)?;
         self.hold_locked(&mut ctl);
         Ok(())
     }
 
-    fn resume(&self) -> Result<(), MotionError> {
+    fn resume(&self) -> Result<(), ResumeError> {
         let mut ctl = lock(&self.shared.control);
         ctl.check(Method::MotionResume)?;
         if ctl.feed_override < OVERRIDE_HOLD_BELOW {
-            return Err(MotionError::InvalidParams(
-                "the feed override is 0 %: raise it with feed.override to continue".into(),
-            ));
+            return Err(ResumeError::OverrideZero);
         }
         self.resume_locked(&mut ctl);
         Ok(())
     }
 
-    fn stop(&self) -> Result<(), MotionError> {
+    fn stop(&self) -> Result<(), Infallible> {
         let shared = &self.shared;
         let mut ctl = lock(&shared.control);
         match ctl.state {
@@ -144,7 +138,7 @@ impl Motion for ServiceCore {
         Ok(())
     }
 
-    fn set_override(&self, factor: f64) -> Result<(), MotionError> {
+    fn set_override(&self, factor: f64) -> Result<(), Infallible> {
         let mut ctl = lock(&self.shared.control);
         ctl.feed_override = factor;
         if factor < OVERRIDE_HOLD_BELOW {

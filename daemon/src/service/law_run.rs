@@ -10,7 +10,7 @@ use crate::interp::coarse::{CoarsePoint, JERK_TOLERANCE, TOLERANCE_MM};
 use crate::interp::hermite::{self, Kinematic};
 use interpd_config::AxisKind;
 use interpd_motion::Settings;
-use interpd_motion::law::program::{self as law_program, LawBlock, is_law_statement};
+use interpd_motion::law::program::{self as law_program, LawBlock, LawBlockError, is_law_statement};
 use interpd_motion::law::{AxisState, LawMove};
 use interpd_motion::path::{AxisVec, Blend, Feed, Geometry, Line, MAX_AXES, Path, Source};
 use std::collections::VecDeque;
@@ -166,10 +166,29 @@ pub struct LawProgram {
     pub blocks: Vec<(u32, LawBlock)>,
 }
 
+/// What is wrong with a program of `LAW` statements, at its file and line.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LawProgramError {
+    /// A `LAW` statement does not parse. A syntax error carries its column, printed after the
+    /// line (`FILE:LINE:COL: message`).
+    #[error("{file}:{line}:{error}")]
+    Statement { file: String, line: u32, error: LawBlockError },
+    /// A line that is neither a `LAW` statement nor a comment.
+    #[error(
+        "{file}:{line}: {text:?} in a program of LAW statements: only LAW statements and comments may appear \
+         there (law moves and G-code do not mix in one program)"
+    )]
+    Mixed { file: String, line: u32, text: String },
+    /// A statement whose move cannot be made from where the previous one ends: a limit it
+    /// breaks, an axis the machine lacks.
+    #[error("{file}:{line}: {error}")]
+    Move { file: String, line: u32, error: LawBlockError },
+}
+
 /// `Some` when `text` is a law program (it has a `LAW` statement), checked: every other line
 /// must be blank or a comment (`;`, `( … )`, `%`), since law moves and G-code do not mix in
 /// one program. Errors name the program, line and column.
-pub fn parse_law_program(text: &str, name: &str) -> Result<Option<LawProgram>, String> {
+pub fn parse_law_program(text: &str, name: &str) -> Result<Option<LawProgram>, LawProgramError> {
     if !text.lines().any(is_law_statement) {
         return Ok(None);
     }
@@ -177,17 +196,16 @@ pub fn parse_law_program(text: &str, name: &str) -> Result<Option<LawProgram>, S
     for (i, line) in text.lines().enumerate() {
         let n = u32::try_from(i + 1).unwrap_or(u32::MAX);
         if is_law_statement(line) {
-            let block = law_program::parse(line).map_err(|e| format!("{name}:{n}:{e}"))?;
-            blocks.push((n, block));
+            blocks.push((n, parse_statement(line, name, n)?));
         } else if !is_comment_line(line) {
-            return Err(format!(
-                "{name}:{n}: {:?} in a program of LAW statements: only LAW statements and comments may \
-                 appear there (law moves and G-code do not mix in one program)",
-                line.trim()
-            ));
+            return Err(LawProgramError::Mixed { file: name.to_string(), line: n, text: line.trim().to_string() });
         }
     }
     Ok(Some(LawProgram { blocks }))
+}
+
+fn parse_statement(line: &str, name: &str, n: u32) -> Result<LawBlock, LawProgramError> {
+    law_program::parse(line).map_err(|error| LawProgramError::Statement { file: name.to_string(), line: n, error })
 }
 
 fn is_comment_line(line: &str) -> bool {
@@ -196,15 +214,28 @@ fn is_comment_line(line: &str) -> bool {
 }
 
 impl LawProgram {
+    /// One `LAW` statement as a program of one line (`motion.law`); `None` if `statement` is
+    /// not a single `LAW` statement.
+    pub fn statement(statement: &str, name: &str) -> Option<Result<LawProgram, LawProgramError>> {
+        if statement.contains('\n') || !is_law_statement(statement) {
+            return None;
+        }
+        Some(parse_statement(statement, name, 1).map(|block| LawProgram { blocks: vec![(1, block)] }))
+    }
+
     /// The moves from the axis positions `here`, each starting where the previous ends,
     /// checked against the axis limits (velocity, acceleration, jerk and travel); a move
     /// that is too fast is refused with the factor its duration must grow by (or stretched
     /// when it says `STRETCH`).
-    pub fn moves(&self, settings: &Settings, here: &AxisVec, name: &str) -> Result<Vec<LawMove>, String> {
+    pub fn moves(&self, settings: &Settings, here: &AxisVec, name: &str) -> Result<Vec<LawMove>, LawProgramError> {
         let mut pos = *here;
         let mut out = Vec::with_capacity(self.blocks.len());
         for (n, block) in &self.blocks {
-            let mv = block.to_move(settings, &pos[..settings.axes.len()]).map_err(|e| format!("{name}:{n}: {e}"))?;
+            let mv = block.to_move(settings, &pos[..settings.axes.len()]).map_err(|error| LawProgramError::Move {
+                file: name.to_string(),
+                line: *n,
+                error,
+            })?;
             for a in mv.axes() {
                 pos[a.axis] = a.start + a.stroke;
             }

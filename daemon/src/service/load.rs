@@ -8,7 +8,7 @@
 use super::law_run::{self, LawProgram};
 use super::state::Loaded;
 use super::{ServiceCore, lock};
-use crate::control::{MotionError, ProgramSource};
+use crate::control::{LoadError, ProgramSource};
 use interpd_motion::law::LawMove;
 use interpd_motion::program;
 use interpd_protocol::api::{Method, ProgramInfo};
@@ -16,7 +16,7 @@ use std::borrow::Cow;
 use std::sync::Arc;
 
 impl ServiceCore {
-    pub(super) fn load_program(&self, source: ProgramSource) -> Result<ProgramInfo, MotionError> {
+    pub(super) fn load_program(&self, source: ProgramSource) -> Result<ProgramInfo, LoadError> {
         let shared = &self.shared;
         lock(&shared.control).check(Method::ProgramLoad)?;
         if let Some((name, laws)) = law_program_of(&source)? {
@@ -29,11 +29,11 @@ impl ServiceCore {
                 (name, parsed)
             }
         };
-        let prog = parsed.map_err(|e| MotionError::BadProgram(e.to_string()))?;
+        let prog = parsed?;
         // Tolerance-band smoothing (G64 P…) of the whole program, here in the control thread:
         // it runs ahead of the planner and never near the real-time thread.
         let prepared = interpd_motion::prep::prepare_path(&shared.settings, &prog.path)
-            .map_err(|e| MotionError::BadProgram(format!("{name}: {e}")))?;
+            .map_err(|error| LoadError::Prep { program: name.clone(), error })?;
         if prepared.stats.windows > 0 {
             tracing::info!(
                 program = %name,
@@ -58,10 +58,10 @@ impl ServiceCore {
     /// `program.load` of a law program: the moves are made and checked from where the machine
     /// stands now (and again at `motion.start`, from where it stands then).
     /// Returns the program's info and the moves' total duration.
-    pub(super) fn load_laws(&self, name: String, laws: LawProgram) -> Result<(ProgramInfo, f64), MotionError> {
+    pub(super) fn load_laws(&self, name: String, laws: LawProgram) -> Result<(ProgramInfo, f64), LoadError> {
         let shared = &self.shared;
         let here = shared.live.load().pos;
-        let moves = laws.moves(&shared.settings, &here, &name).map_err(MotionError::BadProgram)?;
+        let moves = laws.moves(&shared.settings, &here, &name)?;
         let duration_s = moves.iter().map(LawMove::duration_s).sum();
         let (path, _) = law_run::law_path(&shared.settings, moves, here, &laws.lines());
         let info = ProgramInfo {
@@ -78,7 +78,7 @@ impl ServiceCore {
 }
 
 /// The law program in `source`, if it is one (see [`law_run::parse_law_program`]).
-fn law_program_of(source: &ProgramSource) -> Result<Option<(String, LawProgram)>, MotionError> {
+fn law_program_of(source: &ProgramSource) -> Result<Option<(String, LawProgram)>, LoadError> {
     let (name, text) = match source {
         ProgramSource::Text { name, text } => (name.clone(), Cow::Borrowed(text.as_str())),
         ProgramSource::File(p) => match std::fs::read_to_string(p) {
@@ -87,6 +87,6 @@ fn law_program_of(source: &ProgramSource) -> Result<Option<(String, LawProgram)>
             Err(_) => return Ok(None),
         },
     };
-    let laws = law_run::parse_law_program(&text, &name).map_err(MotionError::BadProgram)?;
+    let laws = law_run::parse_law_program(&text, &name)?;
     Ok(laws.map(|l| (name, l)))
 }

@@ -24,7 +24,7 @@
 //! notices).
 
 use super::law_run::LawProgram;
-use crate::control::MotionError;
+use crate::control::NotAllowed;
 use crate::interp::Epochs;
 use interpd_motion::path::Path;
 use interpd_protocol::api::{Method, ProgramInfo, State};
@@ -77,7 +77,7 @@ impl Control {
     /// Whether `action` is allowed now: a program is loaded only while nothing moves, a
     /// start needs a loaded program, a hold a running motion, a resume a held one. The other
     /// commands are allowed in every state.
-    pub fn check(&self, action: Method) -> Result<(), MotionError> {
+    pub fn check(&self, action: Method) -> Result<(), NotAllowed> {
         let at_rest = matches!(self.state, State::Idle | State::Finished);
         let allowed = match action {
             Method::ProgramLoad => at_rest,
@@ -86,7 +86,7 @@ impl Control {
             Method::MotionResume => self.state == State::Holding,
             _ => true,
         };
-        if allowed { Ok(()) } else { Err(MotionError::NotAllowed { state: self.state, action: action.name() }) }
+        if allowed { Ok(()) } else { Err(NotAllowed { state: self.state, action }) }
     }
 
     /// `program.load` succeeded: `program` replaces the loaded one.

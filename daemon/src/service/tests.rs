@@ -313,11 +313,12 @@ fn law_program_errors_name_the_line() {
     let config = Config::default_machine();
     let parse = |t: &str| super::law_run::parse_law_program(t, "p.ngc");
     assert_eq!(parse("G1 X1 F100\n").unwrap(), None);
-    let mixed = parse("LAW PRESET=rr7 DURATION=1 X=1\nG1 X2\n").unwrap_err();
+    let mixed = parse("LAW PRESET=rr7 DURATION=1 X=1\nG1 X2\n").unwrap_err().to_string();
     assert!(mixed.starts_with("p.ngc:2: \"G1 X2\""), "{mixed}");
-    let syntax = parse("LAW PRESET=rr7 X=1\n").unwrap_err();
+    let syntax = parse("LAW PRESET=rr7 X=1\n").unwrap_err().to_string();
     assert_eq!(syntax, "p.ngc:1:19: DURATION=<seconds> is missing");
     let fast = parse("\nLAW PRESET=rr7 DURATION=0.1 X=30\n").unwrap().unwrap();
-    let e = fast.moves(&Settings::from(&config), &[0.0; interpd_motion::path::MAX_AXES], "p.ngc").unwrap_err();
+    let e =
+        fast.moves(&Settings::from(&config), &[0.0; interpd_motion::path::MAX_AXES], "p.ngc").unwrap_err().to_string();
     assert!(e.starts_with("p.ngc:2: axis X") && e.contains("grow by a factor of"), "{e}");
 }

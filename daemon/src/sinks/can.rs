@@ -52,7 +52,7 @@ impl DriveMonitor for BusShared {
     fn bus(&self) -> Option<Value> {
         Some(self.bus_report())
     }
-    fn ready_for_motion(&self) -> Result<(), String> {
+    fn ready_for_motion(&self) -> Result<(), super::DrivesNotReady> {
         BusShared::ready_for_motion(self)
     }
     fn take_fault(&self) -> Option<String> {

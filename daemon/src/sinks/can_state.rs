@@ -4,6 +4,7 @@
 //! Everything the real-time thread touches is an atomic: it never locks. The fault queue is a
 //! mutex, used only by the receive thread and the supervisor.
 
+use super::{DriveNotReady, DrivesNotReady, EnableWindow, NotReady};
 use crate::rt::clock;
 use interpd_protocol::api::DriveStatus;
 use interpd_protocol::cia402::{DriveCommand, NmtState, NodeId, PowerState, Scale};
@@ -283,58 +284,43 @@ impl BusShared {
     }
 
     /// Why motion may not start, naming every drive that is not ready.
-    pub fn ready_for_motion(&self) -> Result<(), String> {
+    pub fn ready_for_motion(&self) -> Result<(), DrivesNotReady> {
         let now = clock::now_ns();
-        let mut problems = Vec::new();
-        for n in &self.nodes {
-            if let Some(why) = self.not_ready(n, now) {
-                problems.push(format!("{} {why}", n.label()));
-            }
-        }
-        if !self.iface_up.load(Ordering::Relaxed) {
-            problems.push(format!("CAN interface {} does not receive (down?)", self.iface));
-        }
-        if problems.is_empty() {
+        let drives: Vec<DriveNotReady> = self
+            .nodes
+            .iter()
+            .filter_map(|n| {
+                let reason = self.not_ready(n, now)?;
+                Some(DriveNotReady { axis: n.axis_name.clone(), node: n.node.get(), reason })
+            })
+            .collect();
+        let silent_interface = (!self.iface_up.load(Ordering::Relaxed)).then(|| self.iface.clone());
+        if drives.is_empty() && silent_interface.is_none() {
             Ok(())
         } else {
-            Err(format!(
-                "CAN drives not ready for motion: {}; the master enables drives at standstill once they answer \
-                 (see status.drives)",
-                problems.join("; ")
-            ))
+            Err(DrivesNotReady { drives, silent_interface })
         }
     }
 
-    fn not_ready(&self, n: &NodeShared, now: u64) -> Option<String> {
-        let Some(sw) = n.statusword() else {
-            return Some("has not answered (no TPDO1 since start-up: powered, NMT operational, right node-ID?)".into());
-        };
+    fn not_ready(&self, n: &NodeShared, now: u64) -> Option<NotReady> {
+        let Some(sw) = n.statusword() else { return Some(NotReady::NoAnswer) };
         let stale = |t: Option<u64>| t.is_some_and(|t| now.saturating_sub(t) > self.heartbeat_timeout_ns);
         if stale(n.last_tpdo_ns()) {
-            return Some(format!(
-                "has not sent a TPDO1 for {:.0} ms",
-                now.saturating_sub(n.last_tpdo_ns().unwrap_or(0)) as f64 * 1e-6
-            ));
+            let silent_ms = now.saturating_sub(n.last_tpdo_ns().unwrap_or(0)) as f64 * 1e-6;
+            return Some(NotReady::Silent { silent_ms });
         }
         if n.heartbeat_lost.load(Ordering::Relaxed) || stale(n.last_heartbeat_ns()) {
-            return Some("has lost its heartbeat".into());
+            return Some(NotReady::HeartbeatLost);
         }
         match PowerState::from_statusword(sw) {
             Some(PowerState::OperationEnabled) => None,
-            Some(s) => {
+            Some(state) => {
                 let off = i64::from(n.position_actual()) - i64::from(n.target());
-                let window = if off.unsigned_abs() > u64::from(self.enable_window) {
-                    format!(
-                        "; its position actual is {off} increments from the setpoint, outside the enable window of \
-                         {} (restart the daemon to take over the drive's position)",
-                        self.enable_window
-                    )
-                } else {
-                    String::new()
-                };
-                Some(format!("is in state {s} (statusword 0x{sw:04X}), not Operation enabled{window}"))
+                let outside_window = (off.unsigned_abs() > u64::from(self.enable_window))
+                    .then_some(EnableWindow { offset_increments: off, window_increments: self.enable_window });
+                Some(NotReady::NotEnabled { state, statusword: sw, outside_window })
             }
-            None => Some(format!("reports an undefined statusword 0x{sw:04X}")),
+            None => Some(NotReady::UndefinedStatusword(sw)),
         }
     }
 
@@ -369,19 +355,19 @@ mod tests {
     #[test]
     fn readiness_names_each_drive_and_why() {
         let s = shared();
-        let e = s.ready_for_motion().unwrap_err();
+        let e = s.ready_for_motion().unwrap_err().to_string();
         assert!(e.contains("drive X (node 1) has not answered") && e.contains("drive Y (node 2)"), "{e}");
         let now = clock::now_ns();
         s.nodes[0].on_tpdo(0x0237, 0, now);
         s.nodes[1].on_tpdo(0x0250, 500, now);
-        let e = s.ready_for_motion().unwrap_err();
+        let e = s.ready_for_motion().unwrap_err().to_string();
         assert!(!e.contains("node 1"), "{e}");
         assert!(e.contains("drive Y (node 2) is in state Switch on disabled (statusword 0x0250)"), "{e}");
         assert!(e.contains("500 increments from the setpoint"), "{e}");
         s.nodes[1].on_tpdo(0x1237, 500, now);
         assert_eq!(s.ready_for_motion(), Ok(()));
         s.nodes[1].heartbeat_lost.store(true, Ordering::Relaxed);
-        assert!(s.ready_for_motion().unwrap_err().contains("lost its heartbeat"));
+        assert!(s.ready_for_motion().unwrap_err().to_string().contains("lost its heartbeat"));
     }
 
     #[test]

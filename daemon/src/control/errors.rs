@@ -1,0 +1,108 @@
+//! Why the service refused or failed a command: one error type per operation, carrying its
+//! causes as data (a program error's file, line and column; each drive that is not ready and
+//! why). The JSON-RPC layer ([`super::dispatch`]) gives each a code and uses its `Display` as
+//! the message.
+
+use crate::service::law_run::LawProgramError;
+use crate::sinks::DrivesNotReady;
+use interpd_motion::prep::PrepError;
+use interpd_motion::program::ProgramErrors;
+use interpd_protocol::api::{Method, State};
+
+/// A command that is not allowed in the current state (−32002).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("{action} is not allowed while {state}: {}", hint(*action, *state))]
+pub struct NotAllowed {
+    pub state: State,
+    pub action: Method,
+}
+
+/// `program.load` refused or failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LoadError {
+    #[error(transparent)]
+    NotAllowed(#[from] NotAllowed),
+    /// The program cannot be read or parsed (−32001); every error with its place.
+    #[error("bad program: {0}")]
+    Program(#[from] ProgramErrors),
+    /// A program of `LAW` statements is malformed, or a move cannot be made from where the
+    /// machine stands (−32001).
+    #[error("bad program: {0}")]
+    Laws(#[from] LawProgramError),
+    /// The tolerance-band smoothing of the program's G64 runs failed (−32001).
+    #[error("bad program: {program}: {error}")]
+    Prep { program: String, error: PrepError },
+}
+
+/// `motion.start` refused or failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum StartError {
+    #[error(transparent)]
+    NotAllowed(#[from] NotAllowed),
+    /// A CAN drive is not in Operation enabled, or the bus does not receive (−32005).
+    #[error(transparent)]
+    DrivesNotReady(#[from] DrivesNotReady),
+    /// A law move of the loaded program cannot be made from where the machine stands now
+    /// (−32001).
+    #[error("bad program: {0}")]
+    Laws(#[from] LawProgramError),
+    /// The planner thread is gone (−32603): the daemon is shutting down or failed.
+    #[error("internal error: the planner thread has ended")]
+    PlannerGone,
+}
+
+/// `motion.resume` refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum ResumeError {
+    #[error(transparent)]
+    NotAllowed(#[from] NotAllowed),
+    /// The hold comes from a 0 % feed override (−32602): raising the override resumes.
+    #[error("invalid parameters: the feed override is 0 %: raise it with feed.override to continue")]
+    OverrideZero,
+}
+
+/// `motion.law` refused or failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LawError {
+    /// The statement is not one `LAW` statement (−32602); `got` is its beginning.
+    #[error(
+        "invalid parameters: \"statement\" must be one LAW statement, e.g. \"LAW PRESET=rr7 DURATION=0.8 X=10\"; \
+         got {got:?}"
+    )]
+    NotAStatement { got: String },
+    /// The statement does not parse, or its move breaks a limit from where the machine stands
+    /// (−32001).
+    #[error("bad program: {0}")]
+    Laws(#[from] LawProgramError),
+    /// Loading the move as the program was refused.
+    #[error(transparent)]
+    Load(#[from] LoadError),
+    /// Starting the move was refused.
+    #[error(transparent)]
+    Start(#[from] StartError),
+    /// The service runs no law moves (−32602).
+    #[error("invalid parameters: motion.law is not supported by this motion core")]
+    Unsupported,
+}
+
+/// What a person can do when `action` is refused in `state`: the state machine's next step,
+/// phrased with the API's method names.
+pub fn hint(action: Method, state: State) -> &'static str {
+    use Method::*;
+    use State::*;
+    match (action, state) {
+        (_, Stopping) => "a stop is in progress; wait until status reports idle",
+        (_, Error) => "motion was aborted by an error (see last_error in status); call motion.stop to reset",
+        (ProgramLoad, Running | Holding) => "call motion.stop and wait for state idle before loading a program",
+        (MotionStart, Idle) => "load a program with program.load first",
+        (MotionStart, Running) => "motion is already running; use motion.hold, motion.resume or motion.stop",
+        (MotionStart, Holding) => "motion is held; call motion.resume to continue or motion.stop to abort",
+        (MotionStart, Finished) => "the program has finished; load a program with program.load to run again",
+        (MotionHold, Holding) => "motion is already held; call motion.resume to continue or motion.stop to abort",
+        (MotionHold, Idle | Finished) => "nothing is moving; motion.hold applies while running",
+        (MotionResume, Idle) => "load a program and call motion.start first",
+        (MotionResume, Running) => "motion is not held; motion.resume applies after motion.hold",
+        (MotionResume, Finished) => "the program has finished; load a program and call motion.start",
+        _ => "check the state with status",
+    }
+}

@@ -4,12 +4,12 @@
 use interpd_config::RtConfig;
 use std::fmt;
 
-/// What the real-time set-up achieved; each part is `Err(reason)` where it was refused.
+/// What the real-time set-up achieved; each part is `Err` where it was refused.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SchedReport {
-    pub fifo_priority: Result<i32, String>,
-    pub memory_locked: Result<(), String>,
-    pub pinned_cpu: Result<usize, String>,
+    pub fifo_priority: Result<i32, SchedError>,
+    pub memory_locked: Result<(), SchedError>,
+    pub pinned_cpu: Result<usize, SchedError>,
 }
 
 impl SchedReport {
@@ -36,6 +36,46 @@ impl fmt::Display for SchedReport {
     }
 }
 
+/// Why a scheduling request was not carried out.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum SchedError {
+    /// The configuration does not ask for it (`rt.priority = 0`, `rt.lock_memory = false`).
+    #[error("{0}")]
+    NotRequested(&'static str),
+    /// The system refused `call` with `errno`.
+    #[error("{call} refused: {}", std::io::Error::from_raw_os_error(*errno))]
+    Refused { call: Call, errno: i32 },
+    /// The number of online CPUs could not be read.
+    #[error("cannot count CPUs: {}", std::io::Error::from_raw_os_error(*errno))]
+    CpuCount { errno: i32 },
+    /// `rt.cpu` names a CPU that is not online.
+    #[error("rt.cpu = {cpu} but only {online} CPUs are online")]
+    NoSuchCpu { cpu: usize, online: usize },
+    /// There is no other CPU to keep the other threads on.
+    #[error("one CPU online: nothing to keep off it")]
+    OneCpu,
+}
+
+/// The system call a [`SchedError::Refused`] names.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Call {
+    SchedFifo,
+    Mlockall,
+    SetAffinity,
+    SetPriority { nice: i32 },
+}
+
+impl fmt::Display for Call {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Call::SchedFifo => f.write_str("SCHED_FIFO"),
+            Call::Mlockall => f.write_str("mlockall"),
+            Call::SetAffinity => f.write_str("sched_setaffinity"),
+            Call::SetPriority { nice } => write!(f, "setpriority(nice {nice})"),
+        }
+    }
+}
+
 /// Applies `cfg` to the calling thread (and, for mlockall, the process).
 pub fn apply(cfg: &RtConfig) -> SchedReport {
     SchedReport {
@@ -45,41 +85,42 @@ pub fn apply(cfg: &RtConfig) -> SchedReport {
     }
 }
 
-fn os_error() -> String {
-    std::io::Error::last_os_error().to_string()
+/// The errno of the last failed call on this thread.
+fn errno() -> i32 {
+    std::io::Error::last_os_error().raw_os_error().unwrap_or(0)
 }
 
-fn set_fifo(priority: i32) -> Result<i32, String> {
+fn set_fifo(priority: i32) -> Result<i32, SchedError> {
     if priority == 0 {
-        return Err("rt.priority = 0".into());
+        return Err(SchedError::NotRequested("rt.priority = 0"));
     }
     let param = libc::sched_param { sched_priority: priority };
     // SAFETY: plain syscall on the calling thread with a valid parameter struct.
     let rc = unsafe { libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param) };
-    if rc == 0 { Ok(priority) } else { Err(format!("SCHED_FIFO refused: {}", std::io::Error::from_raw_os_error(rc))) }
+    if rc == 0 { Ok(priority) } else { Err(SchedError::Refused { call: Call::SchedFifo, errno: rc }) }
 }
 
-fn lock_memory(wanted: bool) -> Result<(), String> {
+fn lock_memory(wanted: bool) -> Result<(), SchedError> {
     if !wanted {
-        return Err("rt.lock_memory = false".into());
+        return Err(SchedError::NotRequested("rt.lock_memory = false"));
     }
     // SAFETY: plain syscall.
     let rc = unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) };
-    if rc == 0 { Ok(()) } else { Err(format!("mlockall refused: {}", os_error())) }
+    if rc == 0 { Ok(()) } else { Err(SchedError::Refused { call: Call::Mlockall, errno: errno() }) }
 }
 
 /// The CPU the real-time thread is pinned to (`rt.cpu`, else the last online CPU) and the
 /// number of online CPUs.
-fn rt_cpu(cpu: Option<usize>) -> Result<(usize, usize), String> {
+fn rt_cpu(cpu: Option<usize>) -> Result<(usize, usize), SchedError> {
     // SAFETY: plain syscall.
     let online = unsafe { libc::sysconf(libc::_SC_NPROCESSORS_ONLN) };
     if online < 1 {
-        return Err(format!("cannot count CPUs: {}", os_error()));
+        return Err(SchedError::CpuCount { errno: errno() });
     }
     let online = online as usize;
     let cpu = cpu.unwrap_or(online - 1);
     if cpu >= online {
-        return Err(format!("rt.cpu = {cpu} but only {online} CPUs are online"));
+        return Err(SchedError::NoSuchCpu { cpu, online });
     }
     Ok((cpu, online))
 }
@@ -89,10 +130,10 @@ fn rt_cpu(cpu: Option<usize>) -> Result<(usize, usize), String> {
 /// otherwise share it with the cycle, and a non-preemptible kernel section of theirs (a page
 /// fault, an munmap's TLB shoot-down) delays the cycle's wake-up by milliseconds. Returns the
 /// CPU kept free.
-pub fn keep_off_rt_cpu(cfg: &RtConfig) -> Result<usize, String> {
+pub fn keep_off_rt_cpu(cfg: &RtConfig) -> Result<usize, SchedError> {
     let (cpu, online) = rt_cpu(cfg.cpu)?;
     if online < 2 {
-        return Err("one CPU online: nothing to keep off it".into());
+        return Err(SchedError::OneCpu);
     }
     // SAFETY: cpu_set_t is plain data; CPU_SET writes inside it; the call affects this thread.
     let rc = unsafe {
@@ -102,21 +143,21 @@ pub fn keep_off_rt_cpu(cfg: &RtConfig) -> Result<usize, String> {
         }
         libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set)
     };
-    if rc == 0 { Ok(cpu) } else { Err(format!("sched_setaffinity refused: {}", os_error())) }
+    if rc == 0 { Ok(cpu) } else { Err(SchedError::Refused { call: Call::SetAffinity, errno: errno() }) }
 }
 
 /// Sets the calling thread's nice value (Linux applies `setpriority` to a thread id alone).
 /// A value below 0 needs CAP_SYS_NICE or `LimitNICE`/`RLIMIT_NICE`.
-pub fn set_thread_nice(nice: i32) -> Result<(), String> {
+pub fn set_thread_nice(nice: i32) -> Result<(), SchedError> {
     // SAFETY: gettid has no arguments; setpriority changes this thread's nice value only.
     let rc = unsafe {
         let tid = libc::syscall(libc::SYS_gettid) as libc::id_t;
         libc::setpriority(libc::PRIO_PROCESS, tid, nice)
     };
-    if rc == 0 { Ok(()) } else { Err(format!("setpriority(nice {nice}) refused: {}", os_error())) }
+    if rc == 0 { Ok(()) } else { Err(SchedError::Refused { call: Call::SetPriority { nice }, errno: errno() }) }
 }
 
-fn pin(cpu: Option<usize>) -> Result<usize, String> {
+fn pin(cpu: Option<usize>) -> Result<usize, SchedError> {
     let (cpu, _) = rt_cpu(cpu)?;
     // SAFETY: cpu_set_t is plain data; CPU_SET writes inside it; the call affects this thread.
     let rc = unsafe {
@@ -124,5 +165,28 @@ fn pin(cpu: Option<usize>) -> Result<usize, String> {
         libc::CPU_SET(cpu, &mut set);
         libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set)
     };
-    if rc == 0 { Ok(cpu) } else { Err(format!("sched_setaffinity refused: {}", os_error())) }
+    if rc == 0 { Ok(cpu) } else { Err(SchedError::Refused { call: Call::SetAffinity, errno: errno() }) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn refusals_read_as_before() {
+        let e = SchedError::Refused { call: Call::SchedFifo, errno: libc::EPERM };
+        assert_eq!(e.to_string(), format!("SCHED_FIFO refused: {}", std::io::Error::from_raw_os_error(libc::EPERM)));
+        let e = SchedError::Refused { call: Call::SetPriority { nice: -5 }, errno: libc::EACCES };
+        assert!(e.to_string().starts_with("setpriority(nice -5) refused: "), "{e}");
+        assert_eq!(SchedError::NoSuchCpu { cpu: 4, online: 2 }.to_string(), "rt.cpu = 4 but only 2 CPUs are online");
+        let report = SchedReport {
+            fifo_priority: Err(SchedError::NotRequested("rt.priority = 0")),
+            memory_locked: Ok(()),
+            pinned_cpu: Err(SchedError::OneCpu),
+        };
+        assert_eq!(
+            report.to_string(),
+            "normal scheduling (rt.priority = 0), memory locked, not pinned (one CPU online: nothing to keep off it)"
+        );
+    }
 }

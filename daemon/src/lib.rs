@@ -1,8 +1,18 @@
-//! interpd: a real-time interpolator daemon.
+//! interpd: a real-time interpolator daemon. A part program comes in over the control socket;
+//! jerk-limited axis setpoints go out every cycle, to shared memory and CAN drives.
 //!
-//! Data flow (see DESIGN.md): part program → [`program`] (parse) → [`path`] (geometry A(s) …
-//! A‴(s)) → prep (tolerance smoothing) → planner (look-ahead feedrate profile) → interp (fine
-//! interpolation every cycle) → sinks (shared memory, CAN) → drives / sim-plant.
+//! - [`service`]: the running service: its threads, the state machine the control API drives,
+//!   the planner thread that feeds the real-time thread;
+//! - [`interp`]: the two-stage fine interpolation and the real-time contract between the
+//!   planner thread and the executor;
+//! - [`control`]: the JSON-RPC control socket;
+//! - [`sinks`]: where setpoints go: iceoryx2 shared memory, the CANopen master;
+//! - [`record`]: recording the streams to MCAP and replaying them;
+//! - [`rt`]: the real-time loop, clock, scheduling and timing statistics.
+//!
+//! The motion mathematics (programs, paths, smoothing, the look-ahead planner, motion laws) is
+//! the crate `interpd-motion`; the configuration is `interpd-config`; the wire formats are
+//! `interpd-protocol`. docs/architecture.md shows how they fit together.
 
 pub mod control;
 pub mod interp;

@@ -1,5 +1,5 @@
-//! The `interpd` command line (contract in DESIGN.md). Exit codes: 0 success, 2 bad input,
-//! 1 any other failure. Messages go to stderr, data to stdout.
+//! The `interpd` command line. Exit codes: 0 success, 2 bad input, 1 any other failure.
+//! Messages go to stderr, data to stdout.
 
 mod cli;
 

@@ -1,4 +1,5 @@
-//! The `interpd` binary's contract: exit codes and stream use (DESIGN.md).
+//! The `interpd` binary's contract: exit codes and stream use (messages on stderr, data on
+//! stdout).
 
 use std::process::Command;
 

@@ -1,4 +1,4 @@
-//! `interpd otg`: the command-line contract (DESIGN.md) run through the real binary: JSON with
+//! `interpd otg`: the command-line contract run through the real binary: JSON with
 //! `duration_s`, the CSV layout `t,p<i>,v<i>,a<i>,j<i>`, several DoFs separated by ';', the
 //! velocity interface and asymmetric limits, and exit 2 with a message naming the option and
 //! the value for bad input.

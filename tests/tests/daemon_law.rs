@@ -1,4 +1,4 @@
-//! End to end: motion-law moves (seed 003) run by `interpd run` as a real process, started over
+//! End to end: motion-law moves run by `interpd run` as a real process, started over
 //! the control socket (`motion.law`, and a program of `LAW` statements with `program.load`),
 //! the setpoints received over iceoryx2 and checked: no gaps, axis limits by finite
 //! differences of the 4 ms positions, the law's duration, and the exact stroke at the end.

@@ -1,4 +1,5 @@
-//! The printed figures of one scenario, and the targets of issue 6 checked against them.
+//! The printed figures of one scenario, and the real-time targets checked against them
+//! (docs/realtime.md).
 
 use super::Outcome;
 use interpd_protocol::api::Percentiles;

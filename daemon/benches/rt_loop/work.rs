@@ -6,8 +6,8 @@
 use interpd::rt::clock;
 use std::hint::black_box;
 
-/// Target duration of the synthetic work, µs (interpd's measured cycle compute p50 on the
-/// development VM is 24–26 µs for 3 and 5 axes).
+/// Target duration of the synthetic work, µs: about interpd's median cycle compute time for 3
+/// and 5 axes (the p50 of the "cycle compute" row this benchmark prints for the service).
 pub const WORK_TARGET_US: f64 = 25.0;
 /// Iterations timed per calibration probe.
 const PROBE_ITERS: u64 = 20_000;

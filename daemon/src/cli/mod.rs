@@ -50,8 +50,8 @@ pub enum Command {
     /// Replay a recording at its original timing: an MCAP recording onto iceoryx2 (`--to shm`),
     /// or a candump log to a CAN interface (`--to can:IFACE`, as can-utils' canplayer does).
     Replay(replay::ReplayArgs),
-    /// Design a motion law from interpolation conditions (seed 003): degree, VDI 2143
-    /// characteristic values, residuals, coefficients; CSV samples and a plot on request.
+    /// Design a motion law from interpolation conditions: degree, VDI 2143 characteristic
+    /// values, residuals, coefficients; CSV samples and a plot on request.
     Law(law::LawArgs),
     /// One online-trajectory calculation: time-optimal jerk-limited motion from state to state.
     Otg(otg::OtgArgs),

@@ -1,9 +1,8 @@
 //! `interpd replay LOG [--to shm|can:IFACE] [--speed X]`: plays a recorded stream back at its
-//! original timing (DESIGN.md "Command line").
+//! original timing.
 //!
 //! An MCAP recording (`interpd run --record`, `interpd record`) goes to shared memory
-//! (`--to shm`, the default for an MCAP file): see `replay_shm.rs` and README "Recording and
-//! replay".
+//! (`--to shm`, the default for an MCAP file): see `replay_shm.rs` and docs/formats.md.
 //!
 //! A candump log (`candump -l` format, as `interpd run --candump` writes it) goes to a CAN
 //! interface as can-utils' `canplayer` would send it: every frame at its recorded offset from

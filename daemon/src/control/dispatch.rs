@@ -91,7 +91,7 @@ impl Context {
         };
         let outcome = Call::parse(&req.method, req.params).and_then(|call| {
             let method = call.method();
-            // A panic in the motion core must not take the connection (and the server's
+            // A panic in the service must not take the connection (and the server's
             // bookkeeping) with it: it becomes an internal error for this one request.
             catch_unwind(AssertUnwindSafe(|| self.execute(session, call))).unwrap_or_else(|_| {
                 self.counters.panics.fetch_add(1, Ordering::Relaxed);

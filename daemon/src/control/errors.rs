@@ -1,6 +1,6 @@
 //! Why the service refused or failed a command: one error type per operation, carrying its
 //! causes as data (a program error's file, line and column; each drive that is not ready and
-//! why). The JSON-RPC layer ([`super::dispatch`]) gives each a code and uses its `Display` as
+//! why). The JSON-RPC layer (`control::dispatch`) gives each a code and uses its `Display` as
 //! the message.
 
 use crate::service::law_run::LawProgramError;

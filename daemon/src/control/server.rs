@@ -4,7 +4,7 @@
 //! answers) plus, once the client has subscribed, one thread forwarding events. A client can
 //! only ever hold up its own threads: reads are bounded to one line of at most
 //! [`MAX_LINE_BYTES`], and a client that does not read what it is sent
-//! for [`ControlServerBuilder::write_timeout`] is disconnected. The motion core is only ever
+//! for [`ControlServerBuilder::write_timeout`] is disconnected. The service is only ever
 //! called, never waited on by it.
 
 use super::dispatch::{Context, Session, encode};
@@ -26,7 +26,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::{self, JoinHandle};
 use std::time::{Duration, Instant};
 
-/// Permissions of the socket file: owner and group may connect (DESIGN.md).
+/// Permissions of the socket file: owner and group may connect (docs/control-api.md).
 pub const SOCKET_MODE: u32 = 0o660;
 
 /// Default for [`ControlServerBuilder::max_clients`].
@@ -162,7 +162,7 @@ pub struct ServerStats {
     pub panics: u64,
 }
 
-/// The JSON-RPC control server (DESIGN.md "Control API"; docs/control-api.md).
+/// The JSON-RPC control server (docs/control-api.md).
 ///
 /// It does not stop the motion when it shuts down: on SIGTERM the daemon stops the motion
 /// (`Motion::stop`) and then calls [`ControlServer::shutdown`].
@@ -615,7 +615,7 @@ fn drain(mut stream: &UnixStream) {
 }
 
 /// The event thread of a subscribed connection: one notification line per event until the
-/// client goes away, the motion core drops the sender, or a write fails (the client stopped
+/// client goes away, the service drops the sender, or a write fails (the client stopped
 /// reading for longer than the write timeout).
 fn forward_events(
     id: u64,

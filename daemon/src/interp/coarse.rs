@@ -1,4 +1,4 @@
-//! Stage 1 of the two-stage interpolation (seed 002), run in the planner thread: the planned
+//! Stage 1 of the two-stage interpolation (Huan, §3), run in the planner thread: the planned
 //! path-velocity profile and the exact geometry become coarse points (time, path state, axis
 //! positions and their time derivatives), spaced so that the quintic through neighbouring
 //! points (stage 2, [`super::hermite`]) stays within [`TOLERANCE_MM`] of the exact geometry.

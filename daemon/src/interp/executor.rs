@@ -1,4 +1,4 @@
-//! Stage 2 of the two-stage interpolation, run every cycle in the real-time thread: the dumb,
+//! Stage 2 of the two-stage interpolation, run every cycle in the real-time thread: the simple,
 //! exact executor of the chunks the planner thread prepared (the contract is in
 //! [`super`]). It evaluates the quintic between coarse points, switches chunks, and diverts
 //! into a chunk's stop tail on a hold, a stop or an underrun. It never allocates, frees,
@@ -29,7 +29,7 @@ pub enum Notice {
     /// Motion of `epoch` began (from rest).
     Started { epoch: Epoch, cycle: u64 },
     /// The executor left the planned motion at the end of chunk `seq` of `epoch` and runs its
-    /// tail; chunks of `epoch` are discarded from now on.
+    /// tail; it expects chunks of `epoch.replan()` next and discards those of `epoch`.
     Diverted { epoch: Epoch, seq: u64, cause: DivertCause, cycle: u64 },
     /// The tail ended: the machine stands at `s_mm`.
     Stood { epoch: Epoch, seq: u64, cause: DivertCause, s_mm: f64, cycle: u64 },
@@ -82,7 +82,7 @@ pub struct Executor {
     epoch: Epoch,
     chunk: Option<Box<Chunk>>,
     phase: Phase,
-    /// Index of the piece (points[piece] → points[piece + 1]) last evaluated.
+    /// Index of the piece (`points[piece]` → `points[piece + 1]`) last evaluated.
     piece: usize,
     /// Time within the running sequence (main or tail), s.
     t_s: f64,

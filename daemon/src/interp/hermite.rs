@@ -1,8 +1,8 @@
 //! Quintic Hermite interpolation in time: the polynomial through position, velocity and
 //! acceleration at both ends of a piece. The fine stage evaluates it every cycle; it makes the
-//! setpoints continuous in position, velocity and acceleration (seed 002 interpolates the
-//! coarse points with lower order; the quintic keeps acceleration continuous and reproduces
-//! the planner's constant-jerk pieces exactly).
+//! setpoints continuous in position, velocity and acceleration. Huan's fine interpolator
+//! (Huan, §3, Fig. 4–5) moves linearly between coarse points; the quintic instead keeps the
+//! acceleration continuous and reproduces the planner's constant-jerk pieces exactly.
 
 /// Position, velocity, acceleration of one coordinate at one instant.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]

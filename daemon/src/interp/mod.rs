@@ -1,6 +1,8 @@
-//! The fine interpolator: two stages with a written contract between them (seed 002's
-//! two-stage interpolation, improved; Klipper's split of a planner that works ahead and a
-//! dumb, exact executor).
+//! The fine interpolator: two stages with a written contract between them. The split into a
+//! coarse and a fine stage is Huan's two-stage interpolation (Huan, §3, Fig. 4–5); here the
+//! coarse stage works ahead in the planner thread and the fine stage is a simple, exact
+//! executor in the real-time thread, so every decision that takes time is made before the
+//! cycle needs it.
 //!
 //! - Stage 1, [`coarse`], in the planner thread: the planned path-velocity profile and the
 //!   exact geometry become coarse points (time; path s, v, a; per axis position, velocity and
@@ -19,10 +21,11 @@
 //!    same epoch and sequence number + 1, unless a hold or stop is requested or no chunk is
 //!    there: then it runs the tail and stands. So a hold, a stop and an underrun are all
 //!    jerk-limited, on the path, and need nothing from the planner at that moment.
-//! 3. After running a tail the executor expects the next epoch. The planner thread learns of
-//!    the divert from a [`executor::Notice`] and replans from the tail's end, at rest, as a
-//!    new epoch (at once after an underrun, after the hold is released after a hold, not at
-//!    all after a stop). Chunks of an old epoch are discarded.
+//! 3. After running a tail the executor expects the next epoch ([`Epoch::replan`]). The
+//!    planner thread learns of the divert from a [`executor::Notice`] and replans from the
+//!    tail's end, at rest, as that epoch (at once after an underrun, after the hold is
+//!    released after a hold, not at all after a stop). Chunks of an old epoch are discarded;
+//!    [`epoch`] states the rule, including how starts get fresh epochs.
 //! 4. A feed override change does not divert: the planner thread replans from the end of the
 //!    last chunk it queued, at the new feed, and the queued chunks run out first (latency =
 //!    queue depth).

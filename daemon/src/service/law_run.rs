@@ -1,10 +1,13 @@
-//! Motion-law moves (seed 003) executed by the daemon: a law move drives its axes along the
-//! straight line from start to start + stroke with the law's time profile instead of a planned
-//! one. The planner thread samples the law into coarse points (checked against the exact law
-//! like planned motion, position and jerk) and gives every chunk the fastest stop along the
-//! line as its tail, so a hold, a stop or an underrun works as for programs. After a hold or an
-//! underrun the rest of the strokes is completed as rapid moves along the same lines (the law's
-//! time profile cannot be resumed from rest mid-stroke).
+//! Motion-law moves executed by the daemon (laws from interpolation conditions, after
+//! Bewegungsdesign nach Maß and VDI 2143; docs/motion-laws.md): a law move drives its axes
+//! along the straight line from start to start + stroke with the law's time profile instead of
+//! a planned one. The planner thread samples the law into coarse points (checked against the
+//! exact law like planned motion, position and jerk) and gives every chunk the fastest stop
+//! along the line as its tail, so a hold, a stop or an underrun works as for programs. After a
+//! hold or an underrun the rest of the strokes is completed as rapid moves along the same lines
+//! (the law's time profile cannot be resumed from rest mid-stroke).
+//!
+//! Also here: programs of `LAW` statements ([`LawProgram`]) and their errors.
 
 use crate::interp::coarse::{CoarsePoint, JERK_TOLERANCE, TOLERANCE_MM};
 use crate::interp::hermite::{self, Kinematic};

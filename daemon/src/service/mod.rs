@@ -1,14 +1,14 @@
 //! The running service: the threads behind `interpd run` and the state machine the control
 //! API drives.
 //!
-//! - the real-time thread ([`rt_loop`]) runs the executor ([`crate::interp`]) every cycle and
+//! - the real-time thread (`rt_loop`) runs the executor ([`crate::interp`]) every cycle and
 //!   publishes the setpoints to the sinks;
 //! - the planner thread ([`feeder`]) plans ahead and keeps the chunk queue filled;
-//! - the supervisor thread ([`supervisor`]) turns the executor's notices into state changes and
+//! - the supervisor thread (`supervisor`) turns the executor's notices into state changes and
 //!   events, and the timing samples into histograms;
-//! - [`ServiceCore`] implements [`crate::control::Motion`] ([`commands`], [`load`]): the
+//! - [`ServiceCore`] implements [`crate::control::Motion`] (`commands`, `load`): the
 //!   control server's calls become atomic flags the real-time thread reads (hold, stop) and
-//!   commands to the planner thread, checked against the state machine in [`state`].
+//!   commands to the planner thread, checked against the state machine in `state`.
 //!
 //! The contract between the planner thread and the real-time thread is in [`crate::interp`];
 //! docs/architecture.md draws the threads and queues.

@@ -46,7 +46,7 @@ pub trait DriveMonitor: Send + Sync {
     /// `Ok` when every drive is ready for motion, else each drive that is not and why.
     fn ready_for_motion(&self) -> Result<(), DrivesNotReady>;
     /// The oldest fault not yet taken (a drive left Operation enabled, a heartbeat was lost,
-    /// the bus failed): the motion core stops the machine on it.
+    /// the bus failed): the service stops the machine on it.
     fn take_fault(&self) -> Option<String>;
 }
 

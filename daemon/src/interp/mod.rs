@@ -31,6 +31,9 @@
 //!    queue depth).
 //! 5. Chunks go back to the planner thread through a recycle queue: the executor never
 //!    allocates or frees.
+//! 6. The executor never locks, blocks or logs either: requests arrive as two flags (hold,
+//!    stop), and what happened leaves as [`executor::Notice`]s through a lock-free queue.
+//!    daemon/tests/rt_no_alloc.rs runs the real service and proves its cycle allocation-free.
 
 pub mod chunk;
 pub mod coarse;

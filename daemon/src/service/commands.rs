@@ -18,6 +18,8 @@ use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 impl ServiceCore {
+    /// Holds (the control lock held): the real-time thread diverts into the stop tail at the
+    /// next chunk end; `held` follows from the supervisor, or now if the machine stands.
     fn hold_locked(&self, ctl: &mut Control) {
         let shared = &self.shared;
         shared.hold.store(true, Ordering::SeqCst);
@@ -27,6 +29,8 @@ impl ServiceCore {
         }
     }
 
+    /// Resumes a hold (the control lock held): the planner thread replans from where the
+    /// machine stands, or from where it will stand once the tail has run.
     fn resume_locked(&self, ctl: &mut Control) {
         let shared = &self.shared;
         shared.hold.store(false, Ordering::SeqCst);

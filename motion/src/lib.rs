@@ -33,6 +33,8 @@
 //! println!("{:.4} s", interpd_motion::planner::profile::duration_s(&segments));
 //! ```
 
+#![warn(unreachable_pub)]
+
 pub mod law;
 pub mod path;
 pub mod planner;

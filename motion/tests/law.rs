@@ -3,7 +3,6 @@
 //! `interpd law` command line.
 
 use interpd_motion::Settings;
-use interpd_motion::law::ddouble::Dd;
 use interpd_motion::law::{
     AxisLimits, AxisState, Condition, Law, LawAxis, LawError, LawMove, LawMoveError, LimitError, LimitKind,
     MAX_CONDITIONS, Preset,
@@ -13,6 +12,13 @@ use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
+
+/// The library's double-double arithmetic (internal to it), compiled in here to evaluate the
+/// monomial system's residuals exactly.
+#[allow(dead_code)]
+#[path = "../src/law/ddouble.rs"]
+mod ddouble;
+use ddouble::Dd;
 
 /// Counts heap allocations per thread, to show that sampling a law move allocates nothing.
 struct CountingAlloc;

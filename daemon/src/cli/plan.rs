@@ -6,6 +6,7 @@ use super::CliError;
 use interpd::config::Config;
 use interpd_motion::Settings;
 use interpd_motion::path::{AxisDerivs, Path};
+use interpd_motion::planner::export::{NodeExport, NodeGeom};
 use interpd_motion::planner::profile::{Cursor, duration_s};
 use interpd_motion::planner::{Planner, Segment};
 use interpd_motion::program;
@@ -106,7 +107,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
     let lim = planner.limits();
     let n = path.n_axes;
     if let Some(p) = &args.export_nodes {
-        export_nodes(p, &settings, path, &segments, lim)?;
+        export_nodes(p, &settings, path, &segments)?;
     }
     let mut ratios = Ratios::default();
     let mut cursor = Cursor::default();
@@ -354,46 +355,28 @@ fn export_nodes(
     settings: &Settings,
     path: &Path,
     segments: &[Segment],
-    lim: &interpd_motion::planner::Limits,
 ) -> Result<(), CliError> {
-    let nodes = Planner::sample_path(settings, path);
-    let n = path.n_axes;
-    let geom = |g: &interpd_motion::planner::node::NodeGeom| serde_json::json!({ "d1": &g.d1[..n], "d2": &g.d2[..n], "d3": &g.d3[..n] });
-    // Our profile at the nodes: the segment starting at each node's s (node-aligned blocks).
-    let mut states = Vec::with_capacity(nodes.len());
-    let mut k = 0;
-    for node in &nodes {
-        while k + 1 < segments.len() && (segments[k].ds_mm == 0.0 || segments[k].s0_mm < node.s_mm - 1e-12) {
-            k += 1;
-        }
-        let seg = &segments[k];
-        let aligned = (seg.s0_mm - node.s_mm).abs() <= 1e-9 * node.s_mm.abs().max(1.0);
-        states.push(if aligned {
-            serde_json::json!([seg.v0, seg.a0, seg.j, seg.dt_s])
-        } else {
-            serde_json::Value::Null
-        });
-    }
+    let export = NodeExport::of(settings, path, segments);
+    let (n, lim) = (path.n_axes, &export.limits);
+    let geom = |g: &NodeGeom| serde_json::json!({ "d1": &g.d1[..n], "d2": &g.d2[..n], "d3": &g.d3[..n] });
     let json = serde_json::json!({
         "axes": path.axis_names,
         "limits": {
             "vel": &lim.vel[..n], "acc_max": &lim.acc_max[..n], "acc_min": &lim.acc_min[..n], "jerk": &lim.jerk[..n],
         },
-        "check_fractions": interpd_motion::planner::check::CHECK_FRACTIONS,
-        // The check points of a node's interval where it is "fine" (see check::check_fractions).
-        "fine_check_fractions": interpd_motion::planner::check::FINE_CHECK_FRACTIONS,
-        // At a curvature jump the axis acceleration steps by ΔA″·v²; the planner caps v there
-        // so the step is what the jerk limit moves in this time (planner.curvature_jump_ms).
-        "curvature_jump_s": settings.planner.curvature_jump_ms * 1e-3,
-        "nodes": nodes.iter().map(|nd| serde_json::json!({
+        "check_fractions": export.check_fractions,
+        // The check points of a node's interval where it is "fine".
+        "fine_check_fractions": export.fine_check_fractions,
+        "curvature_jump_s": export.curvature_jump_s,
+        "nodes": export.nodes.iter().map(|nd| serde_json::json!({
             "s": nd.s_mm, "vbar": nd.vbar_mm_s, "feed": if nd.feed_mm_s.is_finite() { nd.feed_mm_s } else { f64::MAX },
             "stop": nd.stop, "left": geom(&nd.left), "right": geom(&nd.right),
             // A path table's exact geometry to the next node, which the checks evaluate there.
-            "span": nd.span.as_ref().map(|p| (0..n).map(|k| p.coefficients(k)).collect::<Vec<_>>()),
-            "fine": nd.span.as_deref().is_some_and(interpd_motion::planner::node::SpanPoly::fine_checks),
+            "span": nd.span,
+            "fine": nd.fine,
         })).collect::<Vec<_>>(),
-        "profile": states,
-        "duration_s": interpd_motion::planner::profile::duration_s(segments),
+        "profile": export.profile,
+        "duration_s": duration_s(segments),
     });
     std::fs::write(file, json.to_string())
         .map_err(|e| CliError::Failure(format!("{}: cannot write: {e}", file.display())))

@@ -7,18 +7,21 @@ use super::ddouble::Dd;
 use std::ops::{Add, Mul, Sub};
 
 /// The arithmetic the basis code runs in: f64 at run time, [`Dd`] when solving.
-pub trait Scalar: Copy + From<f64> + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> {}
+pub(super) trait Scalar:
+    Copy + From<f64> + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self>
+{
+}
 impl Scalar for f64 {}
 impl Scalar for Dd {}
 
 /// x ∈ [−1, 1] for z ∈ [0, 1]. Exact at z = 0, ½, 1 in f64 and everywhere in [`Dd`].
-pub fn x_of_z<T: Scalar>(z: f64) -> T {
+pub(super) fn x_of_z<T: Scalar>(z: f64) -> T {
     T::from(2.0 * z) - T::from(1.0)
 }
 
 /// Fills `row[k]` = dⁱ/dzⁱ T_k(2z − 1) for k = 0 … row.len() − 1 (one row of the interpolation
 /// matrix for the condition f⁽ⁱ⁾(z) = F).
-pub fn basis_row<T: Scalar>(order: usize, z: f64, row: &mut [T]) {
+pub(super) fn basis_row<T: Scalar>(order: usize, z: f64, row: &mut [T]) {
     let x: T = x_of_z(z);
     let two_x = T::from(2.0) * x;
     let (zero, one) = (T::from(0.0), T::from(1.0));
@@ -53,7 +56,7 @@ pub fn basis_row<T: Scalar>(order: usize, z: f64, row: &mut [T]) {
 /// Chebyshev coefficients of d/dz of the series with coefficients `c` (one shorter; a constant
 /// gives `[0]`). The standard backward recurrence c′_{k−1} = c′_{k+1} + 2k c_k with c′₀ halved,
 /// times 2 for d/dz = 2 d/dx (Mason & Handscomb, Chebyshev Polynomials, eq. 2.49).
-pub fn derivative<T: Scalar>(c: &[T]) -> Vec<T> {
+pub(super) fn derivative<T: Scalar>(c: &[T]) -> Vec<T> {
     let n = c.len();
     let zero = T::from(0.0);
     if n <= 1 {
@@ -73,7 +76,7 @@ pub fn derivative<T: Scalar>(c: &[T]) -> Vec<T> {
 }
 
 /// Σ c_k T_k(2z − 1) by Clenshaw's recurrence: backward stable, no allocation.
-pub fn eval<T: Scalar>(c: &[T], z: f64) -> T {
+pub(super) fn eval<T: Scalar>(c: &[T], z: f64) -> T {
     let x: T = x_of_z(z);
     let two_x = T::from(2.0) * x;
     let zero = T::from(0.0);
@@ -88,14 +91,14 @@ pub fn eval<T: Scalar>(c: &[T], z: f64) -> T {
 
 /// Σ|c_k|: bounds |Σ c_k T_k| on [0, 1] (|T_k| ≤ 1 there), so rounding in an evaluation is
 /// about ε times this. Used to judge residuals.
-pub fn abs_sum(c: &[f64]) -> f64 {
+pub(super) fn abs_sum(c: &[f64]) -> f64 {
     c.iter().map(|v| v.abs()).sum()
 }
 
 /// Monomial coefficients a_k of f(z) = Σ a_k zᵏ (the seed's form) for the Chebyshev series c.
 /// For reporting only: at high degree the a_k are large and alternate, and summing them loses
 /// digits (that is why the solver does not use them).
-pub fn to_monomial(c: &[f64]) -> Vec<f64> {
+pub(super) fn to_monomial(c: &[f64]) -> Vec<f64> {
     let n = c.len();
     let mut out = vec![0.0; n];
     // Monomial coefficients (in z) of T_{k−1}(2z−1) and T_k(2z−1), advanced by

@@ -19,10 +19,10 @@ pub const MAX_DEGREE: usize = MAX_CONDITIONS - 1;
 
 /// Two conditions are at the same place when their z differ by less than this (z is a
 /// normalised time, so 1e-12 is far below any meaningful resolution).
-pub const SAME_Z_TOL: f64 = 1e-12;
+pub(super) const SAME_Z_TOL: f64 = 1e-12;
 
 /// Largest |F| accepted: the normalised law has stroke 1, so values far beyond this are typos.
-pub const MAX_ABS_VALUE: f64 = 1e9;
+pub(super) const MAX_ABS_VALUE: f64 = 1e9;
 
 /// One interpolation condition: the `order`-th derivative of f at `z` equals `value`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -126,10 +126,5 @@ impl ConditionSet {
     /// Degree n = count − 1 of the polynomial these conditions determine.
     pub fn degree(&self) -> usize {
         self.conditions.len() - 1
-    }
-
-    /// Highest derivative order among the conditions.
-    pub fn max_order(&self) -> usize {
-        self.conditions.iter().map(|c| c.order as usize).max().unwrap_or(0)
     }
 }

@@ -10,7 +10,7 @@ use std::ops::{Add, Mul, Neg, Sub};
 
 /// hi + lo with |lo| ≤ ulp(hi)/2.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Dd {
+pub(super) struct Dd {
     pub hi: f64,
     pub lo: f64,
 }
@@ -35,19 +35,19 @@ fn two_prod(a: f64, b: f64) -> (f64, f64) {
 }
 
 impl Dd {
-    pub const ZERO: Dd = Dd { hi: 0.0, lo: 0.0 };
+    pub(super) const ZERO: Dd = Dd { hi: 0.0, lo: 0.0 };
 
     fn renorm(hi: f64, lo: f64) -> Dd {
         let (hi, lo) = quick_two_sum(hi, lo);
         Dd { hi, lo }
     }
 
-    pub fn abs(self) -> Dd {
+    pub(super) fn abs(self) -> Dd {
         if self.hi < 0.0 { -self } else { self }
     }
 
     /// The nearest f64.
-    pub fn to_f64(self) -> f64 {
+    pub(super) fn to_f64(self) -> f64 {
         self.hi + self.lo
     }
 }

@@ -18,7 +18,7 @@ pub struct AxisLimits {
 }
 
 impl AxisLimits {
-    pub fn from_axis(a: &AxisConfig) -> Self {
+    pub(crate) fn from_axis(a: &AxisConfig) -> Self {
         AxisLimits {
             name: a.name,
             unit: a.kind.unit(),

@@ -9,18 +9,18 @@
 //! - [`limits`] and [`movement`]: a law as a timed move on machine axes, checked against the
 //!   axis limits; [`program`]: the `LAW` program statement.
 
-pub mod characteristic;
-pub mod chebyshev;
-pub mod condition;
-pub mod ddouble;
-pub mod error;
-pub mod limits;
-pub mod movement;
-pub mod polynomial;
-pub mod preset;
+mod characteristic;
+mod chebyshev;
+mod condition;
+mod ddouble;
+mod error;
+mod limits;
+mod movement;
+mod polynomial;
+mod preset;
 pub mod program;
-pub mod roots;
-pub mod solver;
+mod roots;
+mod solver;
 
 pub use characteristic::{Characteristics, Extreme, Peak};
 pub use condition::{Condition, ConditionSet, MAX_CONDITIONS, MAX_DEGREE};

@@ -8,19 +8,19 @@ use super::polynomial::Law;
 use interpd_config::MAX_AXES;
 
 /// The law must start and end at rest: |f(0)|, |f(1) − 1|, |f′|, |f″| at both ends ≤ this.
-pub const REST_TOL: f64 = 1e-9;
+pub(super) const REST_TOL: f64 = 1e-9;
 
 /// A peak may exceed its limit by this share (rounding of the stretched duration) and pass.
-pub const LIMIT_REL_TOL: f64 = 1e-12;
+pub(super) const LIMIT_REL_TOL: f64 = 1e-12;
 
 /// A position may pass the travel limit by this much (axis unit) and pass.
-pub const TRAVEL_TOL: f64 = 1e-9;
+pub(super) const TRAVEL_TOL: f64 = 1e-9;
 
 /// Longest accepted duration, s (a day: longer is a typo, not a cam move).
-pub const MAX_DURATION_S: f64 = 86_400.0;
+pub(super) const MAX_DURATION_S: f64 = 86_400.0;
 
 /// Largest |stroke| and |start|, axis unit.
-pub const MAX_ABS_POS: f64 = 1e9;
+pub(super) const MAX_ABS_POS: f64 = 1e9;
 
 /// One axis of a law move.
 #[derive(Debug, Clone, Copy, PartialEq)]

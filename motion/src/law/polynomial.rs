@@ -8,7 +8,7 @@ use super::error::LawError;
 use super::solver;
 
 /// Highest derivative kept ready for evaluation: f⁗ is needed to find the extrema of f‴ (C_j).
-pub const KEPT_ORDERS: usize = 5;
+pub(super) const KEPT_ORDERS: usize = 5;
 
 /// f and its first three derivatives at one z (normalised units: stroke 1, duration 1).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]

@@ -34,7 +34,7 @@ pub enum Preset {
 
 /// The six conditions every rest-to-rest law has (seed 003: "Bei Rast-in-Rast-Übergängen (R-R)
 /// werden immer … gesetzt").
-pub const REST_TO_REST: [Condition; 6] = [
+pub(super) const REST_TO_REST: [Condition; 6] = [
     Condition::new(0, 0.0, 0.0),
     Condition::new(0, 1.0, 1.0),
     Condition::new(1, 0.0, 0.0),
@@ -48,7 +48,7 @@ const JERK_ENDS: [Condition; 2] = [Condition::new(3, 0.0, 0.0), Condition::new(3
 
 impl Preset {
     /// Accepted names; `inflection:λ` takes the parameter after the colon.
-    pub const NAMES: [&'static str; 7] =
+    pub(crate) const NAMES: [&'static str; 7] =
         ["rr5", "rr7", "rr11", "asymmetric", "constant-velocity", "degree8", "inflection:LAMBDA"];
 
     /// Parses a preset name (case-insensitive), e.g. `rr7` or `inflection:0.4`.

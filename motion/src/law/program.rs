@@ -23,7 +23,7 @@ use crate::Settings;
 use interpd_config::AxisLetter;
 
 /// The statement's keyword.
-pub const KEYWORD: &str = "LAW";
+pub(crate) const KEYWORD: &str = "LAW";
 
 /// A parsed `LAW` statement.
 #[derive(Debug, Clone, PartialEq)]

@@ -29,7 +29,7 @@ const SCHUR_MAX_ITER: usize = 100_000;
 /// Candidate roots z ∈ [0, 1] of Σ c_k T_k(2z − 1), unsorted duplicates removed. Every real root
 /// in [0, 1] is among them (to rounding); a few near-roots may be too, which is harmless for
 /// extremum search.
-pub fn roots_in_unit(c: &[f64]) -> Vec<f64> {
+pub(super) fn roots_in_unit(c: &[f64]) -> Vec<f64> {
     let dc = chebyshev::derivative(c);
     let mut out: Vec<f64> = colleague_roots(c).into_iter().map(|z| polish(c, &dc, z)).collect();
     out.extend(sign_change_roots(c).into_iter().map(|z| snap_to_end(c, z)));

@@ -13,16 +13,16 @@ use nalgebra::{DMatrix, DVector, SVD};
 /// Below this reciprocal condition number (σ_min/σ_max of the equilibrated system) the
 /// conditions are taken as not independent. The seed's laws sit above 1e-8 (see the tests); at
 /// 1e-12 the solution would carry errors of ~1e-4 and the residual check would fail anyway.
-pub const RCOND_MIN: f64 = 1e-12;
+pub(super) const RCOND_MIN: f64 = 1e-12;
 
 /// A singular system is contradictory, not just dependent, when the right-hand side has more
 /// than this share (relative to its norm) outside the range of the matrix.
-pub const INCONSISTENCY_REL: f64 = 1e-8;
+pub(super) const INCONSISTENCY_REL: f64 = 1e-8;
 
 /// A condition counts as met when |f⁽ⁱ⁾(z) − F| (double-double coefficients, evaluated in
 /// double-double) ≤ this × max(1, Σ|Chebyshev coefficients of f⁽ⁱ⁾|). After refinement the
 /// residuals are ~1e-25 of that scale; this backstop only catches a refinement that failed.
-pub const ACCEPT_REL: f64 = 1e-12;
+pub(super) const ACCEPT_REL: f64 = 1e-12;
 
 /// Most rounds of iterative refinement after the first solve. With σ_min/σ_max ≥ RCOND_MIN
 /// each round gains ≥ 3 digits; the seed's laws (rcond ≥ 1e-5) reach double-double precision
@@ -37,7 +37,7 @@ const SVD_MAX_ITER: usize = 10_000;
 const INVOLVED_REL: f64 = 0.1;
 
 /// The solved coefficients with the system's reciprocal condition number.
-pub struct Solution {
+pub(super) struct Solution {
     /// Chebyshev coefficients of f in φ_k(z) = T_k(2z − 1), in double-double.
     pub coeffs: Vec<Dd>,
     /// σ_min/σ_max of the equilibrated interpolation matrix.
@@ -83,7 +83,7 @@ fn inverse_or_one(v: f64) -> f64 {
 }
 
 /// Solves the conditions for the Chebyshev coefficients of the degree-(count − 1) polynomial.
-pub fn solve(set: &ConditionSet) -> Result<Solution, LawError> {
+pub(super) fn solve(set: &ConditionSet) -> Result<Solution, LawError> {
     let conds = set.conditions();
     let n = conds.len();
     let a_dd = system(conds);

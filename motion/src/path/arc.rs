@@ -50,22 +50,17 @@ impl Helix {
         self.length_mm
     }
 
-    pub fn radius_mm(&self) -> f64 {
+    pub(crate) fn radius_mm(&self) -> f64 {
         self.radius_mm
     }
 
-    pub fn sweep_rad(&self) -> f64 {
+    pub(crate) fn sweep_rad(&self) -> f64 {
         self.sweep_rad
     }
 
     /// Centre in the arc plane.
-    pub fn center(&self) -> [f64; 2] {
+    pub(crate) fn center(&self) -> [f64; 2] {
         self.center
-    }
-
-    /// Plane axis indices (p, q).
-    pub fn plane(&self) -> (usize, usize) {
-        (self.p, self.q)
     }
 
     pub fn eval(&self, s: f64, out: &mut AxisDerivs) {

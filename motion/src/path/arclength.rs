@@ -6,9 +6,9 @@
 //! safeguarded Newton iteration on s(u) − s inside the bracketing piece.
 
 /// Relative agreement required between a piece's quadrature and the sum over its halves.
-pub const QUADRATURE_REL_TOL: f64 = 1e-14;
+pub(super) const QUADRATURE_REL_TOL: f64 = 1e-14;
 /// Inversion accuracy: |s(u) − s| below this fraction of the span length.
-pub const INVERSION_REL_TOL: f64 = 1e-12;
+pub(super) const INVERSION_REL_TOL: f64 = 1e-12;
 /// Deepest bisection of a piece when building the table.
 const MAX_DEPTH: u32 = 24;
 /// Newton steps before falling back to bisection alone.
@@ -21,7 +21,7 @@ const GL_W: [f64; 4] =
     [0.362_683_783_378_362, 0.313_706_645_877_887_3, 0.222_381_034_453_374_5, 0.101_228_536_290_376_3];
 
 /// ∫ₐᵇ f(u) du by 8-point Gauss–Legendre.
-pub fn gauss_legendre_8(f: &impl Fn(f64) -> f64, a: f64, b: f64) -> f64 {
+pub(super) fn gauss_legendre_8(f: &impl Fn(f64) -> f64, a: f64, b: f64) -> f64 {
     let half = 0.5 * (b - a);
     let mid = 0.5 * (a + b);
     let mut sum = 0.0;
@@ -34,7 +34,7 @@ pub fn gauss_legendre_8(f: &impl Fn(f64) -> f64, a: f64, b: f64) -> f64 {
 
 /// Cumulative arc-length table of one span.
 #[derive(Debug, Clone, PartialEq)]
-pub struct ArcLengthTable {
+pub(super) struct ArcLengthTable {
     /// Piece boundaries in u, from 0 to 1.
     u: Vec<f64>,
     /// Arc length from u = 0 to each boundary.
@@ -43,7 +43,7 @@ pub struct ArcLengthTable {
 
 impl ArcLengthTable {
     /// Builds the table for the speed |P′(u)| given by `speed`.
-    pub fn build(speed: &impl Fn(f64) -> f64) -> Self {
+    pub(super) fn build(speed: &impl Fn(f64) -> f64) -> Self {
         // Start from 8 pieces so that features narrower than the span are not missed.
         Self::build_from(speed, &[], 8)
     }
@@ -52,7 +52,7 @@ impl ArcLengthTable {
     /// each cut into `per_piece` equal parts, then refined. A curve whose speed can only turn
     /// sharply at known parameters (a cubic's at the minima of |P′|) needs few pieces when
     /// those parameters are breaks: between them the speed is smooth and monotone.
-    pub fn build_from(speed: &impl Fn(f64) -> f64, breaks: &[f64], per_piece: usize) -> Self {
+    pub(super) fn build_from(speed: &impl Fn(f64) -> f64, breaks: &[f64], per_piece: usize) -> Self {
         debug_assert!(breaks.windows(2).all(|w| w[0] <= w[1]), "breaks must ascend: {breaks:?}");
         let mut u = vec![0.0];
         let mut s = vec![0.0];
@@ -71,19 +71,19 @@ impl ArcLengthTable {
         Self { u, s }
     }
 
-    pub fn length(&self) -> f64 {
+    pub(super) fn length(&self) -> f64 {
         *self.s.last().expect("table has at least two entries")
     }
 
     /// Arc length from 0 to `u`.
-    pub fn s_of_u(&self, speed: &impl Fn(f64) -> f64, u: f64) -> f64 {
+    pub(super) fn s_of_u(&self, speed: &impl Fn(f64) -> f64, u: f64) -> f64 {
         let u = u.clamp(0.0, 1.0);
         let i = self.u.partition_point(|&x| x <= u).saturating_sub(1).min(self.u.len() - 2);
         self.s[i] + gauss_legendre_8(speed, self.u[i], u)
     }
 
     /// Parameter u at arc length `s` (clamped to the span).
-    pub fn u_of_s(&self, speed: &impl Fn(f64) -> f64, s: f64) -> f64 {
+    pub(super) fn u_of_s(&self, speed: &impl Fn(f64) -> f64, s: f64) -> f64 {
         let len = self.length();
         if s <= 0.0 {
             return 0.0;

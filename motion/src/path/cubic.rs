@@ -76,8 +76,9 @@ impl CubicSpan {
         self.table.length()
     }
 
-    /// P(u) in the span parameter (for tests and plots).
-    pub fn point_at_u(&self, u: f64) -> AxisVec {
+    /// P(u) in the span parameter.
+    #[cfg(test)]
+    pub(crate) fn point_at_u(&self, u: f64) -> AxisVec {
         let mut p = [0.0; MAX_AXES];
         for (k, pk) in p.iter_mut().enumerate() {
             *pk = ((self.r[3][k] * u + self.r[2][k]) * u + self.r[1][k]) * u + self.r[0][k];
@@ -86,7 +87,7 @@ impl CubicSpan {
     }
 
     /// Span parameter at arc length `s`.
-    pub fn u_at(&self, s: f64) -> f64 {
+    pub(crate) fn u_at(&self, s: f64) -> f64 {
         self.table.u_of_s(&|u| speed_of(&self.r, &self.linear[..self.n_axes], u), s)
     }
 
@@ -96,13 +97,13 @@ impl CubicSpan {
     }
 
     /// Arc length from the span start to parameter `u`.
-    pub fn s_at(&self, u: f64) -> f64 {
+    pub(crate) fn s_at(&self, u: f64) -> f64 {
         self.table.s_of_u(&|u| speed_of(&self.r, &self.linear[..self.n_axes], u), u)
     }
 
     /// |P′(u)| = ds/du and its derivative d²s/du² (over the linear axes): for integrating
     /// the arc length over many parameters at once without a quadrature each.
-    pub fn speed_at_u(&self, u: f64) -> (f64, f64) {
+    pub(crate) fn speed_at_u(&self, u: f64) -> (f64, f64) {
         let (mut p1p1, mut p1p2) = (0.0, 0.0);
         for k in 0..self.n_axes {
             if self.linear[k] {
@@ -118,12 +119,12 @@ impl CubicSpan {
     }
 
     /// The local minima of |P′| inside (0, 1) (at most two).
-    pub fn speed_minima(&self) -> &[f64] {
+    pub(crate) fn speed_minima(&self) -> &[f64] {
         &self.speed_minima.0[..self.speed_minima.1]
     }
 
     /// A(s) … A‴(s) at span parameter `u` (no arc-length inversion: cheap, for scanning).
-    pub fn eval_at_u(&self, u: f64, out: &mut AxisDerivs) {
+    pub(crate) fn eval_at_u(&self, u: f64, out: &mut AxisDerivs) {
         let n = self.n_axes;
         let (mut p1, mut p2, mut p3) = ([0.0; MAX_AXES], [0.0; MAX_AXES], [0.0; MAX_AXES]);
         for k in 0..n {

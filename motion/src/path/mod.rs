@@ -5,12 +5,12 @@
 //! move of rotary axes alone, the angle in degrees; a path table brings its own s.
 
 mod arc;
-pub mod arclength;
+mod arclength;
 mod cubic;
 mod line;
 mod quintic;
 mod septic;
-pub mod spline;
+pub(crate) mod spline;
 mod suffix;
 
 pub use arc::Helix;
@@ -50,7 +50,7 @@ pub enum Geometry {
 impl Geometry {
     /// A path table's span (also seen through a suffix) and the local position where this
     /// element starts on it: geometry that is a polynomial in s between its rows.
-    pub fn as_septic(&self) -> Option<(&SepticSpan, f64)> {
+    pub(crate) fn as_septic(&self) -> Option<(&SepticSpan, f64)> {
         match self {
             Geometry::Septic(g) => Some((g, 0.0)),
             Geometry::Suffix(sf) => match sf.inner() {
@@ -166,12 +166,12 @@ impl Element {
 
 /// Tangent angles below this count as continuous: a velocity direction step of 1e-9 rad at
 /// 1 m/s is 1e-6 mm/s, far below any measurable acceleration.
-pub const TANGENT_ANGLE_TOL_RAD: f64 = 1e-9;
+pub(crate) const TANGENT_ANGLE_TOL_RAD: f64 = 1e-9;
 /// A cut this close to an element's start (mm) is taken as its start: the element is kept
 /// whole rather than cut into a sliver.
-pub const SUFFIX_AT_START_MM: f64 = 1e-9;
+pub(crate) const SUFFIX_AT_START_MM: f64 = 1e-9;
 /// Relative curvature difference below which a joint counts as G².
-pub const CURVATURE_REL_TOL: f64 = 1e-9;
+pub(crate) const CURVATURE_REL_TOL: f64 = 1e-9;
 
 /// A continuous path through the axes: elements back to back in s.
 #[derive(Debug, Clone, PartialEq)]
@@ -277,7 +277,7 @@ impl Path {
 }
 
 /// Compares the end of `prev` with the start of `next`.
-pub fn classify_joint(prev: &Geometry, next: &Geometry, n_axes: usize) -> JointKind {
+pub(crate) fn classify_joint(prev: &Geometry, next: &Geometry, n_axes: usize) -> JointKind {
     let mut a = AxisDerivs::default();
     let mut b = AxisDerivs::default();
     prev.eval(prev.length_mm(), &mut a);
@@ -314,7 +314,7 @@ pub(crate) mod testutil {
 
     /// Checks A′, A″, A‴ of `g` against central differences of the next-lower derivative at
     /// interior points; returns the largest relative error.
-    pub fn max_fd_error(g: &Geometry, n_axes: usize, points: usize) -> f64 {
+    pub(crate) fn max_fd_error(g: &Geometry, n_axes: usize, points: usize) -> f64 {
         let len = g.length_mm();
         let h = len * 1e-5;
         let mut worst: f64 = 0.0;

@@ -67,7 +67,7 @@ impl QuinticSpan {
     }
 
     /// P(t) in the piece parameter.
-    pub fn point_at_t(&self, t: f64) -> AxisVec {
+    pub(crate) fn point_at_t(&self, t: f64) -> AxisVec {
         let mut p = [0.0; MAX_AXES];
         for (k, pk) in p.iter_mut().enumerate() {
             *pk = horner(&self.c[k], t);
@@ -76,13 +76,8 @@ impl QuinticSpan {
     }
 
     /// Piece parameter at arc length `s`.
-    pub fn t_at(&self, s: f64) -> f64 {
+    pub(crate) fn t_at(&self, s: f64) -> f64 {
         self.table.u_of_s(&|t| speed_of(&self.c, &self.linear, t), s)
-    }
-
-    /// Arc length from the piece start to parameter `t`.
-    pub fn s_at(&self, t: f64) -> f64 {
-        self.table.s_of_u(&|t| speed_of(&self.c, &self.linear, t), t)
     }
 
     pub fn eval(&self, s: f64, out: &mut AxisDerivs) {
@@ -91,7 +86,7 @@ impl QuinticSpan {
     }
 
     /// A(s) … A‴(s) at piece parameter `t` (no arc-length inversion).
-    pub fn eval_at_t(&self, t: f64, out: &mut AxisDerivs) {
+    pub(crate) fn eval_at_t(&self, t: f64, out: &mut AxisDerivs) {
         let (mut p1, mut p2, mut p3) = ([0.0; MAX_AXES], [0.0; MAX_AXES], [0.0; MAX_AXES]);
         for k in 0..MAX_AXES {
             let c = &self.c[k];

@@ -48,7 +48,7 @@ impl SepticSpan {
     }
 
     /// The axes the span holds: every axis from this index on is zero throughout.
-    pub fn axes(&self) -> usize {
+    pub(crate) fn axes(&self) -> usize {
         self.axes
     }
 
@@ -58,7 +58,7 @@ impl SepticSpan {
 
     /// Whether A … A‴ evaluate finite everywhere on the span: the sum Σ i³·|bᵢ| bounds every
     /// Horner partial sum, and scaled by 1/h³ it bounds A″ and A‴ (so A and A′ too).
-    pub fn is_bounded(&self) -> bool {
+    pub(crate) fn is_bounded(&self) -> bool {
         let scale = 1.0f64.max(1.0 / (self.h * self.h * self.h));
         self.b.iter().all(|c| {
             let sum: f64 = c.iter().enumerate().map(|(i, ci)| (i * i * i).max(1) as f64 * ci.abs()).sum();
@@ -71,7 +71,7 @@ impl SepticSpan {
     /// itself, so the planner's limit checks can evaluate the exact geometry between its
     /// nodes. By Taylor shift and scaling (no cancellation, unlike re-solving the Hermite
     /// problem from the piece's ends, whose end conditions divide by ds³).
-    pub fn piece(&self, s0_mm: f64, ds_mm: f64) -> [[f64; 8]; MAX_AXES] {
+    pub(crate) fn piece(&self, s0_mm: f64, ds_mm: f64) -> [[f64; 8]; MAX_AXES] {
         let (t0, r) = (s0_mm / self.h, ds_mm / self.h);
         let mut out = self.b;
         for c in out.iter_mut().take(self.axes) {

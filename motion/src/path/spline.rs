@@ -8,7 +8,7 @@
 ///   T_{n−1} + 2T_n = 3(P_n − P_{n−1})
 /// The system is strictly diagonally dominant except in its first and last row, where the
 /// elimination stays stable (pivots ≥ 2 − 1/2).
-pub fn natural_tangents(p: &[f64]) -> Vec<f64> {
+pub(crate) fn natural_tangents(p: &[f64]) -> Vec<f64> {
     let n = p.len();
     match n {
         0 => return Vec::new(),

@@ -17,7 +17,7 @@ pub struct Suffix {
 impl Suffix {
     /// The part of `inner` after `offset_mm` (clamped to the element). A suffix of a suffix
     /// refers to the original element, so repeated restarts do not nest.
-    pub fn new(inner: Geometry, offset_mm: f64) -> Self {
+    pub(crate) fn new(inner: Geometry, offset_mm: f64) -> Self {
         match inner {
             Geometry::Suffix(s) => {
                 let Suffix { inner, offset_mm: base, length_mm } = *s;
@@ -41,12 +41,12 @@ impl Suffix {
     }
 
     /// Where the suffix starts on `inner`, mm.
-    pub fn offset_mm(&self) -> f64 {
+    pub(crate) fn offset_mm(&self) -> f64 {
         self.offset_mm
     }
 
     /// The element kind it was cut from.
-    pub fn inner(&self) -> &Geometry {
+    pub(crate) fn inner(&self) -> &Geometry {
         &self.inner
     }
 }

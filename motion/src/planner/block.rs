@@ -15,6 +15,7 @@
 
 use super::branch::{Previous, Stuck, build_envelope};
 use super::envelope::Envelope;
+use super::error::Infeasibility;
 use super::forward::{Failed, Progress, forward_branch};
 use super::interval::Interval;
 use super::limits::Limits;
@@ -22,7 +23,7 @@ use super::node::Node;
 use super::step::Work;
 
 /// Repairs per block before the block is reported as infeasible.
-pub const MAX_REPAIRS: usize = 64;
+pub(super) const MAX_REPAIRS: usize = 64;
 /// A ceiling the acceleration-only passes lower by less than this share stays as it is.
 const PASS_NEGLIGIBLE: f64 = 1e-3;
 /// The relaxed ceiling is tried when the acceleration-only profile under it is at least this
@@ -40,7 +41,7 @@ const REPAIR_FACTORS: [f64; 5] = [0.9, 0.7, 0.4, 0.1, 0.0];
 /// The profile of a block, the first node whose state depends on where the block ends, and
 /// the work it took.
 #[derive(Debug, Clone)]
-pub struct BlockPlan {
+pub(super) struct BlockPlan {
     pub intervals: Vec<Interval>,
     /// `intervals[k]` runs from node k to node k+1; otherwise the intervals are a time-domain
     /// profile from the first node to the last (a closed-form straight move).
@@ -51,7 +52,12 @@ pub struct BlockPlan {
 
 /// Plans `nodes` (first node: given state `start`; last node: rest). `end_is_stop` tells
 /// whether the last node is a real stop (and not just where the horizon ends).
-pub fn plan_block(nodes: &mut [Node], start: (f64, f64), end_is_stop: bool, lim: &Limits) -> Result<BlockPlan, Stuck> {
+pub(super) fn plan_block(
+    nodes: &mut [Node],
+    start: (f64, f64),
+    end_is_stop: bool,
+    lim: &Limits,
+) -> Result<BlockPlan, Stuck> {
     let mut work = Work::default();
     if end_is_stop && start == (0.0, 0.0) {
         if let Some(intervals) = straight_move(nodes, lim) {
@@ -265,13 +271,19 @@ fn plan_repaired(
         let Some(&factor) = REPAIR_FACTORS.get(count - 1) else {
             return Err(stuck);
         };
-        tracing::debug!(node = k, s_mm = nodes[k].s_mm, factor, reason = stuck.reason, "planner repair: lowering v̄");
+        tracing::debug!(
+            node = k,
+            s_mm = nodes[k].s_mm,
+            factor,
+            reason = stuck.reason.as_str(),
+            "planner repair: lowering v̄"
+        );
         let span = repair_span(last, k);
         last = Some((k, span));
         let lowered = lower_before(nodes, k, span, factor);
         before = Some((env, progress, lowered));
     }
-    Err(Stuck { node: nodes.len() - 1, reason: "too many repairs" })
+    Err(Stuck { node: nodes.len() - 1, reason: Infeasibility::TooManyRepairs })
 }
 
 /// How many nodes before the stuck node `k` a repair lowers, given the last repair's node and

@@ -126,7 +126,7 @@ fn keeps_limits(path: &Path, segments: &[Segment], lim: &Limits) -> bool {
 }
 
 /// (duration, jerk) of the phases braking from (v ≥ 0, a) to rest under |a| ≤ A, |j| ≤ J.
-pub fn braking_phases(v0: f64, a0: f64, acc: f64, jerk: f64) -> [(f64, f64); 3] {
+pub(crate) fn braking_phases(v0: f64, a0: f64, acc: f64, jerk: f64) -> [(f64, f64); 3] {
     // Already braking so hard that releasing the deceleration at once just reaches rest (or
     // would undershoot): a single +J phase.
     if a0 < 0.0 && v0 <= a0 * a0 / (2.0 * jerk) {

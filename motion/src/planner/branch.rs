@@ -8,6 +8,7 @@
 
 use super::check::{IntervalGeom, violates};
 use super::envelope::{CurveStart, END_CURVE, Envelope};
+use super::error::Infeasibility;
 use super::falsi::Illinois;
 use super::interval::Interval;
 use super::limits::Limits;
@@ -47,7 +48,7 @@ const VIABLE_SEARCH_AIM: f64 = VIABLE_TOUCH_MARGIN / 3.0;
 /// Backward branches brake with this share of the jerk the axes allow, the forward branch
 /// with all of it: where the forward branch crosses a backward branch its braking is the
 /// steeper, which leaves jerk for the exact join.
-pub const BACKWARD_JERK_FRACTION: f64 = 0.95;
+pub(super) const BACKWARD_JERK_FRACTION: f64 = 0.95;
 /// A flattened backward branch this far (relative) below the ceiling is done.
 const FLAT_BELOW_CEILING: f64 = 1e-3;
 /// Start velocity factors tried when a backward branch cannot leave its section end at v̄
@@ -63,16 +64,16 @@ const BLOCK_END_CAP_FRACTIONS: [f64; 4] = [0.75, 0.5, 0.25, 0.1];
 
 /// A block could not be planned from some node on: where, and why.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Stuck {
+pub(super) struct Stuck {
     /// Node index (within the block) where no step was possible.
     pub node: usize,
-    pub reason: &'static str,
+    pub reason: Infeasibility,
 }
 
 /// The viability ramps a branch keeps between its greedy steps, in buffers reused from step
 /// to step: the ramp from the current state, and the best and the latest of a step's search.
 #[derive(Debug, Clone, Default)]
-pub struct Ramps {
+pub(super) struct Ramps {
     current: RampTrace,
     best: RampTrace,
     trial: RampTrace,
@@ -88,7 +89,7 @@ pub struct Ramps {
 /// 5-axis table, where branches ride their braking ramps, in 1100 of 1598 searches (16 % of
 /// the ramps, 22 % of the ramp nodes).
 #[allow(clippy::too_many_arguments)]
-pub fn greedy_step(
+pub(super) fn greedy_step(
     view: &View,
     t: usize,
     v: f64,
@@ -230,7 +231,7 @@ fn flat_landing(
 }
 
 /// Back-offs one branch may take before it gives up.
-pub const MAX_BACK_OFFS_PER_BRANCH: usize = 16;
+pub(super) const MAX_BACK_OFFS_PER_BRANCH: usize = 16;
 /// How many steps a stuck branch backs off, in turn, before giving up.
 const BACK_OFF_STEPS: [usize; 7] = [1, 2, 4, 8, 16, 32, 64];
 
@@ -242,7 +243,7 @@ const BACK_OFF_STEPS: [usize; 7] = [1, 2, 4, 8, 16, 32, 64];
 /// normally keeps branches out of such dead ends. `depth` skips the shortest back-offs: a
 /// branch stuck again at the same place after a back-off must brake from further back, since
 /// the same ramp would lead it into the same dead end.
-pub fn back_off(
+pub(super) fn back_off(
     view: &View,
     ceiling: &FlattenUnder,
     lim: &Limits,
@@ -288,14 +289,14 @@ pub fn back_off(
 
 /// One node of a backward branch: the node index, its state (forward acceleration) and the
 /// forward interval from it to the next node.
-pub type BranchNode = (usize, f64, f64, Interval);
+pub(super) type BranchNode = (usize, f64, f64, Interval);
 
 /// A backward branch from node `m` with state (`v_start`, forward acceleration `a_start`),
 /// running under v̄ capped at `cap`, leftwards until it has flattened, reaches node `stop`
 /// (exclusive), or meets a node where `lower(i, v)` says another branch already lies lower.
 /// `None` if it gets stuck.
 #[allow(clippy::too_many_arguments)]
-pub fn backward_branch(
+pub(super) fn backward_branch(
     nodes: &[Node],
     m: usize,
     v_start: f64,
@@ -390,7 +391,7 @@ pub fn backward_branch(
 
 /// The envelope before a repair lowered v̄ at nodes from `from` on, to rebuild from (see
 /// [`build_envelope`]).
-pub struct Previous<'a> {
+pub(super) struct Previous<'a> {
     pub env: &'a Envelope,
     pub from: usize,
 }
@@ -447,7 +448,7 @@ fn leaves_forward(nodes: &[Node], m: usize, v_mm_s: f64, lim: &Limits, work: &mu
 /// (Branches after the stretch are built anew: taking over those clear of it saved another
 /// quarter on a dense spline, but their viability ramps had looked into the stretch, and
 /// the plans that differed handed over states that led to more stops mid-path.)
-pub fn build_envelope(
+pub(super) fn build_envelope(
     nodes: &[Node],
     previous: Option<Previous>,
     lim: &Limits,
@@ -499,7 +500,7 @@ pub fn build_envelope(
             built = capped_from_block_end(nodes, lower, lim, work).map(|b| (0.0, b));
         }
         let Some((v_start, branch)) = built else {
-            return Err(Stuck { node: m, reason: "no backward branch leaves this section end" });
+            return Err(Stuck { node: m, reason: Infeasibility::NoBackwardBranch });
         };
         let branch_nodes = branch.len();
         tracing::debug!(

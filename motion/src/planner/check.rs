@@ -12,17 +12,17 @@ use super::node::{NodeGeom, SpanPoly};
 
 /// Violations up to this (relative to the limit) are rounding, not a breach: the limits the
 /// planner works with already keep `planner.limit_fraction` of headroom.
-pub const VIOLATION_TOL: f64 = 1e-12;
+pub(super) const VIOLATION_TOL: f64 = 1e-12;
 
 /// Points inside an interval (fractions of its duration) where the limits are checked.
-pub const CHECK_FRACTIONS: [f64; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
+pub(super) const CHECK_FRACTIONS: [f64; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
 /// The same on a path table's interval that the nodes do not interpolate well
 /// ([`SpanPoly::fine_checks`]): such intervals are long (rows split by time only) and their
 /// geometry can bulge between five points. With five, the six test tables on the three 5-axis
 /// machines reached 0.9987 × an acceleration limit and 0.9983 × a jerk limit at 0.25 ms (up
 /// to 0.35 % over the planner's own `limit_fraction` of 0.995); with these seven 0.9965 and
 /// 0.9962 (nine: 0.9963, 0.9957), for 16 % more instructions on the 5-axis table (nine: 30 %).
-pub const FINE_CHECK_FRACTIONS: [f64; 7] = [0.0, 1.0 / 6.0, 2.0 / 6.0, 0.5, 4.0 / 6.0, 5.0 / 6.0, 1.0];
+pub(super) const FINE_CHECK_FRACTIONS: [f64; 7] = [0.0, 1.0 / 6.0, 2.0 / 6.0, 0.5, 4.0 / 6.0, 5.0 / 6.0, 1.0];
 
 /// The check points of interval `g`.
 #[inline]
@@ -33,7 +33,7 @@ fn check_fractions(g: &IntervalGeom) -> &'static [f64] {
 /// The geometry of one interval in traversal order. `sign` is −1 for branches computed
 /// backwards from the end: reversing the path flips A′ and A‴ and keeps A″.
 #[derive(Clone, Copy)]
-pub struct IntervalGeom<'a> {
+pub(super) struct IntervalGeom<'a> {
     pub start: &'a NodeGeom,
     pub end: &'a NodeGeom,
     pub ds_mm: f64,
@@ -45,7 +45,7 @@ pub struct IntervalGeom<'a> {
 impl IntervalGeom<'_> {
     /// See [`SpanPoly::fine_checks`].
     #[inline]
-    pub fn fine_checks(&self) -> bool {
+    pub(super) fn fine_checks(&self) -> bool {
         self.span.is_some_and(SpanPoly::fine_checks)
     }
 }
@@ -53,7 +53,7 @@ impl IntervalGeom<'_> {
 /// Geometry at fraction σ of the interval's length: exact where the interval has a
 /// [`SpanPoly`], else interpolated.
 #[inline]
-pub fn geom_at(g: &IntervalGeom, sigma: f64, k: usize) -> (f64, f64, f64) {
+pub(super) fn geom_at(g: &IntervalGeom, sigma: f64, k: usize) -> (f64, f64, f64) {
     match g.span {
         Some(p) => span_at(g, p, &span_powers(g, sigma), k),
         None => hermite_at(g, &HermiteBasis::at(sigma), k),
@@ -62,7 +62,7 @@ pub fn geom_at(g: &IntervalGeom, sigma: f64, k: usize) -> (f64, f64, f64) {
 
 /// [`geom_at`] for the first `n_axes` axes, as a node's geometry (the powers or the basis at σ
 /// computed once for all of them).
-pub fn node_geom_at(g: &IntervalGeom, sigma: f64, n_axes: usize) -> NodeGeom {
+pub(super) fn node_geom_at(g: &IntervalGeom, sigma: f64, n_axes: usize) -> NodeGeom {
     let mut ng = NodeGeom::default();
     let mut put = |k: usize, (d1, d2, d3): (f64, f64, f64)| (ng.d1[k], ng.d2[k], ng.d3[k]) = (d1, d2, d3);
     match g.span {
@@ -129,7 +129,7 @@ fn span_at(g: &IntervalGeom, p: &SpanPoly, powers: &[f64; 7], k: usize) -> (f64,
 
 /// Interior points (fractions of the length) where the velocity bound is evaluated; on the
 /// intervals that get [`FINE_CHECK_FRACTIONS`], at those.
-pub const VBAR_FRACTIONS: [f64; 3] = [0.25, 0.5, 0.75];
+pub(super) const VBAR_FRACTIONS: [f64; 3] = [0.25, 0.5, 0.75];
 
 /// The lowest velocity bounds inside an interval (on its geometry, see [`geom_at`]): the
 /// acceleration-only bound and seed 001's v̄ (eq. 6), as (`velocity_bound`,
@@ -137,7 +137,7 @@ pub const VBAR_FRACTIONS: [f64; 3] = [0.25, 0.5, 0.75];
 /// branch starting there at v̄ with a = 0 would break a limit a little further on; the
 /// planner lowers the acceleration-only bound only by a minimum below both nodes'
 /// (`Planner::refine_vbar`), and never at a stop.
-pub fn interior_vbar(g: &IntervalGeom, lim: &Limits) -> (f64, f64) {
+pub(super) fn interior_vbar(g: &IntervalGeom, lim: &Limits) -> (f64, f64) {
     if let Some(bounds) = g.span.and_then(SpanPoly::interior_vbar) {
         return bounds;
     }
@@ -149,7 +149,7 @@ pub fn interior_vbar(g: &IntervalGeom, lim: &Limits) -> (f64, f64) {
 /// acceleration-only bound matters only below both nodes' (`Planner::refine_vbar`): where a
 /// point's is at least `needed_below` ([`moves_at`]), it is not computed, so the first value
 /// is exact only where it is below `needed_below`.
-pub fn interior_vbar_around(
+pub(super) fn interior_vbar_around(
     g: &IntervalGeom,
     lim: &Limits,
     middle: Option<(&NodeGeom, f64)>,
@@ -188,18 +188,18 @@ fn moves_at(g: &NodeGeom, v_mm_s: f64, lim: &Limits) -> bool {
 
 /// Largest normalised limit use minus one over all axes, limits and check points:
 /// ≤ 0 means the interval keeps every limit. (value / limit − 1, per limit.)
-pub fn violation(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> f64 {
+pub(super) fn violation(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> f64 {
     point_violations(iv, g, lim).fold(f64::NEG_INFINITY, raise_to)
 }
 
 /// Whether the interval breaks a limit by more than `VIOLATION_TOL` (stops at the first).
-pub fn violates(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> bool {
+pub(super) fn violates(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> bool {
     point_violations(iv, g, lim).any(|x| x > VIOLATION_TOL)
 }
 
 /// Whether the interval breaks a limit by more than `VIOLATION_TOL` at a check point between
 /// its nodes (stops at the first): for a caller that knows the nodes keep the limits.
-pub fn violates_inside(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> bool {
+pub(super) fn violates_inside(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> bool {
     let fractions = check_fractions(g);
     points_violations(iv, g, lim, &fractions[1..fractions.len() - 1]).any(|x| x > VIOLATION_TOL)
 }
@@ -243,7 +243,7 @@ fn check_point(iv: &Interval, f: f64, inv_ds: f64) -> (f64, f64, f64) {
 
 /// Normalised limit use minus one at one point with state (v, a) and jerk j.
 #[inline(always)]
-pub fn point_violation(g: &IntervalGeom, sigma: f64, v: f64, a: f64, j: f64, lim: &Limits) -> f64 {
+pub(super) fn point_violation(g: &IntervalGeom, sigma: f64, v: f64, a: f64, j: f64, lim: &Limits) -> f64 {
     if lim.n_axes < LANES_FROM_AXES {
         point_violation_scalar(g, sigma, v, a, j, lim)
     } else {
@@ -353,14 +353,14 @@ fn axis_uses(
 /// [`axis_uses`]) of one axis at one check point. A step search that knows which term bounds
 /// it follows that term alone, a fraction of the cost of all of them (`step::max_feasible`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Term {
+pub(super) struct Term {
     point: usize,
     axis: usize,
     limit: usize,
 }
 
 /// [`violation`] and, where it is above `VIOLATION_TOL`, the term that reaches it.
-pub fn violation_term(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> (f64, Option<Term>) {
+pub(super) fn violation_term(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> (f64, Option<Term>) {
     let mut worst = (f64::NEG_INFINITY, 0);
     for (i, x) in point_violations(iv, g, lim).enumerate() {
         if x > worst.0 {
@@ -385,7 +385,7 @@ pub fn violation_term(iv: &Interval, g: &IntervalGeom, lim: &Limits) -> (f64, Op
 
 /// The value of one term of [`violation`] for interval `iv` (bit for bit the value that term
 /// has inside [`violation`]).
-pub fn term_violation(iv: &Interval, g: &IntervalGeom, lim: &Limits, t: Term) -> f64 {
+pub(super) fn term_violation(iv: &Interval, g: &IntervalGeom, lim: &Limits, t: Term) -> f64 {
     term_uses(iv, g, lim, t.point, t.axis)[t.limit] - 1.0
 }
 
@@ -429,7 +429,7 @@ fn in_order(lower_r: f64, upper_r: f64, r: f64) -> (f64, f64) {
 /// The path jerks j allowed at a point with geometry `g` (traversal orientation `sign`) and
 /// state (v, a): the intersection over the axes of |A‴v³ + 3A″va + A′j| ≤ J (eq. 1c).
 /// Returns (lo, hi); lo > hi means no jerk keeps every axis inside.
-pub fn jerk_range(g: &NodeGeom, sign: f64, v: f64, a: f64, lim: &Limits) -> (f64, f64) {
+pub(super) fn jerk_range(g: &NodeGeom, sign: f64, v: f64, a: f64, lim: &Limits) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
     for k in 0..lim.n_axes {
         let d1 = sign * g.d1[k];
@@ -450,7 +450,7 @@ pub fn jerk_range(g: &NodeGeom, sign: f64, v: f64, a: f64, lim: &Limits) -> (f64
 }
 
 /// The path accelerations allowed at velocity v: A_min ≤ A″v² + A′a ≤ A_max per axis (eq. 1b).
-pub fn acc_range(g: &NodeGeom, sign: f64, v: f64, lim: &Limits) -> (f64, f64) {
+pub(super) fn acc_range(g: &NodeGeom, sign: f64, v: f64, lim: &Limits) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
     for k in 0..lim.n_axes {
         let d1 = sign * g.d1[k];

@@ -10,7 +10,7 @@ use super::interval::Interval;
 
 /// Where a backward branch starts: its section end and the state there.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CurveStart {
+pub(super) struct CurveStart {
     pub node: usize,
     pub v: f64,
     pub a: f64,
@@ -19,7 +19,7 @@ pub struct CurveStart {
 /// Per node of a block: the ceiling and, where a backward branch defines it, that branch's
 /// state and interval.
 #[derive(Debug, Clone, Default)]
-pub struct Envelope {
+pub(super) struct Envelope {
     /// Ceiling velocity, mm/s: the branch where there is one, else v̄.
     pub v: Vec<f64>,
     /// Forward acceleration of the branch at the node (0 where there is none).
@@ -33,11 +33,11 @@ pub struct Envelope {
 }
 
 /// Id of the branch from the block end: it is built first.
-pub const END_CURVE: u32 = 1;
+pub(super) const END_CURVE: u32 = 1;
 
 impl Envelope {
     /// The bare velocity bounds.
-    pub fn from_vbar(vbar: impl Iterator<Item = f64>) -> Self {
+    pub(super) fn from_vbar(vbar: impl Iterator<Item = f64>) -> Self {
         let v: Vec<f64> = vbar.collect();
         let n = v.len();
         Self {
@@ -49,27 +49,16 @@ impl Envelope {
         }
     }
 
-    pub fn len(&self) -> usize {
+    pub(super) fn len(&self) -> usize {
         self.v.len()
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.v.is_empty()
-    }
-
-    pub fn on_curve(&self, i: usize) -> bool {
+    pub(super) fn on_curve(&self, i: usize) -> bool {
         self.curve[i] != 0
     }
 
-    /// First node of the branch from the block end: the part of the block whose profile
-    /// depends on where the block (the planning horizon) ends.
-    pub fn end_curve_start(&self) -> usize {
-        let n = self.curve.len();
-        (0..n).rev().take_while(|&i| self.curve[i] == END_CURVE).last().unwrap_or(n.saturating_sub(1))
-    }
-
     /// Every branch as (section end, first node), the latest section end first.
-    pub fn extents(&self) -> Vec<(usize, usize)> {
+    pub(super) fn extents(&self) -> Vec<(usize, usize)> {
         let mut first = vec![usize::MAX; self.starts.len()];
         for (i, &c) in self.curve.iter().enumerate().rev() {
             first[c as usize] = i;
@@ -83,7 +72,7 @@ impl Envelope {
     /// Takes over every branch of `old` from a section end before node `edge`. For a block whose
     /// v̄ before `edge` is as in `old`'s, and where no branch from a later section end reaches
     /// before `edge`, here or in `old`: then those branches are the ones a build would make.
-    pub fn take_over_before(&mut self, old: &Envelope, edge: usize) {
+    pub(super) fn take_over_before(&mut self, old: &Envelope, edge: usize) {
         let mut ids = vec![0u32; old.starts.len()];
         for (c, st) in old.starts.iter().enumerate().skip(1) {
             if st.node < edge {
@@ -108,7 +97,7 @@ impl Envelope {
 
     /// The first node where this envelope differs from `old` (velocity, acceleration, whether
     /// a branch lies there and where it ends); the length if nowhere.
-    pub fn first_difference(&self, old: &Envelope) -> usize {
+    pub(super) fn first_difference(&self, old: &Envelope) -> usize {
         let end = |e: &Envelope, i: usize| (e.curve[i] != 0).then(|| e.starts[e.curve[i] as usize].node);
         (0..self.len())
             .find(|&i| self.v[i] != old.v[i] || self.a[i] != old.a[i] || end(self, i) != end(old, i))

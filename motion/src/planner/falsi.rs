@@ -6,7 +6,7 @@
 
 /// Illinois weights of a bracket's two ends and which end moved last.
 #[derive(Debug, Clone, Copy)]
-pub struct Illinois {
+pub(super) struct Illinois {
     w_lo: f64,
     w_hi: f64,
     /// +1: the lower end moved last; −1: the upper one; 0: neither yet.
@@ -23,7 +23,7 @@ impl Illinois {
     /// The next point inside (x_lo, x_hi): the root of the secant through the weighted values,
     /// kept `margin` (a share of the bracket) away from either end, or the midpoint where the
     /// upper end's value is unknown or not above the lower end's.
-    pub fn next(&self, (x_lo, f_lo): (f64, f64), (x_hi, f_hi): (f64, Option<f64>), margin: f64) -> f64 {
+    pub(super) fn next(&self, (x_lo, f_lo): (f64, f64), (x_hi, f_hi): (f64, Option<f64>), margin: f64) -> f64 {
         let f_lo = self.w_lo * f_lo;
         match f_hi.map(|f| self.w_hi * f) {
             Some(f_hi) if f_hi > f_lo => x_lo + (-f_lo / (f_hi - f_lo)).clamp(margin, 1.0 - margin) * (x_hi - x_lo),
@@ -32,7 +32,7 @@ impl Illinois {
     }
 
     /// The lower end moved to the last point.
-    pub fn lower_moved(&mut self) {
+    pub(super) fn lower_moved(&mut self) {
         self.w_lo = 1.0;
         if self.side == 1 {
             self.w_hi *= 0.5;
@@ -41,7 +41,7 @@ impl Illinois {
     }
 
     /// The upper end moved to the last point.
-    pub fn upper_moved(&mut self) {
+    pub(super) fn upper_moved(&mut self) {
         self.w_hi = 1.0;
         if self.side == -1 {
             self.w_lo *= 0.5;
@@ -50,7 +50,7 @@ impl Illinois {
     }
 
     /// The upper end moved to the last point, where no value exists (the next point bisects).
-    pub fn upper_moved_unvalued(&mut self) {
+    pub(super) fn upper_moved_unvalued(&mut self) {
         self.side = -1;
     }
 }

@@ -12,6 +12,7 @@
 
 use super::branch::{MAX_BACK_OFFS_PER_BRANCH, Ramps, Stuck, backward_branch, greedy_step};
 use super::envelope::{END_CURVE, Envelope};
+use super::error::Infeasibility;
 use super::interval::Interval;
 use super::join::{join_three, join_two};
 use super::limits::Limits;
@@ -33,8 +34,8 @@ const CAP_SEARCH_ITERS: usize = 30;
 /// The cap search stops when the bracket is this narrow relative to v_c.
 const CAP_SEARCH_REL_TOL: f64 = 1e-4;
 /// A state this close to v = 0 and a = 0 is at rest (a block's end, a kept stop).
-pub const REST_V_TOL_MM_S: f64 = 1e-6;
-pub const REST_A_TOL_MM_S2: f64 = 1e-3;
+pub(super) const REST_V_TOL_MM_S: f64 = 1e-6;
+pub(super) const REST_A_TOL_MM_S2: f64 = 1e-3;
 /// Bisection steps on the jerk blend of a brake join's first interval.
 const BLEND_ITERS: usize = 40;
 /// Joins are tried from ramp states at least this close (relative) below the branch.
@@ -45,7 +46,7 @@ const ON_BRANCH_REL_TOL: f64 = 1e-9;
 /// The forward branch's intervals, and the first node whose state depends on where the
 /// block ends (on the backward branch from its end): a horizon can hand over the profile up
 /// to that node and no further.
-pub struct ForwardPlan {
+pub(super) struct ForwardPlan {
     pub intervals: Vec<Interval>,
     pub final_before: usize,
 }
@@ -84,7 +85,7 @@ impl Run {
 
 /// How far a forward branch got before it got stuck: its intervals from the block start and
 /// the section ends it passed, where a run after a repair further on can resume.
-pub struct Progress {
+pub(super) struct Progress {
     intervals: Vec<Interval>,
     /// The section ends passed, in order; the block start first.
     anchors: Vec<Anchor>,
@@ -101,7 +102,7 @@ struct Anchor {
 }
 
 /// A forward branch that got stuck: where, and how far it got.
-pub struct Failed {
+pub(super) struct Failed {
     pub stuck: Stuck,
     pub progress: Progress,
 }
@@ -112,7 +113,7 @@ pub struct Failed {
 /// run is valid as it stands: every interval was checked, and it ends on a branch's section
 /// end. A run built anew could differ only where the kept one's viability ramps looked past
 /// that section end, which they seldom do (they flatten under the branch it joined).
-pub fn forward_branch(
+pub(super) fn forward_branch(
     nodes: &[Node],
     env: &Envelope,
     start: (f64, f64),
@@ -208,7 +209,7 @@ fn run_forward(
         }
         // The branch crossed (or the next one ahead, if the free run got stuck before it).
         let Some(c) = (t + 1..n).map(|i| env.curve[i]).find(|&c| c != 0) else {
-            return Err(Stuck { node: t, reason: "no feasible and viable next velocity" });
+            return Err(Stuck { node: t, reason: Infeasibility::NoViableStep });
         };
         let section_end = env.starts[c as usize].node;
         let joined = direct_join(&view, run, t, anchor, env, c, lim, work)
@@ -234,7 +235,7 @@ fn run_forward(
                 Some(())
             });
         if joined.is_none() {
-            return Err(Stuck { node: t, reason: "the forward branch cannot join the backward branch" });
+            return Err(Stuck { node: t, reason: Infeasibility::CannotJoin });
         }
         // Follow the branch to its section end.
         while run.last() < section_end {
@@ -259,7 +260,7 @@ fn run_forward(
     }
     let (v, a) = run.state(n - 1);
     if v.abs() > REST_V_TOL_MM_S || a.abs() > REST_A_TOL_MM_S2 {
-        return Err(Stuck { node: n - 1, reason: "the forward branch did not come to rest at the block end" });
+        return Err(Stuck { node: n - 1, reason: Infeasibility::NotAtRest });
     }
     Ok(final_before)
 }

@@ -16,7 +16,7 @@ const TIME_HALLEY_MAX_ITER: usize = 6;
 /// A constant-jerk piece: starts with velocity `v0` and acceleration `a0`, applies jerk `j`
 /// for `t_s` seconds and covers `ds_mm` of path.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Interval {
+pub(super) struct Interval {
     pub v0: f64,
     pub a0: f64,
     pub j: f64,
@@ -29,7 +29,7 @@ impl Interval {
     /// T uses the cancellation-free form 6Δs / [(2v₀ + v₁) + √((2v₀ + v₁)² + 6a₀Δs)], which
     /// also covers a₀ = 0. `None` when v₁ cannot be reached (negative discriminant), the
     /// duration is not positive and finite, or the velocity would turn negative inside.
-    pub fn through(v0: f64, a0: f64, ds: f64, v1: f64) -> Option<Interval> {
+    pub(super) fn through(v0: f64, a0: f64, ds: f64, v1: f64) -> Option<Interval> {
         let q = 2.0 * v0 + v1;
         let disc = q * q + 6.0 * a0 * ds; // seed 001 eq. 3, discriminant
         if disc.is_nan() || disc < 0.0 {
@@ -50,7 +50,7 @@ impl Interval {
 
     /// The interval from (v0, a0) with constant jerk `j` over `ds`. `None` if the motion comes
     /// to rest before covering `ds`.
-    pub fn with_jerk(v0: f64, a0: f64, ds: f64, j: f64) -> Option<Interval> {
+    pub(super) fn with_jerk(v0: f64, a0: f64, ds: f64, j: f64) -> Option<Interval> {
         Self::with_jerk_moving(v0, a0, ds, j).or_else(|| Self::with_jerk_bracketed(v0, a0, ds, j))
     }
 
@@ -147,7 +147,7 @@ impl Interval {
     /// The interval from (v0, a0) over `ds` that ends with acceleration `a1`: j = (a1 − a0)/T
     /// and Δs = v₀T + (2a₀ + a₁)T²/6 (seed 001 eq. 2 at τ = T), solved in the cancellation-free
     /// form T = 2Δs / (v₀ + √(v₀² + 2(2a₀ + a₁)Δs/3)). `None` if no such interval moves forward.
-    pub fn landing(v0: f64, a0: f64, ds: f64, a1: f64) -> Option<Interval> {
+    pub(super) fn landing(v0: f64, a0: f64, ds: f64, a1: f64) -> Option<Interval> {
         let disc = v0 * v0 + 2.0 * (2.0 * a0 + a1) * ds / 3.0;
         if disc.is_nan() || disc < 0.0 {
             return None;
@@ -161,16 +161,16 @@ impl Interval {
         iv.velocity_stays_non_negative().then_some(iv)
     }
 
-    pub fn v1(&self) -> f64 {
+    pub(super) fn v1(&self) -> f64 {
         self.v0 + self.a0 * self.t_s + 0.5 * self.j * self.t_s * self.t_s
     }
 
-    pub fn a1(&self) -> f64 {
+    pub(super) fn a1(&self) -> f64 {
         self.a0 + self.j * self.t_s
     }
 
     /// (s − s₀, v, a) at local time τ (seed 001 eq. 2).
-    pub fn state_at(&self, tau: f64) -> (f64, f64, f64) {
+    pub(super) fn state_at(&self, tau: f64) -> (f64, f64, f64) {
         let (v0, a0, j) = (self.v0, self.a0, self.j);
         let s = v0 * tau + 0.5 * a0 * tau * tau + j * tau * tau * tau * SIXTH;
         let v = v0 + a0 * tau + 0.5 * j * tau * tau;
@@ -180,7 +180,7 @@ impl Interval {
 
     /// The same motion seen backwards in time (for branches computed from the end): starts
     /// at this interval's end state with the acceleration negated; jerk is unchanged.
-    pub fn reversed(&self) -> Interval {
+    pub(super) fn reversed(&self) -> Interval {
         Interval { v0: self.v1(), a0: -self.a1(), j: self.j, t_s: self.t_s, ds_mm: self.ds_mm }
     }
 

@@ -44,7 +44,7 @@ fn join_in_reach(view: &View, t: usize, v: f64, a: f64, target: (f64, f64), lim:
 
 /// Exact join (seed 001 §3.3): from (v, a) at node t onto the backward branch's state at
 /// node t+2, through a velocity at t+1 found by bisection on the acceleration mismatch.
-pub fn join_two(
+pub(super) fn join_two(
     view: &View,
     t: usize,
     v: f64,
@@ -135,7 +135,7 @@ const JOIN3_SAMPLES: usize = 16;
 /// velocity at t+1 is scanned between the two ends' velocities (and a little beyond), and for
 /// each the two-interval join from t+1 fixes the velocity at t+2. One more degree of freedom
 /// than [`join_two`], for states farther from the branch. The highest feasible path wins.
-pub fn join_three(
+pub(super) fn join_three(
     view: &View,
     t: usize,
     v: f64,

@@ -133,7 +133,7 @@ fn axes_violation(v: f64, a: f64, j: f64, lim: &Limits, geom: &impl Source) -> f
 
 /// At a node (`check::node_at`).
 #[inline(always)]
-pub fn at_node(g: &IntervalGeom, n: &NodeGeom, v: f64, a: f64, j: f64, lim: &Limits) -> f64 {
+pub(super) fn at_node(g: &IntervalGeom, n: &NodeGeom, v: f64, a: f64, j: f64, lim: &Limits) -> f64 {
     axes_violation(v, a, j, lim, &AtNode { n, sign: splat(g.sign) })
 }
 
@@ -153,7 +153,7 @@ impl Source for AtNode<'_> {
 /// On the exact geometry at fraction σ, whose `SpanPoly::powers` (in increasing s) are `p`
 /// (`check::span_at`).
 #[inline(always)]
-pub fn on_span(g: &IntervalGeom, poly: &SpanPoly, p: &[f64; 7], v: f64, a: f64, j: f64, lim: &Limits) -> f64 {
+pub(super) fn on_span(g: &IntervalGeom, poly: &SpanPoly, p: &[f64; 7], v: f64, a: f64, j: f64, lim: &Limits) -> f64 {
     let pw = [splat(p[0]), splat(p[1]), splat(p[2]), splat(p[3]), splat(p[4]), splat(p[5]), splat(p[6])];
     axes_violation(v, a, j, lim, &OnSpan { poly, pw, sign: splat(g.sign) })
 }
@@ -181,7 +181,7 @@ impl Source for OnSpan<'_> {
 /// Interpolated between the nodes with the cubic Hermite basis (h00, h10, h01, h11) at σ
 /// (`check::hermite_at`).
 #[inline(always)]
-pub fn interpolated(g: &IntervalGeom, h: [f64; 4], sigma: f64, v: f64, a: f64, j: f64, lim: &Limits) -> f64 {
+pub(super) fn interpolated(g: &IntervalGeom, h: [f64; 4], sigma: f64, v: f64, a: f64, j: f64, lim: &Limits) -> f64 {
     let src = Hermite {
         start: g.start,
         end: g.end,

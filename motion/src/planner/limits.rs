@@ -13,10 +13,10 @@ pub struct Limits {
     pub acc_min: [f64; MAX_AXES],
     pub jerk: [f64; MAX_AXES],
     /// Reciprocals of the limits above (the checks multiply instead of dividing).
-    pub inv_vel: [f64; MAX_AXES],
-    pub inv_acc_max: [f64; MAX_AXES],
-    pub inv_acc_min: [f64; MAX_AXES],
-    pub inv_jerk: [f64; MAX_AXES],
+    pub(crate) inv_vel: [f64; MAX_AXES],
+    pub(crate) inv_acc_max: [f64; MAX_AXES],
+    pub(crate) inv_acc_min: [f64; MAX_AXES],
+    pub(crate) inv_jerk: [f64; MAX_AXES],
     /// The configured (unscaled) limits, for reporting ratios against them.
     pub configured_vel: [f64; MAX_AXES],
     pub configured_acc: [f64; MAX_AXES],
@@ -57,7 +57,7 @@ impl Limits {
     }
 
     /// Recomputes the reciprocals after the limits were changed.
-    pub fn refresh(&mut self) {
+    pub(crate) fn refresh(&mut self) {
         for k in 0..self.n_axes {
             self.inv_vel[k] = 1.0 / self.vel[k];
             self.inv_acc_max[k] = 1.0 / self.acc_max[k];
@@ -67,12 +67,12 @@ impl Limits {
     }
 
     /// Smallest jerk limit over the axes: a path-level scale for sampling heuristics.
-    pub fn min_jerk(&self) -> f64 {
+    pub(crate) fn min_jerk(&self) -> f64 {
         self.jerk[..self.n_axes].iter().copied().fold(f64::INFINITY, f64::min)
     }
 
     /// Smallest acceleration limit over the axes.
-    pub fn min_acc(&self) -> f64 {
+    pub(crate) fn min_acc(&self) -> f64 {
         self.acc_max[..self.n_axes]
             .iter()
             .zip(&self.acc_min[..self.n_axes])

@@ -13,29 +13,33 @@
 //! which the machine can still stop within the planned path, and planning element by element
 //! gives the same profile as planning the whole program.
 
-pub mod block;
+mod block;
 pub mod brake;
-pub mod branch;
-pub mod check;
-pub mod envelope;
-pub mod falsi;
-pub mod forward;
-pub mod interval;
-pub mod join;
+mod branch;
+mod check;
+mod envelope;
+mod error;
+pub mod export;
+mod falsi;
+mod forward;
+mod interval;
+mod join;
 mod lanes;
-pub mod limits;
-pub mod node;
+mod limits;
+mod node;
 pub mod profile;
-pub mod ramp;
-pub mod reach;
-pub mod resume;
-pub mod sampling;
-pub mod scurve;
-pub mod step;
-pub mod view;
+mod ramp;
+mod reach;
+mod resume;
+mod sampling;
+mod scurve;
+mod step;
+mod view;
 
+pub use error::{Infeasibility, PlanError};
 pub use limits::Limits;
 pub use profile::{PathState, Segment};
+pub use resume::{STANDSTILL_A_MM_S2, STANDSTILL_V_MM_S};
 pub use step::Work;
 
 use crate::Settings;
@@ -43,31 +47,6 @@ use crate::path::{Element, Path};
 use node::Node;
 use sampling::SamplingParams;
 use std::collections::VecDeque;
-use std::fmt;
-
-/// Why a program cannot be planned.
-#[derive(Debug, Clone, PartialEq)]
-pub enum PlanError {
-    /// The axes cannot move along the path at some point (zero or invalid velocity bound).
-    Immovable { s_mm: f64, line: u32, reason: String },
-    /// No profile keeping the limits was found from some point on.
-    Infeasible { s_mm: f64, line: u32, reason: String },
-}
-
-impl fmt::Display for PlanError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            PlanError::Immovable { s_mm, line, reason } => {
-                write!(f, "line {line}: the axes cannot move along the path at s = {s_mm:.4} mm: {reason}")
-            }
-            PlanError::Infeasible { s_mm, line, reason } => {
-                write!(f, "line {line}: no motion within the axis limits found at s = {s_mm:.4} mm: {reason}")
-            }
-        }
-    }
-}
-
-impl std::error::Error for PlanError {}
 
 /// Totals over a planning run.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -130,7 +109,7 @@ impl Planner {
         Self::with_limits(settings, Limits::from_settings(settings))
     }
 
-    pub fn with_limits(settings: &Settings, lim: Limits) -> Self {
+    fn with_limits(settings: &Settings, lim: Limits) -> Self {
         let p = &settings.planner;
         Self {
             lim,
@@ -242,7 +221,7 @@ impl Planner {
     }
 
     /// The nodes of a whole path as the planner samples them (for tests and tools).
-    pub fn sample_path(settings: &Settings, path: &Path) -> Vec<Node> {
+    pub(crate) fn sample_path(settings: &Settings, path: &Path) -> Vec<Node> {
         let mut planner = Planner::new(settings);
         for e in &path.elements {
             planner.push(e.clone());
@@ -378,17 +357,13 @@ impl Planner {
                 {
                     // No continuation from the hand-over state with the longer horizon (a
                     // dead end the branches do not find their way out of).
-                    let (from, brake_state) = self.brake_along_stop(stop_from, stuck.reason);
+                    let (from, brake_state) = self.brake_along_stop(stop_from, stuck.reason.as_str());
                     (stop_from, handed, block_start, idx, state) = (from, from, from, from + 1, brake_state);
                     continue;
                 }
                 Err(stuck) => {
                     let node = &self.nodes[block_start + stuck.node.min(idx - block_start)];
-                    return Err(PlanError::Infeasible {
-                        s_mm: node.s_mm,
-                        line: node.line,
-                        reason: stuck.reason.to_string(),
-                    });
+                    return Err(PlanError::Infeasible { s_mm: node.s_mm, line: node.line, reason: stuck.reason });
                 }
             };
             if block_start == stop_from {
@@ -526,11 +501,7 @@ impl Planner {
             let v = node.vbar_mm_s;
             let interior = i > 0 && i + 1 < self.nodes.len() && !node.stop;
             if v.is_nan() || (interior && v <= 0.0) {
-                return Err(PlanError::Immovable {
-                    s_mm: node.s_mm,
-                    line: node.line,
-                    reason: format!("velocity bound {v} (an axis limit or the feed does not allow motion here)"),
-                });
+                return Err(PlanError::Immovable { s_mm: node.s_mm, line: node.line, vbar_mm_s: v });
             }
         }
         Ok(())

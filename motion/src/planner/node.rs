@@ -29,7 +29,7 @@ pub const SPAN_POLY_COEFS: usize = 7 + 6 + 5;
 /// instead of interpolating between the nodes (`check::geom_at`), so the nodes need not be
 /// dense enough for the interpolation to be accurate: only for the motion's sake.
 #[derive(Debug, Clone, PartialEq)]
-pub struct SpanPoly {
+pub(crate) struct SpanPoly {
     /// Per coefficient the axes side by side (the limit checks take four axes at a time,
     /// `lanes`), lowest order first: A′ in `[0..7]`, A″ in `[7..13]`, A‴ in `[13..18]`.
     coef: [[f64; MAX_AXES]; SPAN_POLY_COEFS],
@@ -47,7 +47,7 @@ impl SpanPoly {
     /// From the position polynomial of every axis, A(s₀ + σ·ds) = Σ cᵢ σⁱ, over an interval
     /// `ds_mm` long.
     /// Only the first `axes` axes are read: the others are zero.
-    pub fn from_position(c: &[[f64; 8]; MAX_AXES], axes: usize, ds_mm: f64, interpolable: bool) -> Self {
+    pub(crate) fn from_position(c: &[[f64; 8]; MAX_AXES], axes: usize, ds_mm: f64, interpolable: bool) -> Self {
         let (i1, i2, i3) = (1.0 / ds_mm, 1.0 / (ds_mm * ds_mm), 1.0 / (ds_mm * ds_mm * ds_mm));
         let mut coef = [[0.0; MAX_AXES]; SPAN_POLY_COEFS];
         for (k, c) in c.iter().enumerate().take(axes) {
@@ -65,42 +65,42 @@ impl SpanPoly {
     }
 
     /// Marks whether the nodes interpolate the interval well (see [`SpanPoly::fine_checks`]).
-    pub fn set_interpolable(&mut self, interpolable: bool) {
+    pub(crate) fn set_interpolable(&mut self, interpolable: bool) {
         self.interpolable = interpolable;
     }
 
     /// Records `check::interior_vbar` of the interval.
-    pub fn set_interior_vbar(&mut self, bounds: (f64, f64)) {
+    pub(crate) fn set_interior_vbar(&mut self, bounds: (f64, f64)) {
         self.interior_vbar = Some(bounds);
     }
 
     /// `check::interior_vbar` of the interval, where recorded.
-    pub fn interior_vbar(&self) -> Option<(f64, f64)> {
+    pub(crate) fn interior_vbar(&self) -> Option<(f64, f64)> {
         self.interior_vbar
     }
 
     /// The interval can bulge between the nodes (they do not interpolate it well): its limit
     /// checks take `check::FINE_CHECK_FRACTIONS`, and its viability ramps the full interval
     /// check, not the node-only one (`ramp::Check::Nodes`).
-    pub fn fine_checks(&self) -> bool {
+    pub(crate) fn fine_checks(&self) -> bool {
         !self.interpolable
     }
 
     /// The coefficients of axis `k`, lowest order first: A′ in `[0..7]`, A″ in `[7..13]`, A‴ in
     /// `[13..18]` (for `interpd plan --export-nodes`).
-    pub fn coefficients(&self, k: usize) -> [f64; SPAN_POLY_COEFS] {
+    pub(crate) fn coefficients(&self, k: usize) -> [f64; SPAN_POLY_COEFS] {
         self.coef.map(|axes| axes[k])
     }
 
     /// Coefficient `i` of every axis (see [`SpanPoly::coefficients`] for the order).
     #[inline(always)]
-    pub fn coefficient(&self, i: usize) -> &[f64; MAX_AXES] {
+    pub(crate) fn coefficient(&self, i: usize) -> &[f64; MAX_AXES] {
         &self.coef[i]
     }
 
     /// The powers σ⁰ … σ⁶ that [`SpanPoly::at`] takes (computed once for all axes).
     #[inline(always)]
-    pub fn powers(sigma: f64) -> [f64; 7] {
+    pub(crate) fn powers(sigma: f64) -> [f64; 7] {
         let s2 = sigma * sigma;
         let s3 = s2 * sigma;
         [1.0, sigma, s2, s3, s2 * s2, s2 * s3, s3 * s3]
@@ -110,7 +110,7 @@ impl SpanPoly {
     /// [`SpanPoly::powers`] are `p`: sums of independent products rather than Horner's chain
     /// of dependent steps (the limit checks spend most of their time here).
     #[inline(always)]
-    pub fn at(&self, p: &[f64; 7], k: usize) -> (f64, f64, f64) {
+    pub(crate) fn at(&self, p: &[f64; 7], k: usize) -> (f64, f64, f64) {
         let c = |i: usize| self.coef[i][k];
         let d1 = (c(0) + c(1) * p[1] + c(2) * p[2]) + (c(3) * p[3] + c(4) * p[4]) + (c(5) * p[5] + c(6) * p[6]);
         let d2 = (c(7) + c(8) * p[1] + c(9) * p[2]) + (c(10) * p[3] + c(11) * p[4] + c(12) * p[5]);
@@ -121,7 +121,7 @@ impl SpanPoly {
 
 /// One sample point of the path.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Node {
+pub(crate) struct Node {
     /// Path position, mm.
     pub s_mm: f64,
     /// Geometry as the end of the interval before this node.
@@ -153,7 +153,7 @@ pub struct Node {
 impl Node {
     /// A node for unit tests: the same geometry on both sides, one bound for both ceilings and
     /// the feed, not a stop.
-    pub fn for_test(s_mm: f64, g: NodeGeom, vbar_mm_s: f64) -> Node {
+    pub(crate) fn for_test(s_mm: f64, g: NodeGeom, vbar_mm_s: f64) -> Node {
         Node {
             s_mm,
             left: g,
@@ -181,7 +181,7 @@ impl Node {
 /// into it and accelerating out). The jerk term is left to the interval checks for the same
 /// reason. This bound is the maximum velocity curve of the acceleration-only problem; the
 /// block planner lowers it to what acceleration alone can reach (`reach`).
-pub fn velocity_bound(g: &NodeGeom, lim: &Limits) -> f64 {
+pub(super) fn velocity_bound(g: &NodeGeom, lim: &Limits) -> f64 {
     // Per axis with A′ ≠ 0 the allowed a is [p + c·x, r + c·x] with x = v², c = −A″/A′; the
     // ranges intersect iff every lower end lies below every upper end (pairwise, linear in x).
     let mut v = f64::INFINITY;
@@ -217,7 +217,7 @@ pub fn velocity_bound(g: &NodeGeom, lim: &Limits) -> f64 {
 /// planned under first (`block`), and the speed the node spacing is sized for: where the
 /// motion is faster (under [`velocity_bound`]) it is braking or accelerating through a short
 /// stretch.
-pub fn flat_velocity_bound(g: &NodeGeom, lim: &Limits) -> f64 {
+pub(super) fn flat_velocity_bound(g: &NodeGeom, lim: &Limits) -> f64 {
     // Roots are monotone: the smallest v², v³ over the axes first, one root each at the end.
     let (mut v, mut v2, mut v3) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
     for k in 0..lim.n_axes {
@@ -251,7 +251,7 @@ const CBRT_SKIP_REL_MARGIN: f64 = 1e-9;
 /// Speed cap at a curvature jump (G¹ but not G² joint): the axis acceleration steps by
 /// ΔA″·v² there. A step is an infinite jerk; the cap keeps it below what the jerk limit moves
 /// in `step_s` (v²|ΔA″_k| ≤ J_k·step_s), so sampled jerk stays within the limit.
-pub fn curvature_jump_cap(left: &NodeGeom, right: &NodeGeom, lim: &Limits, step_s: f64) -> f64 {
+pub(super) fn curvature_jump_cap(left: &NodeGeom, right: &NodeGeom, lim: &Limits, step_s: f64) -> f64 {
     let mut v = f64::INFINITY;
     for k in 0..lim.n_axes {
         let jump = (left.d2[k] - right.d2[k]).abs();

@@ -20,7 +20,7 @@ use super::view::View;
 /// (negative: of the highest). The first keeps 1 % in reserve so a state on a ramp still has
 /// room to move; the others cover curvature terms that leave less jerk than the start node
 /// suggests, and the acceleration floor (from index 3 on: hold or raise the acceleration).
-pub const RAMP_JERK_STEPS: [f64; 7] = [0.99, 0.7, 0.4, 0.0, -0.1, -0.3, -0.6];
+pub(super) const RAMP_JERK_STEPS: [f64; 7] = [0.99, 0.7, 0.4, 0.0, -0.1, -0.3, -0.6];
 /// Corrections of a ramp interval's jerk by the end node's limits before falling back.
 const RAMP_END_CORRECTIONS: usize = 3;
 /// A ramp interval whose end would fall below the end node's lowest allowed acceleration is
@@ -34,9 +34,9 @@ const RAMP_END_CORRECTIONS: usize = 3;
 /// +1.4 %.)
 const RAMP_FLOOR_RESERVE: f64 = 0.01;
 /// A ramp longer than this many nodes counts as not viable (bounded work).
-pub const MAX_RAMP_NODES: usize = 20_000;
+pub(super) const MAX_RAMP_NODES: usize = 20_000;
 /// Relative tolerance on velocities compared with the ceiling.
-pub const CEILING_REL_TOL: f64 = 1e-9;
+pub(super) const CEILING_REL_TOL: f64 = 1e-9;
 /// Accelerations within this fraction of their allowed range from a bound count as binding
 /// for the node-only ramp check (the full interval check runs there).
 const ACC_NEAR_BOUND_FRACTION: f64 = 0.05;
@@ -57,7 +57,7 @@ const FORCED_WINDOW_FRACTIONS: [f64; 4] = [0.1, 0.25, 0.5, 0.75];
 
 /// What a caller needs of a ramp's margin.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Wanted {
+pub(super) enum Wanted {
     /// Its value (up to `MARGIN_GIVE_UP`): a search interpolates on it.
     Margin,
     /// Only whether it is viable: the ramp stops as soon as it rises above the ceiling, so a
@@ -68,7 +68,7 @@ pub enum Wanted {
 
 /// The ceiling a branch runs under: the velocity bound v̄, capped at `cap`.
 #[derive(Clone, Copy)]
-pub struct FlattenUnder<'a> {
+pub(super) struct FlattenUnder<'a> {
     pub view: View<'a>,
     pub cap: f64,
     /// The limits the branch runs under (for [`FlattenUnder::flat_acc`]).
@@ -78,7 +78,7 @@ pub struct FlattenUnder<'a> {
 impl FlattenUnder<'_> {
     /// Ceiling velocity at traversal position `t`.
     #[inline]
-    pub fn velocity(&self, t: usize) -> f64 {
+    pub(super) fn velocity(&self, t: usize) -> f64 {
         self.view.node(t).vbar_mm_s.min(self.cap)
     }
 
@@ -90,7 +90,7 @@ impl FlattenUnder<'_> {
     /// the passes made (`Node::reach_bound`), following its slope (dv/ds = Δc/Δs, so
     /// a = v·dv/ds, scaled to v) counts as flat, as long as the axes allow it.
     #[inline]
-    pub fn flat_acc(&self, t: usize, v: f64) -> f64 {
+    pub(super) fn flat_acc(&self, t: usize, v: f64) -> f64 {
         self.flat_acc_in(t, v, None)
     }
 
@@ -129,7 +129,7 @@ impl FlattenUnder<'_> {
 
 /// How thoroughly a ramp interval is checked.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Check {
+pub(super) enum Check {
     /// The whole interval (check points inside): for intervals that become motion.
     Full,
     /// The jerk and acceleration ranges at both nodes, with the full check only where one is
@@ -138,7 +138,7 @@ pub enum Check {
 }
 
 /// Highest velocity inside an interval: v(τ) is a parabola, its vertex may lie inside.
-pub fn peak_velocity(iv: &Interval) -> f64 {
+pub(super) fn peak_velocity(iv: &Interval) -> f64 {
     let mut peak = iv.v0.max(iv.v1());
     if iv.j < 0.0 {
         let tau = -iv.a0 / iv.j;
@@ -153,7 +153,7 @@ pub fn peak_velocity(iv: &Interval) -> f64 {
 /// computed at the end of one ramp interval and reused as the start of the next, where the
 /// node's geometry on both sides is the same (everywhere but at element joints).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct NodeRanges {
+pub(super) struct NodeRanges {
     pub jerk: (f64, f64),
     pub acc: (f64, f64),
 }
@@ -182,7 +182,7 @@ impl NodeRanges {
 ///
 /// An interval that becomes part of the motion needs `Check::Full`; for the viability margin
 /// `Check::Nodes` suffices where both nodes' ranges hold with room (see below).
-pub fn ramp_interval(view: &View, t: usize, v: f64, a: f64, lim: &Limits, check: Check) -> Option<Interval> {
+pub(super) fn ramp_interval(view: &View, t: usize, v: f64, a: f64, lim: &Limits, check: Check) -> Option<Interval> {
     ramp_interval_from(view, t, v, a, lim, check, None).map(|(iv, _)| iv)
 }
 
@@ -399,7 +399,7 @@ fn landing_ramp_interval(
 /// interval it leaves into: some jerk keeps every axis within its jerk limit there, and the
 /// acceleration is inside its range (eq. 1b–1c). At an element joint A″ and A‴ jump, so a
 /// state that kept the limits arriving may have none left for the next side.
-pub fn can_leave(view: &View, t: usize, v: f64, a: f64, lim: &Limits) -> bool {
+pub(super) fn can_leave(view: &View, t: usize, v: f64, a: f64, lim: &Limits) -> bool {
     NodeRanges::at(view.start_geom(t), view.sign(), v, a, lim).allow_leaving(a)
 }
 
@@ -409,7 +409,7 @@ pub fn can_leave(view: &View, t: usize, v: f64, a: f64, lim: &Limits) -> bool {
 /// the slow side (it brakes at a share of the last jerk, where the axes often allow more
 /// further on), so its verdict should come late: 5-axis table 4.661 s with 48 nodes, 4.505 s
 /// with 96, for fewer instructions (fewer states wrongly judged not viable to search around).
-pub const RAMP_SIMULATED_NODES: usize = 96;
+pub(super) const RAMP_SIMULATED_NODES: usize = 96;
 /// The closed-form tail brakes with this share of the jerk the simulated ramp reached last: it
 /// overestimates the peak (errs on the slow side) unless later nodes allow less than this share.
 const RAMP_TAIL_JERK_SHARE: f64 = 0.8;
@@ -456,7 +456,7 @@ fn ramp_tail_margin(
 /// ramp's next state first, and where a branch rides its braking ramp the state the step
 /// before accepted ramps through exactly that state (`branch::greedy_step`).
 #[derive(Debug, Clone, Default)]
-pub struct RampTrace {
+pub(super) struct RampTrace {
     /// Traversal position of `states[0]`.
     first: usize,
     states: Vec<(f64, f64)>,
@@ -469,16 +469,10 @@ impl RampTrace {
     /// The margin of the ramp from (v, a) at traversal position `node`, if this trace passed
     /// exactly that state.
     #[inline]
-    pub fn margin_from(&self, node: usize, v: f64, a: f64) -> Option<f64> {
+    pub(super) fn margin_from(&self, node: usize, v: f64, a: f64) -> Option<f64> {
         let i = node.checked_sub(self.first)?;
         let &(tv, ta) = self.states.get(i)?;
         (tv == v && ta == a).then(|| self.margins[i])
-    }
-
-    /// Whether the trace passed traversal position `node`.
-    #[inline]
-    pub fn reaches(&self, node: usize) -> bool {
-        node.checked_sub(self.first).is_some_and(|i| i < self.states.len())
     }
 
     fn start(&mut self, first: usize) {
@@ -514,7 +508,7 @@ impl RampTrace {
 /// simulated part; it is left empty otherwise (the closed-form tail starts a fixed number of
 /// nodes after the ramp's start, so a ramp that reached it is not its states' own rest).
 #[allow(clippy::too_many_arguments)]
-pub fn ramp_margin(
+pub(super) fn ramp_margin(
     view: &View,
     t0: usize,
     v0: f64,

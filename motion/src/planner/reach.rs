@@ -14,7 +14,7 @@ use super::node::Node;
 
 /// Lowers the interior of `ceiling` (initially the nodes' v̄) to what acceleration can reach
 /// from, and brake to, the ceiling at the other interior nodes.
-pub fn lower_to_reachable(nodes: &[Node], ceiling: &mut [f64], lim: &Limits) {
+pub(super) fn lower_to_reachable(nodes: &[Node], ceiling: &mut [f64], lim: &Limits) {
     let n = nodes.len();
     // Backward: b_i ≤ b_{i+1} − 2·Δs·a_min at node i+1. Not from the block end: its stop
     // (or a horizon end a later horizon moves on) is the backward branch's business, and

@@ -17,7 +17,7 @@ use std::sync::Arc;
 
 /// Sampling parameters derived from `[planner]`.
 #[derive(Debug, Clone)]
-pub struct SamplingParams {
+pub(super) struct SamplingParams {
     pub max_step_mm: f64,
     pub min_step_mm: f64,
     pub max_turn_rad: f64,
@@ -29,7 +29,7 @@ pub struct SamplingParams {
 }
 
 impl SamplingParams {
-    pub fn from_settings(settings: &Settings) -> Self {
+    pub(super) fn from_settings(settings: &Settings) -> Self {
         let p = &settings.planner;
         Self {
             max_step_mm: p.max_step_mm,
@@ -259,7 +259,7 @@ fn geometric_step(sharp: (f64, f64, f64), params: &SamplingParams) -> f64 {
 }
 
 /// The feed of an element in mm/s.
-pub fn feed_of(e: &Element, params: &SamplingParams) -> f64 {
+pub(super) fn feed_of(e: &Element, params: &SamplingParams) -> f64 {
     match e.feed {
         Feed::Programmed { mm_per_s } => mm_per_s,
         Feed::Rapid => params.rapid_feed_mm_s,
@@ -283,7 +283,7 @@ fn speed_from_rest(d_mm: f64, j: f64, a: f64) -> f64 {
 /// Without `prev` the element starts the path: at rest, unless `start_moving` (a replan from a
 /// state in motion, see `Planner::with_start_state`).
 #[allow(clippy::too_many_arguments)]
-pub fn sample_element(
+pub(super) fn sample_element(
     prev: Option<(&Element, &ElementEnd)>,
     start_moving: bool,
     e: &Element,
@@ -407,7 +407,7 @@ pub fn sample_element(
 /// element's end is evaluated once, for its own last interval and the next element's first
 /// node.
 #[derive(Debug, Clone, Copy)]
-pub struct ElementEnd {
+pub(super) struct ElementEnd {
     geom: NodeGeom,
     vbar_mm_s: f64,
     flat_mm_s: f64,
@@ -546,7 +546,7 @@ fn push_interior(e: &Element, s_local: f64, d: &mut AxisDerivs, feed: f64, lim: 
 }
 
 /// The node at the end of the path (the motion ends at rest).
-pub fn end_node(last: &Element, end: &ElementEnd, final_dwell_s: f64, params: &SamplingParams) -> Node {
+pub(super) fn end_node(last: &Element, end: &ElementEnd, final_dwell_s: f64, params: &SamplingParams) -> Node {
     let g = end.geom;
     Node {
         s_mm: last.s_end_mm(),

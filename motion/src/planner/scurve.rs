@@ -7,7 +7,7 @@ use super::interval::Interval;
 
 /// The profile's phases for a move of `length` under path limits `v_max`, `a_max`, `j_max`
 /// (all > 0): up to seven constant-jerk intervals (zero-length phases omitted).
-pub fn rest_to_rest(length: f64, v_max: f64, a_max: f64, j_max: f64) -> Vec<Interval> {
+pub(super) fn rest_to_rest(length: f64, v_max: f64, a_max: f64, j_max: f64) -> Vec<Interval> {
     let (v, a, j) = (v_max, a_max, j_max);
     // Acceleration phase to peak velocity vp: jerk time tj and constant-acceleration time ta.
     let phases =

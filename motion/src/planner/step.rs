@@ -11,9 +11,9 @@ use super::interval::Interval;
 use super::limits::Limits;
 
 /// Evaluations of the violation function per step, at most.
-pub const MAX_SEARCH_EVALS: u32 = 48;
+pub(super) const MAX_SEARCH_EVALS: u32 = 48;
 /// The search stops when the bracket is this narrow relative to the velocity.
-pub const SEARCH_REL_TOL: f64 = 1e-5;
+pub(super) const SEARCH_REL_TOL: f64 = 1e-5;
 /// Fractions of the upper bound tried first when the jerk-free continuation is infeasible;
 /// after them the probe halves down to `MIN_PROBE_FRACTION` (near a stop the feasible end
 /// velocities can be many orders of magnitude below v̄).
@@ -56,7 +56,7 @@ pub struct Work {
 }
 
 impl Work {
-    pub fn add(&mut self, o: &Work) {
+    pub(crate) fn add(&mut self, o: &Work) {
         self.evals += o.evals;
         self.steps += o.steps;
         self.term_evals += o.term_evals;
@@ -78,7 +78,7 @@ impl Work {
 /// the probes for a feasible anchor mostly fail (26 of the 5-axis table's steps probe down to
 /// 1e-15 × v̄, 64 evaluations each), and most fail at the start node.
 #[inline]
-pub fn feasible(v0: f64, a0: f64, v1: f64, g: &IntervalGeom, lim: &Limits, work: &mut Work) -> Option<Interval> {
+pub(super) fn feasible(v0: f64, a0: f64, v1: f64, g: &IntervalGeom, lim: &Limits, work: &mut Work) -> Option<Interval> {
     work.evals += 1;
     Interval::through(v0, a0, g.ds_mm, v1).filter(|iv| !violates(iv, g, lim))
 }
@@ -92,7 +92,14 @@ pub fn feasible(v0: f64, a0: f64, v1: f64, g: &IntervalGeom, lim: &Limits, work:
 /// that was worst at the infeasible end alone to its root ([`term_root`], one axis at one
 /// point per evaluation), then checks every term there: feasible, the step is found; else the
 /// term worst there bounds it, and is followed next.
-pub fn max_feasible(v0: f64, a0: f64, v_max: f64, g: &IntervalGeom, lim: &Limits, work: &mut Work) -> Option<Interval> {
+pub(super) fn max_feasible(
+    v0: f64,
+    a0: f64,
+    v_max: f64,
+    g: &IntervalGeom,
+    lim: &Limits,
+    work: &mut Work,
+) -> Option<Interval> {
     work.steps += 1;
     let mut term = None;
     if let Some((iv, f, t)) = evaluate_term(v0, a0, v_max, g, lim, work) {

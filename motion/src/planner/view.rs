@@ -6,73 +6,69 @@ use super::check::IntervalGeom;
 use super::node::{Node, NodeGeom};
 
 #[derive(Clone, Copy)]
-pub struct View<'a> {
+pub(super) struct View<'a> {
     nodes: &'a [Node],
     reverse: bool,
 }
 
 impl<'a> View<'a> {
-    pub fn forward(nodes: &'a [Node]) -> Self {
+    pub(super) fn forward(nodes: &'a [Node]) -> Self {
         Self { nodes, reverse: false }
     }
 
-    pub fn backward(nodes: &'a [Node]) -> Self {
+    pub(super) fn backward(nodes: &'a [Node]) -> Self {
         Self { nodes, reverse: true }
     }
 
-    pub fn len(&self) -> usize {
+    pub(super) fn len(&self) -> usize {
         self.nodes.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.nodes.is_empty()
     }
 
     /// Node index of traversal position `t`.
     #[inline]
-    pub fn index(&self, t: usize) -> usize {
+    pub(super) fn index(&self, t: usize) -> usize {
         if self.reverse { self.nodes.len() - 1 - t } else { t }
     }
 
     /// Traversal position of node index `i`.
     #[inline]
-    pub fn position(&self, i: usize) -> usize {
+    pub(super) fn position(&self, i: usize) -> usize {
         self.index(i)
     }
 
     #[inline]
-    pub fn node(&self, t: usize) -> &'a Node {
+    pub(super) fn node(&self, t: usize) -> &'a Node {
         &self.nodes[self.index(t)]
     }
 
     #[inline]
-    pub fn sign(&self) -> f64 {
+    pub(super) fn sign(&self) -> f64 {
         if self.reverse { -1.0 } else { 1.0 }
     }
 
     /// Geometry at traversal position `t` as the start of the interval t → t+1.
     #[inline]
-    pub fn start_geom(&self, t: usize) -> &'a NodeGeom {
+    pub(super) fn start_geom(&self, t: usize) -> &'a NodeGeom {
         let n = self.node(t);
         if self.reverse { &n.left } else { &n.right }
     }
 
     /// Geometry at traversal position `t` as the end of the interval t−1 → t.
     #[inline]
-    pub fn end_geom(&self, t: usize) -> &'a NodeGeom {
+    pub(super) fn end_geom(&self, t: usize) -> &'a NodeGeom {
         let n = self.node(t);
         if self.reverse { &n.right } else { &n.left }
     }
 
     /// Length of the interval t → t+1.
     #[inline]
-    pub fn ds(&self, t: usize) -> f64 {
+    pub(super) fn ds(&self, t: usize) -> f64 {
         (self.node(t + 1).s_mm - self.node(t).s_mm).abs()
     }
 
     /// The interval t → t+1 for the limit checks.
     #[inline]
-    pub fn interval_geom(&self, t: usize) -> IntervalGeom<'a> {
+    pub(super) fn interval_geom(&self, t: usize) -> IntervalGeom<'a> {
         // The interval's exact geometry belongs to its node of lower s.
         let span = self.nodes[self.index(t).min(self.index(t + 1))].span.as_deref();
         IntervalGeom {

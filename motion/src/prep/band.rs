@@ -12,13 +12,13 @@ use crate::path::{AxisVec, MAX_AXES};
 
 /// Below this half-width an axis is taken as running along the path: no constraint on it
 /// (seed 000 Alg. 3.2: TOL < 10⁻¹³ → NaN), mm.
-pub const AXIS_PARALLEL_TOL_MM: f64 = 1e-13;
+pub(super) const AXIS_PARALLEL_TOL_MM: f64 = 1e-13;
 /// Tangents closer than this to an axis get the even split (seed 000 Alg. 3.2: φ_krit = 10°).
-pub const CRITICAL_ANGLE_DEG: f64 = 10.0;
+pub(super) const CRITICAL_ANGLE_DEG: f64 = 10.0;
 
 /// Half-widths of the box per axis (`f64::INFINITY` = unconstrained) for a point with unit
 /// tangent `tangent` (over the `active` axes) and tolerance `tol_mm`. Inactive axes get 0.
-pub fn split(tangent: &AxisVec, active: &[bool; MAX_AXES], tol_mm: f64) -> AxisVec {
+pub(super) fn split(tangent: &AxisVec, active: &[bool; MAX_AXES], tol_mm: f64) -> AxisVec {
     let mut b = [0.0; MAX_AXES];
     let m = active.iter().filter(|a| **a).count();
     if m == 0 {

@@ -7,7 +7,7 @@ use std::collections::VecDeque;
 
 /// One programmed element of a run.
 #[derive(Debug, Clone)]
-pub struct RunElem {
+pub(super) struct RunElem {
     pub element: Element,
     /// Start on the programmed path (the element's own s_start_mm).
     pub s0_mm: f64,
@@ -23,7 +23,7 @@ pub struct RunElem {
 
 impl RunElem {
     /// Distance from `p` to the element over the first `n` axes.
-    pub fn distance(&self, p: &AxisVec, n: usize) -> f64 {
+    pub(super) fn distance(&self, p: &AxisVec, n: usize) -> f64 {
         match &self.line {
             Some((a, dir)) => {
                 let along = (0..n).map(|k| (p[k] - a[k]) * dir[k]).sum::<f64>().clamp(0.0, self.len_mm);
@@ -33,16 +33,16 @@ impl RunElem {
         }
     }
 
-    pub fn s1_mm(&self) -> f64 {
+    pub(super) fn s1_mm(&self) -> f64 {
         self.s0_mm + self.len_mm
     }
 
-    pub fn eval(&self, s_mm: f64, d: &mut AxisDerivs) {
+    pub(super) fn eval(&self, s_mm: f64, d: &mut AxisDerivs) {
         self.element.geometry.eval(s_mm - self.s0_mm, d);
     }
 
     /// Position at global s.
-    pub fn pos(&self, s_mm: f64) -> AxisVec {
+    pub(super) fn pos(&self, s_mm: f64) -> AxisVec {
         let mut d = AxisDerivs::default();
         self.eval(s_mm, &mut d);
         d.pos
@@ -50,7 +50,7 @@ impl RunElem {
 }
 
 /// Cosine of the angle between two tangents over `n` axes.
-pub fn cos_between(a: &AxisVec, b: &AxisVec, n: usize) -> f64 {
+pub(super) fn cos_between(a: &AxisVec, b: &AxisVec, n: usize) -> f64 {
     let dot: f64 = (0..n).map(|k| a[k] * b[k]).sum();
     let na = (0..n).map(|k| a[k] * a[k]).sum::<f64>().sqrt();
     let nb = (0..n).map(|k| b[k] * b[k]).sum::<f64>().sqrt();
@@ -58,7 +58,7 @@ pub fn cos_between(a: &AxisVec, b: &AxisVec, n: usize) -> f64 {
 }
 
 /// Angle between two tangents over `n` axes, rad.
-pub fn angle_between(a: &AxisVec, b: &AxisVec, n: usize) -> f64 {
+pub(super) fn angle_between(a: &AxisVec, b: &AxisVec, n: usize) -> f64 {
     let dot: f64 = (0..n).map(|k| a[k] * b[k]).sum();
     let na = (0..n).map(|k| a[k] * a[k]).sum::<f64>().sqrt();
     let nb = (0..n).map(|k| b[k] * b[k]).sum::<f64>().sqrt();
@@ -67,19 +67,19 @@ pub fn angle_between(a: &AxisVec, b: &AxisVec, n: usize) -> f64 {
 
 /// The elements of a run with global indices; old ones are dropped once committed past.
 #[derive(Debug, Default)]
-pub struct RunElems {
+pub(super) struct RunElems {
     items: VecDeque<RunElem>,
     base: usize,
     n_axes: usize,
 }
 
 impl RunElems {
-    pub fn new(n_axes: usize) -> Self {
+    pub(super) fn new(n_axes: usize) -> Self {
         Self { items: VecDeque::new(), base: 0, n_axes }
     }
 
     /// Appends an element; its turn is measured against the previous one of the run.
-    pub fn push(&mut self, element: Element, tol_mm: f64) {
+    pub(super) fn push(&mut self, element: Element, tol_mm: f64) {
         let len_mm = element.geometry.length_mm();
         let mut d = AxisDerivs::default();
         element.geometry.eval(0.0, &mut d);
@@ -99,28 +99,24 @@ impl RunElems {
     }
 
     /// One past the last global index.
-    pub fn end(&self) -> usize {
+    pub(super) fn end(&self) -> usize {
         self.base + self.items.len()
     }
 
-    pub fn first_index(&self) -> usize {
+    pub(super) fn first_index(&self) -> usize {
         self.base
     }
 
-    pub fn get(&self, i: usize) -> &RunElem {
+    pub(super) fn get(&self, i: usize) -> &RunElem {
         &self.items[i - self.base]
     }
 
-    pub fn last(&self) -> Option<&RunElem> {
+    pub(super) fn last(&self) -> Option<&RunElem> {
         self.items.back()
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.items.is_empty()
-    }
-
     /// Drops the elements before global index `i`.
-    pub fn drop_before(&mut self, i: usize) {
+    pub(super) fn drop_before(&mut self, i: usize) {
         while self.base < i && !self.items.is_empty() {
             self.items.pop_front();
             self.base += 1;
@@ -128,7 +124,7 @@ impl RunElems {
     }
 
     /// Index of the element containing global s (the later one at a vertex), searched from `hint`.
-    pub fn index_at(&self, s_mm: f64, hint: usize) -> usize {
+    pub(super) fn index_at(&self, s_mm: f64, hint: usize) -> usize {
         let mut i = hint.clamp(self.base, self.end() - 1);
         while i + 1 < self.end() && self.get(i + 1).s0_mm <= s_mm {
             i += 1;
@@ -140,13 +136,13 @@ impl RunElems {
     }
 
     /// Distance from `p` to the elements `from..=to` (clamped to those held), over `n` axes.
-    pub fn distance(&self, p: &AxisVec, from: usize, to: usize) -> f64 {
+    pub(super) fn distance(&self, p: &AxisVec, from: usize, to: usize) -> f64 {
         let (from, to) = (from.max(self.base), to.min(self.end() - 1));
         (from..=to).map(|i| self.get(i).distance(p, self.n_axes)).fold(f64::INFINITY, f64::min)
     }
 
     /// The point of elements `from..=to` nearest to `p`: (global s, position).
-    pub fn nearest(&self, p: &AxisVec, from: usize, to: usize) -> (f64, AxisVec) {
+    pub(super) fn nearest(&self, p: &AxisVec, from: usize, to: usize) -> (f64, AxisVec) {
         let (from, to) = (from.max(self.base), to.min(self.end() - 1));
         let mut best = (f64::INFINITY, 0.0, [0.0; MAX_AXES]);
         for i in from..=to {
@@ -172,7 +168,7 @@ const PROJECT_SAMPLES: usize = 32;
 const PROJECT_NEWTON: usize = 8;
 
 /// Local s of the point of `g` nearest to `p`.
-pub fn nearest_s(g: &Geometry, p: &AxisVec, n: usize) -> f64 {
+pub(super) fn nearest_s(g: &Geometry, p: &AxisVec, n: usize) -> f64 {
     let len = g.length_mm();
     let mut d = AxisDerivs::default();
     if let Geometry::Line(_) = g {
@@ -209,7 +205,7 @@ pub fn nearest_s(g: &Geometry, p: &AxisVec, n: usize) -> f64 {
 }
 
 /// Distance from `p` to the element `g`.
-pub fn distance_to(g: &Geometry, p: &AxisVec, n: usize) -> f64 {
+pub(super) fn distance_to(g: &Geometry, p: &AxisVec, n: usize) -> f64 {
     let s = nearest_s(g, p, n);
     let mut d = AxisDerivs::default();
     g.eval(s, &mut d);

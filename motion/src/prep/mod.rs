@@ -12,19 +12,19 @@
 // Axis loops index several per-axis arrays at once; an index reads clearer than zips there.
 #![allow(clippy::needless_range_loop)]
 
-pub mod band;
-pub mod elements;
-pub mod pieces;
-pub mod points;
-pub mod qp;
-pub mod run;
-pub mod settings;
-pub mod stage;
-pub mod stats;
-pub mod verify;
-pub mod window;
+mod band;
+mod elements;
+mod pieces;
+mod points;
+mod qp;
+mod run;
+mod settings;
+mod stage;
+mod stats;
+mod verify;
+mod window;
 
-pub use stage::{Prep, PrepError};
+pub use stage::{Prep, PrepError, PrepFailure};
 pub use stats::PrepStats;
 
 use crate::Settings;

@@ -8,7 +8,7 @@ use crate::path::{AxisDerivs, Geometry, HermiteEnd, Line, MAX_AXES, QuinticSpan,
 
 /// The piece between two smoothed points `delta_tau` apart in τ: derivatives per τ become
 /// derivatives per t by the factors Δ and Δ².
-pub fn smoothed(a: &State, b: &State, delta_tau: f64, linear: &[bool]) -> Result<QuinticSpan, SpanError> {
+pub(super) fn smoothed(a: &State, b: &State, delta_tau: f64, linear: &[bool]) -> Result<QuinticSpan, SpanError> {
     let end = |s: &State| {
         let mut e = HermiteEnd::default();
         for k in 0..MAX_AXES {
@@ -22,7 +22,7 @@ pub fn smoothed(a: &State, b: &State, delta_tau: f64, linear: &[bool]) -> Result
 }
 
 /// State in τ of the programmed path at `s_mm` of `e` (position, A′h, A″h², A‴h³).
-pub fn programmed_state(e: &RunElem, s_mm: f64, spacing_mm: f64) -> State {
+pub(super) fn programmed_state(e: &RunElem, s_mm: f64, spacing_mm: f64) -> State {
     let mut d = AxisDerivs::default();
     e.eval(s_mm, &mut d);
     let mut st = [[0.0; 4]; MAX_AXES];
@@ -39,7 +39,7 @@ const EXACT_PIECE_MM: f64 = 0.25;
 
 /// The programmed element `e` between global `s_a` and `s_b` as geometry: a cut line, or
 /// quintic pieces with the exact derivatives at their ends.
-pub fn exact_part(e: &RunElem, s_a: f64, s_b: f64, linear: &[bool]) -> Result<Vec<Geometry>, SpanError> {
+pub(super) fn exact_part(e: &RunElem, s_a: f64, s_b: f64, linear: &[bool]) -> Result<Vec<Geometry>, SpanError> {
     let len = s_b - s_a;
     if len <= 0.0 {
         return Ok(Vec::new());

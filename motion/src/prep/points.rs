@@ -14,7 +14,7 @@ use crate::path::{AxisDerivs, AxisVec, MAX_AXES};
 
 /// One QP point: a place on the programmed path.
 #[derive(Debug, Clone, Copy)]
-pub struct Point {
+pub(super) struct Point {
     /// Position on the programmed path.
     pub s_mm: f64,
     pub pos: AxisVec,
@@ -31,7 +31,7 @@ pub struct Point {
 
 /// Places points along a run as its elements become known.
 #[derive(Debug)]
-pub struct Placer {
+pub(super) struct Placer {
     s_mm: f64,
     elem: usize,
     tangent: AxisVec,
@@ -50,7 +50,7 @@ const CALM_GIVE_UP: f64 = 2.0;
 const CORNER_LAND_FACTOR: f64 = 1.5;
 
 impl Placer {
-    pub fn new() -> Self {
+    pub(super) fn new() -> Self {
         Self {
             s_mm: 0.0,
             elem: 0,
@@ -63,7 +63,7 @@ impl Placer {
 
     /// Places the points that the known elements determine; with `closed`, up to the run's
     /// end (which closes the last segment).
-    pub fn place(&mut self, elems: &RunElems, st: &StageSettings, closed: bool, out: &mut Vec<Point>) {
+    pub(super) fn place(&mut self, elems: &RunElems, st: &StageSettings, closed: bool, out: &mut Vec<Point>) {
         let Some(last) = elems.last() else { return };
         let run_end = last.s1_mm();
         if !self.started {

@@ -20,7 +20,7 @@ use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SolverStatus, S
 
 /// The structure of a window problem.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub struct Shape {
+pub(super) struct Shape {
     pub n_points: usize,
     /// Values per point: position and `levels − 1` derivatives.
     pub levels: usize,
@@ -31,7 +31,7 @@ pub struct Shape {
 }
 
 impl Shape {
-    pub fn n_vars(&self) -> usize {
+    pub(super) fn n_vars(&self) -> usize {
         self.n_points * self.levels
     }
 
@@ -44,23 +44,23 @@ impl Shape {
         (self.n_points - 1) * (self.levels - 1)
     }
 
-    pub fn n_eq(&self) -> usize {
+    pub(super) fn n_eq(&self) -> usize {
         self.n_trapezoid() + self.left_fixed + self.right_fixed
     }
 
     /// Points whose position is bounded by the band (all but fixed ends).
-    pub fn bounded(&self) -> std::ops::Range<usize> {
+    pub(super) fn bounded(&self) -> std::ops::Range<usize> {
         1..if self.right_fixed == 0 { self.n_points } else { self.n_points - 1 }
     }
 
-    pub fn n_rows(&self) -> usize {
+    pub(super) fn n_rows(&self) -> usize {
         self.n_eq() + 2 * self.bounded().len()
     }
 }
 
 /// Why a window solve gave no usable result.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum QpFailure {
+pub(super) enum QpFailure {
     Infeasible,
     /// Stopped by the time limit (`prep.max_solve_ms`).
     Slow,
@@ -121,7 +121,7 @@ impl Pattern {
 }
 
 /// A reusable solver for one window shape.
-pub struct WindowQp {
+pub(super) struct WindowQp {
     shape: Shape,
     p_pattern: Pattern,
     a_pattern: Pattern,
@@ -135,7 +135,7 @@ pub struct WindowQp {
 }
 
 impl WindowQp {
-    pub fn new(shape: Shape, time_limit_s: f64) -> Self {
+    pub(super) fn new(shape: Shape, time_limit_s: f64) -> Self {
         let (a_entries, _) = a_entries(&shape, &vec![1.0; shape.n_points - 1]);
         let n = shape.n_vars();
         let p_entries: Vec<(usize, usize)> = (0..n).map(|i| (i, i)).collect();
@@ -156,14 +156,10 @@ impl WindowQp {
         }
     }
 
-    pub fn shape(&self) -> &Shape {
-        &self.shape
-    }
-
     /// Sets the spacing Δ_j (in τ) between the points and the objective weights per level
     /// (already scaled to τ): P = diag(q_j·w_k) with the trapezoid quadrature weight q_j
     /// (seed 000 eq. 3.9: H = blockdiag(diag(w_x, w_x′, …))).
-    pub fn load(&mut self, deltas: &[f64], weights: &[f64]) {
+    pub(super) fn load(&mut self, deltas: &[f64], weights: &[f64]) {
         debug_assert_eq!(deltas.len(), self.shape.n_points - 1);
         let s = self.shape;
         for j in 0..s.n_points {
@@ -180,7 +176,7 @@ impl WindowQp {
     }
 
     /// Solves with linear term `q` and right-hand side `b`; the solution is in `self.solution`.
-    pub fn solve(&mut self, q: &[f64], b: &[f64]) -> Result<(), QpFailure> {
+    pub(super) fn solve(&mut self, q: &[f64], b: &[f64]) -> Result<(), QpFailure> {
         if self.solver.is_none() {
             let p = self.p_pattern.matrix(&self.p_gen);
             let a = self.a_pattern.matrix(&self.a_gen);
@@ -280,7 +276,7 @@ fn a_entries(s: &Shape, deltas: &[f64]) -> (Vec<(usize, usize)>, Vec<f64>) {
 }
 
 /// Right-hand side rows for one axis.
-pub struct Rhs<'a> {
+pub(super) struct Rhs<'a> {
     pub left: &'a [f64],
     pub right: &'a [f64],
     /// (lower, upper) per bounded point, in `Shape::bounded` order.
@@ -289,7 +285,7 @@ pub struct Rhs<'a> {
 
 impl Shape {
     /// Fills `b` (length `n_rows`) from the boundary values and bands.
-    pub fn rhs(&self, rhs: &Rhs<'_>, b: &mut Vec<f64>) {
+    pub(super) fn rhs(&self, rhs: &Rhs<'_>, b: &mut Vec<f64>) {
         b.clear();
         b.resize(self.n_trapezoid(), 0.0);
         b.extend_from_slice(&rhs.left[..self.left_fixed]);

@@ -11,7 +11,7 @@ use crate::path::{Element, JointKind};
 // The join state is copied once per run end; boxing it would cost more than it saves.
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum RunEnd {
+pub(super) enum RunEnd {
     /// Still open: more elements may follow.
     Open,
     /// The motion stops at the end (corner, dwell, program end): position only.
@@ -21,7 +21,7 @@ pub enum RunEnd {
 }
 
 #[derive(Debug)]
-pub struct Run {
+pub(super) struct Run {
     pub elems: RunElems,
     pub placer: Placer,
     /// Points from the committed node on: `points[0]` is the committed node.
@@ -38,7 +38,14 @@ pub struct Run {
 
 impl Run {
     /// A run starting with `first`, from `state` with `left_levels` fixed.
-    pub fn new(first: Element, tol_mm: f64, state: State, left_levels: usize, joint: JointKind, n_axes: usize) -> Self {
+    pub(super) fn new(
+        first: Element,
+        tol_mm: f64,
+        state: State,
+        left_levels: usize,
+        joint: JointKind,
+        n_axes: usize,
+    ) -> Self {
         let dwell_s = first.dwell_before_s;
         let mut elems = RunElems::new(n_axes);
         elems.push(first, tol_mm);
@@ -54,30 +61,30 @@ impl Run {
         }
     }
 
-    pub fn closed(&self) -> bool {
+    pub(super) fn closed(&self) -> bool {
         self.end != RunEnd::Open
     }
 
     /// Places the points the known elements allow.
-    pub fn place(&mut self, st: &StageSettings) {
+    pub(super) fn place(&mut self, st: &StageSettings) {
         let closed = self.closed();
         self.placer.place(&self.elems, st, closed, &mut self.points);
     }
 
     /// Indices of the segment ends after the committed node.
-    pub fn segment_ends(&self) -> impl Iterator<Item = usize> + '_ {
+    pub(super) fn segment_ends(&self) -> impl Iterator<Item = usize> + '_ {
         self.points.iter().enumerate().skip(1).filter(|(_, p)| p.seg_end).map(|(i, _)| i)
     }
 
     /// Whether the last point placed is the run's end.
-    pub fn reached_end(&self) -> bool {
+    pub(super) fn reached_end(&self) -> bool {
         self.closed()
             && self.points.len() > 1
             && self.elems.last().is_some_and(|e| self.points.last().is_some_and(|p| p.s_mm >= e.s1_mm()))
     }
 
     /// Drops the points before `c` (committed) and the elements no check needs any more.
-    pub fn commit_to(&mut self, c: usize, state: State, left_levels: usize, spacing_mm: f64) {
+    pub(super) fn commit_to(&mut self, c: usize, state: State, left_levels: usize, spacing_mm: f64) {
         self.points.drain(..c);
         self.state = state;
         self.left_levels = left_levels;

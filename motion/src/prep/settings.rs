@@ -5,11 +5,11 @@ use interpd_config::AxisKind;
 
 /// First point spacing next to a corner, in units of the corner's tolerance; the spacing then
 /// doubles away from the corner up to `point_spacing_mm`.
-pub const CORNER_FIRST_STEP_PER_TOL: f64 = 2.0;
+pub(super) const CORNER_FIRST_STEP_PER_TOL: f64 = 2.0;
 
 /// The smoothing stage's settings, in the units and forms its steps use.
 #[derive(Debug, Clone)]
-pub struct StageSettings {
+pub(super) struct StageSettings {
     /// Derivative levels carried per point: continuity degree + 1.
     pub levels: usize,
     /// Objective weights per level for derivatives in τ = s / point_spacing_mm, normalised to
@@ -28,7 +28,7 @@ pub struct StageSettings {
 }
 
 impl StageSettings {
-    pub fn new(settings: &Settings) -> Self {
+    pub(super) fn new(settings: &Settings) -> Self {
         let p = &settings.prep;
         let levels = p.continuity_degree as usize + 1;
         // A derivative of order k in σ = s/L is (L/h)^k times the one in τ = s/h.
@@ -53,7 +53,7 @@ impl StageSettings {
     }
 
     /// Nominal window length, mm: how far a point may slide along an unconstrained axis.
-    pub fn window_mm(&self) -> f64 {
+    pub(super) fn window_mm(&self) -> f64 {
         self.segment_mm * self.window_segments as f64
     }
 }

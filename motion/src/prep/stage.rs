@@ -17,10 +17,9 @@ use super::verify;
 use super::window::{RightEnd, Solution, Solvers, State, WindowInput};
 use crate::Settings;
 use crate::path::{
-    AxisDerivs, AxisVec, Blend, Element, Geometry, JointKind, Line, MAX_AXES, QuinticSpan, classify_joint,
+    AxisDerivs, AxisVec, Blend, Element, Geometry, JointKind, Line, MAX_AXES, QuinticSpan, SpanError, classify_joint,
 };
 use std::collections::VecDeque;
-use std::fmt;
 use std::time::Instant;
 
 /// Re-solves with a narrower band when the check finds a piece outside the tolerance.
@@ -31,21 +30,23 @@ const VERIFY_SHRINK: f64 = 0.5;
 /// an exact stop, mm.
 const ON_PATH_MM: f64 = 1e-9;
 
-/// A failure the fallbacks could not absorb.
-#[derive(Debug, Clone, PartialEq)]
+/// A failure the fallbacks could not absorb: the program line and path position, and why.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("line {line}: path smoothing failed at s = {s_mm:.4} mm: {reason}")]
 pub struct PrepError {
     pub line: u32,
     pub s_mm: f64,
-    pub reason: String,
+    pub reason: PrepFailure,
 }
 
-impl fmt::Display for PrepError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "line {}: path smoothing failed at s = {:.4} mm: {}", self.line, self.s_mm, self.reason)
-    }
+/// Why the stage failed.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum PrepFailure {
+    /// Where the stage returns to the programmed path, a part of a programmed element could
+    /// not be represented as path geometry.
+    #[error("cannot follow the programmed element exactly: {0:?}")]
+    ExactPart(SpanError),
 }
-
-impl std::error::Error for PrepError {}
 
 /// Which rung of the fallback ladder a window attempt is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -382,7 +383,7 @@ impl Prep {
             let geoms = pieces::exact_part(e, a, b, &st.linear).map_err(|err| PrepError {
                 line: e.element.source.line,
                 s_mm: a,
-                reason: format!("cannot follow the programmed element exactly: {err:?}"),
+                reason: PrepFailure::ExactPart(err),
             })?;
             for g in geoms {
                 parts.push((g, joint, e.element.clone()));

@@ -7,11 +7,11 @@ use super::points::Point;
 use crate::path::QuinticSpan;
 
 /// Samples per piece (uniform in the piece parameter).
-pub const SAMPLES_PER_PIECE: usize = 32;
+pub(super) const SAMPLES_PER_PIECE: usize = 32;
 
 /// Largest distance of the sampled piece between points `a` and `b` to the programmed path,
 /// and that distance minus the tolerance allowed there (> 0: outside).
-pub fn piece_excess(piece: &QuinticSpan, a: &Point, b: &Point, elems: &RunElems, spacing_mm: f64) -> (f64, f64) {
+pub(super) fn piece_excess(piece: &QuinticSpan, a: &Point, b: &Point, elems: &RunElems, spacing_mm: f64) -> (f64, f64) {
     // The piece stays near the programmed path between its ends, shifted along it by at most
     // how far its ends moved: only the elements there can be nearest.
     let tol = a.tol_mm.min(b.tol_mm);

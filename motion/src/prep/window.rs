@@ -9,13 +9,13 @@ use crate::path::{AxisVec, MAX_AXES};
 use std::collections::HashMap;
 
 /// Position and derivatives per axis in τ = s / point_spacing_mm (level 0 = position).
-pub type State = [[f64; 4]; MAX_AXES];
+pub(super) type State = [[f64; 4]; MAX_AXES];
 
 /// How the window ends.
 // The join state is copied once per run end; boxing it would cost more than it saves.
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum RightEnd {
+pub(super) enum RightEnd {
     /// The last point is held at its programmed position, derivatives free (seed 000 §3.6.1:
     /// position only is best).
     Position,
@@ -27,7 +27,7 @@ pub enum RightEnd {
 }
 
 /// What one window solve needs.
-pub struct WindowInput<'a> {
+pub(super) struct WindowInput<'a> {
     pub points: &'a [Point],
     /// State of the committed node (`points[0]`); its first `left_levels` levels are fixed.
     pub left: &'a State,
@@ -45,7 +45,7 @@ const STILL_AXIS_MM: f64 = 1e-12;
 
 /// The solvers, one per window shape, reused across windows.
 #[derive(Default)]
-pub struct Solvers {
+pub(super) struct Solvers {
     by_shape: HashMap<Shape, WindowQp>,
     q: Vec<f64>,
     b: Vec<f64>,
@@ -55,14 +55,14 @@ pub struct Solvers {
 
 /// The window's solution per point.
 #[derive(Debug, Clone, Default)]
-pub struct Solution {
+pub(super) struct Solution {
     pub states: Vec<State>,
     /// Solver iterations summed over the axes.
     pub iterations: u32,
 }
 
 impl Solvers {
-    pub fn solve(&mut self, st: &StageSettings, w: &WindowInput<'_>) -> Result<Solution, QpFailure> {
+    pub(super) fn solve(&mut self, st: &StageSettings, w: &WindowInput<'_>) -> Result<Solution, QpFailure> {
         let pts = w.points;
         let n = pts.len();
         let right_fixed = match w.right {

@@ -38,7 +38,7 @@ impl fmt::Display for ProgramErrors {
 impl std::error::Error for ProgramErrors {}
 
 /// Most errors reported for one program; after that the parser stops reading.
-pub const MAX_ERRORS: usize = 100;
+pub(crate) const MAX_ERRORS: usize = 100;
 
 /// Collects errors with the file name filled in.
 #[derive(Debug)]
@@ -48,17 +48,17 @@ pub(crate) struct Diagnostics {
 }
 
 impl Diagnostics {
-    pub fn new(file: &str) -> Self {
+    pub(super) fn new(file: &str) -> Self {
         Self { file: file.to_string(), errors: Vec::new() }
     }
 
-    pub fn error(&mut self, line: u32, col: u32, message: impl Into<String>) {
+    pub(super) fn error(&mut self, line: u32, col: u32, message: impl Into<String>) {
         if self.errors.len() < MAX_ERRORS {
             self.errors.push(ProgramError { file: self.file.clone(), line, col, message: message.into() });
         }
     }
 
-    pub fn full(&self) -> bool {
+    pub(super) fn full(&self) -> bool {
         self.errors.len() >= MAX_ERRORS
     }
 }

@@ -17,13 +17,13 @@ use interpd_config::{AxisKind, AxisLetter};
 use std::f64::consts::PI;
 
 /// Arc end points may miss the circle by this much before the arc is rejected, mm...
-pub const ARC_RADIUS_ABS_TOL_MM: f64 = 0.002;
+pub(super) const ARC_RADIUS_ABS_TOL_MM: f64 = 0.002;
 /// ... plus this fraction of the radius.
-pub const ARC_RADIUS_REL_TOL: f64 = 1e-5;
+pub(super) const ARC_RADIUS_REL_TOL: f64 = 1e-5;
 /// Arcs with a smaller radius are degenerate.
-pub const MIN_ARC_RADIUS_MM: f64 = 1e-6;
+pub(super) const MIN_ARC_RADIUS_MM: f64 = 1e-6;
 /// Moves shorter than this are dropped (and counted) instead of becoming elements.
-pub const MIN_MOVE_MM: f64 = 1e-9;
+pub(super) const MIN_MOVE_MM: f64 = 1e-9;
 /// Millimetres per inch (G20).
 const MM_PER_INCH: f64 = 25.4;
 
@@ -122,7 +122,7 @@ impl Block<'_> {
 }
 
 impl<'a> Interpreter<'a> {
-    pub fn new(settings: &'a Settings) -> Self {
+    pub(super) fn new(settings: &'a Settings) -> Self {
         let mut linear = [false; MAX_AXES];
         for (k, a) in settings.axes.iter().enumerate() {
             linear[k] = a.kind == AxisKind::Linear;
@@ -153,7 +153,7 @@ impl<'a> Interpreter<'a> {
     }
 
     /// Feeds one source line (1-based number).
-    pub fn line(&mut self, text: &str, line_no: u32, d: &mut Diagnostics) {
+    pub(super) fn line(&mut self, text: &str, line_no: u32, d: &mut Diagnostics) {
         if self.ended {
             return;
         }
@@ -194,7 +194,7 @@ impl<'a> Interpreter<'a> {
     }
 
     /// Ends the program text: closes an open G06 block and attaches a trailing dwell.
-    pub fn finish(&mut self, d: &mut Diagnostics) {
+    pub(super) fn finish(&mut self, d: &mut Diagnostics) {
         if self.g06.is_some() {
             self.finish_g06(d);
         }

@@ -7,7 +7,7 @@
 
 /// One word with the column (1-based, characters) of its letter.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Word {
+pub(super) struct Word {
     pub letter: char,
     pub value: f64,
     pub col: u32,
@@ -17,7 +17,7 @@ pub struct Word {
 
 /// A lexed line.
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct Line {
+pub(super) struct Line {
     pub words: Vec<Word>,
     /// Column of the `;` if the line has one.
     pub semicolon_col: Option<u32>,
@@ -29,13 +29,13 @@ pub struct Line {
 
 /// A lexing error: column and message.
 #[derive(Debug, Clone, PartialEq)]
-pub struct LexError {
+pub(super) struct LexError {
     pub col: u32,
     pub message: String,
 }
 
 /// Lexes one line (without its line terminator).
-pub fn lex_line(text: &str) -> Result<Line, LexError> {
+pub(super) fn lex_line(text: &str) -> Result<Line, LexError> {
     let chars: Vec<char> = text.chars().collect();
     let mut line = Line { blank: true, ..Line::default() };
     let trimmed = text.trim();

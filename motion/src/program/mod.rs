@@ -6,9 +6,8 @@ mod gcode;
 mod lexer;
 mod table;
 
-pub use error::{MAX_ERRORS, ProgramError, ProgramErrors};
+pub use error::{ProgramError, ProgramErrors};
 pub(crate) use gcode::fmt_num;
-pub use lexer::{Word, lex_line};
 
 use crate::Settings;
 use crate::path::Path;
@@ -17,7 +16,7 @@ use std::collections::BTreeMap;
 
 /// A line holding only this word ends G06 spline data (seed 002's "CR", end of record); an
 /// empty line or the next ordinary block does too.
-pub const G06_END_MARKER: &str = "CR";
+pub(crate) const G06_END_MARKER: &str = "CR";
 
 /// Counts for the one-line summary of `interpd check`.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -43,14 +42,14 @@ pub struct Program {
 
 /// Which input format a text is in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Format {
+pub(crate) enum Format {
     GCode,
     PathTable,
 }
 
 impl Format {
     /// Path tables are `.csv` files or texts whose first data line starts with `s,`.
-    pub fn detect(origin: &str, text: &str) -> Self {
+    pub(crate) fn detect(origin: &str, text: &str) -> Self {
         if origin.to_ascii_lowercase().ends_with(".csv") {
             return Format::PathTable;
         }

@@ -1,6 +1,7 @@
-//! Planner speed, printed as figures (not pass/fail): `cargo bench -p interpd --bench planner_speed`.
+//! Planner speed, printed as figures (not pass/fail):
+//! `cargo bench -p interpd-motion --bench planner_speed`.
 //!
-//! - The example programs (5-axis table of seed 001's form, circle R10, line–arc–line): plan
+//! - The example programs (the five-axis path table, circle R10, line–arc–line): plan
 //!   time of the online planner as the daemon runs it (elements pushed one by one, default
 //!   look-ahead), best and median of several runs, wall clock and the thread's CPU time
 //!   (the machine is shared; CPU time is what the planner itself costs).

@@ -1,11 +1,11 @@
-//! Figures of the tolerance-band smoothing (issue 8, seed 000), printed, not asserted:
+//! Figures of the tolerance-band smoothing (Haas 2012), printed, not asserted:
 //! prep throughput against the programmed feed, window solve times, and motion time with
 //! G64 against exact stops (G61) on the dense CAM program and the staircase.
 //!
 //! ```sh
-//! cargo bench -p interpd --bench prep_throughput                       # the full dense program
-//! PREP_BENCH_SEGMENTS=5000 cargo bench -p interpd --bench prep_throughput   # its first 5000 segments
-//! PREP_BENCH_MACHINE=my.toml cargo bench -p interpd --bench prep_throughput  # other limits or [prep] keys
+//! cargo bench -p interpd-motion --bench prep_throughput                             # the full dense program
+//! PREP_BENCH_SEGMENTS=5000 cargo bench -p interpd-motion --bench prep_throughput    # its first 5000 segments
+//! PREP_BENCH_MACHINE=my.toml cargo bench -p interpd-motion --bench prep_throughput  # other limits or [prep] keys
 //! ```
 
 use interpd_motion::Settings;
@@ -131,9 +131,9 @@ fn main() {
     )
     .ok();
 
-    // Seed 000 shapes: smoothed / exact motion time (thesis, Treppe: 1.882 s / 1.954 s), with the
-    // default [prep] (turns above max_corner_deg = 90° stay exact stops) and with every corner
-    // smoothed.
+    // Haas's shapes: smoothed / exact motion time (Haas 2012, Table 3.1, Treppe: 1.882 s /
+    // 1.954 s), with the default [prep] (turns above max_corner_deg = 90° stay exact stops) and
+    // with every corner smoothed.
     let mut all_corners = config.clone();
     all_corners.prep.max_corner_deg = 170.0;
     for name in ["staircase", "corner_90", "line_arc_line", "zigzag", "two_arcs"] {

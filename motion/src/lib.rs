@@ -7,16 +7,20 @@
 //!                  line:col    per axis  (G64 P)    profile      limit kept
 //! ```
 //!
-//! - [`program`] parses G-code (with G06 spline blocks) and path tables into a [`path::Path`];
-//!   errors keep line and column as data.
+//! - [`program`] parses G-code (with G06 spline blocks, Huan) and path tables into a
+//!   [`path::Path`]; errors keep line and column as data.
 //! - [`path`] holds the geometry elements and evaluates, per axis k, A_k(s) … A‴_k(s) over
 //!   the path length s.
 //! - [`prep`] smooths G64 runs within their tolerance (per-axis QP over a sliding window,
 //!   Haas 2012) and emits quintic pieces.
 //! - [`planner`] plans the path velocity online under axis velocity, acceleration and jerk
-//!   limits (Kopp, Bader, Woittennek 2019) and hands on [`planner::Segment`]s.
-//! - [`law`] designs motion laws from interpolation conditions (VDI 2143) and runs them as
-//!   synchronised axis moves.
+//!   limits (Kopp et al. 2019) and hands on [`planner::Segment`]s; [`planner::brake`] gives
+//!   the fastest stop from any planned state.
+//! - [`law`] designs motion laws from interpolation conditions (Bewegungsdesign nach Maß,
+//!   VDI 2143) and runs them as synchronised axis moves.
+//!
+//! The papers are cited by author and year with their own equation, section and table
+//! numbers; `docs/references.md` lists them.
 //!
 //! Everything takes a [`Settings`]: the machine's axes with their limits and the planner and
 //! smoothing settings, built from a machine file with [`Settings::from_config`] or by hand.

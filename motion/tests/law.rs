@@ -1,6 +1,6 @@
-//! Motion laws (issue 9, seed 003): the solver on the seed's laws and on degree-15 sets (against
-//! the monomial system), random condition sets, law moves against axis limits, and the
-//! `interpd law` command line.
+//! Motion laws (Bewegungsdesign nach Maß): the solver on the article's laws and on degree-15
+//! sets (against the monomial system), random condition sets, law moves against axis limits,
+//! and the `interpd law` command line.
 
 use interpd_motion::Settings;
 use interpd_motion::law::{
@@ -48,7 +48,7 @@ fn allocations() -> u64 {
     ALLOCATIONS.with(Cell::get)
 }
 
-/// The issue's accuracy requirement on every condition.
+/// The accuracy every condition must meet.
 const RESIDUAL_MAX: f64 = 1e-9;
 
 fn c(order: u32, z: f64, value: f64) -> Condition {
@@ -60,9 +60,9 @@ fn solve(conds: Vec<Condition>) -> Law {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Degree 15: Chebyshev basis against the monomial system of the seed's f(z) = Σ a_k zᵏ.
+// Degree 15: Chebyshev basis against the monomial system of the article's f(z) = Σ a_k zᵏ.
 
-/// Three degree-15 sets: the seed's constant-velocity law, Hermite data of sin(3z) (f … f‴
+/// Three degree-15 sets: the article's constant-velocity law, Hermite data of sin(3z) (f … f‴
 /// at 0, ⅓, ⅔, 1), and rest to rest through eight interior positions with flat jerk at the ends.
 fn degree_15_sets() -> Vec<(&'static str, Vec<Condition>)> {
     let cv = Preset::ConstantVelocity.conditions();
@@ -184,11 +184,11 @@ fn degree_15_sets_solve_and_the_monomial_system_does_not() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// The seed's examples.
+// The article's examples.
 
 #[test]
-fn seed_degree_8_example_meets_its_conditions() {
-    // seed 003: "1. f(0) = 0 … 9. f(0,4) = 0,2" → degree 8.
+fn the_articles_degree_8_example_meets_its_conditions() {
+    // Bewegungsdesign nach Maß: "1. f(0) = 0 … 9. f(0,4) = 0,2" → degree 8.
     let conds = vec![
         c(0, 0.0, 0.0),
         c(0, 1.0, 1.0),
@@ -230,7 +230,7 @@ fn every_preset_meets_its_conditions_to_1e_9() {
     for p in Preset::all() {
         let law = solve(p.conditions());
         assert!(law.max_residual() <= RESIDUAL_MAX, "{}: {:e}", p.name(), law.max_residual());
-        // Named as in the seed: the 11th-order law has degree 11, and so on.
+        // Named as in the article: the 11th-order law has degree 11, and so on.
         let want = match p {
             Preset::Rr5 => 5,
             Preset::Rr7 => 7,
@@ -426,7 +426,7 @@ fn travel_axis_and_law_errors() {
     }
     let nowhere = law_move(Preset::Rr5, &[(7, 0.0, 1.0)], 1.0);
     assert!(matches!(nowhere.check(&lim), Err(LimitError::NoSuchAxis { index: 7, count: 3 })));
-    // The seed's degree-8 example does not end at rest (f″(1) ≠ 0): not a move.
+    // The article's degree-8 example does not end at rest (f″(1) ≠ 0): not a move.
     let err =
         LawMove::new(solve(Preset::Degree8.conditions()), vec![LawAxis { axis: 0, start: 0.0, stroke: 1.0 }], 1.0);
     assert!(matches!(err, Err(LawMoveError::NotRestToRest { what: "f''(1)", .. })), "{err:?}");

@@ -1,10 +1,10 @@
-//! Tolerance-band smoothing (issue 8, seed 000) checked from the outside: the smoothed path,
+//! Tolerance-band smoothing (Haas 2012) checked from the outside: the smoothed path,
 //! sampled every few micrometres, against a fine polyline of the programmed path (its own
 //! sampling, not the stage's check); C² at the joints between smoothed pieces; the stage
 //! running ahead online; and the exact-stop fallback.
 //!
 //! The figures (largest excess over the tolerance, C² residuals) are printed with
-//! `cargo test --release -p interpd --test prep_smoothing -- --nocapture`.
+//! `cargo test --release -p interpd-motion --test prep_smoothing -- --nocapture`.
 
 use interpd_motion::Settings;
 use interpd_motion::path::{AxisDerivs, Geometry, JointKind, Path};
@@ -144,11 +144,11 @@ fn joint_residuals(path: &Path) -> ([f64; 3], usize) {
 
 const SHAPES: [&str; 5] = ["corner_90", "line_arc_line", "staircase", "zigzag", "two_arcs"];
 
-/// Tolerance + 1 µm (seed 000 §4.8).
+/// Tolerance + 1 µm (Haas 2012, §4.8).
 const SLACK_MM: f64 = 1e-3;
 
 #[test]
-fn seed_000_shapes_stay_in_the_band_and_join_c2() {
+fn haas_shapes_stay_in_the_band_and_join_c2() {
     let mut config = Settings::default_machine();
     // Smooth every corner of the shapes (the default leaves turns above 90° exact).
     config.prep.max_corner_deg = 170.0;

@@ -208,7 +208,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
                 "end_caps": stats.work.end_caps,
                 "relaxed_tried": stats.work.relaxed_tried,
                 "relaxed_kept": stats.work.relaxed_kept,
-                "seed_skipped": stats.work.seed_skipped,
+                "seed_skipped": stats.work.flat_skipped,
             },
             "lookahead_mm": config.planner.lookahead_mm,
             "prep": { "wall_ms": prepared.wall_s * 1e3, "stats": prepared.stats },

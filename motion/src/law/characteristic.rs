@@ -1,7 +1,8 @@
-//! VDI 2143 characteristic values of a normalised motion law (seed 003 [1]):
-//! C_v = max|f′|, C_a = max|f″|, C_j = max|f‴| over z ∈ [0, 1], with the z where they occur.
-//! The extrema are found exactly: an extremum of |f⁽ᵏ⁾| lies at an end of the section or at a
-//! root of f⁽ᵏ⁺¹⁾, and the roots come from [`super::roots`].
+//! VDI 2143 characteristic values of a normalised motion law (as the motion-design article,
+//! Bewegungsdesign nach Maß, uses them): C_v = max|f′|, C_a = max|f″|, C_j = max|f‴| over z ∈
+//! [0, 1], with the z where they occur. The extrema are found exactly: an extremum of |f⁽ᵏ⁾|
+//! lies at an end of the section or at a root of f⁽ᵏ⁺¹⁾, and the roots come from
+//! [`super::roots`].
 
 use super::chebyshev;
 use super::polynomial::Law;

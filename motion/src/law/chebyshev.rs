@@ -1,5 +1,5 @@
 //! The basis the solver works in: Chebyshev polynomials of the first kind shifted to the motion
-//! section, φ_k(z) = T_k(2z − 1), z ∈ [0, 1]. Unlike the monomials zᵏ of the seed's
+//! section, φ_k(z) = T_k(2z − 1), z ∈ [0, 1]. Unlike the monomials zᵏ of the article's
 //! f(z) = a₀ + a₁z + … + aₙzⁿ, they stay of size ≤ 1 on [0, 1] and are nearly orthogonal, so
 //! the interpolation system stays well conditioned at high degree.
 
@@ -95,7 +95,7 @@ pub(super) fn abs_sum(c: &[f64]) -> f64 {
     c.iter().map(|v| v.abs()).sum()
 }
 
-/// Monomial coefficients a_k of f(z) = Σ a_k zᵏ (the seed's form) for the Chebyshev series c.
+/// Monomial coefficients a_k of f(z) = Σ a_k zᵏ (the article's form) for the Chebyshev series c.
 /// For reporting only: at high degree the a_k are large and alternate, and summing them loses
 /// digits (that is why the solver does not use them).
 pub(super) fn to_monomial(c: &[f64]) -> Vec<f64> {

@@ -1,12 +1,13 @@
-//! Interpolation conditions f⁽ⁱ⁾(z) = F on the normalised motion section z ∈ [0, 1] (seed 003:
-//! "i = Ableitungsordnung, z = Zeitparameter, f = Funktionswert"), and their validation.
+//! Interpolation conditions f⁽ⁱ⁾(z) = F on the normalised motion section z ∈ [0, 1]
+//! (Bewegungsdesign nach Maß: "i = Ableitungsordnung, z = Zeitparameter, f = Funktionswert"),
+//! and their validation.
 
 use super::error::LawError;
 use std::fmt;
 
 /// Most conditions in one set; the law's degree is at most [`MAX_DEGREE`].
 ///
-/// Why 25 (degree 24): the seed's largest example (the asymmetric law) has 18 conditions,
+/// Why 25 (degree 24): the article's largest example (the asymmetric law) has 18 conditions,
 /// degree 17, so this leaves room for combining its conditions with a few more. The solve itself
 /// would go further (Chebyshev basis, double-double refinement), but the law is evaluated in f64
 /// at run time, and f‴ amplifies the coefficients' rounding by up to T_n‴(1)·2³ ≈ 8n⁶/15
@@ -70,7 +71,7 @@ impl Condition {
 }
 
 impl fmt::Display for Condition {
-    /// Seed notation: f(0.4) = 0.2, f'(0) = 0, f'''(1) = 0, f(5)(0.5) = 0.
+    /// The article's notation: f(0.4) = 0.2, f'(0) = 0, f'''(1) = 0, f(5)(0.5) = 0.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self.order {
             0..=3 => write!(f, "f{}({}) = {}", "'".repeat(self.order as usize), self.z, self.value),

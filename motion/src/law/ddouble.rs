@@ -1,7 +1,7 @@
 //! Double-double arithmetic (an unevaluated sum hi + lo of two f64, ~32 significant digits):
 //! Dekker's and Knuth's error-free transformations, as in Hida, Li & Bailey's QD library.
 //!
-//! Why: a condition on a high derivative (the seed's asymmetric law asks f⁽⁸⁾(0.25) = 0) is
+//! Why: a condition on a high derivative (the article's asymmetric law asks f⁽⁸⁾(0.25) = 0) is
 //! met by f64 coefficients only to ~ε·|f⁽⁸⁾| ≈ 1e-6, because rounding each coefficient to f64
 //! already moves f⁽⁸⁾ that much. The solver therefore refines the coefficients in double-double
 //! and measures residuals in it; execution evaluates the f64 rounding (see `polynomial`).

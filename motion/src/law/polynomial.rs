@@ -33,7 +33,8 @@ pub struct Residual {
     pub abs_f64: f64,
 }
 
-/// An n-th order polynomial motion law (seed 003), stored as shifted Chebyshev series.
+/// An n-th order polynomial motion law (Bewegungsdesign nach Maß), stored as shifted Chebyshev
+/// series.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Law {
     conditions: Vec<Condition>,
@@ -46,12 +47,15 @@ pub struct Law {
 }
 
 impl Law {
-    /// Validates the conditions and solves them; see [`ConditionSet::new`] and
-    /// [`solver::solve`] for the errors.
+    /// Validates the conditions and solves them; see [`ConditionSet::new`] and [`Law::solve`]
+    /// for the errors.
     pub fn from_conditions(conditions: Vec<Condition>) -> Result<Self, LawError> {
         Self::solve(&ConditionSet::new(conditions)?)
     }
 
+    /// Solves a validated condition set in the Chebyshev basis (refined in double-double until
+    /// every condition holds to its residual bound). Fails where the conditions contradict each
+    /// other or do not determine the polynomial.
     pub fn solve(set: &ConditionSet) -> Result<Self, LawError> {
         let sol = solver::solve(set)?;
         let mut series: [Vec<f64>; KEPT_ORDERS] = Default::default();
@@ -132,8 +136,8 @@ impl Law {
         &self.series[0]
     }
 
-    /// Coefficients a₀ … aₙ of the seed's form f(z) = Σ a_k zᵏ (for reporting; see
-    /// [`chebyshev::to_monomial`] on their accuracy).
+    /// Coefficients a₀ … aₙ of the article's form f(z) = Σ a_k zᵏ, for reporting only: at high
+    /// degree they are large and alternate, and summing them loses digits.
     pub fn monomial_coefficients(&self) -> Vec<f64> {
         chebyshev::to_monomial(&self.series[0])
     }
@@ -150,7 +154,7 @@ impl Law {
         }
     }
 
-    /// f⁽ᵒʳᵈᵉʳ⁾(z) for order < [`KEPT_ORDERS`], z clamped to [0, 1] as in [`Law::eval`].
+    /// f⁽ᵒʳᵈᵉʳ⁾(z) for order ≤ 4, z clamped to [0, 1] as in [`Law::eval`].
     pub fn derivative(&self, order: usize, z: f64) -> f64 {
         let z = if z.is_nan() { 0.0 } else { z.clamp(0.0, 1.0) };
         chebyshev::eval(self.kept_series(order), z)

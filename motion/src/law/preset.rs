@@ -1,5 +1,5 @@
-//! Built-in laws: the condition sets of seed 003's examples (digest:
-//! notes/seed-002-huan-003-motion-design.md, section 003).
+//! Built-in laws: the condition sets of the examples in the motion-design article
+//! (Bewegungsdesign nach Maß).
 
 use super::condition::Condition;
 use super::error::LawError;
@@ -9,31 +9,34 @@ use super::error::LawError;
 pub enum Preset {
     /// "Polynom 5. Ordnung B-B" used rest to rest: the six R-R conditions.
     Rr5,
-    /// R-R plus f‴(0) = f‴(1) = 0: continuous jerk (seed 003, "Polynom 7. Ordnung").
+    /// R-R plus f‴(0) = f‴(1) = 0: continuous jerk (Bewegungsdesign nach Maß, "Polynom 7.
+    /// Ordnung").
     Rr7,
     /// R-R plus f‴ = 0 at 0, 1 and f‴ = f⁗ = 0 at 0.2, 0.8: flattened acceleration
-    /// (seed 003, "Polynom 11. Ordnung R-R", Bild 4).
+    /// (Bewegungsdesign nach Maß, "Polynom 11. Ordnung R-R", Bild 4).
     Rr11,
     /// R-R plus f‴(0) = f‴(1) = 0, f‴ … f⁽⁸⁾ = 0 at 0.25 and f‴ … f⁽⁶⁾ = 0 at 0.82: unequal
-    /// flats in acceleration and deceleration (seed 003). 18 conditions → degree 17.
+    /// flats in acceleration and deceleration (Bewegungsdesign nach Maß). 18 conditions →
+    /// degree 17.
     Asymmetric,
     /// R-R plus f‴(0) = f‴(1) = 0, f‴ = f⁗ = 0 at 0.14 and 0.86, f″ = f‴ = f⁗ = f⁽⁵⁾ = 0 at
-    /// 0.5: an approximate constant-velocity stretch (seed 003, Bild 6). 16 conditions → degree 15.
+    /// 0.5: an approximate constant-velocity stretch (Bewegungsdesign nach Maß, Bild 6). 16
+    /// conditions → degree 15.
     ConstantVelocity,
-    /// The seed's worked example with nine conditions (degree 8), taken literally:
+    /// The article's worked example with nine conditions (degree 8), taken literally:
     /// f(0)=0, f(1)=1, f′(0)=0, f′(1)=0, f″(0)=0, f‴(0)=0, f‴(1)=0, f⁗(1)=0, f(0.4)=0.2.
     /// Not rest to rest (f″(1) is free), so it cannot run as a [`super::LawMove`].
     Degree8,
-    /// Inflection-point shift without jerk jumps (seed 003: "die Interpolationsbedingung
-    /// f(λ) = λ mit dem Wendepunktsparameter λ"). The seed does not say which law it extends;
-    /// we chose the 7th-order R-R law, because the point of the shift is to keep the jerk
-    /// continuous, which the quintic does not. 9 conditions → degree 8; λ ∈ (0, 1), and λ = ½
-    /// gives back the 7th-order law (its f(½) = ½ already).
+    /// Inflection-point shift without jerk jumps (Bewegungsdesign nach Maß: "die
+    /// Interpolationsbedingung f(λ) = λ mit dem Wendepunktsparameter λ"). The article does not
+    /// say which law it extends; this one extends the 7th-order R-R law, because the point of
+    /// the shift is to keep the jerk continuous, which the quintic does not. 9 conditions →
+    /// degree 8; λ ∈ (0, 1), and λ = ½ gives back the 7th-order law (its f(½) = ½ already).
     Inflection(f64),
 }
 
-/// The six conditions every rest-to-rest law has (seed 003: "Bei Rast-in-Rast-Übergängen (R-R)
-/// werden immer … gesetzt").
+/// The six conditions every rest-to-rest law has (Bewegungsdesign nach Maß: "Bei
+/// Rast-in-Rast-Übergängen (R-R) werden immer … gesetzt").
 pub(super) const REST_TO_REST: [Condition; 6] = [
     Condition::new(0, 0.0, 0.0),
     Condition::new(0, 1.0, 1.0),
@@ -43,12 +46,12 @@ pub(super) const REST_TO_REST: [Condition; 6] = [
     Condition::new(2, 1.0, 0.0),
 ];
 
-/// f‴(0) = f‴(1) = 0: the jerk ends (seed 003, continuous jerk at the rests).
+/// f‴(0) = f‴(1) = 0: the jerk ends (Bewegungsdesign nach Maß, continuous jerk at the rests).
 const JERK_ENDS: [Condition; 2] = [Condition::new(3, 0.0, 0.0), Condition::new(3, 1.0, 0.0)];
 
 impl Preset {
     /// Accepted names; `inflection:λ` takes the parameter after the colon.
-    pub(crate) const NAMES: [&'static str; 7] =
+    pub const NAMES: [&'static str; 7] =
         ["rr5", "rr7", "rr11", "asymmetric", "constant-velocity", "degree8", "inflection:LAMBDA"];
 
     /// Parses a preset name (case-insensitive), e.g. `rr7` or `inflection:0.4`.
@@ -115,7 +118,7 @@ impl Preset {
         let mut c: Vec<Condition> = Vec::new();
         match *self {
             Preset::Degree8 => {
-                // seed 003, the nine numbered conditions, in the seed's order
+                // Bewegungsdesign nach Maß, the nine numbered conditions, in the article's order
                 return vec![
                     Condition::new(0, 0.0, 0.0),
                     Condition::new(0, 1.0, 1.0),

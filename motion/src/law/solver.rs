@@ -1,7 +1,7 @@
-//! From interpolation conditions to polynomial coefficients (seed 003: "aus diesem Satz von
-//! Interpolationsbedingungen ein lineares Gleichungssystem"), solved in the shifted Chebyshev
-//! basis with row and column equilibration and an SVD, then refined with residuals in
-//! double-double (mixed-precision iterative refinement: each round gains about
+//! From interpolation conditions to polynomial coefficients (Bewegungsdesign nach Maß: "aus
+//! diesem Satz von Interpolationsbedingungen ein lineares Gleichungssystem"), solved in the
+//! shifted Chebyshev basis with row and column equilibration and an SVD, then refined with
+//! residuals in double-double (mixed-precision iterative refinement: each round gains about
 //! −log₁₀(ε·cond) digits until double-double precision).
 
 use super::chebyshev;
@@ -11,7 +11,7 @@ use super::error::LawError;
 use nalgebra::{DMatrix, DVector, SVD};
 
 /// Below this reciprocal condition number (σ_min/σ_max of the equilibrated system) the
-/// conditions are taken as not independent. The seed's laws sit above 1e-8 (see the tests); at
+/// conditions are taken as not independent. The article's laws sit above 1e-8 (see the tests); at
 /// 1e-12 the solution would carry errors of ~1e-4 and the residual check would fail anyway.
 pub(super) const RCOND_MIN: f64 = 1e-12;
 
@@ -25,7 +25,7 @@ pub(super) const INCONSISTENCY_REL: f64 = 1e-8;
 pub(super) const ACCEPT_REL: f64 = 1e-12;
 
 /// Most rounds of iterative refinement after the first solve. With σ_min/σ_max ≥ RCOND_MIN
-/// each round gains ≥ 3 digits; the seed's laws (rcond ≥ 1e-5) reach double-double precision
+/// each round gains ≥ 3 digits; the article's laws (rcond ≥ 1e-5) reach double-double precision
 /// in 3.
 const REFINEMENT_ROUNDS: usize = 6;
 

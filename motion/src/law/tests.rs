@@ -2,7 +2,7 @@
 
 use super::*;
 
-/// Residual promised by the issue for the seed's laws.
+/// Residual every condition of the article's laws must meet.
 const RESIDUAL_MAX: f64 = 1e-9;
 
 #[test]

@@ -1,3 +1,5 @@
+//! Circular and helical arcs (G2, G3 in the plane G17/G18/G19), parameterised by arc length.
+
 use super::{AxisDerivs, AxisVec, MAX_AXES};
 
 /// Circular arc in the plane of axes (p, q), optionally helical: every other axis moves

@@ -1,13 +1,14 @@
+//! Cubic spline spans (G06 blocks, Huan, eq. 1–2) and their arc-length parameterisation.
+
 use super::arclength::ArcLengthTable;
 use super::{AxisDerivs, AxisVec, MAX_AXES};
 
-/// Cubic Hermite span between support points A and B with tangents T_a, T_b (seed 002 eq. 1–2,
-/// with the misprint in R₃ corrected),
-/// re-parameterised by arc length: u ∈ [0, 1] is the span parameter, s the arc length over the
-/// linear axes.
+/// Cubic Hermite span between support points A and B with tangents T_a, T_b (Huan, eq. 1–2,
+/// with the misprint in R₃ corrected, see [`CubicSpan::hermite`]), re-parameterised by arc
+/// length: u ∈ [0, 1] is the span parameter, s the arc length over the linear axes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CubicSpan {
-    /// P(u) = r[3]u³ + r[2]u² + r[1]u + r[0]
+    /// `P(u) = r[3]u³ + r[2]u² + r[1]u + r[0]`
     r: [AxisVec; 4],
     linear: [bool; MAX_AXES],
     /// Axes of the path (the entries of `r` beyond are zero): the per-evaluation loops stop
@@ -39,15 +40,16 @@ const ARC_PIECES_PER_MONOTONE_PART: usize = 2;
 const CUSP_REL_TOL: f64 = 1e-6;
 
 impl CubicSpan {
-    /// The span from `a` to `b` with tangents `ta`, `tb` (per unit u). Axes flagged in
-    /// `linear` define the arc length.
+    /// The span from `a` to `b` with tangents `ta`, `tb` (per unit u), with the coefficients of
+    /// Huan, eq. 2. Huan, eq. 2 prints R₃ = 3(A − B) + T_a + T_b; the cubic Hermite form is
+    /// 2(A − B) + T_a + T_b. Axes flagged in `linear` define the arc length.
     pub fn hermite(a: &AxisVec, b: &AxisVec, ta: &AxisVec, tb: &AxisVec, linear: &[bool]) -> Result<Self, SpanError> {
         let mut r = [[0.0; MAX_AXES]; 4];
         for k in 0..MAX_AXES {
-            r[0][k] = a[k]; // seed 002 eq. 2: R₀ = A
+            r[0][k] = a[k]; // Huan, eq. 2: R₀ = A
             r[1][k] = ta[k]; // R₁ = T_a
             r[2][k] = 3.0 * (b[k] - a[k]) - 2.0 * ta[k] - tb[k]; // R₂ = 3(B − A) − 2T_a − T_b
-            // R₃ = 2(A − B) + T_a + T_b. Seed 002 eq. 2 prints 3(A − B), a misprint: with it
+            // R₃ = 2(A − B) + T_a + T_b. Huan, eq. 2 prints 3(A − B), a misprint: with it
             // P(1) = A instead of B.
             r[3][k] = 2.0 * (a[k] - b[k]) + ta[k] + tb[k];
         }
@@ -346,7 +348,7 @@ mod tests {
     const LIN: [bool; 3] = [true, true, true];
 
     #[test]
-    fn reproduces_seed_002_eq_1_2() {
+    fn reproduces_huan_eq_1_2() {
         let (a, b, ta, tb) = (v(0.0, 0.0, 0.0), v(10.0, 5.0, 1.0), v(8.0, 0.0, 0.0), v(0.0, 9.0, 1.0));
         let c = CubicSpan::hermite(&a, &b, &ta, &tb, &LIN).unwrap();
         // P(0) = A, P(1) = B, P′(0) = T_a, P′(1) = T_b, and P at u = 0.5 from eq. 1 directly.

@@ -1,3 +1,5 @@
+//! Straight line elements (G0, G1, and the connecting moves the daemon and the smoothing insert).
+
 use super::{AxisDerivs, AxisVec};
 
 /// Straight line: A(s) = P₀ + d·s with a constant direction d (|d| = 1 over the axes that

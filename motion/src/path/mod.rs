@@ -43,7 +43,7 @@ pub enum Geometry {
     Septic(Box<SepticSpan>),
     /// The rest of an element from a point inside it (replanning from a stop or hand-over).
     Suffix(Box<Suffix>),
-    /// A smoothed piece from the tolerance-band preparation (seed 000).
+    /// A smoothed piece from the tolerance-band preparation (Haas 2012).
     Quintic(Box<QuinticSpan>),
 }
 

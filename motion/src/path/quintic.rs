@@ -1,3 +1,5 @@
+//! Quintic Hermite pieces: the smoothed path the tolerance-band stage emits (Haas 2012, §4.5).
+
 use super::arclength::ArcLengthTable;
 use super::{AxisDerivs, AxisVec, MAX_AXES, SpanError};
 
@@ -10,20 +12,20 @@ pub struct HermiteEnd {
     pub d2: AxisVec,
 }
 
-/// Quintic Hermite piece between two smoothed points (seed 000 §4.5, eq. 4.17–4.21, as a full
+/// Quintic Hermite piece between two smoothed points (Haas 2012, §4.5, eq. 4.17–4.21, as a full
 /// quintic: the printed eq. 4.21 stops at t⁴): per axis the degree-5 polynomial in t ∈ [0, 1]
 /// that matches position, first and second derivative at both ends, so consecutive pieces
 /// built from the same end data join C² (only the third derivative jumps). Evaluated over its
 /// arc length s like [`super::CubicSpan`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct QuinticSpan {
-    /// P(t) = Σᵢ c[k][i] tⁱ per axis k.
+    /// `P(t) = Σᵢ c[k][i] tⁱ` per axis k.
     c: [[f64; 6]; MAX_AXES],
     linear: [bool; MAX_AXES],
     table: ArcLengthTable,
 }
 
-/// Inverse of the end-condition matrix [[1,1,1],[3,4,5],[6,12,20]] of the quintic Hermite
+/// Inverse of the end-condition matrix `[[1,1,1],[3,4,5],[6,12,20]]` of the quintic Hermite
 /// problem once c₀ = p₀, c₁ = p′₀, c₂ = p″₀/2 are fixed (exact fractions).
 const END_INV: [[f64; 3]; 3] = [[10.0, -4.0, 0.5], [-15.0, 7.0, -1.0], [6.0, -3.0, 0.5]];
 

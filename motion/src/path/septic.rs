@@ -1,3 +1,6 @@
+//! Path-table intervals: degree-7 Hermite polynomials through the rows' A … A‴ (the data form
+//! of the five-axis example in Kopp et al. 2019, §2 and §4).
+
 use super::{AxisDerivs, MAX_AXES};
 
 /// One interval of a path table: per axis the degree-7 Hermite polynomial that matches
@@ -9,13 +12,13 @@ pub struct SepticSpan {
     b: [[f64; 8]; MAX_AXES],
     h: f64,
     /// The axes `b` holds (the first `axes`): the others' coefficients are all zero, and the
-    /// sampling and the limit checks evaluate the table at every node and between (a 5-axis
-    /// table otherwise evaluated 9 axes, 45 % of them zeros).
+    /// sampling and the limit checks evaluate the table at every node and between, so they
+    /// loop over the table's axes only, not `MAX_AXES`.
     axes: usize,
 }
 
 /// Inverse of the end-condition matrix of the degree-7 Hermite problem: rows of
-/// [[1,1,1,1],[4,5,6,7],[12,20,30,42],[24,60,120,210]]⁻¹ (exact fractions).
+/// `[[1,1,1,1],[4,5,6,7],[12,20,30,42],[24,60,120,210]]⁻¹` (exact fractions).
 const END_INV: [[f64; 4]; 4] = [
     [35.0, -15.0, 2.5, -1.0 / 6.0],
     [-84.0, 39.0, -7.0, 0.5],

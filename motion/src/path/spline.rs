@@ -1,7 +1,7 @@
-//! Natural cubic spline through support points: the tangent system of seed 002 eq. 3.
+//! Natural cubic spline through support points: the tangent system of Huan, eq. 3.
 
 /// Tangents T₁ … T_n (per unit span parameter) of the natural cubic spline through the points
-/// `p` (one coordinate), solving the tridiagonal system of seed 002 eq. 3 by the Thomas
+/// `p` (one coordinate), solving the tridiagonal system of Huan, eq. 3 by the Thomas
 /// algorithm:
 ///   2T₁ + T₂ = 3(P₂ − P₁)
 ///   T_{i−1} + 4T_i + T_{i+1} = 3(P_{i+1} − P_{i−1}),  i = 2 … n−1

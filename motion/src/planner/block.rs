@@ -1,17 +1,19 @@
 //! Plans one block: the nodes between two stops (or the start of the horizon and its end).
 //! Builds the ceiling, runs the forward branch, and repairs the rare dead end by lowering the
 //! velocity bound where the branch got stuck (a new section end), a bounded number of times.
+//! A straight line between two stops takes the closed-form S-curve instead.
 //!
-//! Two ceilings: seed 001's v̄ (eq. 6, a = j = 0 at the node), which the greedy branches
-//! follow closely, and the maximum velocity curve of the acceleration-only problem lowered to
-//! what acceleration can reach (`reach`), which lets the motion pass a 5-axis orientation
-//! swing braking into it and accelerating out, as the time-optimal profile does (seed 001's
-//! v̄ is up to 2.9 × too low there). A block is planned under seed 001's ceiling, or, where
-//! the acceleration-only profile says the relaxed one gains more than `RELAXED_MIN_GAIN`,
-//! under the relaxed one first, and under seed 001's too unless the relaxed plan is clearly
-//! below the acceleration-only time under it (which a plan under that ceiling can undercut only
-//! by the passes' discretisation error); the faster plan is kept. Both keep every limit (every
-//! interval is checked); they differ only in speed.
+//! Two ceilings: the flat one, v̄ of Kopp et al. 2019, eq. 6 (a = j = 0 at the node), which the
+//! greedy branches follow closely, and the relaxed one, the maximum velocity curve of the
+//! acceleration-only problem lowered to what acceleration can reach (`reach`). The relaxed
+//! ceiling lets the motion pass an orientation swing of rotary axes braking into it and
+//! accelerating out, as the time-optimal profile does, where eq. 6's v̄ lies several times
+//! lower. A block is planned under the flat ceiling, or, where the acceleration-only profile
+//! says the relaxed one gains more than `RELAXED_MIN_GAIN`, under the relaxed one first, and
+//! under the flat one too unless the relaxed plan is clearly below the acceleration-only time
+//! under it (which a plan under that ceiling can undercut only by the passes' discretisation
+//! error); the faster plan is kept. Both keep every limit (every interval is checked); they
+//! differ only in speed.
 
 use super::branch::{Previous, Stuck, build_envelope};
 use super::envelope::Envelope;
@@ -27,11 +29,11 @@ pub(super) const MAX_REPAIRS: usize = 64;
 /// A ceiling the acceleration-only passes lower by less than this share stays as it is.
 const PASS_NEGLIGIBLE: f64 = 1e-3;
 /// The relaxed ceiling is tried when the acceleration-only profile under it is at least this
-/// much faster than under seed 001's.
+/// much faster than under the flat one.
 const RELAXED_MIN_GAIN: f64 = 0.02;
-/// A relaxed plan this much faster than the acceleration-only time under seed 001's ceiling is
+/// A relaxed plan this much faster than the acceleration-only time under the flat ceiling is
 /// kept without planning under that ceiling.
-const SEED_SKIP_MARGIN: f64 = 0.02;
+const FLAT_SKIP_MARGIN: f64 = 0.02;
 /// A repair up to this many nodes (beyond the last one's span) before the last repair counts
 /// as the branch creeping back from it.
 const CREEP_SLACK_NODES: usize = 2;
@@ -65,14 +67,15 @@ pub(super) fn plan_block(
         }
     }
     let raw: Vec<f64> = nodes.iter().map(|nd| nd.vbar_mm_s).collect();
-    // Seed 001's ceiling: v̄ with a = j = 0 (eq. 6), every state (v̄, 0, 0) keeping the limits.
-    let seed = Ceiling {
+    // The flat ceiling: v̄ with a = j = 0 (Kopp et al. 2019, eq. 6), every state (v̄, 0, 0)
+    // keeping the limits.
+    let flat = Ceiling {
         v: nodes.iter().zip(&raw).map(|(nd, &r)| nd.vbar_flat_mm_s.min(r)).collect(),
         dip: vec![false; nodes.len()],
     };
-    let chosen = match relaxed_worth_trying(nodes, &raw, &seed.v, start.0, lim) {
-        None => plan_under(nodes, &seed, start, lim, &mut work),
-        Some(relaxed) => plan_both(nodes, &seed, &relaxed, start, lim, &mut work),
+    let chosen = match relaxed_worth_trying(nodes, &raw, &flat.v, start.0, lim) {
+        None => plan_under(nodes, &flat, start, lim, &mut work),
+        Some(relaxed) => plan_both(nodes, &flat, &relaxed, start, lim, &mut work),
     };
     // The nodes keep the repairs of the plan that was chosen, for the next horizon.
     for (nd, &r) in nodes.iter_mut().zip(&raw) {
@@ -87,10 +90,10 @@ pub(super) fn plan_block(
 }
 
 /// Plans a block under the relaxed ceiling and, unless that plan is clearly faster than a plan
-/// under seed 001's ceiling can be, under that one too; keeps the faster.
+/// under the flat ceiling can be, under that one too; keeps the faster.
 fn plan_both(
     nodes: &mut [Node],
-    seed: &Ceiling,
+    flat: &Ceiling,
     relaxed: &Relaxed,
     start: (f64, f64),
     lim: &Limits,
@@ -98,27 +101,27 @@ fn plan_both(
 ) -> Result<Planned, Stuck> {
     work.relaxed_tried += 1;
     let free = plan_under(nodes, &relaxed.ceiling, start, lim, work);
-    // A plan under seed 001's ceiling takes about at least the acceleration-only time under it:
+    // A plan under the flat ceiling takes about at least the acceleration-only time under it:
     // not strictly (the passes take the acceleration range at the nodes only, and a
     // constant-jerk interval's mean speed is not that of its ends), hence the margin. A
     // relaxed plan clearly below that bound wins anyway.
-    let seed_cannot_win = free.as_ref().is_ok_and(|f| f.time_s < (1.0 - SEED_SKIP_MARGIN) * relaxed.seed_bound_s);
-    let under_seed = (!seed_cannot_win).then(|| plan_under(nodes, seed, start, lim, work));
+    let flat_cannot_win = free.as_ref().is_ok_and(|f| f.time_s < (1.0 - FLAT_SKIP_MARGIN) * relaxed.flat_bound_s);
+    let under_flat = (!flat_cannot_win).then(|| plan_under(nodes, flat, start, lim, work));
     tracing::debug!(
         s_from_mm = nodes[0].s_mm,
         nodes = nodes.len(),
         acc_only_gain = relaxed.gain,
-        seed_ceiling_s = under_seed.as_ref().map_or(f64::NAN, |c| c.as_ref().map_or(f64::NAN, |c| c.time_s)),
-        seed_bound_s = relaxed.seed_bound_s,
+        flat_ceiling_s = under_flat.as_ref().map_or(f64::NAN, |c| c.as_ref().map_or(f64::NAN, |c| c.time_s)),
+        flat_bound_s = relaxed.flat_bound_s,
         relaxed_ceiling_s = free.as_ref().map_or(f64::NAN, |c| c.time_s),
         "block planned under the relaxed ceiling"
     );
-    let Some(seed_plan) = under_seed else {
+    let Some(flat_plan) = under_flat else {
         work.relaxed_kept += 1;
-        work.seed_skipped += 1;
+        work.flat_skipped += 1;
         return free;
     };
-    let faster = match (&seed_plan, &free) {
+    let faster = match (&flat_plan, &free) {
         (Ok(a), Ok(b)) => b.time_s < a.time_s,
         (Err(_), Ok(_)) => true,
         (_, Err(_)) => false,
@@ -127,7 +130,7 @@ fn plan_both(
         work.relaxed_kept += 1;
         free
     } else {
-        seed_plan
+        flat_plan
     }
 }
 
@@ -173,40 +176,40 @@ fn plan_under(
 }
 
 /// The relaxed ceiling, with the acceleration-only gain that justifies it and the
-/// acceleration-only time under seed 001's ceiling (about a lower bound of any plan under that
+/// acceleration-only time under the flat ceiling (about a lower bound of any plan under that
 /// one, see `plan_both`).
 struct Relaxed {
     ceiling: Ceiling,
     gain: f64,
-    seed_bound_s: f64,
+    flat_bound_s: f64,
 }
 
 /// The relaxed ceiling when it pays: only where the acceleration-only profile under it is more
-/// than `RELAXED_MIN_GAIN` faster than under seed 001's (5-axis orientation swings); elsewhere
-/// the greedy branches do as well or better under the smoother seed ceiling, at half the work.
-/// It cannot be faster by more than the ceilings differ, which is checked first (no passes
-/// where they are alike).
-fn relaxed_worth_trying(nodes: &[Node], raw: &[f64], seed: &[f64], v_start: f64, lim: &Limits) -> Option<Relaxed> {
-    if !raw.iter().zip(seed).any(|(&r, &f)| r > f * (1.0 + RELAXED_MIN_GAIN)) {
+/// than `RELAXED_MIN_GAIN` faster than under the flat one (orientation swings of rotary axes);
+/// elsewhere the greedy branches do as well or better under the smoother flat ceiling, at half
+/// the work. It cannot be faster by more than the ceilings differ, which is checked first (no
+/// passes where they are alike).
+fn relaxed_worth_trying(nodes: &[Node], raw: &[f64], flat: &[f64], v_start: f64, lim: &Limits) -> Option<Relaxed> {
+    if !raw.iter().zip(flat).any(|(&r, &f)| r > f * (1.0 + RELAXED_MIN_GAIN)) {
         return None;
     }
-    let ceiling = relaxed_ceiling(nodes, raw, seed, lim);
-    let seed_bound_s = acc_only_time_s(nodes, seed, v_start, lim);
-    let gain = seed_bound_s / acc_only_time_s(nodes, &ceiling.v, v_start, lim) - 1.0;
-    (gain > RELAXED_MIN_GAIN).then_some(Relaxed { ceiling, gain, seed_bound_s })
+    let ceiling = relaxed_ceiling(nodes, raw, flat, lim);
+    let flat_bound_s = acc_only_time_s(nodes, flat, v_start, lim);
+    let gain = flat_bound_s / acc_only_time_s(nodes, &ceiling.v, v_start, lim) - 1.0;
+    (gain > RELAXED_MIN_GAIN).then_some(Relaxed { ceiling, gain, flat_bound_s })
 }
 
 /// The acceleration-only maximum velocity curve `raw` lowered by the passes of the
 /// acceleration-only problem (`reach`), and where that lowering marks a dip. A lowering by
-/// less than `PASS_NEGLIGIBLE` is ignored, and none goes below `seed`.
-fn relaxed_ceiling(nodes: &[Node], raw: &[f64], seed: &[f64], lim: &Limits) -> Ceiling {
+/// less than `PASS_NEGLIGIBLE` is ignored, and none goes below `flat`.
+fn relaxed_ceiling(nodes: &[Node], raw: &[f64], flat: &[f64], lim: &Limits) -> Ceiling {
     let mut v = raw.to_vec();
     super::reach::lower_to_reachable(nodes, &mut v, lim);
     let mut dip = vec![false; nodes.len()];
     for i in 0..nodes.len() {
         let lowered = v[i] < raw[i] * (1.0 - PASS_NEGLIGIBLE);
-        dip[i] = lowered && v[i] > seed[i];
-        v[i] = if lowered { v[i].max(seed[i]) } else { raw[i] };
+        dip[i] = lowered && v[i] > flat[i];
+        v[i] = if lowered { v[i].max(flat[i]) } else { raw[i] };
     }
     Ceiling { v, dip }
 }

@@ -1,7 +1,7 @@
-//! Branches (seed 001 §3, Fig. 3): the greedy step shared by forward and backward branches,
-//! the backward branches from the section ends, and the envelope they form.
+//! Branches (Kopp et al. 2019, §3, Fig. 3): the greedy step shared by forward and backward
+//! branches, the backward branches from the section ends, and the envelope they form.
 //!
-//! Every step picks the largest feasible next velocity (α = 1 in seed 001's terms) that is
+//! Every step picks the largest feasible next velocity (α = 1 in the terms of §3.2) that is
 //! also viable (see `ramp`); when the greedy choice is not viable, a bisection between it and
 //! the braking ramp's own next state (viable whenever the current state is) finds the largest
 //! viable one. No step ever goes back, so the work per node is bounded.
@@ -25,25 +25,19 @@ const VIABLE_SEARCH_REL_TOL: f64 = 1e-4;
 const VIABLE_SECANT_MARGIN: f64 = 0.02;
 /// The viable search also stops once the best state's braking ramp peaks within this share
 /// below the ceiling: the peak rises about as fast as the next velocity or faster, so no viable
-/// velocity is more than this share higher. Cuts the slow tail of the search (a quarter of
-/// the ramp simulations on a dense G06 spline) for at most 0.03 % of speed at that node.
+/// velocity is more than this share higher. Cuts the slow tail of the search for at most
+/// 0.03 % of speed at that node.
 const VIABLE_TOUCH_MARGIN: f64 = 3e-4;
 /// The viable search's secant aims this far below the ceiling (a margin of −1e-4), inside the
-/// touch band rather than at its edge: aimed at the edge, the margin's convexity and the upper
-/// end's margin being only a lower bound (a verdict) left a third of the trials just above it,
-/// and a trial that is not viable costs the most (its ramp runs on above the ceiling until it
-/// flattens: 6.5 nodes on the 5-axis table against 3). Aimed here, about 300 of its searches'
-/// ramps are not viable instead of 612, and its ramps simulate 9.6 k nodes instead of 11.5 k,
-/// for the same motion to 1e-4 s on the three 5-axis machines. (Aiming deeper, at −1.5e-4 or
-/// −2e-4, saved at most 1 % more and slowed the motion a little; bending the first secant for
-/// the convexity, or a quadratic through the last two lower ends, put more trials above the
-/// ceiling.)
+/// touch band rather than at its edge. The margin is convex in the next velocity, and the
+/// upper end's margin is only a lower bound (a verdict), so a secant aimed at the edge lands
+/// just above it often, and a trial that is not viable costs the most (its ramp runs on above
+/// the ceiling until it flattens). Aiming deeper slows the motion a little for no gain.
 ///
 /// Not where the greedy choice is the step's cap itself (the next node's ceiling, the feed):
 /// the branch is reaching a ceiling it may then ride flat, and the flat landing that keeps it
 /// from chattering there takes only states within `FLAT_LANDING_REL_TOL` of it. Aimed below
-/// there, the line–arc–line settled 2.8e-4 under its feed and searched at every node of the
-/// cruise (291 searches instead of 174).
+/// there, a branch cruising at its feed would settle under it and search at every node.
 const VIABLE_SEARCH_AIM: f64 = VIABLE_TOUCH_MARGIN / 3.0;
 /// Backward branches brake with this share of the jerk the axes allow, the forward branch
 /// with all of it: where the forward branch crosses a backward branch its braking is the
@@ -52,10 +46,9 @@ pub(super) const BACKWARD_JERK_FRACTION: f64 = 0.95;
 /// A flattened backward branch this far (relative) below the ceiling is done.
 const FLAT_BELOW_CEILING: f64 = 1e-3;
 /// Start velocity factors tried when a backward branch cannot leave its section end at v̄
-/// (seed 001: "a section whose transition speed is not reached must be recomputed"). Fine
-/// near 1: at a dip of the acceleration-only ceiling (`block`) the first factors often fail,
-/// and every step down costs the motion time there (5-axis table: 4.694 s with
-/// [1, 0.95, 0.8, 0.5, 0.2, 0], 4.669 s with these).
+/// (Kopp et al. 2019, §4: "a section whose transition speed is not reached must be
+/// recomputed"). Fine near 1: at a dip of the acceleration-only ceiling (`block`) the first
+/// factors often fail, and every step down costs the motion time there.
 const BACKWARD_START_FACTORS: [f64; 12] = [1.0, 0.97, 0.94, 0.9, 0.85, 0.8, 0.7, 0.6, 0.5, 0.35, 0.2, 0.0];
 
 /// Caps (shares of the block's highest v̄) tried for the backward branch from the block end
@@ -85,9 +78,8 @@ pub(super) struct Ramps {
 /// margin.
 ///
 /// `ramps` holds the current state's own viability ramp from the step that accepted it. Where
-/// the braking ramp's next state is a state that ramp passed, its margin is known: on the
-/// 5-axis table, where branches ride their braking ramps, in 1100 of 1598 searches (16 % of
-/// the ramps, 22 % of the ramp nodes).
+/// the braking ramp's next state is a state that ramp passed, its margin is known without a
+/// ramp of its own: common where branches ride their braking ramps.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn greedy_step(
     view: &View,
@@ -122,7 +114,7 @@ pub(super) fn greedy_step(
     // Of the greedy choice only the verdict: where it is not viable, its ramp stops as soon as
     // it rises above the ceiling, and that margin (a lower bound of the full one) is the
     // search's upper end. Running failing ramps on until they flatten, for their full margin,
-    // cost the 5-axis table 11 % of its instructions; its motion is the same to 1e-6 s.
+    // costs much and hardly moves the search.
     let m_cand = margin(&cand, work, &mut ramps.trial, Wanted::Verdict);
     if ok(m_cand) {
         std::mem::swap(&mut ramps.current, &mut ramps.trial);
@@ -203,15 +195,14 @@ const FLAT_LANDING_REL_TOL: f64 = 1e-4;
 /// reaches a ceiling that does not rise there, the interval keeps every limit, and its next
 /// velocity is within `FLAT_LANDING_REL_TOL` of `v_greedy`.
 ///
-/// Seed 001 §3.2: α = 1 alone makes the jerk bang-bang. Riding a flat ceiling (an axis at its
-/// velocity limit on a line), the largest viable velocity overshoots the flat state, and from
-/// a flat state just under the ceiling the braking ramp's next state already counts as
-/// touching it (`VIABLE_TOUCH_MARGIN`), so the branch chatters under the ceiling with jerks
-/// of ±J (tight machine, demo: ±2955 mm/s³ and ±4 mm/s² on a cruise at 49.74 mm/s). A
-/// forward branch chattering onto a backward branch joins it only by luck: a jerk limit
-/// 0.5 % higher cost the demo 4 % of its time in a capped section. A landing costs at most
-/// the tolerance at that node, and a branch cruising flat stays within twice the tolerance
-/// under the ceiling (further below, the greedy choice does not reach it and accelerates).
+/// Kopp et al. 2019, §3.2: α = 1 alone makes the jerk bang-bang. Riding a flat ceiling (an axis
+/// at its velocity limit on a line), the largest viable velocity overshoots the flat state,
+/// and from a flat state just under the ceiling the braking ramp's next state already counts
+/// as touching it (`VIABLE_TOUCH_MARGIN`), so the branch chatters under the ceiling with
+/// jerks of ±J. A forward branch chattering onto a backward branch joins it only by luck, and
+/// a failed join costs a capped section. A landing costs at most the tolerance at that node,
+/// and a branch cruising flat stays within twice the tolerance under the ceiling (further
+/// below, the greedy choice does not reach it and accelerates).
 fn flat_landing(
     t: usize,
     (v, a): (f64, f64),
@@ -399,11 +390,11 @@ pub(super) struct Previous<'a> {
 /// The backward branch from the block end at rest (node `n − 1`) under the first cap of
 /// `BLOCK_END_CAP_FRACTIONS` (shares of the block's highest v̄) it runs under, after it got
 /// stuck uncapped. From rest the branch can only have run into a dead end its viability ramps
-/// did not foresee (seen online with a 60 mm look-ahead on the tight machine's dense spline:
-/// stuck 101 nodes back at 36.5 mm/s, 181 mm/s², where backing off led back into it). Under a
-/// cap it flattens before it gets there, and the forward branch joins it like any branch
-/// ending flat under v̄. This holds for every block end, online or not: a block planned under
-/// the relaxed ceiling whose end branch needs a cap competes with the plan under seed 001's.
+/// did not foresee, far back from the block end, where backing off leads back into it (a
+/// dense spline under a short look-ahead). Under a cap it flattens before it gets there, and
+/// the forward branch joins it like any branch ending flat under v̄. This holds for every
+/// block end, online or not: a block planned under the relaxed ceiling whose end branch needs
+/// a cap competes with the plan under the flat ceiling.
 fn capped_from_block_end(
     nodes: &[Node],
     lower: impl Fn(usize, f64) -> bool + Copy,
@@ -428,8 +419,8 @@ fn capped_from_block_end(
 /// backward branch from there starts in: a feasible and viable step to the next node exists.
 /// The backward branch only checks its own direction; where an orientation swing forces the
 /// jerk's sign (a dip of the acceleration-only ceiling), a flat state at the dip can have no
-/// continuation forwards, and a forward branch joined onto that branch was stuck at its end
-/// (5-axis table, loose machine: 53 v̄ repairs creeping back from such dips).
+/// continuation forwards, and a forward branch joined onto that branch would be stuck at its
+/// end (the block repairs then creep back from such dips one node at a time).
 fn leaves_forward(nodes: &[Node], m: usize, v_mm_s: f64, lim: &Limits, work: &mut Work) -> bool {
     let view = View::forward(nodes);
     let free = FlattenUnder { view, cap: f64::INFINITY, lim };
@@ -438,16 +429,16 @@ fn leaves_forward(nodes: &[Node], m: usize, v_mm_s: f64, lim: &Limits, work: &mu
 }
 
 /// The backward branches of a block: from the block end (at rest) and from every local
-/// minimum of v̄ (seed 001 §3.1), right to left.
+/// minimum of v̄ (Kopp et al. 2019, §3.1), right to left.
 ///
 /// After a repair (`previous`), the branches from section ends before the lowered stretch are
 /// taken over from the first section end that no branch from a later one reaches past, in the
 /// old envelope or the new. They are then the branches a full build would make: a branch runs
 /// leftwards and sees only v̄ and the envelope left of its section end, both as before. A
 /// repair deep inside a long block then costs the branches after it, not the whole block.
-/// (Branches after the stretch are built anew: taking over those clear of it saved another
-/// quarter on a dense spline, but their viability ramps had looked into the stretch, and
-/// the plans that differed handed over states that led to more stops mid-path.)
+/// Branches after the stretch are built anew even where they lie clear of it: their
+/// viability ramps looked into the stretch, and a branch kept from before the repair would
+/// differ from a full build's.
 pub(super) fn build_envelope(
     nodes: &[Node],
     previous: Option<Previous>,

@@ -1,6 +1,8 @@
-//! Axis limits along an interval: seed 001 eq. 1a–1c evaluated at the nodes (with the
-//! interval's own jerk on both ends, since jerk jumps at nodes) and at interior points, so the
-//! continuous motion keeps the limits and not only the samples.
+//! Axis limits along an interval (Kopp et al. 2019, eq. 7b–7d): the chain rule of eq. 1a–1c
+//! evaluated at the nodes (with the interval's own jerk on both ends, since jerk jumps at
+//! nodes) and at interior points, so the continuous motion keeps the limits and not only the
+//! samples. The paper checks the nodes only; between them the axis jerk varies while the path
+//! jerk is constant.
 //!
 //! Between the nodes the geometry is interpolated from the node data: A′ and A″ by cubic
 //! Hermite (their derivatives A″, A‴ are known at both ends), A‴ linearly. The sampling keeps
@@ -17,11 +19,10 @@ pub(super) const VIOLATION_TOL: f64 = 1e-12;
 /// Points inside an interval (fractions of its duration) where the limits are checked.
 pub(super) const CHECK_FRACTIONS: [f64; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
 /// The same on a path table's interval that the nodes do not interpolate well
-/// ([`SpanPoly::fine_checks`]): such intervals are long (rows split by time only) and their
-/// geometry can bulge between five points. With five, the six test tables on the three 5-axis
-/// machines reached 0.9987 × an acceleration limit and 0.9983 × a jerk limit at 0.25 ms (up
-/// to 0.35 % over the planner's own `limit_fraction` of 0.995); with these seven 0.9965 and
-/// 0.9962 (nine: 0.9963, 0.9957), for 16 % more instructions on the 5-axis table (nine: 30 %).
+/// (`SpanPoly::fine_checks`): such intervals are long (rows split by time only) and their
+/// geometry can bulge between five points, enough to use up most of the headroom the
+/// planner's `limit_fraction` keeps; seven points keep the motion within it, and more cost
+/// time without a gain.
 pub(super) const FINE_CHECK_FRACTIONS: [f64; 7] = [0.0, 1.0 / 6.0, 2.0 / 6.0, 0.5, 4.0 / 6.0, 5.0 / 6.0, 1.0];
 
 /// The check points of interval `g`.
@@ -132,7 +133,7 @@ fn span_at(g: &IntervalGeom, p: &SpanPoly, powers: &[f64; 7], k: usize) -> (f64,
 pub(super) const VBAR_FRACTIONS: [f64; 3] = [0.25, 0.5, 0.75];
 
 /// The lowest velocity bounds inside an interval (on its geometry, see [`geom_at`]): the
-/// acceleration-only bound and seed 001's v̄ (eq. 6), as (`velocity_bound`,
+/// acceleration-only bound and the flat v̄ (Kopp et al. 2019, eq. 6), as (`velocity_bound`,
 /// `flat_velocity_bound`). A minimum between two nodes must lower the nodes' bounds, or a
 /// branch starting there at v̄ with a = 0 would break a limit a little further on; the
 /// planner lowers the acceleration-only bound only by a minimum below both nodes'
@@ -226,8 +227,8 @@ fn points_violations<'a>(
 }
 
 /// Geometry fraction σ, velocity and acceleration at time fraction `f` of the interval, whose
-/// length's reciprocal is `inv_ds` (one division per interval rather than one per point, on
-/// whose critical path its latency sat).
+/// length's reciprocal is `inv_ds` (one division per interval rather than one per point, whose
+/// latency would sit on the critical path of every check).
 #[inline]
 fn check_point(iv: &Interval, f: f64, inv_ds: f64) -> (f64, f64, f64) {
     let (s, v, a) = iv.state_at(f * iv.t_s);
@@ -263,9 +264,8 @@ fn point_violation_wide(g: &IntervalGeom, sigma: f64, v: f64, a: f64, j: f64, li
     point_violation_lanes(g, sigma, v, a, j, lim)
 }
 
-/// Machines with this many axes or more check four at a time (`lanes`). With three, the
-/// scalar loop inlined into its caller was faster (circle R10: 3.9 ms against 4.0 ms; 45.6 M
-/// instructions against 48.3 M through the lanes).
+/// Machines with this many axes or more check four at a time (`lanes`); with fewer, the
+/// scalar loop inlined into its caller is faster.
 const LANES_FROM_AXES: usize = 4;
 
 /// [`point_violation_lanes`] compiled for AVX: the same operations, four lanes per instruction.
@@ -342,7 +342,7 @@ fn axis_uses(
     lim: &Limits,
     k: usize,
 ) -> [f64; 3] {
-    let vel = d1 * v; // seed 001 eq. 1a
+    let vel = d1 * v; // Kopp et al. 2019, eq. 1a
     let acc = d2 * v2 + d1 * a; // eq. 1b
     let jerk = d3 * v3 + d2 * va3 + d1 * j; // eq. 1c
     let r_acc = acc * if acc >= 0.0 { lim.inv_acc_max[k] } else { lim.inv_acc_min[k] };
@@ -404,7 +404,7 @@ fn term_uses(iv: &Interval, g: &IntervalGeom, lim: &Limits, point: usize, k: usi
 
 /// `worst.max(x)` for an accumulator that is never NaN (it starts at −∞ and takes only values
 /// greater than itself): a NaN `x` is skipped, as `f64::max` skips it, in one compare instead
-/// of `f64::max`'s NaN handling on both sides (a fifth of the planner's time is spent in the
+/// of `f64::max`'s NaN handling on both sides (the planner spends much of its time in the
 /// loop above).
 #[inline(always)]
 fn raise_to(worst: f64, x: f64) -> f64 {

@@ -1,6 +1,6 @@
 //! The backward branches of a block, laid over the velocity bound.
 //!
-//! Seed 001 §3.1 splits the path into sections at the local minima of v̄; from each section
+//! Kopp et al. 2019, §3.1 split the path into sections at the local minima of v̄; from each section
 //! end a backward branch is computed (the fastest way to arrive there at v̄ with a = 0), and
 //! from the block end (a stop) one arriving at rest. Branches occupy disjoint runs of nodes:
 //! a branch from a minimum is not started where one from further on already lies lower, and a

@@ -1,4 +1,4 @@
-//! The forward branch and its joins onto the backward branches (seed 001 §3.3).
+//! The forward branch and its joins onto the backward branches (Kopp et al. 2019, §3.3).
 //!
 //! The forward branch runs free from its anchor (the block start, or the end of the last
 //! backward branch it followed): greedy steps under v̄ that only need to be able to flatten.
@@ -7,7 +7,7 @@
 //! intervals to that branch's section end. A crossing on a steep part of both branches has no
 //! join within the jerk limits; then both are capped at a common velocity v_c — the highest
 //! for which they meet flat — and recomputed between the anchor and the section end. This is
-//! seed 001's "lower the faster branch locally", done once by bisection instead of by
+//! the paper's "lower the faster branch locally" (§3.3), done once by bisection instead of by
 //! repeated recomputation, so the work per section is bounded.
 
 use super::branch::{MAX_BACK_OFFS_PER_BRANCH, Ramps, Stuck, backward_branch, greedy_step};
@@ -23,9 +23,8 @@ use super::view::View;
 
 /// The cap search first steps down from the highest bound towards the lowest possible cap
 /// (the anchor's or the section end's velocity), shrinking the gap by this factor per try...
-/// (0.85 took ~25 tries in each section where every cap fails; with 0.6 the tight machine's
-/// dense spline needs 48 capped runs instead of 136, 174 instead of 410 online at 10 mm, and
-/// every example, look-ahead run and limit sweep kept its motion time.)
+/// (a slower descent costs many capped runs in a section where every cap fails, and finds no
+/// better cap than the bisection after it).
 const CAP_DESCENT_FACTOR: f64 = 0.6;
 /// ... at most this many times (down to about 1e-4 of it).
 const CAP_DESCENT_STEPS: usize = 60;
@@ -191,10 +190,9 @@ fn run_forward(
         if !crosses {
             run.push(step.expect("not crossing implies a step"));
             // A section end passed below its branch: a capped section further on starts from
-            // it, as from one joined at, and does not re-plan the sections before. (Back-offs
+            // it, as from one joined at, and does not re-plan the sections before. Back-offs
             // still reach back to the last join: braking before a section end passed below can
-            // still help, and without it the loose machine's table with 3 × the rows took 1 %
-            // longer.)
+            // still help.
             let i = run.last();
             let c = env.curve[i];
             if c != 0 && env.starts[c as usize].node == i {
@@ -412,7 +410,7 @@ fn ramp_to_branch(
                 return RampToBranch::Joined(ivs);
             }
             // No three-interval join here: a ramp passes many nodes near the branch, and
-            // one per node (17 two-interval joins each) cost most of a join's work. The
+            // one per node (17 two-interval joins each) would cost most of a join's work. The
             // blend in `brake_join` makes the ramp touch the branch, where two suffice;
             // `direct_join` still tries three.
         }
@@ -460,10 +458,9 @@ fn capped_section(
         let cap = lo + gap;
         // A heuristic too: caps within the bisection's tolerance above the lowest are not
         // tried. One of them could still work where every higher cap failed (the backward
-        // branch and the ramps' ceiling change with the cap), but the descent crept towards
-        // `lo` in ever smaller steps, up to 60 capped runs of the section, where a short
-        // look-ahead on the tight machine fails whatever the cap; the motion of every
-        // example stayed the same.
+        // branch and the ramps' ceiling change with the cap), but the descent would creep
+        // towards `lo` in ever smaller steps, each a capped run of the section, where a short
+        // look-ahead fails whatever the cap.
         if gap <= CAP_SEARCH_REL_TOL * lo {
             break;
         }
@@ -476,8 +473,8 @@ fn capped_section(
             // above `lo`). A heuristic: a lower cap changes the run mainly where it was above
             // that cap (it also lowers the backward branch and the ramps' ceiling), and the
             // run fails below all of them (the block repair then lowers v̄ there). Trying
-            // them all cost three quarters of the planning on a dense spline, and the motion
-            // of every example stayed the same without them.
+            // them all would dominate the planning time on a dense spline and not change the
+            // motion.
             Err(CapFail::ForwardStuck { v_mm_s }) if v_mm_s <= lo => {
                 tracing::trace!(
                     anchor,

@@ -1,9 +1,9 @@
 //! One interval of the path-velocity profile: constant path jerk j between two nodes
-//! (seed 001 eq. 2), parameterised by the velocity at its end (eq. 3).
+//! (Kopp et al. 2019, eq. 2), parameterised by the velocity at its end (eq. 3).
 
-/// 1/6, the factor of seed 001 eq. 2's jerk term: multiplied by rather than divided by, since
-/// a division's latency sits on the critical path of every time solve and check point (with
-/// the check points' division by Δs: 5-axis table 6.1 → 5.7 ms, circle 3.9 → 3.6 ms).
+/// 1/6, the factor of the jerk term of Kopp et al. 2019, eq. 2: multiplied by rather than
+/// divided by, since a division's latency sits on the critical path of every time solve and
+/// check point.
 const SIXTH: f64 = 1.0 / 6.0;
 /// Relative tolerance when solving s(T) = Δs for T.
 const TIME_SOLVE_REL_TOL: f64 = 1e-13;
@@ -25,13 +25,15 @@ pub(super) struct Interval {
 }
 
 impl Interval {
-    /// Forward branch of seed 001 eq. 3: from (v0, a0) over `ds` ending with velocity `v1`.
-    /// T uses the cancellation-free form 6Δs / [(2v₀ + v₁) + √((2v₀ + v₁)² + 6a₀Δs)], which
-    /// also covers a₀ = 0. `None` when v₁ cannot be reached (negative discriminant), the
-    /// duration is not positive and finite, or the velocity would turn negative inside.
+    /// The forward branch's interval of Kopp et al. 2019, eq. 3: from (v0, a0) over `ds`
+    /// ending with velocity `v1`. Eq. 3 gives T = [−(2v₀ + v₁) + √((2v₀ + v₁)² + 6a₀Δs)] / a₀,
+    /// which cancels for small a₀ and is undefined at a₀ = 0; the same root in the form
+    /// T = 6Δs / [(2v₀ + v₁) + √((2v₀ + v₁)² + 6a₀Δs)] covers both. `None` when v₁ cannot be
+    /// reached (negative discriminant), the duration is not positive and finite, or the
+    /// velocity would turn negative inside.
     pub(super) fn through(v0: f64, a0: f64, ds: f64, v1: f64) -> Option<Interval> {
         let q = 2.0 * v0 + v1;
-        let disc = q * q + 6.0 * a0 * ds; // seed 001 eq. 3, discriminant
+        let disc = q * q + 6.0 * a0 * ds; // eq. 3, discriminant
         if disc.is_nan() || disc < 0.0 {
             return None;
         }
@@ -39,11 +41,11 @@ impl Interval {
         if den.is_nan() || den <= 0.0 {
             return None;
         }
-        let t = 6.0 * ds / den; // seed 001 eq. 3, cancellation-free T
+        let t = 6.0 * ds / den; // eq. 3, cancellation-free T
         if t.is_nan() || t <= 0.0 || t.is_infinite() {
             return None;
         }
-        let j = 2.0 * (v1 - v0 - a0 * t) / (t * t); // seed 001 eq. 3, j_p
+        let j = 2.0 * (v1 - v0 - a0 * t) / (t * t); // eq. 3, j_i
         let iv = Interval { v0, a0, j, t_s: t, ds_mm: ds };
         iv.velocity_stays_non_negative().then_some(iv)
     }
@@ -58,8 +60,8 @@ impl Interval {
     /// series estimate, accepted only if v stays positive over [0, T], so that s rises strictly
     /// and T is the one crossing the bracketed solve finds. Most intervals are short against
     /// their velocity change, so one step converges: two divisions in a row instead of the
-    /// bracket's square root and four or five Newton divisions, whose latency made this solve
-    /// a sixth of the planner's wall time (`perf`, 5-axis table).
+    /// bracket's square root and four or five Newton divisions, whose latency would make this
+    /// solve a large share of the planner's time.
     #[inline]
     fn with_jerk_moving(v0: f64, a0: f64, ds: f64, j: f64) -> Option<Interval> {
         if v0.is_nan() || v0 <= 0.0 {
@@ -71,7 +73,7 @@ impl Interval {
         let (x, alpha, beta) = (ds * inv_v0, a0 * inv_v0, j * inv_v0);
         let mut t = x * (1.0 - 0.5 * alpha * x + (0.5 * alpha * alpha - beta * SIXTH) * x * x);
         for _ in 0..TIME_HALLEY_MAX_ITER {
-            let f = v0 * t + 0.5 * a0 * t * t + j * t * t * t * SIXTH - ds; // seed 001 eq. 2, s(τ) − Δs
+            let f = v0 * t + 0.5 * a0 * t * t + j * t * t * t * SIXTH - ds; // eq. 2: s(τ) − Δs
             let v = v0 + a0 * t + 0.5 * j * t * t;
             if f.abs() <= TIME_SOLVE_REL_TOL * ds {
                 let iv = Interval { v0, a0, j, t_s: t, ds_mm: ds };
@@ -145,8 +147,9 @@ impl Interval {
     }
 
     /// The interval from (v0, a0) over `ds` that ends with acceleration `a1`: j = (a1 − a0)/T
-    /// and Δs = v₀T + (2a₀ + a₁)T²/6 (seed 001 eq. 2 at τ = T), solved in the cancellation-free
-    /// form T = 2Δs / (v₀ + √(v₀² + 2(2a₀ + a₁)Δs/3)). `None` if no such interval moves forward.
+    /// and Δs = v₀T + (2a₀ + a₁)T²/6 (Kopp et al. 2019, eq. 2 at τ = T), solved in the
+    /// cancellation-free form T = 2Δs / (v₀ + √(v₀² + 2(2a₀ + a₁)Δs/3)). `None` if no such
+    /// interval moves forward.
     pub(super) fn landing(v0: f64, a0: f64, ds: f64, a1: f64) -> Option<Interval> {
         let disc = v0 * v0 + 2.0 * (2.0 * a0 + a1) * ds / 3.0;
         if disc.is_nan() || disc < 0.0 {
@@ -169,7 +172,7 @@ impl Interval {
         self.a0 + self.j * self.t_s
     }
 
-    /// (s − s₀, v, a) at local time τ (seed 001 eq. 2).
+    /// (s − s₀, v, a) at local time τ (Kopp et al. 2019, eq. 2).
     pub(super) fn state_at(&self, tau: f64) -> (f64, f64, f64) {
         let (v0, a0, j) = (self.v0, self.a0, self.j);
         let s = v0 * tau + 0.5 * a0 * tau * tau + j * tau * tau * tau * SIXTH;

@@ -1,4 +1,4 @@
-//! Exact join of a branch onto another branch's state (seed 001 §3.3): two intervals whose
+//! Exact join of a branch onto another branch's state (Kopp et al. 2019, §3.3): two intervals whose
 //! middle velocity is chosen so the second ends with the target's velocity and acceleration.
 
 use super::check::{VIOLATION_TOL, jerk_range, violates, violation};
@@ -8,9 +8,8 @@ use super::step::Work;
 use super::view::View;
 
 /// Samples when bracketing the join equation. Most joins tried fail without a bracket (a
-/// braking ramp tries one at every node near the branch), and a failed scan costs all of them:
-/// with 8 instead of 24, every example and machine plans the same motion (to 1e-15 s) with
-/// 18 % fewer evaluations (5-axis table 18.2 k → 12.9 k; line–arc–line 5.3 k → 3.0 k).
+/// braking ramp tries one at every node near the branch), and a failed scan costs all of them;
+/// a finer scan finds no more joins.
 const JOIN_SAMPLES: usize = 8;
 /// Bisection steps on the join equation.
 const JOIN_ITERS: usize = 60;
@@ -28,8 +27,7 @@ const JOIN_LOWEST_MIDDLE_SHARE: f64 = 0.5;
 /// over half the slower end's velocity (the lowest middle velocity [`join_two`] tries), the
 /// change lies between the lower ends' smaller (or zero) and the upper ends' larger (or zero)
 /// times that time. A braking ramp that grazes a branch passes dozens of nodes close to it
-/// where no join can work: 859 failed attempts on two sections of a dense G06 spline, 72 % of
-/// its evaluations (but only 2 % of its instructions; a ramp node costs more).
+/// where no join can work, and each failed attempt would cost a full scan.
 fn join_in_reach(view: &View, t: usize, v: f64, a: f64, target: (f64, f64), lim: &Limits) -> bool {
     let (lo1, hi1) = jerk_range(view.start_geom(t), view.sign(), v, a, lim);
     let (lo2, hi2) = jerk_range(view.end_geom(t + 2), view.sign(), target.0, target.1, lim);
@@ -42,7 +40,7 @@ fn join_in_reach(view: &View, t: usize, v: f64, a: f64, target: (f64, f64), lim:
     da >= lo1.min(lo2).min(0.0) * t_max && da <= hi1.max(hi2).max(0.0) * t_max
 }
 
-/// Exact join (seed 001 §3.3): from (v, a) at node t onto the backward branch's state at
+/// Exact join (Kopp et al. 2019, §3.3): from (v, a) at node t onto the backward branch's state at
 /// node t+2, through a velocity at t+1 found by bisection on the acceleration mismatch.
 pub(super) fn join_two(
     view: &View,

@@ -1,11 +1,11 @@
-//! The limit uses of seed 001 eq. 1a–1c at one check point, four axes at a time: the same
-//! operations in the same order as the scalar `check::axis_uses`, lane by lane, so every lane
-//! rounds exactly as the scalar code would and the result is the same to the bit (a test
+//! The limit uses of Kopp et al. 2019, eq. 1a–1c at one check point, four axes at a time: the
+//! same operations in the same order as the scalar `check::axis_uses`, lane by lane, so every
+//! lane rounds exactly as the scalar code would and the result is the same to the bit (a test
 //! compares them; Rust never fuses a multiply and an add). Written as plain arrays, which the
 //! compiler turns into vector instructions: SSE2 pairs on every x86-64 CPU, AVX quads where
-//! the CPU has AVX (detected at run time, `check::point_violation`). Checking the limits at
-//! the points inside the intervals was 40 % of the 5-axis table's instructions, one axis at a
-//! time.
+//! the CPU has AVX (detected at run time, `check::point_violation`). On machines with four or
+//! more axes, checking the limits at the points inside the intervals is the planner's largest
+//! cost.
 //!
 //! The axes go in chunks of four that may overlap (five axes: 0–3 and 1–4), which the maximum
 //! does not mind; with fewer than four axes the lanes past the last axis are left out.
@@ -82,7 +82,7 @@ struct State {
 /// (A′, A″, A‴) per lane: `check::axis_uses`.
 #[inline(always)]
 fn chunk_uses((d1, d2, d3): Geom4, st: &State, lim: &Limits, k: usize) -> Lanes {
-    let vel = mul(d1, st.v); // seed 001 eq. 1a
+    let vel = mul(d1, st.v); // Kopp et al. 2019, eq. 1a
     let acc = add(mul(d2, st.v2), mul(d1, st.a)); // eq. 1b
     let jerk = add(add(mul(d3, st.v3), mul(d2, st.va3)), mul(d1, st.j)); // eq. 1c
     // acc ≥ 0 (false for NaN, as in the scalar code) takes the upper limit's reciprocal.

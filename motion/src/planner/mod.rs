@@ -1,10 +1,15 @@
-//! The look-ahead feedrate planner (seed 001): a C¹ path-velocity profile with piecewise
-//! constant path jerk under axis velocity, acceleration and jerk limits.
+//! The look-ahead feedrate planner of Kopp et al. 2019: a C¹ path-velocity profile with
+//! piecewise constant path jerk (eq. 2) under axis velocity, acceleration and jerk limits
+//! (eq. 1a–1c, 7a–7d).
 //!
-//! Data flow inside the planner:
-//! elements → [`sampling`] (nodes s_i with A′…A‴ and v̄) → blocks between stops →
-//! [`branch`] (backward branches from the section ends, the forward branch, joins) →
-//! [`profile::Segment`]s handed on.
+//! Data flow inside the planner: elements → `sampling` (nodes s_i with A′…A‴ and the velocity
+//! bound v̄, §2.2 and eq. 5–6) → blocks between stops (`block`) → `branch` and `forward`
+//! (backward branches from the section ends, the forward branch, joins; §3, Fig. 3) →
+//! [`Segment`]s handed on. The branch steps (`step`, eq. 7) pick the largest next velocity
+//! whose interval keeps every limit; a viability test (`ramp`) replaces the paper's stepping
+//! back, so the work per node is bounded. [`brake`] gives the fastest stop from any planned
+//! state, [`export`] the sampled problem for an independent optimiser. See `docs/planner.md`
+//! for the whole algorithm.
 //!
 //! The planner works online: it takes elements one at a time, keeps a horizon of at least
 //! `planner.lookahead_mm` (or `lookahead_samples`) ahead of what it handed on, and plans the
@@ -273,9 +278,9 @@ impl Planner {
     /// Lowers the velocity bounds of nodes `from..` by the minimum of v̄ inside each interval
     /// whose both nodes now exist. The acceleration-only bound is lowered only by a minimum
     /// below both nodes' bounds: one falling across the interval is kept by the lower node
-    /// already, and lowering the higher node to it cuts a notch into a steep ceiling (5-axis
-    /// table: 7 % at a node beside a long interval into a rotary swing, where the Ipopt
-    /// reference runs above the notch and the backward branches could not start at the swing).
+    /// already, and lowering the higher node to it cuts a notch into a steep ceiling (beside a
+    /// long interval into an orientation swing of rotary axes), under which the time-optimal
+    /// motion would run and at which no backward branch could start.
     fn refine_vbar(&mut self, from: usize) {
         for i in from..self.nodes.len().saturating_sub(1) {
             let (v, v_flat) = check::interior_vbar(&view::View::forward(&self.nodes).interval_geom(i), &self.lim);

@@ -1,6 +1,7 @@
-//! Sample nodes s_i of the path with the geometry the planner needs there, and the velocity
-//! bounds there: seed 001's v̄(s_i) (eq. 6, corrected) and the acceleration-only maximum
-//! velocity curve (eq. 1a–1b with the path acceleration free).
+//! Sample nodes s_i of the path with the geometry the planner needs there (A′, A″, A‴ per axis,
+//! Kopp et al. 2019, §2), and the velocity bounds there: v̄(s_i) of eq. 6 (in its corrected
+//! per-axis form) and the acceleration-only maximum velocity curve (eq. 1a–1b with the path
+//! acceleration free).
 
 use super::limits::Limits;
 use crate::path::{AxisDerivs, AxisVec, MAX_AXES};
@@ -20,7 +21,8 @@ impl From<&AxisDerivs> for NodeGeom {
     }
 }
 
-/// Coefficients per axis of a [`SpanPoly`]: A′ (degree 6), A″ (5), A‴ (4).
+/// Coefficients per axis of the exact geometry of an interval (`SpanPoly`): A′ (degree 6), A″
+/// (5), A‴ (4).
 pub const SPAN_POLY_COEFS: usize = 7 + 6 + 5;
 
 /// The exact geometry of the interval from a node to the next where the path is a polynomial
@@ -45,8 +47,7 @@ pub(crate) struct SpanPoly {
 
 impl SpanPoly {
     /// From the position polynomial of every axis, A(s₀ + σ·ds) = Σ cᵢ σⁱ, over an interval
-    /// `ds_mm` long.
-    /// Only the first `axes` axes are read: the others are zero.
+    /// `ds_mm` long. Only the first `axes` axes are read: the others are zero.
     pub(crate) fn from_position(c: &[[f64; 8]; MAX_AXES], axes: usize, ds_mm: f64, interpolable: bool) -> Self {
         let (i1, i2, i3) = (1.0 / ds_mm, 1.0 / (ds_mm * ds_mm), 1.0 / (ds_mm * ds_mm * ds_mm));
         let mut coef = [[0.0; MAX_AXES]; SPAN_POLY_COEFS];
@@ -131,8 +132,8 @@ pub(crate) struct Node {
     pub right: NodeGeom,
     /// Velocity bound v̄ at this node, mm/s (both sides, programmed feed, joint caps).
     pub vbar_mm_s: f64,
-    /// Seed 001's v̄ (eq. 6, a = j = 0) under the same caps, mm/s: ≤ `vbar_mm_s`, the ceiling
-    /// a block is planned under first (see `block`).
+    /// The flat v̄ (Kopp et al. 2019, eq. 6, a = j = 0) under the same caps, mm/s: ≤
+    /// `vbar_mm_s`, the ceiling a block is planned under first (see `block`).
     pub vbar_flat_mm_s: f64,
     /// Programmed feed of the interval after this node, mm/s (∞ for rapid moves).
     pub feed_mm_s: f64,
@@ -171,16 +172,16 @@ impl Node {
 }
 
 /// v̄ from one side's geometry: the largest path velocity at which every axis keeps its
-/// velocity limit (seed 001 eq. 5, first term) and *some* path acceleration keeps every axis
-/// within its acceleration limit (eq. 1b with a free).
+/// velocity limit (Kopp et al. 2019, eq. 5, first term) and *some* path acceleration keeps
+/// every axis within its acceleration limit (eq. 1b with a free).
 ///
-/// Seed 001 eq. 6 (corrected: it prints the fractions upside down and with vector norms)
-/// takes a = 0 and j = 0, which makes (v̄, 0, 0) a state that keeps every limit but is far
-/// below what the axes allow where the acceleration A′a can offset the centripetal A″v²
-/// (a 5-axis orientation swing: the optimum passes there at several times that v̄, braking
-/// into it and accelerating out). The jerk term is left to the interval checks for the same
-/// reason. This bound is the maximum velocity curve of the acceleration-only problem; the
-/// block planner lowers it to what acceleration alone can reach (`reach`).
+/// Eq. 6 takes a = 0 and j = 0, which makes (v̄, 0, 0) a state that keeps every limit but is
+/// far below what the axes allow where the acceleration A′a can offset the centripetal A″v²
+/// (an orientation swing of rotary axes: the time-optimal motion passes there at several
+/// times that v̄, braking into it and accelerating out). The jerk term is left to the interval
+/// checks for the same reason. This bound is the maximum velocity curve of the
+/// acceleration-only problem; the block planner lowers it to what acceleration alone can
+/// reach (`reach`).
 pub(super) fn velocity_bound(g: &NodeGeom, lim: &Limits) -> f64 {
     // Per axis with A′ ≠ 0 the allowed a is [p + c·x, r + c·x] with x = v², c = −A″/A′; the
     // ranges intersect iff every lower end lies below every upper end (pairwise, linear in x).
@@ -211,10 +212,11 @@ pub(super) fn velocity_bound(g: &NodeGeom, lim: &Limits) -> f64 {
     v.min(x.sqrt())
 }
 
-/// Seed 001 eq. 6 (corrected: it prints the fractions upside down and with vector norms): the
-/// largest path velocity at which every axis keeps its limits with a = 0 and j = 0; per axis,
-/// eq. 5 gives v ≤ Ȧ_max/|A′|, v ≤ √(Ä_max/|A″|), v ≤ ∛(A⃛_max/|A‴|). The ceiling a block is
-/// planned under first (`block`), and the speed the node spacing is sized for: where the
+/// v̄ from Kopp et al. 2019, eq. 6: the largest path velocity at which every axis keeps its
+/// limits with a = 0 and j = 0; per axis, eq. 5 gives v ≤ Ȧ_max/|A′|, v ≤ √(Ä_max/|A″|),
+/// v ≤ ∛(A⃛_max/|A‴|). Eq. 6 prints the fractions upside down and with vector norms; the
+/// per-axis minimum of the eq. 5 terms is the form consistent with eq. 5. The ceiling a block
+/// is planned under first (`block`), and the speed the node spacing is sized for: where the
 /// motion is faster (under [`velocity_bound`]) it is braking or accelerating through a short
 /// stretch.
 pub(super) fn flat_velocity_bound(g: &NodeGeom, lim: &Limits) -> f64 {
@@ -278,7 +280,7 @@ mod tests {
     }
 
     proptest! {
-        /// The acceleration-only bound is never below seed 001's v̄, and at it some path
+        /// The acceleration-only bound is never below the flat v̄ of eq. 6, and at it some path
         /// acceleration keeps every axis within its limit (the pairwise closed form is exact);
         /// a little above it none does, unless the velocity limit binds.
         #[test]

@@ -1,5 +1,5 @@
 //! The planner's output: the path-velocity profile as constant-jerk segments in time
-//! (seed 001 eq. 2), the contract between the look-ahead planner and the interpolator.
+//! (Kopp et al. 2019, eq. 2), the contract between the look-ahead planner and the interpolator.
 //!
 //! Segments are back to back in time and path position; within a segment
 //! s(τ) = s₀ + v₀τ + a₀τ²/2 + jτ³/6 for τ ∈ [0, dt]. A dwell is a segment with v = a = j = 0.
@@ -43,7 +43,7 @@ impl Segment {
         self.s0_mm + self.ds_mm
     }
 
-    /// State at local time τ (clamped to the segment), seed 001 eq. 2.
+    /// State at local time τ (clamped to the segment), Kopp et al. 2019, eq. 2.
     #[inline]
     pub fn at(&self, tau: f64) -> PathState {
         let tau = tau.clamp(0.0, self.dt_s);

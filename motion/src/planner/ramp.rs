@@ -5,8 +5,8 @@
 //! jerk the axes allow that keeps each interval feasible (holding the acceleration at the
 //! lowest allowed), and its margin is how far it rises above the ceiling, at the nodes and at
 //! the velocity peak between them. The margin is continuous in the state, so the largest
-//! viable next velocity is found by a root search rather than by trial. Seed 001 instead
-//! steps back when the interval for v₊ is empty ("Gehe zurück"), which can grow
+//! viable next velocity is found by a root search rather than by trial. Kopp et al. 2019, §3.2
+//! instead step back when the interval for v₊ is empty ("Gehe zurück"), which can grow
 //! exponentially; here the work per ramp is bounded by `MAX_RAMP_NODES`.
 
 use super::check::{acc_range, jerk_range, violates, violates_inside};
@@ -25,13 +25,10 @@ pub(super) const RAMP_JERK_STEPS: [f64; 7] = [0.99, 0.7, 0.4, 0.0, -0.1, -0.3, -
 const RAMP_END_CORRECTIONS: usize = 3;
 /// A ramp interval whose end would fall below the end node's lowest allowed acceleration is
 /// corrected to end this share of that node's acceleration range above it, as the jerk keeps
-/// 1 % in reserve from its bound. Aimed at the floor itself, the corrections rarely settled
-/// (the floor moves with the end velocity, which the new jerk changes): on the 5-axis table
-/// 1190 of 8530 steepest ramp intervals ran out of corrections and fell back to the gentler
-/// jerks, each tried with a full check. With 1 % 84 do (all chasing a moving jerk bound), and
-/// the table plans with 4.4 % fewer instructions (its loose variant 8.5 %), its motion 0.005 %
-/// faster. (0.3 %: −3.3 %; 2 % and 5 %: the ramps brake less and run longer, −0.1 % and
-/// +1.4 %.)
+/// 1 % in reserve from its bound. The floor moves with the end velocity, which the corrected
+/// jerk changes: aimed at the floor itself, the corrections chase it and often run out, and
+/// the ramp falls back to the gentler jerks, each with a full check. A larger reserve brakes
+/// less and makes the ramps longer.
 const RAMP_FLOOR_RESERVE: f64 = 0.01;
 /// A ramp longer than this many nodes counts as not viable (bounded work).
 pub(super) const MAX_RAMP_NODES: usize = 20_000;
@@ -44,11 +41,9 @@ const ACC_NEAR_BOUND_FRACTION: f64 = 0.05;
 /// range from its edges counts as binding (the full interval check runs there).
 const JERK_NEAR_BOUND_FRACTION: f64 = 0.05;
 /// A ramp rising this far (relative) above the ceiling is stopped early: clearly not viable.
-/// Ten times the viable search's touch band: the search needs the value of a trial above the
-/// ceiling only for its secant, and one this far above is a clear upper end (at 0.05, trials
-/// above the ceiling ran on for 5 nodes on the 5-axis table; at 0.003 the table, its loose and
-/// its tight variant take 2–4 % fewer instructions, and every example's motion moved by at most
-/// ±0.02 %).
+/// Ten times the viable search's touch band (`branch::VIABLE_TOUCH_MARGIN`): the search needs
+/// the value of a trial above the ceiling only for its secant, and one this far above is a
+/// clear upper end; running such a ramp on until it flattens costs nodes and tells nothing.
 const MARGIN_GIVE_UP: f64 = 0.003;
 
 /// Shares of a forced jerk window (one not containing zero) a ramp tries, from the edge the
@@ -83,20 +78,21 @@ impl FlattenUnder<'_> {
     }
 
     /// The acceleration at or below which a state (v, ·) at traversal position `t` has
-    /// flattened: a ≤ 0 (seed 001's v̄ with a = 0), or the lowest acceleration the axes allow
-    /// at v where that is above zero. The acceleration-only ceiling passes a dip with A′a
-    /// offsetting A″v², where a = 0 does not keep the limits: a state braked as far as the
-    /// axes allow is as flat as the motion can be there. Where the ceiling falls into a dip
-    /// the passes made (`Node::reach_bound`), following its slope (dv/ds = Δc/Δs, so
-    /// a = v·dv/ds, scaled to v) counts as flat, as long as the axes allow it.
+    /// flattened: a ≤ 0 (v̄ of Kopp et al. 2019, eq. 5, with a = 0), or the lowest acceleration
+    /// the axes allow at v where that is above zero. The acceleration-only ceiling passes a dip
+    /// with A′a offsetting A″v², where a = 0 does not keep the limits: a state braked as far as
+    /// the axes allow is as flat as the motion can be there. Where the ceiling falls into a dip
+    /// the passes made (`Node::reach_bound`), following its slope (dv/ds = Δc/Δs, so a =
+    /// v·dv/ds, scaled to v) counts as flat, as long as the axes allow it.
     #[inline]
     pub(super) fn flat_acc(&self, t: usize, v: f64) -> f64 {
         self.flat_acc_in(t, v, None)
     }
 
     /// Whether [`FlattenUnder::flat_acc`] at (t, v) depends on the accelerations the axes allow
-    /// there; if not, it is 0. Up to seed 001's v̄ the axes allow a = 0 (eq. 6), so the lowest
-    /// allowed acceleration is ≤ 0: the common case, without the per-axis ranges.
+    /// there; if not, it is 0. Up to the flat v̄ (Kopp et al. 2019, eq. 6) the axes allow a =
+    /// 0, so the lowest allowed acceleration is ≤ 0: the common case, without the per-axis
+    /// ranges.
     #[inline]
     fn needs_acc_range(&self, t: usize, v: f64) -> bool {
         if t + 1 >= self.view.len() {
@@ -209,9 +205,8 @@ fn ramp_interval_from(
     let feasible = |iv: &Interval| !violates(iv, &ig, lim);
     // The node ranges stand for the interval only where the geometry interpolated from the
     // nodes is close to the real one: the sampling makes it so except on a path table, whose
-    // intervals (its rows, split by time only) can bulge between the nodes. (Full checks on
-    // every table interval cost the tight machine's table 17 % more instructions; where the
-    // nodes interpolate well the motion is the same to 1e-6 s.)
+    // intervals (its rows, split by time only) can bulge between the nodes. Only there do
+    // the ramp's intervals get the full check; elsewhere it would cost much and change nothing.
     let requested = check;
     let check = if ig.fine_checks() { Check::Full } else { check };
     if a > alo && jlo < 0.0 {
@@ -229,7 +224,7 @@ fn ramp_interval_from(
             // estimate that misses this leads a branch into a dead end. Where the nodes
             // do not interpolate the interval (`check` forced to `Full`), their ranges
             // still stand for the nodes themselves: a viability ramp checks only the points
-            // between them there (5-axis table −0.9 % instructions, the same plans).
+            // between them there.
             let nodes_ok = clear_of_reserve(j, jlo1) && holds_at_nodes(j, (a, &r0), (a1, &r1));
             let keeps = match (requested, check) {
                 (Check::Nodes, Check::Nodes) if nodes_ok => true,
@@ -256,10 +251,10 @@ fn ramp_interval_from(
         // would stop with a ≠ 0 and reverse): try a gentler one.
         if let Some(iv) = Interval::with_jerk(v, a, ig.ds_mm, j) {
             // As above, the viability margin takes the nodes' ranges where they hold with
-            // room, but only in a forced window: most of these steps run there (43 k of the
-            // 5-axis table's 59 k, at its swings; 5 % fewer instructions), and elsewhere the
-            // extra ranges cost more than the checks they save. The window moves along the
-            // interval, so the jerk must also keep clear of the end node's window edges.
+            // room, but only in a forced window: most of these steps run there (orientation
+            // swings), and elsewhere the extra ranges cost more than the checks they save. The
+            // window moves along the interval, so the jerk must also keep clear of the end
+            // node's window edges.
             if check == Check::Nodes && forced {
                 let g1 = view.end_geom(t + 1);
                 let r1 = NodeRanges::at(g1, sign, iv.v1(), iv.a1(), lim);
@@ -365,13 +360,13 @@ fn holds_at_nodes(j: f64, start: (f64, &NodeRanges), end: (f64, &NodeRanges)) ->
 }
 
 /// The viability ramp's interval: the braking ramp's, except where that would take the
-/// acceleration below zero within the interval; then the interval that lands exactly at
-/// a = 0 at the next node, if it keeps the limits. A state counts as viable only if it can
-/// flatten *smoothly* under the ceiling: a greedy branch that reaches the ceiling by
-/// overshooting into braking would chatter along it (seed 001 §3.2: α = 1 alone makes the
-/// jerk bang-bang), and near stops, where nodes are few, get stuck.
-/// Returns the interval and whether it landed (ends flat).
-/// Also returns the end node's ranges when they carry over (see [`ramp_interval_from`]).
+/// acceleration below zero within the interval; then the interval that lands exactly at a = 0
+/// at the next node, if it keeps the limits. A state counts as viable only if it can flatten
+/// *smoothly* under the ceiling: a greedy branch that reaches the ceiling by overshooting into
+/// braking would chatter along it (Kopp et al. 2019, §3.2: α = 1 alone makes the jerk
+/// bang-bang), and near stops, where nodes are few, get stuck. Returns the interval and whether
+/// it landed (ends flat). Also returns the end node's ranges when they carry over (see
+/// [`ramp_interval_from`]).
 fn landing_ramp_interval(
     view: &View,
     t: usize,
@@ -407,8 +402,8 @@ pub(super) fn can_leave(view: &View, t: usize, v: f64, a: f64, lim: &Limits) -> 
 /// interval lasts a tiny fraction of the braking time) the rest of the ramp is taken in
 /// closed form, so the work per ramp is bounded whatever the node density. The tail errs on
 /// the slow side (it brakes at a share of the last jerk, where the axes often allow more
-/// further on), so its verdict should come late: 5-axis table 4.661 s with 48 nodes, 4.505 s
-/// with 96, for fewer instructions (fewer states wrongly judged not viable to search around).
+/// further on), so its verdict should come late: a shorter simulated part judges more states
+/// wrongly not viable, which slows the motion and costs searches around them.
 pub(super) const RAMP_SIMULATED_NODES: usize = 96;
 /// The closed-form tail brakes with this share of the jerk the simulated ramp reached last: it
 /// overestimates the peak (errs on the slow side) unless later nodes allow less than this share.
@@ -416,8 +411,8 @@ const RAMP_TAIL_JERK_SHARE: f64 = 0.8;
 
 /// The rest of a braking ramp from (v, a) at traversal position `t`, with constant jerk
 /// `RAMP_TAIL_JERK_SHARE · j_last` until a = 0: its peak velocity v + a²/(2|j|) against the
-/// lowest ceiling over the distance it covers (seed 001 eq. 2 with τ = a/|j|). `None` if the
-/// ramp was not braking or the block ends first.
+/// lowest ceiling over the distance it covers (Kopp et al. 2019, eq. 2 with τ = a/|j|). `None`
+/// if the ramp was not braking or the block ends first.
 fn ramp_tail_margin(
     view: &View,
     t: usize,
@@ -623,11 +618,10 @@ mod tests {
         assert!(iv.j > jlo && iv.j < jhi && !violates(&iv, &view.interval_geom(0), &lim));
     }
 
-    /// The steepest braking interval settles within its corrections wherever the start node
-    /// allows braking, on the 5-axis table in both directions, from states near the ceiling
-    /// and just above their acceleration floor (where a braking ramp rides it), and it keeps
-    /// both nodes' ranges. Aimed at the floor itself, 752 of these 4602 ran out of corrections
-    /// (and fell back to the gentler jerks); with `RAMP_FLOOR_RESERVE`, 39.
+    /// The steepest braking interval settles within its corrections (for all but 1 % of the
+    /// states) wherever the start node allows braking, on the five-axis example table in both
+    /// directions, from states near the ceiling and just above their acceleration floor (where
+    /// a braking ramp rides it), and it keeps both nodes' ranges.
     #[test]
     fn the_end_corrections_of_the_steepest_braking_settle() {
         let cfg = Settings::five_axis_machine();
@@ -671,9 +665,9 @@ mod tests {
     }
 
     /// A ramp's trace gives, for every state it passed, exactly the margin of a ramp started
-    /// there (what lets a greedy step skip that ramp), on the 5-axis table in both directions,
-    /// through its swings and elsewhere, from states below and near its ceiling. A ramp asked
-    /// for its verdict only stops early but judges alike.
+    /// there (what lets a greedy step skip that ramp), on the five-axis example table in both
+    /// directions, through its swings and elsewhere, from states below and near its ceiling. A
+    /// ramp asked for its verdict only stops early but judges alike.
     #[test]
     fn a_ramps_trace_is_the_ramp_from_each_state_it_passed() {
         let cfg = Settings::five_axis_machine();

@@ -2,10 +2,10 @@
 //! backward passes of the acceleration-only time-optimal problem (the classical time-optimal
 //! path parameterisation in b = v², where b is linear over a step of constant a).
 //!
-//! The node bound v̄ lets the acceleration be anything that keeps the axes within their
-//! limits; above a sharp dip of v̄ no motion can follow it. Every jerk-limited profile is also
-//! acceleration-limited, so it lies under the passes' profile: lowering the ceiling to it
-//! loses nothing, and puts the section ends (the ceiling's minima, seed 001 §3.1) where the
+//! The node bound v̄ lets the acceleration be anything that keeps the axes within their limits;
+//! above a sharp dip of v̄ no motion can follow it. Every jerk-limited profile is also
+//! acceleration-limited, so it lies under the passes' profile: lowering the ceiling to it loses
+//! nothing, and puts the section ends (the ceiling's minima, Kopp et al. 2019, §3.1) where the
 //! motion must really be slowest.
 
 use super::check::acc_range;

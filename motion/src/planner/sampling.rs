@@ -1,4 +1,5 @@
-//! Adaptive sampling of the path (seed 001 §2.2): nodes are denser where the curvature, its
+//! Adaptive sampling of the path (Kopp et al. 2019, §2.2: non-constant spacing, finer where
+//! the curvature or the orientation changes fast): nodes are denser where the curvature, its
 //! change or the orientation change is high, near stops (where the motion is slow), and so
 //! that no interval lasts much longer than `planner.max_interval_ms` at the bound speed (jerk
 //! can only switch at nodes).
@@ -91,8 +92,8 @@ fn raise(v: &mut (f64, f64, f64), crit: usize, x: f64) {
 
 impl Sharpness {
     /// Profile of a spline span; `None` for lines and arcs (constant sharpness) and path-table
-    /// spans (the table brings its own sample points).
-    /// `step_mm` is the sampling step at the span's start, which sets the profile's resolution.
+    /// spans (the table brings its own sample points). `step_mm` is the sampling step at the
+    /// span's start, which sets the profile's resolution.
     fn of(e: &Element, lim: &Limits, params: &SamplingParams, step_mm: f64) -> Option<Self> {
         let crate::path::Geometry::Cubic(c) = &e.geometry else { return None };
         let mut d = AxisDerivs::default();
@@ -333,10 +334,10 @@ pub(super) fn sample_element(
     });
 
     // A straight line between two stops is planned in closed form (`scurve`): its interior
-    // nodes would not be used. A path table brings its own samples (seed 001 §2.2: the
-    // control supplies A … A‴ at each s_i); they are the nodes, as in the seed's example.
-    // Only near stops does a table get extra nodes, where the motion is too slow for its
-    // rows' spacing.
+    // nodes would not be used. A path table brings its own samples (Kopp et al. 2019, §2: the
+    // control supplies A … A‴ at each s_i); they are the nodes, as in the paper's five-axis
+    // example. Only near stops does a table get extra nodes, where the motion is too slow for
+    // its rows' spacing.
     let own_samples = matches!(e.geometry, crate::path::Geometry::Septic(_));
     let end = ElementEnd::of(e, lim);
     if stop && next_stops && matches!(e.geometry, crate::path::Geometry::Line(_)) {
@@ -402,8 +403,8 @@ pub(super) fn sample_element(
     end
 }
 
-/// The geometry at one end of an element and its bounds of eq. 6 there (the acceleration-only
-/// `velocity_bound` and seed 001's `flat_velocity_bound`, neither capped by a feed): an
+/// The geometry at one end of an element and its velocity bounds there (the acceleration-only
+/// `velocity_bound` and the flat `flat_velocity_bound`, neither capped by a feed): an
 /// element's end is evaluated once, for its own last interval and the next element's first
 /// node.
 #[derive(Debug, Clone, Copy)]
@@ -437,16 +438,16 @@ fn geom_at(e: &Element, s_mm: f64) -> NodeGeom {
 fn attach_spans(e: &Element, nodes: &mut [Node], element_end: &ElementEnd, feed: f64, lim: &Limits) {
     let Some((span, offset_mm)) = e.geometry.as_septic() else { return };
     let len = e.geometry.length_mm();
-    // Each interval's end: position, geometry and both bounds of eq. 6 (the next node's, or
+    // Each interval's end: position, geometry and both velocity bounds (the next node's, or
     // the element's end, which is the next element's first node: its v̄ will be at most this).
-    // Seed 001's v̄ only enters below capped by the feed, as the interior nodes hold it.
+    // The flat v̄ only enters below capped by the feed, as the interior nodes hold it.
     let ends: Vec<(f64, NodeGeom, f64, f64)> = nodes
         .iter()
         .skip(1)
         .map(|n| (n.s_mm - e.s_start_mm, n.left, n.vbar_mm_s, n.vbar_flat_mm_s))
         .chain([(len, element_end.geom, element_end.vbar_mm_s.min(feed), element_end.flat_mm_s.min(feed))])
         .collect();
-    // Seed 001's v̄ of the interval's start geometry: the last one's end where the node between
+    // The flat v̄ of the interval's start geometry: the last one's end where the node between
     // them has one geometry (every node but the element's first).
     let mut start_flat = None;
     for (node, (s1, end, end_vbar, end_flat)) in nodes.iter_mut().zip(ends) {
@@ -487,7 +488,7 @@ const INTERP_ERROR_TOL: f64 = 1e-3;
 
 /// How far the geometry the limit checks interpolate between nodes at `s` and `s + h` misses
 /// the element's own at the middle, as the largest share of an axis limit it can cost (see
-/// [`interpolation_error_at`]), weighed at the highest seed 001 v̄ of the ends and the middle.
+/// [`interpolation_error_at`]), weighed at the highest flat v̄ of the ends and the middle.
 fn interpolation_error(e: &Element, s: f64, h: f64, feed: f64, lim: &Limits) -> f64 {
     let (a, m, b) = (geom_at(e, s), geom_at(e, s + 0.5 * h), geom_at(e, s + h));
     let flat = |g: &NodeGeom| flat_velocity_bound(g, lim);
@@ -645,8 +646,8 @@ mod tests {
     use crate::path::{Blend, CubicSpan, Geometry, Path, Source};
 
     /// A span whose curvature spikes to 29.8 /mm at u ≈ 0.060, where |P′| dips to 1.75 (mean
-    /// 12.5), between the first two of 8 samples that show only 0.80 and 0.75 (found in review:
-    /// an end-sample shortcut had reported 0.86).
+    /// 12.5), between the first two of 8 samples that show only 0.80 and 0.75: the profile
+    /// finds the spike, not just the larger of the samples.
     #[test]
     fn a_curvature_spike_between_samples_is_found() {
         let cfg = Settings::default_machine();
@@ -674,7 +675,7 @@ mod tests {
     /// element itself, to rounding. Also for the rest of the table from a point inside a row
     /// (a replan from a hold or hand-over cuts the row: `Path::suffix_from`). Interpolated from
     /// the nodes they would be off by up to a few per cent of a limit on these long intervals
-    /// (the 5-axis table's swings).
+    /// through the table's orientation swings.
     #[test]
     fn a_tables_checks_see_its_exact_geometry_between_nodes() {
         let cfg = Settings::five_axis_machine();

@@ -1,5 +1,5 @@
-//! One step of a branch (seed 001 §3.2, eq. 7): the largest velocity at the next node for
-//! which the interval keeps every axis limit (eq. 7a–7d), found by safeguarded root searches
+//! One step of a branch (Kopp et al. 2019, §3.2, eq. 7): the largest velocity at the next node
+//! for which the interval keeps every axis limit (eq. 7a–7d), found by safeguarded root searches
 //! (regula falsi with the Illinois modification, falling back to bisection) on the one limit
 //! term that bounds the step, checked against all of them at its root. The work per step is
 //! bounded by `MAX_SEARCH_EVALS` evaluations of all terms and `MAX_TERM_EVALS` of one term per
@@ -45,14 +45,14 @@ pub struct Work {
     pub cap_tries: u64,
     /// Backward branches from a block end at rest retried under a cap (`branch::build_envelope`).
     pub end_caps: u64,
-    /// Blocks planned under the acceleration-only ceiling (first, see `block`), and how many
-    /// of those plans were kept: faster than the plan under seed 001's ceiling, or so fast
-    /// that that plan was skipped (`seed_skipped`).
+    /// Blocks planned under the relaxed (acceleration-only) ceiling first (see `block`).
     pub relaxed_tried: u64,
+    /// Relaxed plans kept: faster than the plan under the flat ceiling (Kopp et al. 2019,
+    /// eq. 6), or so fast that that plan was skipped (`flat_skipped`).
     pub relaxed_kept: u64,
-    /// Blocks whose relaxed plan beat the acceleration-only time under seed 001's ceiling, so
-    /// no plan under that ceiling was made (`block`).
-    pub seed_skipped: u64,
+    /// Blocks whose relaxed plan beat the acceleration-only time under the flat ceiling, so no
+    /// plan under that ceiling was made (`interpd plan --json` reports it as `seed_skipped`).
+    pub flat_skipped: u64,
 }
 
 impl Work {
@@ -69,14 +69,14 @@ impl Work {
         self.end_caps += o.end_caps;
         self.relaxed_tried += o.relaxed_tried;
         self.relaxed_kept += o.relaxed_kept;
-        self.seed_skipped += o.seed_skipped;
+        self.flat_skipped += o.flat_skipped;
     }
 }
 
 /// The interval from (v0, a0) ending at `v1` where it keeps every limit; `None` if v1 is
 /// unreachable or a limit breaks. The check stops at the first check point that breaks one:
-/// the probes for a feasible anchor mostly fail (26 of the 5-axis table's steps probe down to
-/// 1e-15 × v̄, 64 evaluations each), and most fail at the start node.
+/// the probes for a feasible anchor mostly fail (some steps probe down to 1e-15 × v̄), and
+/// most fail at the start node.
 #[inline]
 pub(super) fn feasible(v0: f64, a0: f64, v1: f64, g: &IntervalGeom, lim: &Limits, work: &mut Work) -> Option<Interval> {
     work.evals += 1;
@@ -87,11 +87,10 @@ pub(super) fn feasible(v0: f64, a0: f64, v1: f64, g: &IntervalGeom, lim: &Limits
 /// `None` if no end velocity in [0, v_max] is feasible.
 ///
 /// The violation is the largest of many terms (each limit of each axis at each check point),
-/// and one of them bounds the step. A root search on the maximum crawls across its kinks
-/// (12 evaluations of every term per step on the 5-axis table); this one follows the term
-/// that was worst at the infeasible end alone to its root ([`term_root`], one axis at one
-/// point per evaluation), then checks every term there: feasible, the step is found; else the
-/// term worst there bounds it, and is followed next.
+/// and one of them bounds the step. A root search on the maximum crawls across its kinks; this
+/// one follows the term that was worst at the infeasible end alone to its root ([`term_root`],
+/// one axis at one point per evaluation), then checks every term there: feasible, the step is
+/// found; else the term worst there bounds it, and is followed next.
 pub(super) fn max_feasible(
     v0: f64,
     a0: f64,
@@ -214,7 +213,7 @@ fn find_anchor(v0: f64, a0: f64, v_max: f64, g: &IntervalGeom, lim: &Limits, wor
         for frac in ANCHOR_JERK_FRACTIONS {
             let j = if frac >= 0.0 { frac * jhi.max(0.0) } else { -frac * jlo.min(0.0) };
             // Where the range lies on one side of zero, the other side's fractions all give
-            // the jerk-free continuation again (343 of the 5-axis table's 3100 evaluations here).
+            // the jerk-free continuation again.
             if j == 0.0 && frac != 0.0 {
                 continue;
             }
@@ -281,9 +280,9 @@ mod tests {
     }
 
     /// Near the velocity limit the largest violation is the velocity term, nearly flat in v₊,
-    /// until the jerk term overtakes it steeply: regula falsi on the maximum kept landing just
-    /// above the feasible end (31 evaluations of every term; 19 with the Illinois weighting on
-    /// the right end). Following the jerk term alone, the search checks every term three times.
+    /// until the jerk term overtakes it steeply, where regula falsi on the maximum keeps
+    /// landing just above the feasible end. Following the jerk term alone, the search checks
+    /// every term at most four times.
     #[test]
     fn a_flat_violation_under_a_steep_jerk_term_converges_quickly() {
         let (iv, w) = solve(98.4, 0.0, 99.9, 1.0);

@@ -1,6 +1,6 @@
 //! A block of nodes seen in traversal order: forward (increasing s) for the forward branch,
 //! backward (decreasing s, geometry mirrored) for the backward branches, so one branch
-//! implementation serves both (seed 001 eq. 3: the ± signs flip for the backward branch).
+//! implementation serves both (Kopp et al. 2019, eq. 3: the ± signs flip for the backward branch).
 
 use super::check::IntervalGeom;
 use super::node::{Node, NodeGeom};

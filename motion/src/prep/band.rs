@@ -1,19 +1,22 @@
-//! The lateral tolerance split over the axes (seed 000 §3.3.1, Algorithm 3.2, with the digest's
-//! fixes): each point may move inside a box around its programmed position whose half-widths
-//! b_k satisfy Σ b_k² ≤ tol², so the point stays within tol of the programmed position.
+//! The lateral tolerance split over the axes (Haas 2012, §3.3.1, Alg. 3.2, eq. 3.12): each point
+//! may move inside a box around its programmed position whose half-widths b_k satisfy
+//! Σ b_k² ≤ tol², so the point stays within tol of the programmed position.
 //!
 //! In the plane, Haas gives axis k the share tol·|n_k| of the normal n. The same rule for any
 //! number m of moving axes, written with the unit tangent t: b_k = tol·√(1 − t_k²)/√(m − 1)
 //! (in 2D, √(1 − t_x²) = |n_x|). An axis along which the path runs exactly gets no constraint
-//! (the point may slide along the path; "NaN wins" over the 10° rule), and a tangent within
-//! 10° of an axis gets the even split tol/√m, so the corner's other axis is not pinned.
+//! (the point may slide along the path), and a tangent within 10° of an axis gets the even
+//! split tol/√m, so the corner's other axis is not pinned. Alg. 3.2 applies the 10° rule after
+//! setting the axis-parallel share to NaN, which would pin such an axis again; Fig. 3.3(b), an
+//! axis-parallel start deviating by more than the even split allows, shows the unconstrained
+//! axis taking precedence, as here. The normal's components are taken by magnitude.
 
 use crate::path::{AxisVec, MAX_AXES};
 
 /// Below this half-width an axis is taken as running along the path: no constraint on it
-/// (seed 000 Alg. 3.2: TOL < 10⁻¹³ → NaN), mm.
+/// (Haas 2012, Alg. 3.2: TOL < 10⁻¹³ → NaN), mm.
 pub(super) const AXIS_PARALLEL_TOL_MM: f64 = 1e-13;
-/// Tangents closer than this to an axis get the even split (seed 000 Alg. 3.2: φ_krit = 10°).
+/// Tangents closer than this to an axis get the even split (Haas 2012, Alg. 3.2: φ_krit = 10°).
 pub(super) const CRITICAL_ANGLE_DEG: f64 = 10.0;
 
 /// Half-widths of the box per axis (`f64::INFINITY` = unconstrained) for a point with unit
@@ -49,9 +52,9 @@ pub(super) fn split(tangent: &AxisVec, active: &[bool; MAX_AXES], tol_mm: f64) -
             let bk = share(k) * scale;
             if bk < AXIS_PARALLEL_TOL_MM { f64::INFINITY } else { bk }
         } else if near_axis {
-            tol_mm / (m as f64).sqrt() // seed 000 Alg. 3.2: TOL_x = TOL_y = tol/√2 below φ_krit
+            tol_mm / (m as f64).sqrt() // Haas 2012, Alg. 3.2: TOL_x = TOL_y = tol/√2 below φ_krit
         } else {
-            share(k) * scale // seed 000 Alg. 3.2: TOL_k = tol·|n_k|
+            share(k) * scale // Haas 2012, Alg. 3.2: TOL_k = tol·|n_k|
         };
     }
     b

@@ -1,13 +1,14 @@
-//! Tolerance-band path smoothing (seed 000): the prep stage between path and planner.
+//! Tolerance-band path smoothing after Haas 2012: the prep stage between path and planner.
 //!
-//! G64 P<tol> elements are smoothed so that corners and the breaks of short CAM segments are
-//! passed without stopping, within `tol` of the programmed path:
-//! [`points`] places points along the path → [`window`] solves, per axis, the QP of
-//! [`qp`] (positions and parametric derivatives, trapezoid coupling, the band of [`band`]) over
-//! a window of segments → [`pieces`] joins the committed points by quintic Hermite pieces (C²)
-//! → [`verify`] checks them against the programmed path → [`stage::Prep`] emits them as path
-//! elements. The stage is a plain object that the planner thread (or a thread of its own)
-//! feeds element by element; it never touches the interpolation thread.
+//! `G64 P`*tol* elements are smoothed so that corners and the breaks of short CAM segments are
+//! passed without stopping, within *tol* of the programmed path: `points` places points along
+//! the path (§3.5, §4.8) → `window` solves, per axis, the QP of `qp` (positions and parametric
+//! derivatives, trapezoid coupling, the band of `band`; §3.3, eq. 3.8–3.12) over a window of
+//! segments (windowing III, §3.6.3) → `pieces` joins the committed points by quintic Hermite
+//! pieces (C², §4.5) → `verify` checks them against the programmed path → [`Prep`] emits them
+//! as path elements. The stage is a plain object that the planner thread (or a thread of its
+//! own) feeds element by element; it never touches the interpolation thread. See
+//! `docs/smoothing.md`.
 
 // Axis loops index several per-axis arrays at once; an index reads clearer than zips there.
 #![allow(clippy::needless_range_loop)]

@@ -1,6 +1,8 @@
-//! Quintic Hermite pieces from the smoothed points (seed 000 §4.5; digest §6b: the closed-form
-//! basis on local t ∈ [0, 1] with the derivatives scaled by the interval), and the exact
-//! re-interpolation of programmed elements that the exact-stop fallback emits.
+//! Quintic Hermite pieces from the smoothed points (Haas 2012, §4.5, eq. 4.17–4.21: one quintic
+//! per pair of consecutive points from position, first and second derivative at both ends), and
+//! the exact re-interpolation of programmed elements that the exact-stop fallback emits. The
+//! pieces use the closed-form Hermite basis on the local t ∈ [0, 1] with the derivatives scaled
+//! by the interval, which avoids the ill-conditioned monomial solve of eq. 4.21.
 
 use super::elements::RunElem;
 use super::window::State;

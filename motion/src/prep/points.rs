@@ -1,5 +1,5 @@
-//! Where the QP points sit on the programmed path (seed 000 §3.5, §4.8: equidistant, at least
-//! 0.926 points/mm, denser near corners).
+//! Where the QP points sit on the programmed path (Haas 2012, §3.5, §4.8, Table 4.7:
+//! equidistant, at least 0.926 points/mm, denser near corners).
 //!
 //! Points are spaced at most `point_spacing_mm` apart. On curves the tangent turns at most
 //! `max_turn_deg` between points; on polylines a point is set on the vertex where the turn

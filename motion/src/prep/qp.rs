@@ -1,4 +1,4 @@
-//! The per-axis QP of one window (seed 000 §3.3, eq. 3.8–3.12) as a sparse problem for
+//! The per-axis QP of one window (Haas 2012, §3.3, eq. 3.8–3.12) as a sparse problem for
 //! Clarabel: min ½zᵀPz + qᵀz s.t. A z + s = b, s ∈ {0}ᵐ¹ × ℝ₊ᵐ².
 //!
 //! z holds, per point j, the position and its derivatives z_{j,0} … z_{j,r} with respect to the
@@ -158,7 +158,7 @@ impl WindowQp {
 
     /// Sets the spacing Δ_j (in τ) between the points and the objective weights per level
     /// (already scaled to τ): P = diag(q_j·w_k) with the trapezoid quadrature weight q_j
-    /// (seed 000 eq. 3.9: H = blockdiag(diag(w_x, w_x′, …))).
+    /// (Haas 2012, eq. 3.9: H = blockdiag(diag(w_x, w_x′, …))).
     pub(super) fn load(&mut self, deltas: &[f64], weights: &[f64]) {
         debug_assert_eq!(deltas.len(), self.shape.n_points - 1);
         let s = self.shape;
@@ -232,8 +232,9 @@ fn a_entries(s: &Shape, deltas: &[f64]) -> (Vec<(usize, usize)>, Vec<f64>) {
     let mut idx = Vec::new();
     let mut val = Vec::new();
     let r = s.levels - 1;
-    // seed 000 eq. 3.11 with the digest's sign fix (the sum of the derivatives):
-    // z_{j+1,k} − z_{j,k} − (Δ_j/2)(z_{j,k+1} + z_{j+1,k+1}) = 0, at every level k < r.
+    // The trapezoid coupling of Haas 2012, eq. 3.11, at every level k < r. Eq. 3.11 prints
+    // the difference (x′_{i+1} − x′_i); the trapezoid rule, as in its expanded form, takes the
+    // sum: z_{j+1,k} − z_{j,k} − (Δ_j/2)(z_{j,k+1} + z_{j+1,k+1}) = 0.
     for j in 0..s.n_points - 1 {
         for k in 0..r {
             let row = j * r + k;

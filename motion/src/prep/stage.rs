@@ -2,7 +2,7 @@
 //!
 //! Consecutive G64 elements form a run. Their points are placed as the elements arrive; as
 //! soon as `window_segments` segments lie ahead of the committed node, the window is solved
-//! and its first segment committed as quintic pieces (seed 000 §3.6.3, windowing III, started
+//! and its first segment committed as quintic pieces (Haas 2012, §3.6.3, windowing III, started
 //! from the program start). A window that fails falls back to a smaller window, then to a
 //! looser end, and finally to an exact stop and the programmed path for that segment; each
 //! fallback is logged and counted. G61 elements pass through unchanged.

@@ -1,5 +1,5 @@
 //! The check after each window: the committed pieces, sampled, must stay within the
-//! tolerance of the programmed elements (seed 000 §4.8: the interpolant, not only the QP
+//! tolerance of the programmed elements (Haas 2012, §4.8: the interpolant, not only the QP
 //! points, must keep the band).
 
 use super::elements::RunElems;

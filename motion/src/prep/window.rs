@@ -1,5 +1,5 @@
 //! One window of the QP: the points from the committed node on, their bands and the end
-//! conditions turned into one solve per moving axis (seed 000 §3.6.3, windowing III).
+//! conditions turned into one solve per moving axis (Haas 2012, §3.6.3, windowing III).
 
 use super::band;
 use super::points::Point;
@@ -16,7 +16,7 @@ pub(super) type State = [[f64; 4]; MAX_AXES];
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) enum RightEnd {
-    /// The last point is held at its programmed position, derivatives free (seed 000 §3.6.1:
+    /// The last point is held at its programmed position, derivatives free (Haas 2012, §3.6.1:
     /// position only is best).
     Position,
     /// The last point only keeps its band (the looser end of the fallback).

@@ -1,3 +1,5 @@
+//! Program errors with file, line and column, and the list of all errors found in one program.
+
 use std::fmt;
 
 /// A problem in a program, at a place a person can find: `FILE:LINE:COL: message`.

@@ -1,6 +1,6 @@
 //! Interprets RS274 / ISO 6983 blocks with the modal state of a real controller and builds the
 //! path. Supported: G0 G1 G2 G3 (centre I J K or radius R, helical with the other axes), G4 P
-//! dwell, G06 spline blocks (seed 002), G17/G18/G19, G20/G21, G61/G64 P, G90/G91, F (per
+//! dwell, G06 spline blocks (Huan), G17/G18/G19, G20/G21, G61/G64 P, G90/G91, F (per
 //! minute), N, M2/M30; spindle, coolant and tool words (M3–M9, S, T) are accepted and counted as
 //! ignored, since interpd interpolates motion only.
 
@@ -826,7 +826,7 @@ impl<'a> Interpreter<'a> {
                 for &k in &xyz {
                     let coord: Vec<f64> = points.iter().map(|p| p[k]).collect();
                     for (j, t) in natural_tangents(&coord).into_iter().enumerate() {
-                        tangents[j][k] = t; // seed 002 eq. 3
+                        tangents[j][k] = t; // Huan, eq. 3
                     }
                 }
             }

@@ -1,5 +1,6 @@
-//! Program input: RS274 / ISO 6983 G-code with G06 spline blocks (seed 002), and path tables
-//! (seed 001's 5-axis data form), turned into a [`Path`].
+//! Program input: RS274 / ISO 6983 G-code with G06 spline blocks (Huan, §2), and path tables
+//! (the data form of the five-axis example in Kopp et al. 2019, §2 and §4), turned into a
+//! [`Path`].
 
 mod error;
 mod gcode;
@@ -14,7 +15,7 @@ use crate::path::Path;
 use error::Diagnostics;
 use std::collections::BTreeMap;
 
-/// A line holding only this word ends G06 spline data (seed 002's "CR", end of record); an
+/// A line holding only this word ends G06 spline data (Huan, §2: "CR", end of record); an
 /// empty line or the next ordinary block does too.
 pub(crate) const G06_END_MARKER: &str = "CR";
 

@@ -1,4 +1,5 @@
-//! Path tables in the form of seed 001's 5-axis example: one row per sample point with the
+//! Path tables in the form of the five-axis example of Kopp et al. 2019 (§2, §4: the control
+//! supplies A … A‴ at each sample point s_i): one row per sample point with the
 //! path position s and, per axis, A, A′, A″, A‴ (′ = d/ds).
 //!
 //! ```text

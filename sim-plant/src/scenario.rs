@@ -7,83 +7,41 @@ use crate::metrics;
 use crate::plant::{AxisTarget, Plant};
 use interpd_config::plant::{PlantConfig, PlantModel, ResolvedAxisPlant};
 use interpd_config::{AxisConfig, AxisKind, AxisLetter};
+use interpd_otg::{Input, Limits, Otg, Profile, State, Trajectory};
 
 /// A 7-phase jerk-limited point-to-point move (constant-jerk pieces) from `start` by
-/// `distance`, rest to rest.
+/// `distance`, rest to rest: the time-optimal profile of the trajectory generator
+/// (interpd-otg, position interface, one degree of freedom).
 #[derive(Debug, Clone)]
 pub struct SCurve {
     start: f64,
     sign: f64,
-    /// (duration s, jerk) per phase.
-    phases: Vec<(f64, f64)>,
-    /// State (p, v, a) at the start of each phase.
-    states: Vec<(f64, f64, f64)>,
-    duration_s: f64,
+    /// The move over |distance| from 0.
+    profile: Profile,
 }
 
 impl SCurve {
-    /// Time-optimal under |v| ≤ `v_max`, |a| ≤ `a_max`, |j| ≤ `j_max` (all > 0).
+    /// Time-optimal under |v| ≤ `v_max`, |a| ≤ `a_max`, |j| ≤ `j_max` (all > 0 and finite;
+    /// panics otherwise).
     pub fn new(start: f64, distance: f64, v_max: f64, a_max: f64, j_max: f64) -> Self {
-        let d = distance.abs();
-        // Duration and peak acceleration of a rest-to-v ramp.
-        let ramp = |v: f64| -> (f64, f64, f64) {
-            if v * j_max >= a_max * a_max {
-                let tj = a_max / j_max;
-                (tj, v / a_max - tj, a_max)
-            } else {
-                let tj = (v / j_max).sqrt();
-                (tj, 0.0, j_max * tj)
-            }
-        };
-        let ramp_dist = |v: f64| {
-            let (tj, ta, _) = ramp(v);
-            v * (2.0 * tj + ta) // accelerate and decelerate: 2 × v·T/2
-        };
-        let mut v = v_max;
-        if ramp_dist(v) > d {
-            let (mut lo, mut hi) = (0.0, v_max);
-            for _ in 0..200 {
-                let mid = 0.5 * (lo + hi);
-                if ramp_dist(mid) > d { hi = mid } else { lo = mid }
-            }
-            v = lo;
+        let mut input = Input::new(1);
+        input.target[0] = State { p: distance.abs(), v: 0.0, a: 0.0 };
+        input.limits[0] = Limits::symmetric(v_max, a_max, j_max);
+        let mut trajectory = Trajectory::default();
+        if let Err(e) = Otg::new().calculate(&input, &mut trajectory) {
+            panic!("S-curve over {distance} under v {v_max}, a {a_max}, j {j_max}: {e}");
         }
-        let (tj, ta, _) = ramp(v);
-        let tv = if v > 0.0 { (d - ramp_dist(v)).max(0.0) / v } else { 0.0 };
-        let j = j_max;
-        let phases = vec![(tj, j), (ta, 0.0), (tj, -j), (tv, 0.0), (tj, -j), (ta, 0.0), (tj, j)];
-        let mut states = Vec::with_capacity(8);
-        let (mut p, mut vv, mut a) = (0.0, 0.0, 0.0);
-        for &(t, jj) in &phases {
-            states.push((p, vv, a));
-            p += vv * t + a * t * t / 2.0 + jj * t * t * t / 6.0;
-            vv += a * t + jj * t * t / 2.0;
-            a += jj * t;
-        }
-        states.push((p, vv, a));
-        let duration_s = phases.iter().map(|(t, _)| t).sum();
-        Self { start, sign: distance.signum(), phases, states, duration_s }
+        Self { start, sign: distance.signum(), profile: trajectory.profiles()[0] }
     }
 
     pub fn duration_s(&self) -> f64 {
-        self.duration_s
+        self.profile.duration()
     }
 
     /// (position, velocity, acceleration) at time `t_s` (held before 0 and after the end).
     pub fn eval(&self, t_s: f64) -> (f64, f64, f64) {
-        let mut t = t_s.max(0.0);
-        for (i, &(dur, j)) in self.phases.iter().enumerate() {
-            if t <= dur || i == self.phases.len() - 1 {
-                let t = t.min(dur);
-                let (p, v, a) = self.states[i];
-                let pos = p + v * t + a * t * t / 2.0 + j * t * t * t / 6.0;
-                let vel = v + a * t + j * t * t / 2.0;
-                let acc = a + j * t;
-                return (self.start + self.sign * pos, self.sign * vel, self.sign * acc);
-            }
-            t -= dur;
-        }
-        (self.start, 0.0, 0.0)
+        let (pos, vel, acc, _) = self.profile.state_at(t_s.max(0.0).min(self.duration_s()));
+        (self.start + self.sign * pos, self.sign * vel, self.sign * acc)
     }
 }
 

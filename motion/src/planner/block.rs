@@ -319,7 +319,7 @@ pub(super) fn lower_before(nodes: &mut [Node], k: usize, span: usize, factor: f6
 const STRAIGHT_REL_TOL: f64 = 1e-9;
 
 /// A block that is one straight line with one feed, from rest to rest: its time-optimal
-/// profile in closed form (see `scurve`). `None` for any other block.
+/// profile (see `scurve`). `None` for any other block.
 fn straight_move(nodes: &[Node], lim: &Limits) -> Option<Vec<Interval>> {
     let n = nodes.len();
     if n < 2 {
@@ -352,7 +352,10 @@ fn straight_move(nodes: &[Node], lim: &Limits) -> Option<Vec<Interval>> {
         }
     }
     let length = nodes[n - 1].s_mm - nodes[0].s_mm;
-    (length > 0.0 && v > 0.0 && v.is_finite()).then(|| super::scurve::rest_to_rest(length, v, a, j))
+    if !(length > 0.0 && v > 0.0 && v.is_finite()) {
+        return None;
+    }
+    super::scurve::rest_to_rest(length, v, a, j)
 }
 
 #[cfg(test)]

@@ -2,13 +2,15 @@
 //! planner thread queues carries one (its tail), so a feed hold, a stop or an underrun never
 //! needs the planner at that moment.
 //!
-//! The stop is the classic jerk-limited braking in path space (jerk −J down to the
-//! deceleration A, hold, jerk +J up to rest) with constant path limits, checked afterwards
+//! The stop is the time-optimal jerk-limited brake in path space (jerk −J down to the
+//! deceleration A, hold, jerk +J up to rest; `scurve::brake_to_rest`, the trajectory
+//! generator's velocity interface) under constant path limits, checked afterwards
 //! against every axis limit along the exact geometry (chain rule with A′, A″, A‴ at a fine
 //! time step). A stop that fails the check is retried with gentler path limits; a stop that
 //! would pass the next exact stop of the path (a corner, the program end) is refused, and the
 //! caller ends its chunk elsewhere. So a tail is valid by measurement, not by assumption.
 
+use super::scurve::{BrakePhases, brake_to_rest};
 use super::{Limits, Segment};
 use crate::path::{AxisDerivs, JointKind, Path};
 
@@ -48,7 +50,7 @@ pub fn brake_along(
     let (acc0, jerk0) = (lim.min_acc(), lim.min_jerk());
     // Candidate path limits, fastest stop first; at speed on a curve the jerk the axes leave
     // for braking is small (A‴v³ takes most of it), the acceleration less so.
-    let mut candidates: Vec<(f64, [(f64, f64); 3])> = Vec::with_capacity(GENTLER.len() * GENTLER.len());
+    let mut candidates: Vec<(f64, BrakePhases)> = Vec::with_capacity(GENTLER.len() * GENTLER.len());
     for fa in GENTLER {
         for fj in GENTLER {
             let (acc, jerk) = ((acc0 * fa).max(-a), jerk0 * fj);
@@ -56,13 +58,13 @@ pub fn brake_along(
                 // Releasing the deceleration with this jerk would reverse the motion.
                 continue;
             }
-            let phases = braking_phases(v, a, acc, jerk);
+            let Some(phases) = brake_to_rest(v, a, acc, jerk) else { continue };
             candidates.push((phases.iter().map(|p| p.0).sum(), phases));
         }
     }
     candidates.sort_by(|x, y| x.0.total_cmp(&y.0));
     for (_, phases) in candidates {
-        let segments = segments_of(s_mm, v, a, phases, line);
+        let segments = segments_of(s_mm, v, a, &phases, line);
         let end = segments.last().map_or(s_mm, Segment::s1_mm);
         if end <= s_limit_mm && keeps_limits(path, &segments, lim) {
             return Some(segments);
@@ -72,10 +74,10 @@ pub fn brake_along(
 }
 
 /// Constant-jerk segments from (s, v, a) through `phases`.
-fn segments_of(s_mm: f64, v: f64, a: f64, phases: [(f64, f64); 3], line: u32) -> Vec<Segment> {
-    let mut out = Vec::with_capacity(3);
+fn segments_of(s_mm: f64, v: f64, a: f64, phases: &[(f64, f64)], line: u32) -> Vec<Segment> {
+    let mut out = Vec::with_capacity(phases.len());
     let (mut s, mut vv, mut aa, mut t) = (s_mm, v, a, 0.0);
-    for (dt, j) in phases {
+    for &(dt, j) in phases {
         if dt <= 0.0 {
             continue;
         }
@@ -125,25 +127,6 @@ fn keeps_limits(path: &Path, segments: &[Segment], lim: &Limits) -> bool {
     true
 }
 
-/// (duration, jerk) of the phases braking from (v ≥ 0, a) to rest under |a| ≤ A, |j| ≤ J.
-pub(crate) fn braking_phases(v0: f64, a0: f64, acc: f64, jerk: f64) -> [(f64, f64); 3] {
-    // Already braking so hard that releasing the deceleration at once just reaches rest (or
-    // would undershoot): a single +J phase.
-    if a0 < 0.0 && v0 <= a0 * a0 / (2.0 * jerk) {
-        return [(-a0 / jerk, jerk), (0.0, 0.0), (0.0, 0.0)];
-    }
-    // Without a hold the lowest acceleration a₁ satisfies v₀ + (a₀² − a₁²)/2J − a₁²/2J = 0.
-    let a1 = -(jerk * v0 + 0.5 * a0 * a0).sqrt();
-    if a1 >= -acc {
-        return [((a0 - a1) / jerk, -jerk), (0.0, 0.0), (-a1 / jerk, jerk)];
-    }
-    // Ramp to −A, hold, release.
-    let t1 = (a0 + acc) / jerk;
-    let v1 = v0 + (a0 * a0 - acc * acc) / (2.0 * jerk);
-    let t2 = ((v1 - acc * acc / (2.0 * jerk)) / acc).max(0.0);
-    [(t1, -jerk), (t2, 0.0), (acc / jerk, jerk)]
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -153,7 +136,7 @@ mod tests {
 
     fn end_state(v: f64, a: f64, acc: f64, jerk: f64) -> (f64, f64, f64) {
         let (mut vv, mut aa, mut t) = (v, a, 0.0);
-        for (dt, j) in braking_phases(v, a, acc, jerk) {
+        for (dt, j) in brake_to_rest(v, a, acc, jerk).expect("a brake") {
             assert!(dt >= 0.0);
             vv += aa * dt + 0.5 * j * dt * dt;
             aa += j * dt;

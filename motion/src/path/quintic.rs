@@ -35,8 +35,9 @@ const CUSP_SAMPLES: usize = 64;
 const CUSP_REL_TOL: f64 = 1e-6;
 
 impl QuinticSpan {
-    /// The piece from `a` to `b`; derivatives are per unit t. Axes flagged in `linear` define
-    /// the arc length.
+    /// The quintic Hermite piece from `a` to `b` (Haas 2012, §4.5, eq. 4.17–4.21: value, first
+    /// and second derivative at both ends); derivatives are per unit t. Axes flagged in `linear`
+    /// define the arc length.
     pub fn hermite(a: &HermiteEnd, b: &HermiteEnd, linear: &[bool]) -> Result<Self, SpanError> {
         let mut c = [[0.0; 6]; MAX_AXES];
         for (k, ck) in c.iter_mut().enumerate() {

@@ -329,10 +329,10 @@ fn axes_violation(v: f64, a: f64, j: f64, lim: &Limits, geom: impl Fn(usize) -> 
     worst - 1.0
 }
 
-/// Velocity, acceleration and jerk of axis `k` as shares of their limits, for geometry
-/// (A′, A″, A‴) and state (v, a) with jerk j, the velocity given as (v, v², v³) and the
-/// acceleration as (a, 3va): the product every axis shares is formed once per point, not on
-/// each axis's chain from its geometry to its uses.
+/// Velocity, acceleration and jerk of axis `k` (Kopp et al. 2019, eq. 1a–1c) as shares of
+/// their limits, for geometry (A′, A″, A‴) and state (v, a) with jerk j, the velocity given as
+/// (v, v², v³) and the acceleration as (a, 3va): the product every axis shares is formed once
+/// per point, not on each axis's chain from its geometry to its uses.
 #[inline(always)]
 fn axis_uses(
     (d1, d2, d3): (f64, f64, f64),
@@ -427,7 +427,8 @@ fn in_order(lower_r: f64, upper_r: f64, r: f64) -> (f64, f64) {
 }
 
 /// The path jerks j allowed at a point with geometry `g` (traversal orientation `sign`) and
-/// state (v, a): the intersection over the axes of |A‴v³ + 3A″va + A′j| ≤ J (eq. 1c).
+/// state (v, a): the intersection over the axes of |A‴v³ + 3A″va + A′j| ≤ J
+/// (Kopp et al. 2019, eq. 1c and 7d).
 /// Returns (lo, hi); lo > hi means no jerk keeps every axis inside.
 pub(super) fn jerk_range(g: &NodeGeom, sign: f64, v: f64, a: f64, lim: &Limits) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
@@ -449,7 +450,8 @@ pub(super) fn jerk_range(g: &NodeGeom, sign: f64, v: f64, a: f64, lim: &Limits) 
     (lo, hi)
 }
 
-/// The path accelerations allowed at velocity v: A_min ≤ A″v² + A′a ≤ A_max per axis (eq. 1b).
+/// The path accelerations allowed at velocity v: A_min ≤ A″v² + A′a ≤ A_max per axis
+/// (Kopp et al. 2019, eq. 1b and 7c).
 pub(super) fn acc_range(g: &NodeGeom, sign: f64, v: f64, lim: &Limits) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
     for k in 0..lim.n_axes {

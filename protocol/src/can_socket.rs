@@ -1,9 +1,9 @@
-//! Conversions between [`crate::cia402::Frame`] and the `socketcan` crate's frames, and the
+//! Conversions between [`crate::cia301::Frame`] and the `socketcan` crate's frames, and the
 //! classification of send errors that both ends of the bus count (feature `socketcan`).
 //!
 //! Pure data conversion: opening sockets and what to do on an error is the caller's policy.
 
-use crate::cia402::{Frame, FrameError, FrameKind};
+use crate::cia301::{Frame, FrameError, FrameKind};
 use socketcan::{CanFrame, EmbeddedFrame, ExtendedId, Frame as _, Id, StandardId};
 
 /// The socketcan frame for a data or remote frame; `None` for error frames (only the kernel
@@ -74,7 +74,7 @@ mod libc_errno {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cia402::CanId;
+    use crate::cia301::CanId;
 
     #[test]
     fn frames_round_trip_through_socketcan() {

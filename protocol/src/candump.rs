@@ -19,7 +19,7 @@
 //! names, `R0`); those lines come back in canonical form. CAN FD (`##`) and the raw-DLC suffix
 //! (`_`) are rejected with an error that says so. Reader errors name the line and column.
 
-use crate::cia402::{CanId, Frame, FrameKind, socketcan_flags};
+use crate::cia301::{CanId, Frame, FrameKind, socketcan_flags};
 use std::fmt;
 use std::io::{self, BufRead, Write};
 use std::time::Duration;
@@ -280,8 +280,8 @@ fn parse_frame(c: &mut Cursor<'_>) -> Step<Frame> {
     let value = digits.iter().fold(0u32, |acc, &d| (acc << 4) | hex_value(d).unwrap_or(0) as u32);
     let (id, is_error) = if digits.len() == 3 {
         (CanId::standard(value as u16), false)
-    } else if value & !crate::cia402::EFF_MAX == socketcan_flags::ERR {
-        (CanId::extended(value & crate::cia402::EFF_MAX), true)
+    } else if value & !crate::cia301::EFF_MAX == socketcan_flags::ERR {
+        (CanId::extended(value & crate::cia301::EFF_MAX), true)
     } else {
         (CanId::extended(value), false)
     };

@@ -6,6 +6,7 @@ pub mod api;
 #[cfg(feature = "socketcan")]
 pub mod can_socket;
 pub mod candump;
+pub mod cia301;
 pub mod cia402;
 pub mod jsonrpc;
 pub mod shm;

@@ -16,7 +16,8 @@ use crate::plant::{AxisTarget, Plant};
 use interpd_config::Config;
 use interpd_protocol::MAX_AXES;
 use interpd_protocol::can_socket::{from_socketcan, to_socketcan};
-use interpd_protocol::cia402::{self, CobObject, DecodeError, Message, NmtState, NodeId, PowerState, Scale};
+use interpd_protocol::cia301::{self, CobObject, DecodeError, Message, NmtState, NodeId};
+use interpd_protocol::cia402::{PowerState, Scale};
 use socketcan::{CanSocket, Socket, SocketOptions};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
@@ -206,12 +207,12 @@ impl Bus {
 
     fn handle(
         &mut self,
-        frame: &cia402::Frame,
+        frame: &cia301::Frame,
         t_us: u64,
         plant: &mut Plant,
         metrics: Option<&mut Metrics>,
     ) -> Result<(), PlantError> {
-        match cia402::decode(frame) {
+        match cia301::decode(frame) {
             Ok(Message::Sync { .. }) => {
                 self.stats.syncs += 1;
                 self.on_sync(t_us, plant, metrics)?;

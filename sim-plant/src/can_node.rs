@@ -4,10 +4,8 @@
 //! quick-stop ramp. Pure logic with explicit times: the bus loop ([`crate::can`]) feeds it
 //! frames and ticks, it returns the frames to send and the position its axis is to follow.
 
-use interpd_protocol::cia402::{
-    Emcy, Message, NmtCommand, NmtState, NodeId, PowerState, PowerStateMachine, Rpdo1, Scale, Tpdo1, emcy_code,
-    error_register, statusword,
-};
+use interpd_protocol::cia301::{Emcy, Message, NmtCommand, NmtState, NodeId, emcy_code, error_register};
+use interpd_protocol::cia402::{PowerState, PowerStateMachine, Rpdo1, Scale, Tpdo1, statusword};
 
 /// EDS 0x1017: producer heartbeat time, ms.
 pub const HEARTBEAT_PERIOD_MS: u64 = 100;

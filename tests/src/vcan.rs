@@ -3,7 +3,7 @@
 //! is kept in a file.
 
 use interpd_protocol::can_socket::{from_socketcan, to_socketcan};
-use interpd_protocol::cia402::Frame;
+use interpd_protocol::cia301::Frame;
 use socketcan::{CanSocket, Socket, SocketOptions};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};

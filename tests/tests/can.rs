@@ -14,10 +14,10 @@
 //! CAN sink and sim-plant's CAN source exist.
 
 use interpd_protocol::candump::{self, Iface, Record, Timestamp};
-use interpd_protocol::cia402::{
-    self, CanId, DecodeError, Emcy, Frame, FrameKind, Message, NmtCommand, NmtState, NodeId, PowerState,
-    PowerStateMachine, Rpdo1, Scale, Tpdo1, controlword_toward_enabled,
+use interpd_protocol::cia301::{
+    self, CanId, DecodeError, Emcy, Frame, FrameKind, Message, NmtCommand, NmtState, NodeId,
 };
+use interpd_protocol::cia402::{self, PowerState, PowerStateMachine, Rpdo1, Scale, Tpdo1, controlword_toward_enabled};
 use socketcan::{CanFrame, CanSocket, EmbeddedFrame, ExtendedId, Frame as _, Id, Socket, SocketOptions, StandardId};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -132,7 +132,7 @@ fn every_cia402_frame_type_crosses_vcan_unchanged() {
         send(&tx, &sent);
         let got = recv(&rx);
         assert_eq!(got, sent, "frame changed on the way");
-        assert_eq!(cia402::decode(&got), Ok(m));
+        assert_eq!(cia301::decode(&got), Ok(m));
     }
     // Non-CANopen frames survive the conversion too (they must be logged faithfully).
     let others = [
@@ -234,7 +234,7 @@ fn run_drives(iface: &str, nodes: Vec<NodeId>, stop: Arc<AtomicBool>) -> thread:
         }
         while !stop.load(Ordering::Acquire) {
             let Ok(f) = sock.read_frame() else { continue };
-            match cia402::decode(&from_socketcan(&f)) {
+            match cia301::decode(&from_socketcan(&f)) {
                 Ok(Message::Nmt { command, target }) => {
                     for (n, d) in drives.iter_mut() {
                         if target.is_none() || target == Some(*n) {
@@ -280,7 +280,7 @@ fn run_master(sock: CanSocket, nodes: &[NodeId], cycles: usize, scale: Scale) ->
     let mut booted = Vec::new();
     let deadline = Instant::now() + Duration::from_secs(10);
     while booted.len() < nodes.len() && Instant::now() < deadline {
-        if let Ok(Message::Heartbeat { node, state: NmtState::BootUp }) = cia402::decode(&recv(&sock)) {
+        if let Ok(Message::Heartbeat { node, state: NmtState::BootUp }) = cia301::decode(&recv(&sock)) {
             booted.push(node);
         }
     }
@@ -316,7 +316,7 @@ fn run_master(sock: CanSocket, nodes: &[NodeId], cycles: usize, scale: Scale) ->
         send(&sock, &Message::Sync { counter: None }.encode());
         let mut received = BTreeMap::new();
         while received.len() < nodes.len() {
-            match cia402::decode(&recv(&sock)) {
+            match cia301::decode(&recv(&sock)) {
                 Ok(Message::Tpdo1 { node, pdo }) => {
                     let state = PowerState::from_statusword(pdo.statusword).expect("defined statusword");
                     states.insert(node, state);
@@ -380,7 +380,7 @@ fn csp_cycle_exchange_and_candump_roundtrip() {
     let mut bus_setpoints: Vec<Vec<(NodeId, Rpdo1)>> = Vec::new();
     let mut current = Vec::new();
     for (_, f) in &captured {
-        match cia402::decode(f) {
+        match cia301::decode(f) {
             Ok(Message::Rpdo1 { node, pdo }) => {
                 assert!(!rpdos_since_sync.contains(&node), "two RPDO1 for node {node} before SYNC {syncs}");
                 rpdos_since_sync.push(node);
@@ -431,7 +431,7 @@ fn csp_cycle_exchange_and_candump_roundtrip() {
         let mut cycles = Vec::new();
         let mut cur = Vec::new();
         for r in &back {
-            match cia402::decode(&r.frame) {
+            match cia301::decode(&r.frame) {
                 Ok(Message::Rpdo1 { node, pdo }) => cur.push((node, pdo)),
                 Ok(Message::Sync { .. }) => cycles.push(std::mem::take(&mut cur)),
                 _ => {}
@@ -552,7 +552,7 @@ fn malformed_frames_are_counted_not_fatal() {
         let mut frames = Vec::with_capacity(total);
         while frames.len() < total {
             let f = recv(&rx);
-            tally.count(&cia402::decode(&f));
+            tally.count(&cia301::decode(&f));
             frames.push(f);
             counter.store(frames.len(), Ordering::Release);
         }

@@ -23,9 +23,8 @@ use interpd_motion::Settings;
 use interpd_motion::path::{AxisDerivs, Path};
 use interpd_protocol::api::codes;
 use interpd_protocol::candump::{self, Iface, Record, Timestamp};
-use interpd_protocol::cia402::{
-    self, CanId, Emcy, Frame, Message, NmtState, NodeId, PowerState, Rpdo1, Tpdo1, emcy_code,
-};
+use interpd_protocol::cia301::{self, CanId, Emcy, Frame, Message, NmtState, NodeId, emcy_code};
+use interpd_protocol::cia402::{PowerState, Rpdo1, Tpdo1};
 use serde_json::{Value, json};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -158,7 +157,7 @@ fn split(frames: &[(SystemTime, Frame)]) -> Bus {
     let mut bus = Bus::default();
     let mut pending = Vec::new();
     for (t, f) in frames {
-        match cia402::decode(f) {
+        match cia301::decode(f) {
             Ok(Message::Rpdo1 { node, pdo }) => pending.push((node, pdo)),
             Ok(Message::Sync { .. }) => {
                 bus.cycles.push(Cycle { sync_t: Some(*t), rpdos: std::mem::take(&mut pending), tpdos: BTreeMap::new() })

@@ -6,10 +6,8 @@
 //! package.)
 
 use interpd_protocol::candump::{self, Iface, Record, Timestamp};
-use interpd_protocol::cia402::{
-    self, CanId, Emcy, Frame, Message, NmtCommand, NmtState, NodeId, PowerState, PowerStateMachine, Rpdo1, Scale,
-    Tpdo1, next_state,
-};
+use interpd_protocol::cia301::{self, CanId, Emcy, Frame, Message, NmtCommand, NmtState, NodeId};
+use interpd_protocol::cia402::{PowerState, PowerStateMachine, Rpdo1, Scale, Tpdo1, next_state};
 use proptest::prelude::*;
 
 fn arb_node() -> impl Strategy<Value = NodeId> {
@@ -63,13 +61,13 @@ proptest! {
     fn decoder_never_panics_and_reencodes((word, dlc, data) in arb_raw()) {
         if let Ok(f) = Frame::from_socketcan(word, dlc, &data) {
             prop_assert!(f.len() <= 8);
-            if let Ok(m) = cia402::decode(&f) {
+            if let Ok(m) = cia301::decode(&f) {
                 prop_assert_eq!(m.encode(), f);
             }
         }
         // The same bytes on an 11-bit id, which reaches every CANopen branch.
         if let Ok(f) = Frame::standard((word & 0x7FF) as u16, &data[..data.len().min(8)]) {
-            if let Ok(m) = cia402::decode(&f) {
+            if let Ok(m) = cia301::decode(&f) {
                 prop_assert_eq!(m.encode(), f);
             }
         }
@@ -78,7 +76,7 @@ proptest! {
     #[test]
     fn messages_round_trip(m in arb_message()) {
         let f = m.encode();
-        prop_assert_eq!(cia402::decode(&f), Ok(m));
+        prop_assert_eq!(cia301::decode(&f), Ok(m));
         let back = Frame::from_socketcan(f.socketcan_id_word(), f.len(), f.payload());
         prop_assert_eq!(back, Ok(f));
     }

@@ -4,7 +4,7 @@
 //! protocol crate's COB-IDs, so the EDS cannot drift from what the code puts on the bus.
 
 use interpd_e2e::repo_root;
-use interpd_protocol::cia402::cob;
+use interpd_protocol::cia301::cob;
 use sim_plant::can_node;
 use std::path::{Path, PathBuf};
 use std::process::Command;

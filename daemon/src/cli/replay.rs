@@ -16,7 +16,7 @@ use super::replay_shm;
 use interpd::rt::clock;
 use interpd_protocol::can_socket::{SendFailure, to_socketcan};
 use interpd_protocol::candump::{self, Record};
-use interpd_protocol::cia402::FrameKind;
+use interpd_protocol::cia301::FrameKind;
 use socketcan::{CanSocket, Socket};
 use std::io::{BufReader, Read};
 use std::path::{Path, PathBuf};

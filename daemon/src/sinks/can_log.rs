@@ -4,7 +4,7 @@
 //! order the kernel delivered it, with the kernel's receive timestamps, as `candump -l` would.
 
 use interpd_protocol::candump::{Iface, Timestamp, Writer};
-use interpd_protocol::cia402::Frame;
+use interpd_protocol::cia301::Frame;
 use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};

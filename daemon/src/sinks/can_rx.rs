@@ -8,7 +8,8 @@ use super::can_log::CandumpLog;
 use super::can_state::{BusShared, NodeShared};
 use crate::rt::clock;
 use interpd_protocol::can_socket::{from_socketcan, to_socketcan};
-use interpd_protocol::cia402::{self, DecodeError, Frame, FrameKind, Message, NmtCommand, NmtState, PowerState};
+use interpd_protocol::cia301::{self, DecodeError, Frame, FrameKind, Message, NmtCommand, NmtState};
+use interpd_protocol::cia402::PowerState;
 use socketcan::{CanSocket, Socket};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -105,7 +106,7 @@ impl Rx {
 
     fn handle(&mut self, frame: &Frame, now: u64) {
         let c = &self.shared.counters;
-        match cia402::decode(frame) {
+        match cia301::decode(frame) {
             Ok(Message::Tpdo1 { node, pdo }) => match self.index(node) {
                 Some(i) => self.on_tpdo(i, pdo.statusword, pdo.position_actual, now),
                 None => {
@@ -157,7 +158,7 @@ impl Rx {
         }
     }
 
-    fn index(&self, node: cia402::NodeId) -> Option<usize> {
+    fn index(&self, node: cia301::NodeId) -> Option<usize> {
         self.shared.nodes.iter().position(|n| n.node == node)
     }
 

@@ -15,7 +15,8 @@
 use super::can_state::BusShared;
 use super::{SetpointSink, SinkError};
 use interpd_protocol::can_socket::{SendFailure, to_socketcan};
-use interpd_protocol::cia402::{Message, NmtCommand, PowerState, Rpdo1, controlword, controlword_toward_enabled};
+use interpd_protocol::cia301::{Message, NmtCommand};
+use interpd_protocol::cia402::{PowerState, Rpdo1, controlword, controlword_toward_enabled};
 use interpd_protocol::shm::{Setpoints, flags};
 use socketcan::{CanSocket, Socket};
 use std::sync::Arc;

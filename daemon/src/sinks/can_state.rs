@@ -7,7 +7,8 @@
 use super::{DriveNotReady, DrivesNotReady, EnableWindow, NotReady};
 use crate::rt::clock;
 use interpd_protocol::api::DriveStatus;
-use interpd_protocol::cia402::{DriveCommand, NmtState, NodeId, PowerState, Scale};
+use interpd_protocol::cia301::{NmtState, NodeId};
+use interpd_protocol::cia402::{DriveCommand, PowerState, Scale};
 use serde_json::{Value, json};
 use std::collections::VecDeque;
 use std::sync::Mutex;

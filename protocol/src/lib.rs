@@ -1,6 +1,8 @@
 //! Wire and file formats shared by the daemon, the simulated plant and tools.
 //!
-//! Only data layouts, encoders and decoders live here: no threads, no I/O policy.
+//! Data layouts, encoders and decoders, no threads and no I/O policy; with the features
+//! `socketcan` and `iceoryx2`, the conversions to SocketCAN frames and the one place the
+//! shared-memory services are opened.
 
 pub mod api;
 #[cfg(feature = "socketcan")]

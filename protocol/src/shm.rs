@@ -1,4 +1,5 @@
-//! Shared-memory payloads (iceoryx2 publish-subscribe).
+//! Shared-memory payloads (iceoryx2 publish-subscribe), their service names and settings, and
+//! with feature `iceoryx2` the opening of the services ([`NodeOptions`], [`open_service`]).
 //!
 //! Both payloads are fixed-size `#[repr(C)]` structs without padding, so a client in another
 //! language can read them from the sample bytes: little-endian on x86-64, fields in the order
@@ -10,6 +11,11 @@
 use crate::MAX_AXES;
 use iceoryx2_bb_derive_macros::ZeroCopySend;
 use iceoryx2_bb_elementary_traits::zero_copy_send::ZeroCopySend;
+
+#[cfg(feature = "iceoryx2")]
+mod service;
+#[cfg(feature = "iceoryx2")]
+pub use service::{NodeError, NodeOptions, ServiceError, ServicePorts, open_service};
 
 /// Service the daemon publishes setpoints on.
 pub const SETPOINTS_SERVICE: &str = "interpd/setpoints";
@@ -76,6 +82,25 @@ pub fn setpoints_service(prefix: &str) -> String {
 /// The feedback service name for `prefix` (`interpd` gives [`FEEDBACK_SERVICE`]).
 pub fn feedback_service(prefix: &str) -> String {
     format!("{prefix}/feedback")
+}
+
+/// A payload with a service of its own: the type decides the service name, so a participant
+/// cannot open a service with the other stream's payload.
+pub trait ServicePayload: std::fmt::Debug + ZeroCopySend + 'static {
+    /// The service for `prefix`.
+    fn service_name(prefix: &str) -> String;
+}
+
+impl ServicePayload for Setpoints {
+    fn service_name(prefix: &str) -> String {
+        setpoints_service(prefix)
+    }
+}
+
+impl ServicePayload for Feedback {
+    fn service_name(prefix: &str) -> String {
+        feedback_service(prefix)
+    }
 }
 
 /// Bits of [`Setpoints::flags`].

@@ -1,5 +1,6 @@
 //! The plant as an iceoryx2 node: subscribes to `PREFIX/setpoints`, steps the models to each
-//! setpoint's time and publishes `PREFIX/feedback` answering it (DESIGN.md "Wire formats").
+//! setpoint's time and publishes `PREFIX/feedback` answering it (payloads in
+//! [`interpd_protocol::shm`]).
 //!
 //! The plant runs on the setpoints' clock, not on the wall clock: a setpoint for time t makes
 //! the drives interpolate from the previous setpoint to it and the models integrate up to t at
@@ -15,9 +16,9 @@ use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use interpd_protocol::MAX_AXES;
-use interpd_protocol::shm::{self, Feedback, Setpoints, flags, qos};
+use interpd_protocol::shm::{self, Feedback, NodeOptions, ServiceError, Setpoints, flags, open_service, qos};
 use std::time::{Duration, Instant};
-use tracing::{debug, warn};
+use tracing::warn;
 
 /// Rejected setpoints logged individually; later ones are only counted.
 const LOGGED_REJECTIONS: u64 = 10;
@@ -110,47 +111,26 @@ impl ShmPlant {
     /// Creates the node and opens (or creates) both services under `prefix` with the shared
     /// [`qos`] settings. Errors name the service and say what to check.
     pub fn open(prefix: &str) -> Result<Self, PlantError> {
-        shm::check_service_prefix(prefix).map_err(PlantError::Input)?;
-        let node = NodeBuilder::new()
-            .create::<ipc::Service>()
-            .map_err(|e| PlantError::Transport(format!("cannot create the iceoryx2 node: {e}")))?;
-        let cleaned = node.try_cleanup_dead_nodes();
-        if cleaned.cleanups > 0 {
-            debug!("removed the resources of {} dead iceoryx2 nodes", cleaned.cleanups);
-        }
+        // iceoryx2 handles SIGINT/SIGTERM here: the node's wait then ends [`ShmPlant::run`].
+        // The log level is main's, from `-v`.
+        let node = NodeOptions::new()
+            .handle_signals()
+            .cleanup_dead_nodes()
+            .keep_log_level()
+            .create()
+            .map_err(|e| PlantError::Transport(e.to_string()))?;
+        let service_err = |e: ServiceError| {
+            if e.is_bad_name() { PlantError::Input(e.to_string()) } else { PlantError::Transport(e.to_string()) }
+        };
+        let setpoints = open_service::<Setpoints>(&node, prefix).map_err(service_err)?;
+        let feedback = open_service::<Feedback>(&node, prefix).map_err(service_err)?;
         let setpoints_name = shm::setpoints_service(prefix);
         let feedback_name = shm::feedback_service(prefix);
-        let service_name =
-            |name: &str| ServiceName::new(name).map_err(|e| PlantError::Input(format!("service name `{name}`: {e:?}")));
-        let open_err = |name: &str, e: &dyn std::fmt::Display| {
-            PlantError::Transport(format!(
-                "cannot open service {name}: {e} (another process may have created it with a different payload \
-                 layout or settings; both sides must use interpd_protocol::shm::qos)"
-            ))
-        };
-        let setpoints = node
-            .service_builder(&service_name(&setpoints_name)?)
-            .publish_subscribe::<Setpoints>()
-            .history_size(qos::HISTORY_SIZE)
-            .subscriber_max_buffer_size(qos::SUBSCRIBER_BUFFER_SIZE)
-            .max_publishers(qos::MAX_PUBLISHERS)
-            .max_subscribers(qos::MAX_SUBSCRIBERS)
-            .open_or_create()
-            .map_err(|e| open_err(&setpoints_name, &e))?;
         let subscriber = setpoints
             .subscriber_builder()
             .buffer_size(qos::SUBSCRIBER_BUFFER_SIZE)
             .create()
             .map_err(|e| PlantError::Transport(format!("cannot subscribe to {setpoints_name}: {e:?}")))?;
-        let feedback = node
-            .service_builder(&service_name(&feedback_name)?)
-            .publish_subscribe::<Feedback>()
-            .history_size(qos::HISTORY_SIZE)
-            .subscriber_max_buffer_size(qos::SUBSCRIBER_BUFFER_SIZE)
-            .max_publishers(qos::MAX_PUBLISHERS)
-            .max_subscribers(qos::MAX_SUBSCRIBERS)
-            .open_or_create()
-            .map_err(|e| open_err(&feedback_name, &e))?;
         let publisher = feedback
             .publisher_builder()
             .create()

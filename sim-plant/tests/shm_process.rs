@@ -9,7 +9,7 @@ use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use interpd_config::Config;
-use interpd_protocol::shm::{self, Feedback, Setpoints, feedback_flags, flags, qos};
+use interpd_protocol::shm::{self, Feedback, NodeOptions, Setpoints, feedback_flags, flags, open_service, qos};
 use sim_plant::scenario::SCurve;
 use sim_plant::{AxisTarget, Plant};
 use std::io::{BufRead, BufReader, Read};
@@ -87,28 +87,9 @@ struct Controller {
 
 impl Controller {
     fn open(prefix: &str) -> Self {
-        // iceoryx2's notice that no config file was loaded is noise in the test output.
-        set_log_level(LogLevel::Error);
-        let node =
-            NodeBuilder::new().signal_handling_mode(SignalHandlingMode::Disabled).create::<ipc::Service>().unwrap();
-        let sp = node
-            .service_builder(&ServiceName::new(&shm::setpoints_service(prefix)).unwrap())
-            .publish_subscribe::<Setpoints>()
-            .history_size(qos::HISTORY_SIZE)
-            .subscriber_max_buffer_size(qos::SUBSCRIBER_BUFFER_SIZE)
-            .max_publishers(qos::MAX_PUBLISHERS)
-            .max_subscribers(qos::MAX_SUBSCRIBERS)
-            .open_or_create()
-            .unwrap();
-        let fb = node
-            .service_builder(&ServiceName::new(&shm::feedback_service(prefix)).unwrap())
-            .publish_subscribe::<Feedback>()
-            .history_size(qos::HISTORY_SIZE)
-            .subscriber_max_buffer_size(qos::SUBSCRIBER_BUFFER_SIZE)
-            .max_publishers(qos::MAX_PUBLISHERS)
-            .max_subscribers(qos::MAX_SUBSCRIBERS)
-            .open_or_create()
-            .unwrap();
+        let node = NodeOptions::new().create().unwrap();
+        let sp = open_service::<Setpoints>(&node, prefix).unwrap();
+        let fb = open_service::<Feedback>(&node, prefix).unwrap();
         let publisher = sp.publisher_builder().create().unwrap();
         let subscriber = fb.subscriber_builder().buffer_size(qos::SUBSCRIBER_BUFFER_SIZE).create().unwrap();
         Self { node, publisher, subscriber }

@@ -3,8 +3,7 @@
 //! stream over iceoryx2.
 
 use iceoryx2::prelude::*;
-use interpd::sinks::shm as shm_sink;
-use interpd_protocol::shm::{Setpoints, qos};
+use interpd_protocol::shm::{NodeOptions, ServicePorts, Setpoints, open_service, qos};
 use serde_json::{Value, json};
 use std::io::{BufRead, BufReader, Write};
 use std::os::unix::net::UnixStream;
@@ -170,19 +169,19 @@ impl Client {
     }
 }
 
-/// A subscriber to the setpoint service `<prefix>/setpoints`, opened as the daemon opens it
-/// (`interpd::sinks::shm::open_service`, the shared QoS); the node and service live as long
-/// as it.
+/// A subscriber to the setpoint service `<prefix>/setpoints`, opened as every participant
+/// opens it (`interpd_protocol::shm::open_service`, the shared QoS); the node and service live
+/// as long as it.
 pub struct SetpointSubscriber {
     pub port: iceoryx2::port::subscriber::Subscriber<ipc::Service, Setpoints, ()>,
-    _service: iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, Setpoints, ()>,
+    _service: ServicePorts<Setpoints>,
     _node: Node<ipc::Service>,
 }
 
 impl SetpointSubscriber {
     pub fn open(prefix: &str) -> SetpointSubscriber {
-        let node = shm_sink::node("interpd-e2e-subscriber").expect("iceoryx2 node");
-        let service = shm_sink::open_service::<Setpoints>(&node, prefix, "setpoints").expect("setpoint service");
+        let node = NodeOptions::new().name("interpd-e2e-subscriber").create().expect("iceoryx2 node");
+        let service = open_service::<Setpoints>(&node, prefix).expect("setpoint service");
         let port = service.subscriber_builder().buffer_size(qos::SUBSCRIBER_BUFFER_SIZE).create().expect("subscriber");
         SetpointSubscriber { port, _service: service, _node: node }
     }

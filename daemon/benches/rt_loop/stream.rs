@@ -14,8 +14,7 @@
 use super::cpu;
 use hdrhistogram::Histogram;
 use interpd::rt::clock;
-use interpd::sinks::shm;
-use interpd_protocol::shm::{Setpoints, flags, qos};
+use interpd_protocol::shm::{NodeOptions, Setpoints, flags, open_service, qos};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
@@ -116,8 +115,8 @@ impl Monitor {
                 let mut check = StreamCheck::new();
                 check.pinned = cpu::pin_current_thread(cpu_index);
                 check.sched = cpu::set_fifo(priority);
-                let node = shm::node("rt-bench")?;
-                let service = shm::open_service::<Setpoints>(&node, &prefix, "setpoints")?;
+                let node = NodeOptions::new().name("rt-bench").create().map_err(|e| e.to_string())?;
+                let service = open_service::<Setpoints>(&node, &prefix).map_err(|e| e.to_string())?;
                 let sub = service
                     .subscriber_builder()
                     .buffer_size(qos::SUBSCRIBER_BUFFER_SIZE)

@@ -9,10 +9,9 @@ use super::file::RecordFile;
 use super::gaps::StreamCount;
 use super::interleave::Interleave;
 use super::schema::{self, Payload, Stream};
-use crate::sinks::shm::{node, open_service};
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
-use interpd_protocol::shm::{Feedback, Setpoints, qos};
+use interpd_protocol::shm::{Feedback, NodeOptions, Setpoints, open_service, qos};
 use std::collections::BTreeMap;
 use std::fmt;
 use std::path::PathBuf;
@@ -150,10 +149,10 @@ impl Drop for Recorder {
 }
 
 fn subscribe(prefix: &str) -> Result<Subscribers, RecordError> {
-    let setup = RecordError::Setup;
-    let node = node("interpd-recorder").map_err(setup)?;
-    let sp = open_service::<Setpoints>(&node, prefix, Stream::Setpoints.schema().service).map_err(setup)?;
-    let fb = open_service::<Feedback>(&node, prefix, Stream::Feedback.schema().service).map_err(setup)?;
+    let setup = |e: &dyn std::error::Error| RecordError::Setup(e.to_string());
+    let node = NodeOptions::new().name("interpd-recorder").create().map_err(|e| setup(&e))?;
+    let sp = open_service::<Setpoints>(&node, prefix).map_err(|e| setup(&e))?;
+    let fb = open_service::<Feedback>(&node, prefix).map_err(|e| setup(&e))?;
     let err =
         |what: &str, e: &dyn fmt::Debug| RecordError::Setup(format!("cannot subscribe to {prefix}/{what}: {e:?}"));
     let setpoints =

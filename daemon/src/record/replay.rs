@@ -9,10 +9,9 @@ use super::RecordError;
 use super::file::read_messages;
 use super::schema::{Payload, Stream};
 use crate::rt::clock::{now_ns, sleep_until_ns};
-use crate::sinks::shm::{node, open_service};
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::prelude::*;
-use interpd_protocol::shm::{Feedback, Setpoints};
+use interpd_protocol::shm::{Feedback, NodeOptions, Setpoints, open_service};
 use std::fmt;
 use std::path::Path;
 use std::time::Duration;
@@ -105,17 +104,17 @@ struct Publishers {
 }
 
 fn publishers(prefix: &str, scan: &Scan) -> Result<Publishers, RecordError> {
-    let setup = RecordError::Setup;
-    let node = node("interpd-replay").map_err(setup)?;
+    let setup = |e: &dyn std::error::Error| RecordError::Setup(e.to_string());
+    let node = NodeOptions::new().name("interpd-replay").create().map_err(|e| setup(&e))?;
     let err = |what: &str, e: &dyn fmt::Debug| RecordError::Setup(format!("cannot publish on {prefix}/{what}: {e:?}"));
     let setpoints = if scan.setpoints > 0 {
-        let service = open_service::<Setpoints>(&node, prefix, "setpoints").map_err(setup)?;
+        let service = open_service::<Setpoints>(&node, prefix).map_err(|e| setup(&e))?;
         Some(service.publisher_builder().create().map_err(|e| err("setpoints", &e))?)
     } else {
         None
     };
     let feedback = if scan.feedback > 0 {
-        let service = open_service::<Feedback>(&node, prefix, "feedback").map_err(setup)?;
+        let service = open_service::<Feedback>(&node, prefix).map_err(|e| setup(&e))?;
         Some(service.publisher_builder().create().map_err(|e| err("feedback", &e))?)
     } else {
         None

@@ -36,8 +36,8 @@ pub const MAX_SERVICE_PREFIX_LEN: usize = 128;
 /// Service settings both sides use, so whichever process starts first creates a service the
 /// other can open (iceoryx2 refuses to open a service whose settings are below the request).
 pub mod qos {
-    /// Samples a publisher keeps for subscribers that connect later: one, the latest
-    /// ("a subscriber that joins late gets the latest sample").
+    /// Samples a publisher keeps for subscribers that connect later: one, so a subscriber that
+    /// joins late starts from the latest sample.
     pub const HISTORY_SIZE: usize = 1;
     /// Samples a subscriber can queue: 64 cycles (256 ms at 4 ms) before the oldest are
     /// overwritten (safe overflow: a slow subscriber never blocks the real-time publisher).

@@ -1,5 +1,5 @@
 //! `sim-plant [--config FILE] [--source shm] [--plot FILE.png] [--service-prefix P] ...`:
-//! the simulated axis plant as a process (DESIGN.md "Command line").
+//! the simulated axis plant as a process (docs/plant.md).
 //!
 //! Subscribes to `P/setpoints` over iceoryx2, steps the axis models to each setpoint and
 //! publishes `P/feedback`; on SIGINT/SIGTERM (or after a FINISHED setpoint with

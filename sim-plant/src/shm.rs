@@ -111,8 +111,8 @@ impl ShmPlant {
     /// Creates the node and opens (or creates) both services under `prefix` with the shared
     /// [`qos`] settings. Errors name the service and say what to check.
     pub fn open(prefix: &str) -> Result<Self, PlantError> {
-        // iceoryx2 handles SIGINT/SIGTERM here: the node's wait then ends [`ShmPlant::run`].
-        // The log level is main's, from `-v`.
+        // iceoryx2 handles SIGINT/SIGTERM here: the node's wait then ends `run`. The log level
+        // is the one main set from `-v`.
         let node = NodeOptions::new()
             .handle_signals()
             .cleanup_dead_nodes()

@@ -9,9 +9,9 @@
 //! All tests share one bus, and every socket on it sees every frame, so they take a lock and
 //! run one at a time even when the test harness runs them in parallel threads.
 //!
-//! What is covered so far: the protocol layer (interpd_protocol::cia402 and ::candump) over a
-//! real kernel CAN stack. The master/drive end-to-end tests join this file once the daemon's
-//! CAN sink and sim-plant's CAN source exist.
+//! These cover the protocol layer (interpd_protocol::cia301, ::cia402 and ::candump) over a
+//! real kernel CAN stack; the daemon as master and sim-plant's drives are tested end to end in
+//! can_daemon.rs.
 
 use interpd_protocol::candump::{self, Iface, Record, Timestamp};
 use interpd_protocol::cia301::{
@@ -148,11 +148,10 @@ fn every_cia402_frame_type_crosses_vcan_unchanged() {
 }
 
 /// Receive queue of the capture socket, bytes. The capture thread only reads, while the master
-/// and the drives exchange in lock step: on a loaded machine (the QEMU VM of CI emulates its
-/// CPU) it can fall behind by many cycles, and the kernel drops what overflows the default
-/// queue (about 200 frames). A local CI run failed with "two RPDO1 … before SYNC 111" (a SYNC
-/// missing from the capture) while the host was busy with other jobs. 8 MiB holds the whole
-/// exchange.
+/// and the drives exchange in lock step: on a loaded machine or an emulated CPU (the QEMU VM of
+/// CI) it can fall behind by many cycles, and the kernel drops what overflows the default queue
+/// (about 200 frames); a SYNC missing from the capture then looks like two RPDO1s in one cycle.
+/// 8 MiB holds the whole exchange.
 const CAPTURE_QUEUE_BYTES: libc::c_int = 8 << 20;
 
 /// Raises the socket's receive queue to `CAPTURE_QUEUE_BYTES`: past `net.core.rmem_max` where

@@ -33,7 +33,7 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 /// The example program: lines, circles and a helix on X Y Z, 8.7 s at its feeds, from and back
 /// to the origin.
 const TOUR: &str = include_str!("../../examples/can_tour.ngc");
-/// The cycle of the issue and of the tour's "over 2000 cycles".
+/// The default machine's cycle, at which the tour lasts over 2000 cycles.
 const NOMINAL_CYCLE_MS: f64 = 4.0;
 /// Cycles of motion the stream test must show.
 const MIN_MOTION_CYCLES: usize = 2000;
@@ -75,7 +75,8 @@ const INC_PER_MM: f64 = 10_000.0;
 /// Waits in an emulated CPU are generous; the checks below measure what happened.
 const SLOW: Duration = Duration::from_secs(60);
 /// Wake-up lateness of a process in the TCG VM that the watchdog timing check allows when the
-/// tests run dilated (measured there: p99 3.4 ms, max 33 ms), ms.
+/// tests run dilated, ms: an emulated CPU wakes a process a few ms late as a rule and over
+/// 30 ms late at worst.
 const VM_LATENESS_MS: f64 = 35.0;
 /// Cycles of motion in which a drive's TPDO1 may miss its cycle (arrive after the next SYNC)
 /// when the tests run dilated in the VM; none at the nominal cycle.

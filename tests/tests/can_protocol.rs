@@ -1,6 +1,6 @@
-//! Property tests of the CAN protocol layer (interpd_protocol::cia402 and ::candump): no input
-//! panics a decoder or the log reader, and everything that decodes re-encodes to the same
-//! bytes. No CAN interface needed; these run in every `cargo test`.
+//! Property tests of the CAN protocol layer (interpd_protocol::cia301, ::cia402 and ::candump):
+//! no input panics a decoder or the log reader, and everything that decodes re-encodes to the
+//! same bytes. No CAN interface needed; these run in every `cargo test`.
 //!
 //! (They live here rather than in protocol/ because proptest is a dev-dependency of this
 //! package.)

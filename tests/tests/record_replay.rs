@@ -26,8 +26,8 @@ const RUN_TIMEOUT: Duration = Duration::from_secs(30);
 const START_TIMEOUT: Duration = Duration::from_secs(20);
 const SPEED: f64 = 4.0;
 /// Largest deviation of a replayed setpoint's arrival from its recorded time / SPEED, after
-/// removing the common offset. Generous: on these shared VMs a bare SCHED_FIFO loop wakes up
-/// to 10–18 ms late now and then.
+/// removing the common offset. Generous: on a shared virtual machine even a SCHED_FIFO thread
+/// now and then wakes many milliseconds late.
 const TIMING_TOLERANCE_NS: f64 = 25e6;
 /// Accepted relative error of the replay's total duration (recorded span / SPEED).
 const DURATION_TOLERANCE: f64 = 0.05;

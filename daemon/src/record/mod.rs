@@ -1,4 +1,4 @@
-//! Recording and replay of the shared-memory streams as MCAP (DESIGN.md "Logs").
+//! Recording and replay of the shared-memory streams as MCAP (docs/formats.md).
 //!
 //! - [`schema`]: the documented schema (OMG IDL, CDR messages byte-identical to the
 //!   `#[repr(C)]` payloads after a 4-byte header) and payload validation;

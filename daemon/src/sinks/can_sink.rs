@@ -1,5 +1,5 @@
 //! The real-time half of the CAN master: per cycle one RPDO1 per drive (controlword + target
-//! position in increments), then SYNC (DESIGN.md "CAN, CiA 402 CSP").
+//! position in increments), then SYNC (docs/can.md).
 //!
 //! The socket is non-blocking, so a full queue or a dead interface costs one failed `write`
 //! per frame, never a wait: failures are counted by errno class, and a run of failing cycles

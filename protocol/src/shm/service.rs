@@ -125,28 +125,29 @@ impl ServiceError {
 /// What to check when opening a service failed.
 fn open_hint(cause: &PublishSubscribeOpenOrCreateError) -> &'static str {
     use PublishSubscribeOpenError as E;
-    match cause {
-        PublishSubscribeOpenOrCreateError::PublishSubscribeOpenError(
-            E::IncompatibleTypes | E::IncompatibleMessagingPattern | E::VersionMismatch,
-        ) => {
-            "another process created it with a different payload type or layout: run the same interpd version on all sides"
+    let PublishSubscribeOpenOrCreateError::PublishSubscribeOpenError(open) = cause else {
+        return SETTINGS_HINT;
+    };
+    match open {
+        E::IncompatibleTypes | E::IncompatibleMessagingPattern | E::VersionMismatch => {
+            "another process created it with a different payload type or layout: run the same interpd \
+             version on all sides"
         }
-        PublishSubscribeOpenOrCreateError::PublishSubscribeOpenError(
-            E::ExceedsMaxNumberOfNodes
-            | E::DoesNotSupportRequestedAmountOfPublishers
-            | E::DoesNotSupportRequestedAmountOfSubscribers
-            | E::DoesNotSupportRequestedAmountOfNodes,
-        ) => {
-            "the service is full or was created with smaller limits: stop a participant, or check that all sides use interpd_protocol::shm::qos"
+        E::ExceedsMaxNumberOfNodes
+        | E::DoesNotSupportRequestedAmountOfPublishers
+        | E::DoesNotSupportRequestedAmountOfSubscribers
+        | E::DoesNotSupportRequestedAmountOfNodes => {
+            "the service is full or was created with smaller limits: stop a participant, or check that \
+             all sides use interpd_protocol::shm::qos"
         }
-        PublishSubscribeOpenOrCreateError::PublishSubscribeOpenError(E::InsufficientPermissions) => {
-            "this user may not open it: run all participants as the same user"
-        }
-        _ => {
-            "another process may have created it with a different payload layout or settings; all sides must use interpd_protocol::shm::qos"
-        }
+        E::InsufficientPermissions => "this user may not open it: run all participants as the same user",
+        _ => SETTINGS_HINT,
     }
 }
+
+/// The hint for every other failure: settings are the usual cause.
+const SETTINGS_HINT: &str = "another process may have created it with a different payload layout or \
+                             settings; all sides must use interpd_protocol::shm::qos";
 
 /// Opens (or creates) the service of payload `T` under `prefix` (`<prefix>/setpoints` for
 /// [`super::Setpoints`], `<prefix>/feedback` for [`super::Feedback`]) with the shared [`qos`].

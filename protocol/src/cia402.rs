@@ -461,6 +461,20 @@ mod tests {
     use super::*;
 
     #[test]
+    fn pdo_codecs_follow_the_mapping_and_round_trip() {
+        let rpdo = Rpdo1 { controlword: 0x000F, target_position: -2 };
+        assert_eq!(rpdo.to_bytes(), [0x0F, 0x00, 0xFE, 0xFF, 0xFF, 0xFF]);
+        let tpdo = Tpdo1 { statusword: 0x1237, position_actual: 0x0102_0304 };
+        assert_eq!(tpdo.to_bytes(), [0x37, 0x12, 0x04, 0x03, 0x02, 0x01]);
+        for (cw, pos) in [(0u16, 0i32), (u16::MAX, i32::MIN), (0x0080, i32::MAX)] {
+            let r = Rpdo1 { controlword: cw, target_position: pos };
+            assert_eq!(Rpdo1::from_bytes(r.to_bytes()), r);
+            let t = Tpdo1 { statusword: cw, position_actual: pos };
+            assert_eq!(Tpdo1::from_bytes(t.to_bytes()), t);
+        }
+    }
+
+    #[test]
     fn statusword_table_is_cia402() {
         use PowerState::*;
         let cases = [

@@ -31,7 +31,7 @@ const IDLE_POLL: Duration = Duration::from_millis(2);
 /// How [`ShmPlant::run`] behaves.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunOptions {
-    /// Sleep between polls of the subscriber while setpoints arrive (idle: [`IDLE_POLL`]).
+    /// Sleep between polls of the subscriber while setpoints arrive (idle: 2 ms, or this if it is longer).
     pub poll: Duration,
     /// Stop after the first setpoint flagged FINISHED, once the plant has settled for
     /// `settle_s` more (simulated in-process, holding the last setpoint; not published).

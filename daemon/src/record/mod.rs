@@ -2,7 +2,7 @@
 //!
 //! - [`schema`]: the documented schema (OMG IDL, CDR messages byte-identical to the
 //!   `#[repr(C)]` payloads after a 4-byte header) and payload validation;
-//! - [`file`]: writing and reading the MCAP file;
+//! - [`file`](mod@file): writing and reading the MCAP file;
 //! - [`recorder`]: a non-real-time thread that subscribes to `<prefix>/setpoints` and
 //!   `<prefix>/feedback` and records every sample, counting lost cycles ([`gaps`]), in an
 //!   order that depends on the streams' contents only ([`interleave`]);

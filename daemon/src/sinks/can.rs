@@ -1,14 +1,14 @@
 //! The CANopen master (sink `can:IFACE`): CiA 402 cyclic synchronous position over SocketCAN.
 //!
-//! - [`CanMaster::start`] opens the bus, starts the receive thread ([`super::can_rx`]), sends
+//! - [`CanMaster::start`] opens the bus, starts the receive thread (`can_rx.rs`), sends
 //!   NMT start to every configured node and SYNC once per cycle until every drive has answered
 //!   with TPDO1 (or `boot_timeout_ms` passed): the drives' actual positions become the daemon's
 //!   start position, so nothing jumps when they are enabled.
 //! - The [`CanSink`] it returns goes into the real-time thread: per cycle one RPDO1 per axis,
-//!   then SYNC, on a non-blocking socket ([`super::can_sink`]).
-//! - [`BusShared`] is the [`DriveMonitor`] the motion core asks before `motion.start` and polls
+//!   then SYNC, on a non-blocking socket (`can_sink.rs`).
+//! - `BusShared` (`can_state.rs`) is the [`DriveMonitor`] the service asks before `motion.start` and polls
 //!   for faults; `status.drives` and `status.can_bus` come from it.
-//! - `--candump FILE` is written by the receive thread ([`super::can_log`]).
+//! - `--candump FILE` is written by the receive thread (`can_log.rs`).
 
 use super::can_log::CandumpLog;
 pub use super::can_sink::CanSink;

@@ -6,8 +6,8 @@
 //! ```
 //!
 //! PRESET (default `schneider-soft`) is the model of the linear axes of the embedded XYZ
-//! machine; the program is a Ø70 mm circle in XY (the test circle of seed 004 ch. 5, here at
-//! 100 mm/s instead of 300 mm/min), started and stopped with a jerk-limited path-speed profile,
+//! machine; the program is a Ø70 mm circle in XY (the milled circle of Schneider 2016, Tab. 5.1,
+//! here at 100 mm/s instead of 300 mm/min), started and stopped with a jerk-limited path-speed profile,
 //! followed by 1.5 s of standstill for the residual vibration.
 #![allow(clippy::print_stdout)]
 
@@ -30,7 +30,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut metrics = Metrics::new(&plant, (config.plant.record_s / cycle_s) as usize);
 
     // Path speed along s ∈ [0, 2πr]: 100 mm/s, 1000 mm/s², 20000 mm/s³; the circle starts at
-    // 12 o'clock and runs counter-clockwise (seed 004 §5c T5).
+    // 12 o'clock and runs counter-clockwise, as in Schneider 2016, Tab. 5.1.
     let r = 35.0;
     let profile = SCurve::new(0.0, 2.0 * std::f64::consts::PI * r, 100.0, 1000.0, 20_000.0);
     let duration_s = profile.duration_s() + 1.5;

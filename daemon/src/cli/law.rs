@@ -1,5 +1,5 @@
 //! `interpd law --cond I,Z,F ... [--preset NAME] [--json] [--plot FILE.png] [--out FILE.csv]`:
-//! design a motion law from interpolation conditions (seed 003) and inspect it: degree,
+//! design a motion law from interpolation conditions (Bewegungsdesign nach Maß) and inspect it: degree,
 //! residuals, VDI 2143 characteristic values, coefficients, samples and a plot.
 
 use super::CliError;

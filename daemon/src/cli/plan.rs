@@ -74,7 +74,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
     };
     let settings = Settings::from_config(&config);
     let program = program::load(&args.program, &settings)?;
-    // G64 runs are smoothed within their tolerance before planning (seed 000).
+    // G64 runs are smoothed within their tolerance before planning (Haas 2012; docs/smoothing.md).
     let prepared =
         interpd_motion::prep::prepare_path(&settings, &program.path).map_err(|e| CliError::Failure(e.to_string()))?;
     let path = &prepared.path;

@@ -62,7 +62,7 @@ pub struct PlanStats {
     pub blocks: u64,
     pub work: Work,
     /// Horizons that could not continue from the state the one before handed over and took
-    /// that one's stop instead (see `Planner::stop_in`).
+    /// that one's stop instead (see `Planner::retained_stop`).
     pub horizon_stops: u64,
     /// Horizons that could not continue from that state and braked along half of its stop
     /// before trying again (each try counts).
@@ -103,8 +103,11 @@ pub struct Planner {
     /// A feasible profile from the start whose velocity floors the bounds (`resume`).
     vbar_floor: Vec<Segment>,
     /// The rest of the last horizon's plan from the hand-over node to where it came to rest
-    /// (its virtual end): the stop the hand-over state is guaranteed to have.
-    stop_in: Vec<interval::Interval>,
+    /// (its virtual end): the stop the hand-over state is guaranteed to have. It is not a
+    /// second way of computing a stop but the part of the plan not handed on yet, kept for the
+    /// next horizon to fall back on; a stop from any state of a planned motion is
+    /// [`brake::brake_along`].
+    retained_stop: Vec<interval::Interval>,
     out: Vec<Segment>,
     pub stats: PlanStats,
 }
@@ -133,7 +136,7 @@ impl Planner {
             t_now_s: 0.0,
             planned_len: 0,
             vbar_floor: Vec::new(),
-            stop_in: Vec::new(),
+            retained_stop: Vec::new(),
             out: Vec::new(),
             stats: PlanStats::default(),
         }
@@ -199,11 +202,11 @@ impl Planner {
         block::plan_block(&mut nodes, self.start, false, &self.lim).is_ok()
     }
 
-    /// Whether `stop_in` is a stop from the hand-over state within the held nodes.
+    /// Whether `retained_stop` is a stop from the hand-over state within the held nodes.
     fn retained_stop_holds(&self) -> bool {
-        let (Some(first), Some(last)) = (self.stop_in.first(), self.stop_in.last()) else { return false };
-        let fits = self.stop_in.len() < self.nodes.len()
-            && self.stop_in.iter().enumerate().all(|(k, iv)| {
+        let (Some(first), Some(last)) = (self.retained_stop.first(), self.retained_stop.last()) else { return false };
+        let fits = self.retained_stop.len() < self.nodes.len()
+            && self.retained_stop.iter().enumerate().all(|(k, iv)| {
                 let ds = self.nodes[k + 1].s_mm - self.nodes[k].s_mm;
                 (iv.ds_mm - ds).abs() <= STOP_CHECK_DS_TOL_MM
             });
@@ -298,12 +301,12 @@ impl Planner {
     }
 
     /// The next horizon found no continuation from the state at node `stop_from`, where what is
-    /// left of the last horizon's stop (`stop_in`) starts: that horizon handed over only what
+    /// left of the last horizon's stop (`retained_stop`) starts: that horizon handed over only what
     /// can still stop along it. Emits half of it (at most log₂ of its length more plans) and
     /// keeps the rest, or, with at most `STOP_TAKEN_WHOLE_MAX_INTERVALS` left, all of it (the
     /// motion comes to rest). Returns the node reached and the state there.
     fn brake_along_stop(&mut self, stop_from: usize, reason: &str) -> (usize, (f64, f64)) {
-        let stop = std::mem::take(&mut self.stop_in);
+        let stop = std::mem::take(&mut self.retained_stop);
         let k = if stop.len() > STOP_TAKEN_WHOLE_MAX_INTERVALS { stop.len() / 2 } else { stop.len() };
         self.emit(stop_from, &stop[..k]);
         let reached = stop_from + k;
@@ -316,7 +319,7 @@ impl Planner {
             );
             self.stats.horizon_brakes += 1;
             let state = (rest.v0, rest.a0);
-            self.stop_in = stop[k..].to_vec();
+            self.retained_stop = stop[k..].to_vec();
             return (reached, state);
         }
         tracing::warn!(
@@ -338,7 +341,7 @@ impl Planner {
         let mut handed = 0; // nodes[..=handed] are final
         let mut state = self.start;
         let mut idx = 1;
-        // Node where `stop_in` (what is left of it) starts.
+        // Node where `retained_stop` (what is left of it) starts.
         let mut stop_from = 0;
         while idx < n {
             let is_end = idx == n - 1;
@@ -358,7 +361,9 @@ impl Planner {
             let plan = match result {
                 Ok(plan) => plan,
                 Err(stuck)
-                    if block_start == stop_from && !self.stop_in.is_empty() && stop_from + self.stop_in.len() < idx =>
+                    if block_start == stop_from
+                        && !self.retained_stop.is_empty()
+                        && stop_from + self.retained_stop.len() < idx =>
                 {
                     // No continuation from the hand-over state with the longer horizon (a
                     // dead end the branches do not find their way out of).
@@ -372,7 +377,7 @@ impl Planner {
                 }
             };
             if block_start == stop_from {
-                self.stop_in.clear();
+                self.retained_stop.clear();
             }
             self.stats.blocks += 1;
             self.stats.work.add(&plan.work);
@@ -401,7 +406,7 @@ impl Planner {
             if final_count < plan.intervals.len() {
                 let iv = &plan.intervals[final_count];
                 state = (iv.v0, iv.a0);
-                self.stop_in = plan.intervals[final_count..].to_vec();
+                self.retained_stop = plan.intervals[final_count..].to_vec();
                 break;
             }
             state = (0.0, 0.0);

@@ -5,6 +5,8 @@
 //! piece ends form a table. s(u) adds one quadrature over the partial piece; u(s) runs a
 //! safeguarded Newton iteration on s(u) − s inside the bracketing piece.
 
+use super::{AxisDerivs, AxisVec, MAX_AXES};
+
 /// Relative agreement required between a piece's quadrature and the sum over its halves.
 pub(super) const QUADRATURE_REL_TOL: f64 = 1e-14;
 /// Inversion accuracy: |s(u) − s| below this fraction of the span length.
@@ -19,6 +21,40 @@ const GL_X: [f64; 4] =
     [0.183_434_642_495_649_8, 0.525_532_409_916_329, 0.796_666_477_413_626_7, 0.960_289_856_497_536_2];
 const GL_W: [f64; 4] =
     [0.362_683_783_378_362, 0.313_706_645_877_887_3, 0.222_381_034_453_374_5, 0.101_228_536_290_376_3];
+
+/// A′ … A‴ with respect to arc length from P′, P″, P‴ with respect to a curve parameter u, for
+/// the first `n` axes: with σ = |P′| over the linear axes, σ_u = P′·P″/σ and
+/// σ_uu = (|P″|² + P′·P‴)/σ − σ_u²/σ, the chain rule for u(s) gives u′ = 1/σ, u″ = −σ_u/σ³,
+/// u‴ = −σ_uu/σ⁴ + 3σ_u²/σ⁵, and A′ = P′u′, A″ = P″u′² + P′u″, A‴ = P‴u′³ + 3P″u′u″ + P′u‴.
+pub(super) fn reparameterize(
+    p1: &AxisVec,
+    p2: &AxisVec,
+    p3: &AxisVec,
+    linear: &[bool; MAX_AXES],
+    n: usize,
+    out: &mut AxisDerivs,
+) {
+    let (mut p1p1, mut p1p2, mut p2p2, mut p1p3) = (0.0, 0.0, 0.0, 0.0);
+    for k in 0..n {
+        if linear[k] {
+            p1p1 += p1[k] * p1[k];
+            p1p2 += p1[k] * p2[k];
+            p2p2 += p2[k] * p2[k];
+            p1p3 += p1[k] * p3[k];
+        }
+    }
+    let sigma = p1p1.sqrt();
+    let sigma_u = p1p2 / sigma;
+    let sigma_uu = (p2p2 + p1p3) / sigma - sigma_u * sigma_u / sigma;
+    let u1 = 1.0 / sigma;
+    let u2 = -sigma_u * u1 * u1 * u1;
+    let u3 = -sigma_uu * u1.powi(4) + 3.0 * sigma_u * sigma_u * u1.powi(5);
+    for k in 0..n {
+        out.d1[k] = p1[k] * u1;
+        out.d2[k] = p2[k] * u1 * u1 + p1[k] * u2;
+        out.d3[k] = p3[k] * u1 * u1 * u1 + 3.0 * p2[k] * u1 * u2 + p1[k] * u3;
+    }
+}
 
 /// ∫ₐᵇ f(u) du by 8-point Gauss–Legendre.
 pub(super) fn gauss_legendre_8(f: &impl Fn(f64) -> f64, a: f64, b: f64) -> f64 {

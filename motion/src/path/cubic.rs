@@ -1,6 +1,6 @@
 //! Cubic spline spans (G06 blocks, Huan, eq. 1–2) and their arc-length parameterisation.
 
-use super::arclength::ArcLengthTable;
+use super::arclength::{self, ArcLengthTable};
 use super::{AxisDerivs, AxisVec, MAX_AXES};
 
 /// Cubic Hermite span between support points A and B with tangents T_a, T_b (Huan, eq. 1–2,
@@ -136,28 +136,7 @@ impl CubicSpan {
             p2[k] = 6.0 * r[3][k] * u + 2.0 * r[2][k];
             p3[k] = 6.0 * r[3][k];
         }
-        // σ = |P′|, σ_u = P′·P″/σ, σ_uu = (|P″|² + P′·P‴)/σ − σ_u²/σ over the linear axes.
-        let (mut p1p1, mut p1p2, mut p2p2, mut p1p3) = (0.0, 0.0, 0.0, 0.0);
-        for k in 0..n {
-            if self.linear[k] {
-                p1p1 += p1[k] * p1[k];
-                p1p2 += p1[k] * p2[k];
-                p2p2 += p2[k] * p2[k];
-                p1p3 += p1[k] * p3[k];
-            }
-        }
-        let sigma = p1p1.sqrt();
-        let sigma_u = p1p2 / sigma;
-        let sigma_uu = (p2p2 + p1p3) / sigma - sigma_u * sigma_u / sigma;
-        // Chain rule for u(s): u′ = 1/σ, u″ = −σ_u/σ³, u‴ = −σ_uu/σ⁴ + 3σ_u²/σ⁵.
-        let u1 = 1.0 / sigma;
-        let u2 = -sigma_u * u1 * u1 * u1;
-        let u3 = -sigma_uu * u1.powi(4) + 3.0 * sigma_u * sigma_u * u1.powi(5);
-        for k in 0..n {
-            out.d1[k] = p1[k] * u1;
-            out.d2[k] = p2[k] * u1 * u1 + p1[k] * u2;
-            out.d3[k] = p3[k] * u1 * u1 * u1 + 3.0 * p2[k] * u1 * u2 + p1[k] * u3;
-        }
+        arclength::reparameterize(&p1, &p2, &p3, &self.linear, n, out);
         // Axes the path does not have stand still (`out` may hold another geometry's values).
         for k in n..MAX_AXES {
             (out.pos[k], out.d1[k], out.d2[k], out.d3[k]) = (0.0, 0.0, 0.0, 0.0);

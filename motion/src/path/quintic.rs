@@ -1,6 +1,6 @@
 //! Quintic Hermite pieces: the smoothed path the tolerance-band stage emits (Haas 2012, §4.5).
 
-use super::arclength::ArcLengthTable;
+use super::arclength::{self, ArcLengthTable};
 use super::{AxisDerivs, AxisVec, MAX_AXES, SpanError};
 
 /// Value, first and second derivative per axis at one end of a quintic piece, with respect to
@@ -98,28 +98,7 @@ impl QuinticSpan {
             p2[k] = ((20.0 * c[5] * t + 12.0 * c[4]) * t + 6.0 * c[3]) * t + 2.0 * c[2];
             p3[k] = (60.0 * c[5] * t + 24.0 * c[4]) * t + 6.0 * c[3];
         }
-        // σ = |P′|, σ_t = P′·P″/σ, σ_tt = (|P″|² + P′·P‴)/σ − σ_t²/σ over the linear axes.
-        let (mut p1p1, mut p1p2, mut p2p2, mut p1p3) = (0.0, 0.0, 0.0, 0.0);
-        for k in 0..MAX_AXES {
-            if self.linear[k] {
-                p1p1 += p1[k] * p1[k];
-                p1p2 += p1[k] * p2[k];
-                p2p2 += p2[k] * p2[k];
-                p1p3 += p1[k] * p3[k];
-            }
-        }
-        let sigma = p1p1.sqrt();
-        let sigma_t = p1p2 / sigma;
-        let sigma_tt = (p2p2 + p1p3) / sigma - sigma_t * sigma_t / sigma;
-        // Chain rule for t(s): t′ = 1/σ, t″ = −σ_t/σ³, t‴ = −σ_tt/σ⁴ + 3σ_t²/σ⁵.
-        let t1 = 1.0 / sigma;
-        let t2 = -sigma_t * t1 * t1 * t1;
-        let t3 = -sigma_tt * t1.powi(4) + 3.0 * sigma_t * sigma_t * t1.powi(5);
-        for k in 0..MAX_AXES {
-            out.d1[k] = p1[k] * t1;
-            out.d2[k] = p2[k] * t1 * t1 + p1[k] * t2;
-            out.d3[k] = p3[k] * t1 * t1 * t1 + 3.0 * p2[k] * t1 * t2 + p1[k] * t3;
-        }
+        arclength::reparameterize(&p1, &p2, &p3, &self.linear, MAX_AXES, out);
     }
 }
 

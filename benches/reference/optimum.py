@@ -23,7 +23,7 @@ Two problems on the same nodes:
    the O(h) discretisation of the passes).
 
 Prints per program: our motion time, the Ipopt optimum, the bound and the ratios.
-Not part of `cargo test`; see README ("Reference optimum").
+Not part of `cargo test`; see docs/planner.md ("The reference optimum").
 """
 
 import argparse

@@ -1,6 +1,7 @@
 //! Plant presets: one axis model with all its parameters, in a TOML file of the form of
 //! `config/plants/*.toml` (a header and `[params]`). The embedded presets are those files;
-//! `interpd plan --plant FILE` and `[plant] preset` take user files of the same form.
+//! `interpd plan --plant FILE` takes a user file of the same form (`[plant] preset` names an
+//! embedded preset).
 
 use super::params::{ParamSet, ParamTable};
 use crate::{AxisKind, ConfigError, Validator};

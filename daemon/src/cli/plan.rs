@@ -349,7 +349,7 @@ fn plan_online(settings: &Settings, path: &Path) -> Result<(Vec<Segment>, Planne
     Ok((segments, planner, longest_call_s))
 }
 
-/// The planning problem and our solution at the nodes, as JSON (see benches/reference/README.md).
+/// The planning problem and our solution at the nodes, as JSON (read by benches/reference/optimum.py; docs/planner.md).
 fn export_nodes(
     file: &std::path::Path,
     settings: &Settings,

@@ -43,8 +43,8 @@ pub struct RunArgs {
     /// motion were queued, to provoke an underrun. Format AFTER_S:FOR_S.
     #[arg(long, value_name = "AFTER_S:FOR_S")]
     pub debug_stall_planner: Option<String>,
-    /// Record the setpoint and feedback streams to this MCAP file, created or truncated (README
-    /// "Recording and replay"); the recording ends when the daemon exits.
+    /// Record the setpoint and feedback streams to this MCAP file, created or truncated (docs/formats.md,
+    /// "Recordings (MCAP)"); the recording ends when the daemon exits.
     #[arg(long, value_name = "FILE.mcap")]
     pub record: Option<PathBuf>,
 }
@@ -102,7 +102,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         tracing::info!("real-time thread: {}", service.sched());
     } else {
         eprintln!(
-            "interpd: real-time thread: {} — running with soft real-time only (grant CAP_SYS_NICE and memlock, see README \"Real-time settings\")",
+            "interpd: real-time thread: {} — running with soft real-time only (grant CAP_SYS_NICE and memlock, see docs/realtime.md, \"PREEMPT_RT host settings\")",
             service.sched()
         );
     }

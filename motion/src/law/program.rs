@@ -1,4 +1,4 @@
-//! The program statement for law moves (a proposal; the G-code reader does not call it yet):
+//! The program statement for law moves; the daemon and `interpd check` read programs of them:
 //!
 //! ```text
 //! LAW PRESET=rr7 DURATION=0.8 X=10 Y=-5            ; 7th-order R-R, 0.8 s, X +10 mm, Y −5 mm

@@ -1,9 +1,9 @@
-//! Planning from a state in motion, and the fastest stop along the path.
+//! Planning from a state in motion.
 //!
 //! The daemon replans in the middle of a program: after a feed override change it continues
-//! from the state where the queued motion ends; every piece it hands to the interpolator
-//! carries the fastest stop from the piece's end, which the interpolator runs on a feed hold,
-//! a stop or an underrun. Both start at a node that is no stop, with a given (v, a).
+//! from the state where the queued motion ends, at a node that is no stop, with a given
+//! (v, a). (The stop every piece carries for a feed hold, a stop or an underrun is
+//! [`super::brake`].)
 
 use super::Planner;
 use super::node::Node;

@@ -253,7 +253,7 @@ fn online_planning_matches_whole_program() {
 }
 
 /// Ipopt's optimum for the five-axis example table on the five-axis machine's nodes, s
-/// (`benches/reference/optimum.py`, README "Reference optimum").
+/// (`benches/reference/optimum.py`, docs/planner.md).
 const TABLE_IPOPT_S: f64 = 4.4305;
 /// How far above it the planner may be (the requirement is 1.05).
 const TABLE_IPOPT_RATIO_MAX: f64 = 1.03;

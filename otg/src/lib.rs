@@ -46,6 +46,7 @@ mod position_step2_cruise;
 pub mod profile;
 mod refine;
 mod roots;
+pub mod scurve;
 mod trajectory;
 mod velocity_step1;
 mod velocity_step2;

@@ -352,10 +352,7 @@ fn straight_move(nodes: &[Node], lim: &Limits) -> Option<Vec<Interval>> {
         }
     }
     let length = nodes[n - 1].s_mm - nodes[0].s_mm;
-    if !(length > 0.0 && v > 0.0 && v.is_finite()) {
-        return None;
-    }
-    super::scurve::rest_to_rest(length, v, a, j)
+    (length > 0.0 && v > 0.0 && v.is_finite()).then(|| super::scurve::rest_to_rest(length, v, a, j))
 }
 
 #[cfg(test)]

@@ -3,16 +3,16 @@
 //! needs the planner at that moment.
 //!
 //! The stop is the time-optimal jerk-limited brake in path space (jerk −J down to the
-//! deceleration A, hold, jerk +J up to rest; `scurve::brake_to_rest`, the trajectory
-//! generator's velocity interface) under constant path limits, checked afterwards
+//! deceleration A, hold, jerk +J up to rest; the trajectory generator's closed form
+//! [`interpd_otg::scurve::brake_to_rest`]) under constant path limits, checked afterwards
 //! against every axis limit along the exact geometry (chain rule with A′, A″, A‴ at a fine
 //! time step). A stop that fails the check is retried with gentler path limits; a stop that
 //! would pass the next exact stop of the path (a corner, the program end) is refused, and the
 //! caller ends its chunk elsewhere. So a tail is valid by measurement, not by assumption.
 
-use super::scurve::{BrakePhases, brake_to_rest};
 use super::{Limits, Segment};
 use crate::path::{AxisDerivs, JointKind, Path};
+use interpd_otg::scurve::brake_to_rest;
 
 /// Path limits tried, as fractions of the smallest axis acceleration and jerk limits.
 const GENTLER: [f64; 7] = [1.0, 0.6, 0.35, 0.2, 0.12, 0.07, 0.04];
@@ -50,7 +50,7 @@ pub fn brake_along(
     let (acc0, jerk0) = (lim.min_acc(), lim.min_jerk());
     // Candidate path limits, fastest stop first; at speed on a curve the jerk the axes leave
     // for braking is small (A‴v³ takes most of it), the acceleration less so.
-    let mut candidates: Vec<(f64, BrakePhases)> = Vec::with_capacity(GENTLER.len() * GENTLER.len());
+    let mut candidates: Vec<(f64, [(f64, f64); 3])> = Vec::with_capacity(GENTLER.len() * GENTLER.len());
     for fa in GENTLER {
         for fj in GENTLER {
             let (acc, jerk) = ((acc0 * fa).max(-a), jerk0 * fj);
@@ -58,7 +58,7 @@ pub fn brake_along(
                 // Releasing the deceleration with this jerk would reverse the motion.
                 continue;
             }
-            let Some(phases) = brake_to_rest(v, a, acc, jerk) else { continue };
+            let phases = brake_to_rest(v, a, acc, jerk);
             candidates.push((phases.iter().map(|p| p.0).sum(), phases));
         }
     }
@@ -136,7 +136,7 @@ mod tests {
 
     fn end_state(v: f64, a: f64, acc: f64, jerk: f64) -> (f64, f64, f64) {
         let (mut vv, mut aa, mut t) = (v, a, 0.0);
-        for (dt, j) in brake_to_rest(v, a, acc, jerk).expect("a brake") {
+        for (dt, j) in brake_to_rest(v, a, acc, jerk) {
             assert!(dt >= 0.0);
             vv += aa * dt + 0.5 * j * dt * dt;
             aa += j * dt;

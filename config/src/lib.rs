@@ -21,12 +21,14 @@
 //! key; nothing is silently defaulted except the optional sections and keys documented here.
 
 mod error;
+mod keys;
 mod machine;
 pub mod plant;
 mod sections;
 pub mod sinks;
 
 pub use error::ConfigError;
+pub use keys::keys_of;
 pub use machine::{AxisConfig, AxisKind, AxisLetter, MAX_AXES, MachineSection};
 pub use sections::{ControlConfig, PlannerConfig, PrepConfig, PrepMode, RtConfig};
 

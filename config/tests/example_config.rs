@@ -5,7 +5,7 @@
 use interpd_config::plant::PlantConfig;
 use interpd_config::sinks::SinksConfig;
 use interpd_config::{AxisConfig, Config, ControlConfig, MachineSection, PlannerConfig, PrepConfig, RtConfig};
-use serde::de::{self, DeserializeOwned, Visitor};
+use serde::de::DeserializeOwned;
 use std::collections::BTreeSet;
 
 const EXAMPLE: &str = include_str!("../example.toml");
@@ -22,37 +22,9 @@ fn parse(text: &str) -> Config {
     Config::from_toml_str(text, ORIGIN).unwrap_or_else(|e| panic!("{e}"))
 }
 
-/// A deserializer that only records the field names a derived `Deserialize` asks for (the
-/// names as written in TOML, after renames; skipped fields are not among them).
-struct FieldNames<'a>(&'a mut &'static [&'static str]);
-
-impl<'de> de::Deserializer<'de> for FieldNames<'_> {
-    type Error = de::value::Error;
-
-    fn deserialize_any<V: Visitor<'de>>(self, _: V) -> Result<V::Value, Self::Error> {
-        Err(de::Error::custom("not a struct"))
-    }
-
-    fn deserialize_struct<V: Visitor<'de>>(
-        self,
-        _: &'static str,
-        fields: &'static [&'static str],
-        _: V,
-    ) -> Result<V::Value, Self::Error> {
-        *self.0 = fields;
-        Err(de::Error::custom("field names recorded"))
-    }
-
-    serde::forward_to_deserialize_any! {
-        bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string bytes byte_buf option
-        unit unit_struct newtype_struct seq tuple tuple_struct map enum identifier ignored_any
-    }
-}
-
 /// The TOML keys of a configuration struct.
 fn keys_of<T: DeserializeOwned>() -> BTreeSet<&'static str> {
-    let mut fields: &'static [&'static str] = &[];
-    let _ = T::deserialize(FieldNames(&mut fields));
+    let fields = interpd_config::keys_of::<T>();
     assert!(!fields.is_empty(), "{} has no fields", std::any::type_name::<T>());
     fields.iter().copied().collect()
 }

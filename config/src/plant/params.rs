@@ -8,10 +8,10 @@ use super::preset::ModelKind;
 use super::process::{LinearProcess, RotaryProcess};
 use super::three_mass::ThreeMass;
 use super::two_mass::{LinearTwoMass, RotaryTwoMass};
-use crate::{AxisKind, ConfigError, Validator};
+use crate::{AxisKind, ConfigError, Validator, keys_of};
 use serde::Deserialize;
 use serde::de::value::MapDeserializer;
-use serde::de::{self, DeserializeOwned, Visitor};
+use serde::de::{self, DeserializeOwned};
 use std::collections::BTreeMap;
 use std::sync::OnceLock;
 
@@ -102,39 +102,6 @@ pub fn all_keys() -> &'static [&'static str] {
 
 fn keys_of3<M: DeserializeOwned, D: DeserializeOwned, P: DeserializeOwned>() -> Vec<&'static str> {
     [keys_of::<M>(), keys_of::<D>(), keys_of::<P>()].concat()
-}
-
-/// The keys a derived `Deserialize` struct reads, as written in TOML: serde hands them to
-/// `deserialize_struct`, which is all this deserializer does before it gives up.
-pub(crate) fn keys_of<T: DeserializeOwned>() -> &'static [&'static str] {
-    struct FieldNames<'a>(&'a mut &'static [&'static str]);
-
-    impl<'de> de::Deserializer<'de> for FieldNames<'_> {
-        type Error = de::value::Error;
-
-        fn deserialize_any<V: Visitor<'de>>(self, _: V) -> Result<V::Value, Self::Error> {
-            Err(de::Error::custom("not a struct"))
-        }
-
-        fn deserialize_struct<V: Visitor<'de>>(
-            self,
-            _: &'static str,
-            fields: &'static [&'static str],
-            _: V,
-        ) -> Result<V::Value, Self::Error> {
-            *self.0 = fields;
-            Err(de::Error::custom("field names recorded"))
-        }
-
-        serde::forward_to_deserialize_any! {
-            bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string bytes byte_buf option
-            unit unit_struct newtype_struct seq tuple tuple_struct map enum identifier ignored_any
-        }
-    }
-
-    let mut fields: &'static [&'static str] = &[];
-    let _ = T::deserialize(FieldNames(&mut fields));
-    fields
 }
 
 /// The range checks of one axis's parameters. A value comes from the axis's override, its

@@ -60,6 +60,8 @@ pub struct Axis {
     /// Process force set through the API instead of the configured static part.
     process_override: Option<f64>,
     f_proc_now: f64,
+    /// The holding brake: the motor position it clamps (SI) while engaged.
+    brake: Option<f64>,
 }
 
 impl Axis {
@@ -85,6 +87,7 @@ impl Axis {
             process: r.process,
             process_override: None,
             f_proc_now: r.process.static_force,
+            brake: None,
         })
     }
 
@@ -129,6 +132,7 @@ impl Axis {
     /// Standing still at `pos` (axis unit), in equilibrium with the static process force.
     pub fn reset(&mut self, pos: f64, t_s: f64) {
         let x = pos * self.scale;
+        self.brake = None;
         let f = self.process_force(t_s);
         self.mech.set_rest(x, f);
         self.drive.set_rest(x, f);
@@ -146,12 +150,45 @@ impl Axis {
         self.target = b;
     }
 
+    /// Engages or releases the motor's holding brake. Engaged, the motor stands where it is
+    /// and the drive's loops are off (a CiA 402 drive with its power stage off); the load may
+    /// still swing on the transmission. Released, the drive takes over at the motor's position
+    /// with the holding force already built up, so the axis does not sag or jump.
+    pub fn set_brake(&mut self, engaged: bool) {
+        match (engaged, self.brake) {
+            (true, None) => {
+                let x = self.mech.motor_pos();
+                self.brake = Some(x);
+                self.mech.brake_motor(x);
+            }
+            (false, Some(x)) => {
+                self.brake = None;
+                let f_hold = self.mech.spring_force();
+                self.drive.set_rest(x, f_hold);
+                self.mech.set_motor_force(f_hold);
+                self.target = Command { pos: x, vel: 0.0, acc: 0.0 };
+                self.seg = Segment::hold(x);
+            }
+            _ => {}
+        }
+    }
+
+    /// Whether the holding brake is engaged.
+    pub fn braked(&self) -> bool {
+        self.brake.is_some()
+    }
+
     /// One servo step at `t_seg_s` into the current segment (plant time `t_s`).
     #[inline]
     pub fn step(&mut self, t_seg_s: f64, t_s: f64) {
+        self.f_proc_now = self.process_force(t_s);
+        if let Some(x) = self.brake {
+            self.mech.step(0.0, -self.f_proc_now);
+            self.mech.brake_motor(x);
+            return;
+        }
         let cmd = self.seg.eval(t_seg_s);
         let f_cmd = self.drive.control(self.mech.motor_pos(), cmd);
-        self.f_proc_now = self.process_force(t_s);
         self.mech.step(f_cmd, -self.f_proc_now);
     }
 
@@ -183,6 +220,54 @@ impl Axis {
             crosstalk: [ct[0] * 1e3, ct[1] * 1e3],
             saturated: self.drive.saturated(),
             contact: self.mech.contact(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::{AxisTarget, Plant};
+    use interpd_config::Config;
+
+    /// The default machine's plant, at rest at 0.
+    fn plant() -> Plant {
+        let mut p = Plant::from_config(&Config::default_machine()).expect("plant");
+        p.reset(0, &[0.0; 3]).expect("reset");
+        p
+    }
+
+    #[test]
+    fn the_brake_holds_the_motor_still_while_the_load_swings_out() {
+        let mut p = plant();
+        // Move X to 1 mm and brake in mid-motion, with the drive still lagging.
+        let targets = [AxisTarget { pos: 1.0, ..AxisTarget::default() }, AxisTarget::default(), AxisTarget::default()];
+        for _ in 0..3 {
+            p.step(&targets, 0.004).expect("step");
+        }
+        assert!(p.outputs()[0].motor_vel.abs() > 1.0, "moving when the brake engages");
+        p.axis_mut(0).expect("X").set_brake(true);
+        let held = p.outputs()[0].motor_pos;
+        let mut load = Vec::new();
+        for _ in 0..50 {
+            p.step(&targets, 0.004).expect("step");
+            assert_eq!(p.outputs()[0].motor_pos, held, "the braked motor moved");
+            assert_eq!(p.outputs()[0].motor_vel, 0.0);
+            load.push(p.outputs()[0].load_pos);
+        }
+        let swing =
+            load.iter().cloned().fold(f64::NEG_INFINITY, f64::max) - load.iter().cloned().fold(f64::INFINITY, f64::min);
+        assert!(swing > 0.0, "the load swings on the transmission");
+        // A brake released at rest hands the motor to the drive without a jump.
+        let mut p = plant();
+        let zero = [AxisTarget::default(); 3];
+        p.axis_mut(0).expect("X").set_brake(true);
+        for _ in 0..10 {
+            p.step(&zero, 0.004).expect("step");
+        }
+        p.axis_mut(0).expect("X").set_brake(false);
+        for _ in 0..10 {
+            p.step(&zero, 0.004).expect("step");
+            assert!(p.outputs()[0].motor_pos.abs() < 1e-6, "{}", p.outputs()[0].motor_pos);
         }
     }
 }

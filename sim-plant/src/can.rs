@@ -7,7 +7,9 @@
 //! bus, so the drives interpolate linearly between them (as CSP drives do). Without SYNC the
 //! nodes' watchdogs run on the kernel's receive timestamps (a descheduled simulator reading
 //! queued frames late does not mistake them for silence); a drive whose watchdog tripped
-//! ramps down on wall time until it stands.
+//! ramps down on wall time until it stands. A drive that neither follows nor ramps (not yet
+//! enabled, quick stop or fault reaction complete) holds its motor with the brake: its
+//! position actual, the motor encoder, stays still while the load may swing out.
 
 use crate::PlantError;
 use crate::can_node::{DriveNode, HEARTBEAT_PERIOD_MS, Motion, NodeParams, NodeStats};
@@ -19,6 +21,7 @@ use interpd_protocol::can_socket::{from_socketcan, to_socketcan};
 use interpd_protocol::cia301::{self, CobObject, DecodeError, Message, NmtState, NodeId};
 use interpd_protocol::cia402::{PowerState, Scale};
 use socketcan::{CanSocket, Socket, SocketOptions};
+use std::os::fd::AsRawFd;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
@@ -100,9 +103,12 @@ pub fn run(
         transport(format!("cannot open the interface: {e} (does it exist and is it up? `ip link show {iface}`)"))
     })?;
     let cycle_us = (config.cycle_s() * 1e6).round() as u64;
-    // A quarter cycle: the watchdog looks at a silent bus at least this often.
+    // A quarter cycle: the heartbeats and ramps look at a silent bus at least this often.
     let poll = Duration::from_micros((cycle_us / 4).max(250));
-    socket.set_read_timeout(poll).map_err(|e| transport(e.to_string()))?;
+    // Reads do not block: the loop waits in ppoll, whose timeout is a high-resolution timer
+    // (a socket receive timeout counts in scheduler ticks, up to 4 ms on a 250 Hz kernel, which
+    // would let a watchdog trip a tick late).
+    socket.set_nonblocking(true).map_err(|e| transport(e.to_string()))?;
     socket.set_write_timeout(Duration::from_millis(10)).map_err(|e| transport(e.to_string()))?;
     socket.set_recv_timestamp(true).map_err(|e| transport(e.to_string()))?;
 
@@ -131,6 +137,15 @@ pub fn run(
     let heartbeat = Duration::from_millis(HEARTBEAT_PERIOD_MS);
     let mut next_heartbeat = Instant::now() + heartbeat;
     while !stop.load(Ordering::SeqCst) {
+        // Wake for the next frame, the earliest watchdog deadline or the poll period.
+        let now = wall_us();
+        let wait_us = bus
+            .nodes
+            .iter()
+            .filter_map(|d| d.watchdog_deadline_us())
+            .min()
+            .map_or(poll.as_micros() as u64, |deadline| deadline.saturating_sub(now).min(poll.as_micros() as u64));
+        wait_readable(&bus.socket, Duration::from_micros(wait_us));
         match bus.socket.read_frame_with_timestamps() {
             Ok((f, ts)) => {
                 bus.stats.rx_frames += 1;
@@ -183,6 +198,17 @@ pub fn run(
         wall_s: started.elapsed().as_secs_f64(),
         simulated_s: plant.time_s(),
     })
+}
+
+/// Waits until `socket` has a frame to read or `timeout` has passed (an interrupted wait
+/// returns early; the caller's loop looks again).
+fn wait_readable(socket: &CanSocket, timeout: Duration) {
+    let mut fd = libc::pollfd { fd: socket.as_raw_fd(), events: libc::POLLIN, revents: 0 };
+    let ts = libc::timespec { tv_sec: timeout.as_secs() as libc::time_t, tv_nsec: timeout.subsec_nanos().into() };
+    // SAFETY: one valid pollfd, a valid timespec, no signal mask.
+    unsafe {
+        libc::ppoll(&mut fd, 1, &ts, std::ptr::null());
+    }
 }
 
 impl Bus {
@@ -263,9 +289,14 @@ impl Bus {
 
     fn step(&mut self, plant: &mut Plant, metrics: Option<&mut Metrics>) -> Result<(), PlantError> {
         let mut targets = [AxisTarget::default(); MAX_AXES];
-        for (t, d) in targets.iter_mut().zip(self.nodes.iter_mut()) {
+        for (i, (t, d)) in targets.iter_mut().zip(self.nodes.iter_mut()).enumerate() {
             d.advance_ramp(self.dt_s);
             t.pos = d.target();
+            // A drive that neither follows nor ramps has its power stage off: the brake holds
+            // the motor, so its position actual stays still (also in Fault).
+            if let Some(axis) = plant.axis_mut(i) {
+                axis.set_brake(d.motion() == Motion::Hold);
+            }
         }
         plant.step(&targets[..self.nodes.len()], self.dt_s)?;
         if let Some(m) = metrics {

@@ -26,7 +26,8 @@ pub mod comm_fault {
 /// What a node's axis does in the coming cycle.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Motion {
-    /// Hold the commanded position (power off or not yet enabled: the simulation brakes).
+    /// Stand still: power stage off (not yet enabled, or a quick stop or fault reaction is
+    /// complete), the holding brake clamps the motor where it is.
     Hold,
     /// Follow the RPDO1 target (Operation enabled).
     Follow,
@@ -245,6 +246,14 @@ impl DriveNode {
         false
     }
 
+    /// When the SYNC watchdog trips if no SYNC comes before (µs, the clock of `on_sync`):
+    /// None while it is not armed.
+    pub fn watchdog_deadline_us(&self) -> Option<u64> {
+        let armed = self.nmt.pdo_allowed() && self.power.state().is_operation_enabled();
+        let last = self.last_sync_us?;
+        armed.then_some(last + WATCHDOG_CYCLES * self.p.cycle_us + 1)
+    }
+
     /// Microseconds since the last SYNC (None before the first).
     pub fn since_sync_us(&self, now_us: u64) -> Option<u64> {
         self.last_sync_us.map(|t| now_us.saturating_sub(t))
@@ -377,6 +386,7 @@ mod tests {
             n.on_sync(0.0, t, &mut out);
         }
         out.clear();
+        assert_eq!(n.watchdog_deadline_us(), Some(t + 3 * CYCLE_US + 1));
         assert!(!n.check_watchdog(t + 3 * CYCLE_US, &mut out), "exactly 3 cycles is not yet more than 3");
         assert!(n.check_watchdog(t + 3 * CYCLE_US + 1, &mut out));
         assert_eq!(n.power_state(), PowerState::FaultReactionActive);
@@ -405,6 +415,7 @@ mod tests {
         assert!((n.target() - start - 5.0).abs() < 1e-9, "{}", n.target() - start);
         assert_eq!(n.power_state(), PowerState::Fault);
         assert!(!n.check_watchdog(t + 100 * CYCLE_US, &mut out), "a faulted drive does not trip again");
+        assert_eq!(n.watchdog_deadline_us(), None, "disarmed in Fault");
         // Fault reset and re-enable.
         for cw in
             [controlword::FAULT_RESET, controlword::SHUTDOWN, controlword::SWITCH_ON, controlword::ENABLE_OPERATION]

@@ -48,6 +48,12 @@ struct Args {
     /// Also write the summary figures as one JSON object to this file at exit.
     #[arg(long)]
     summary_json: Option<PathBuf>,
+    /// Run with SCHED_FIFO at this priority (1–99), or fail if the system refuses. For the
+    /// drives on CAN: a real drive is hardware of its own whose SYNC watchdog never waits for
+    /// the master's host; give the simulated drives a priority above the daemon's real-time
+    /// thread ([rt] priority, default 80) so the same holds on one computer.
+    #[arg(long, value_name = "PRIORITY", value_parser = clap::value_parser!(i32).range(1..=99))]
+    rt_priority: Option<i32>,
     /// More log output on stderr (-v debug, -vv trace). RUST_LOG overrides.
     #[arg(short, long, action = clap::ArgAction::Count)]
     verbose: u8,
@@ -104,6 +110,9 @@ fn run(args: &Args) -> Result<(), Failure> {
     if let Some(p) = &args.plot {
         check_plot_path(p)?;
     }
+    if let Some(priority) = args.rt_priority {
+        set_fifo(priority)?;
+    }
     let mut config = Config::load_or_default(args.config.as_deref()).map_err(PlantError::from)?;
     if let Some(iface) = can_iface {
         return run_can(args, &mut config, &iface);
@@ -144,6 +153,24 @@ fn run(args: &Args) -> Result<(), Failure> {
             plot::write_png(p, &metrics, &PlotOptions { title, ..PlotOptions::default() })?;
             eprintln!("sim-plant: plot written to {}", p.display());
         }
+    }
+    Ok(())
+}
+
+/// SCHED_FIFO at `priority` for the calling thread (sim-plant's loops run on it).
+fn set_fifo(priority: i32) -> Result<(), Failure> {
+    let param = libc::sched_param { sched_priority: priority };
+    // SAFETY: plain syscall on the calling thread with a valid parameter struct.
+    let rc = unsafe { libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param) };
+    if rc != 0 {
+        return Err(Failure {
+            code: 1,
+            message: format!(
+                "--rt-priority {priority}: SCHED_FIFO refused: {} (needs CAP_SYS_NICE or an rtprio limit, see \
+                 docs/realtime.md)",
+                std::io::Error::from_raw_os_error(rc)
+            ),
+        });
     }
     Ok(())
 }

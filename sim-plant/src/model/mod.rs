@@ -47,6 +47,25 @@ impl Mechanics {
         }
     }
 
+    /// Holds the motor at `x_m` (a holding brake): motor position fixed, motor velocity and
+    /// motor force zero; the load keeps moving on the transmission.
+    #[inline]
+    pub fn brake_motor(&mut self, x_m: f64) {
+        match self {
+            Mechanics::TwoMass(m) => m.brake_motor(x_m),
+            Mechanics::ThreeMass(m) => m.brake_motor(x_m),
+        }
+    }
+
+    /// Sets the motor force state F_M (the current loop's output), e.g. the holding force a
+    /// drive builds up before it releases the brake.
+    pub fn set_motor_force(&mut self, f_m: f64) {
+        match self {
+            Mechanics::TwoMass(m) => m.z[4] = f_m,
+            Mechanics::ThreeMass(m) => m.z[6] = f_m,
+        }
+    }
+
     #[inline]
     pub fn motor_pos(&self) -> f64 {
         match self {

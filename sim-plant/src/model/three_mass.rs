@@ -56,6 +56,14 @@ impl ThreeMass {
         }
     }
 
+    /// Motor clamped at `x_m` by its brake: x₁ fixed, v₁ = 0, F_M = 0 (power stage off).
+    #[inline]
+    pub fn brake_motor(&mut self, x_m: f64) {
+        self.z[0] = x_m;
+        self.z[3] = 0.0;
+        self.z[6] = 0.0;
+    }
+
     pub fn motor_pos(&self) -> f64 {
         self.z[0]
     }

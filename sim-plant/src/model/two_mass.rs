@@ -74,6 +74,14 @@ impl TwoMass {
         self.contact = f_proc != 0.0 || self.tr.zone.half_gap() == 0.0;
     }
 
+    /// Motor clamped at `x_m` by its brake: x_M fixed, v_M = 0, F_M = 0 (power stage off).
+    #[inline]
+    pub fn brake_motor(&mut self, x_m: f64) {
+        self.z[0] = x_m;
+        self.z[1] = 0.0;
+        self.z[4] = 0.0;
+    }
+
     /// The twist δ at which the spring carries `force` statically (inverse of k± δ_e).
     pub fn twist_for_force(&self, force: f64) -> f64 {
         if force == 0.0 {

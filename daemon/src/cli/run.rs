@@ -6,7 +6,7 @@ use super::signals::TerminationSignals;
 use interpd::config::Config;
 use interpd::control::{ControlServer, Motion};
 use interpd::record::{RecordFile, RecordOptions, Recorder};
-use interpd::service::{Service, ServiceExtras, ServiceOptions};
+use interpd::service::{CycleStall, Service, ServiceExtras, ServiceOptions};
 use interpd::sinks::can::CanMaster;
 use interpd_protocol::api::State;
 use std::path::PathBuf;
@@ -43,6 +43,11 @@ pub struct RunArgs {
     /// motion were queued, to provoke an underrun. Format AFTER_S:FOR_S.
     #[arg(long, value_name = "AFTER_S:FOR_S")]
     pub debug_stall_planner: Option<String>,
+    /// Testing aid: the real-time thread stalls once for FOR_S seconds in the cycle after
+    /// AFTER_S seconds of running motion, before it publishes (its SYNC on CAN comes late), to
+    /// provoke the drives' SYNC watchdog. Format AFTER_S:FOR_S.
+    #[arg(long, value_name = "AFTER_S:FOR_S")]
+    pub debug_stall_cycle: Option<String>,
     /// Record the setpoint and feedback streams to this MCAP file, created or truncated (docs/formats.md,
     /// "Recordings (MCAP)"); the recording ends when the daemon exits.
     #[arg(long, value_name = "FILE.mcap")]
@@ -60,7 +65,8 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         config.sinks.shm_prefix = p;
     }
     check_can_args(args, &mut config)?;
-    let stall = args.debug_stall_planner.as_deref().map(parse_stall).transpose()?;
+    let stall = args.debug_stall_planner.as_deref().map(|s| parse_stall("--debug-stall-planner", s)).transpose()?;
+    let cycle_stall = args.debug_stall_cycle.as_deref().map(|s| parse_stall("--debug-stall-cycle", s)).transpose()?;
     let socket = args.socket.clone().unwrap_or_else(|| PathBuf::from(config.control.socket_path()));
     if args.record.is_some() && (!config.sinks.shm || args.no_shm) {
         return Err(CliError::BadInput(
@@ -80,6 +86,10 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let recorder = record_file.map(|f| start_recorder(f, &config)).transpose()?;
 
     let mut extras = ServiceExtras::default();
+    if let Some((after_s, for_s)) = cycle_stall {
+        eprintln!("interpd: debug: the real-time thread will stall for {for_s} s after {after_s} s of motion");
+        extras.debug_stall_cycle = Some(CycleStall { after_s, for_s });
+    }
     let can = if config.sinks.can.enabled() {
         let start = CanMaster::start(&config, args.candump.as_deref()).map_err(|e| CliError::Failure(e.to_string()))?;
         eprintln!(
@@ -205,8 +215,8 @@ fn start_recorder(file: RecordFile, config: &Config) -> Result<Recorder, CliErro
     Recorder::start(file, options).map_err(|e| CliError::Failure(format!("--record: {e}")))
 }
 
-fn parse_stall(s: &str) -> Result<(f64, f64), CliError> {
-    let bad = || CliError::BadInput(format!("--debug-stall-planner: expected AFTER_S:FOR_S (seconds), got {s:?}"));
+fn parse_stall(flag: &str, s: &str) -> Result<(f64, f64), CliError> {
+    let bad = || CliError::BadInput(format!("{flag}: expected AFTER_S:FOR_S (seconds), got {s:?}"));
     let (a, b) = s.split_once(':').ok_or_else(bad)?;
     let (a, b): (f64, f64) = (a.trim().parse().map_err(|_| bad())?, b.trim().parse().map_err(|_| bad())?);
     if !(a.is_finite() && b.is_finite() && a >= 0.0 && b > 0.0 && b <= 60.0) {

@@ -23,6 +23,8 @@ mod rt_loop;
 mod state;
 mod supervisor;
 
+pub use rt_loop::CycleStall;
+
 use crate::interp::Notice;
 use crate::interp::executor::ExecutorFaults;
 use crate::rt::{self, LoopTotals, TimingSample, sched::SchedReport, stats::CycleHistograms};
@@ -63,6 +65,8 @@ pub struct ServiceExtras {
     pub sinks: Vec<Box<dyn SetpointSink + Send>>,
     pub drives: Option<Arc<dyn DriveMonitor>>,
     pub start_position: Option<[f64; MAX_AXES]>,
+    /// Testing aid: one stalled cycle of the real-time thread (see [`CycleStall`]).
+    pub debug_stall_cycle: Option<CycleStall>,
 }
 
 /// Why the service could not start.
@@ -155,7 +159,7 @@ impl Service {
 
     /// [`Service::start`] with extra sinks and drives (see [`ServiceExtras`]).
     pub fn start_with(opts: ServiceOptions, extras: ServiceExtras) -> Result<Service, StartupError> {
-        let ServiceExtras { sinks: extra_sinks, drives, start_position } = extras;
+        let ServiceExtras { sinks: extra_sinks, drives, start_position, debug_stall_cycle } = extras;
         // Before any thread starts: they all inherit it; the real-time thread pins itself.
         match rt::sched::keep_off_rt_cpu(&opts.config.rt) {
             Ok(cpu) => tracing::info!(cpu, "non-real-time threads kept off the real-time CPU"),
@@ -213,7 +217,7 @@ impl Service {
         let rt_shared = shared.clone();
         let rt = std::thread::Builder::new()
             .name("interpd-rt".into())
-            .spawn(move || rt_loop::run(rt_shared, sinks, start_position, ready_tx))
+            .spawn(move || rt_loop::run(rt_shared, sinks, start_position, debug_stall_cycle, ready_tx))
             .map_err(thread_err("real-time"))?;
         let Ok(sched) = ready_rx.recv() else { return Err(StartupError::RealTimeExited) };
 

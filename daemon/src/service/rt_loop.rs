@@ -15,6 +15,7 @@ use interpd_motion::path::MAX_AXES;
 use interpd_protocol::shm::{Setpoints, flags};
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
+use std::time::Duration;
 
 /// Delay from start-up to the first cycle (lets the threads settle).
 const FIRST_CYCLE_DELAY_NS: u64 = 20_000_000;
@@ -23,12 +24,23 @@ const FIRST_CYCLE_DELAY_NS: u64 = 20_000_000;
 /// the shared cache line rarely.
 const PUBLISH_ERRORS_EVERY: u64 = 256;
 
+/// Testing aid (`interpd run --debug-stall-cycle`): the real-time thread sleeps once for
+/// `for_s` in the first cycle after `after_s` seconds of running motion, before the sinks
+/// publish, so that cycle's setpoint (and its SYNC on CAN) comes late by that much. The
+/// drives' SYNC watchdog is tested with it; a sleep neither allocates nor locks.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CycleStall {
+    pub after_s: f64,
+    pub for_s: f64,
+}
+
 /// The thread's body: applies the real-time scheduling, reports it on `ready`, then runs the
 /// cycles until `shared.quit`.
 pub(super) fn run(
     shared: Arc<Shared>,
     mut sinks: Vec<Box<dyn SetpointSink + Send>>,
     start_position: Option<[f64; MAX_AXES]>,
+    stall: Option<CycleStall>,
     ready: Sender<SchedReport>,
 ) -> (LoopTotals, ExecutorFaults) {
     let sched = rt::sched::apply(&shared.config.rt);
@@ -40,6 +52,9 @@ pub(super) fn run(
     let dt_s = period_ns as f64 * 1e-9;
     let start_ns = rt::clock::now_ns() + FIRST_CYCLE_DELAY_NS;
     let mut publish_errors = 0u64;
+    // The stall as (cycles of running motion before it, its length).
+    let mut stall = stall.map(|s| ((s.after_s / dt_s).round().max(1.0) as u64, Duration::from_secs_f64(s.for_s)));
+    let mut running_cycles = 0u64;
     let totals = rt::run_loop(start_ns, period_ns, &shared.quit, &shared.timing, |cycle, deadline_ns, late| {
         let io = Io {
             chunks: &shared.queues.chunks,
@@ -53,6 +68,15 @@ pub(super) fn run(
         sp.time_ns = deadline_ns;
         if late {
             sp.flags |= flags::LATE;
+        }
+        if let Some((after, pause)) = stall {
+            if sp.flags & flags::RUNNING != 0 {
+                running_cycles += 1;
+                if running_cycles >= after {
+                    std::thread::sleep(pause);
+                    stall = None;
+                }
+            }
         }
         for sink in sinks.iter_mut() {
             if sink.publish(&sp).is_err() {

@@ -10,8 +10,8 @@
 pub mod params;
 pub mod status;
 
-pub use params::{LawParams, LoadParams, OverrideParams};
-pub use status::{CycleStats, DriveStatus, Percentiles, ProgramInfo, State, Status};
+pub use params::{JogMode, JogParams, LawParams, LoadParams, MdiParams, MoveToParams, OverrideParams};
+pub use status::{CycleStats, DriveStatus, ManualStatus, Percentiles, ProgramInfo, State, Status};
 
 use crate::jsonrpc::params::Params;
 use crate::jsonrpc::{ErrorObject, Notification};
@@ -59,10 +59,14 @@ pub enum Method {
     Status,
     Subscribe,
     MotionLaw,
+    MotionJog,
+    MotionJogStop,
+    MotionMoveTo,
+    Mdi,
 }
 
 impl Method {
-    pub const ALL: [Method; 9] = [
+    pub const ALL: [Method; 13] = [
         Method::ProgramLoad,
         Method::MotionStart,
         Method::MotionHold,
@@ -72,6 +76,10 @@ impl Method {
         Method::Status,
         Method::Subscribe,
         Method::MotionLaw,
+        Method::MotionJog,
+        Method::MotionJogStop,
+        Method::MotionMoveTo,
+        Method::Mdi,
     ];
 
     /// The wire name, e.g. `"motion.start"`.
@@ -86,6 +94,10 @@ impl Method {
             Method::Status => "status",
             Method::Subscribe => "subscribe",
             Method::MotionLaw => "motion.law",
+            Method::MotionJog => "motion.jog",
+            Method::MotionJogStop => "motion.jog_stop",
+            Method::MotionMoveTo => "motion.move_to",
+            Method::Mdi => "mdi",
         }
     }
 
@@ -137,6 +149,10 @@ pub enum Call {
     Status,
     Subscribe,
     MotionLaw(LawParams),
+    MotionJog(JogParams),
+    MotionJogStop,
+    MotionMoveTo(MoveToParams),
+    Mdi(MdiParams),
 }
 
 impl Call {
@@ -149,6 +165,10 @@ impl Call {
             Method::ProgramLoad => Call::ProgramLoad(LoadParams::parse(params)?),
             Method::FeedOverride => Call::FeedOverride(OverrideParams::parse(params)?),
             Method::MotionLaw => Call::MotionLaw(LawParams::parse(params)?),
+            Method::MotionJog => Call::MotionJog(JogParams::parse(params)?),
+            Method::MotionMoveTo => Call::MotionMoveTo(MoveToParams::parse(params)?),
+            Method::Mdi => Call::Mdi(MdiParams::parse(params)?),
+            Method::MotionJogStop => params::none(m, params).map(|()| Call::MotionJogStop)?,
             Method::MotionStart => params::none(m, params).map(|()| Call::MotionStart)?,
             Method::MotionHold => params::none(m, params).map(|()| Call::MotionHold)?,
             Method::MotionResume => params::none(m, params).map(|()| Call::MotionResume)?,
@@ -169,6 +189,10 @@ impl Call {
             Call::Status => Method::Status,
             Call::Subscribe => Method::Subscribe,
             Call::MotionLaw(_) => Method::MotionLaw,
+            Call::MotionJog(_) => Method::MotionJog,
+            Call::MotionJogStop => Method::MotionJogStop,
+            Call::MotionMoveTo(_) => Method::MotionMoveTo,
+            Call::Mdi(_) => Method::Mdi,
         }
     }
 }
@@ -221,6 +245,33 @@ pub struct LawResult {
     pub length_mm: f64,
 }
 
+/// Result of `motion.move_to`: the move's duration as planned (it has started).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct MoveToResult {
+    /// Time from the start (or the handover instant, when it replaces a running manual motion)
+    /// until every axis has reached the target, s.
+    pub duration_s: f64,
+}
+
+/// Result of `mdi`: the blocks as parsed (they have started).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct MdiResult {
+    /// Geometry elements of the blocks.
+    pub elements: u64,
+    /// Path length, mm.
+    pub length_mm: f64,
+}
+
+/// What kind of manual motion (`jogging` state) runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ManualKind {
+    /// `motion.jog`, continuous or by a distance.
+    Jog,
+    /// `motion.move_to`.
+    MoveTo,
+}
+
 // ---------------------------------------------------------------------------------------------
 // Events
 // ---------------------------------------------------------------------------------------------
@@ -249,12 +300,31 @@ pub enum Event {
     Finished { duration_s: f64 },
     /// Motion was aborted; `message` says why.
     Error { message: String },
+    /// A manual motion (`motion.jog`, `motion.move_to`) was accepted and its first cycle ran.
+    Jogging { kind: ManualKind },
+    /// A jog reached the point where it must brake to stop at the soft limit `limit` of `axis`
+    /// (axis unit); it stops there.
+    JogLimitReached { axis: String, limit: f64 },
+    /// A manual motion ended: the machine stands after `duration_s` of motion.
+    JogDone { kind: ManualKind, duration_s: f64 },
 }
 
 impl Event {
     /// The `event` tag of every variant, in declaration order.
-    pub const NAMES: [&'static str; 9] =
-        ["started", "line_reached", "underrun", "underrun_cleared", "held", "resumed", "stopped", "finished", "error"];
+    pub const NAMES: [&'static str; 12] = [
+        "started",
+        "line_reached",
+        "underrun",
+        "underrun_cleared",
+        "held",
+        "resumed",
+        "stopped",
+        "finished",
+        "error",
+        "jogging",
+        "jog_limit_reached",
+        "jog_done",
+    ];
 
     pub fn name(&self) -> &'static str {
         match self {
@@ -267,6 +337,9 @@ impl Event {
             Event::Stopped => "stopped",
             Event::Finished { .. } => "finished",
             Event::Error { .. } => "error",
+            Event::Jogging { .. } => "jogging",
+            Event::JogLimitReached { .. } => "jog_limit_reached",
+            Event::JogDone { .. } => "jog_done",
         }
     }
 

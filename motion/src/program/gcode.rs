@@ -62,7 +62,8 @@ impl Plane {
 }
 
 /// The modal state a controller keeps between blocks.
-struct Modal {
+#[derive(Debug, Clone)]
+pub(crate) struct Modal {
     motion: Option<Motion>,
     plane: Plane,
     /// mm per program length unit (1 for G21, 25.4 for G20).
@@ -70,7 +71,7 @@ struct Modal {
     absolute: bool,
     feed_mm_s: Option<f64>,
     blend: Blend,
-    pos: AxisVec,
+    pub(super) pos: AxisVec,
 }
 
 /// A span record inside a G06 block.
@@ -122,6 +123,16 @@ impl Block<'_> {
 }
 
 impl<'a> Interpreter<'a> {
+    /// The modal state a program starts with: G17, G21, G90, no feed and no motion mode yet,
+    /// the `[prep]` blend, at `pos`.
+    pub(super) fn initial_modal(settings: &Settings, pos: AxisVec) -> Modal {
+        let blend = match settings.prep.mode {
+            interpd_config::PrepMode::Exact => Blend::Exact,
+            interpd_config::PrepMode::Smooth => Blend::Tolerance { tol_mm: settings.prep.tolerance_mm },
+        };
+        Modal { motion: None, plane: Plane::Xy, unit_mm: 1.0, absolute: true, feed_mm_s: None, blend, pos }
+    }
+
     pub(super) fn new(settings: &'a Settings) -> Self {
         let mut linear = [false; MAX_AXES];
         for (k, a) in settings.axes.iter().enumerate() {
@@ -150,6 +161,19 @@ impl<'a> Interpreter<'a> {
             summary: Summary::default(),
             ended: false,
         }
+    }
+
+    /// An interpreter that continues from `modal` (its position is where the path starts).
+    pub(super) fn resume(settings: &'a Settings, modal: Modal) -> Self {
+        let mut interp = Self::new(settings);
+        interp.path = Path::new(settings.axis_names(), modal.pos);
+        interp.modal = modal;
+        interp
+    }
+
+    /// The modal state after the lines fed so far.
+    pub(super) fn modal(&self) -> &Modal {
+        &self.modal
     }
 
     /// Feeds one source line (1-based number).

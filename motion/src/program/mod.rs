@@ -99,6 +99,52 @@ pub fn load(path: &std::path::Path, settings: &Settings) -> Result<Program, Prog
     }
 }
 
+/// The G-code modal state between blocks (motion mode, plane, units, G90/G91, feed, G61/G64,
+/// position): what a controller carries from one MDI block to the next.
+#[derive(Debug, Clone)]
+pub struct ModalState(gcode::Modal);
+
+impl ModalState {
+    /// The state a program starts with (G17 G21 G90, no feed, the `[prep]` blend) at `pos`.
+    pub fn new(settings: &Settings, pos: crate::path::AxisVec) -> Self {
+        ModalState(gcode::Interpreter::initial_modal(settings, pos))
+    }
+
+    /// Where the next block starts.
+    pub fn position(&self) -> &crate::path::AxisVec {
+        &self.0.pos
+    }
+
+    /// Moves the position (the machine was moved by other means), keeping the modes.
+    pub fn set_position(&mut self, pos: crate::path::AxisVec) {
+        self.0.pos = pos;
+    }
+}
+
+/// Parses G-code `text` as a continuation from `modal`: the path starts at its position, and
+/// on success `modal` becomes the state after the text (on error it is left as it was).
+pub fn parse_gcode_from(
+    text: &str,
+    origin: &str,
+    settings: &Settings,
+    modal: &mut ModalState,
+) -> Result<Program, ProgramErrors> {
+    let mut d = Diagnostics::new(origin);
+    let mut interp = gcode::Interpreter::resume(settings, modal.0.clone());
+    for (i, line) in text.lines().enumerate() {
+        if d.full() {
+            break;
+        }
+        interp.line(line, i as u32 + 1, &mut d);
+    }
+    interp.finish(&mut d);
+    if !d.errors.is_empty() {
+        return Err(ProgramErrors(d.errors));
+    }
+    modal.0 = interp.modal().clone();
+    Ok(Program { path: interp.path, summary: interp.summary })
+}
+
 fn parse_gcode(text: &str, settings: &Settings, d: &mut Diagnostics) -> Program {
     let mut interp = gcode::Interpreter::new(settings);
     for (i, line) in text.lines().enumerate() {

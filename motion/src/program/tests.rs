@@ -184,3 +184,22 @@ proptest::proptest! {
         proptest::prop_assert!((p.path.length_mm() - len).abs() < 1e-9);
     }
 }
+
+#[test]
+fn gcode_continues_from_a_modal_state() {
+    let settings = xyz();
+    let mut pos = [0.0; crate::path::MAX_AXES];
+    pos[0] = 5.0;
+    let mut modal = ModalState::new(&settings, pos);
+    let first = parse_gcode_from("G91 G1 X10 F600", "mdi", &settings, &mut modal).unwrap();
+    assert_eq!(first.path.start[0], 5.0);
+    assert_eq!(modal.position()[0], 15.0);
+    // G91, G1 and F carry over.
+    let second = parse_gcode_from("Y2", "mdi", &settings, &mut modal).unwrap();
+    assert_eq!(second.path.elements.len(), 1);
+    assert_eq!((modal.position()[0], modal.position()[1]), (15.0, 2.0));
+    // An error leaves the state as it was.
+    let e = parse_gcode_from("G1 X F600", "mdi", &settings, &mut modal).unwrap_err();
+    assert_eq!((e.0[0].line, e.0[0].col), (1, 4));
+    assert_eq!(modal.position()[1], 2.0);
+}

@@ -268,3 +268,130 @@ impl LawParams {
         LAW.members::<LawParams>(params)
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// motion.jog, motion.move_to, mdi
+// ---------------------------------------------------------------------------------------------
+
+/// How `motion.jog` reads its axis values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum JogMode {
+    /// Continuous jog: each value is a velocity (axis unit/s, signed) held until
+    /// `motion.jog_stop`, a changed jog or a soft limit.
+    #[default]
+    Velocity,
+    /// Incremental jog: each value is a distance (axis unit, signed).
+    Distance,
+}
+
+/// `motion.jog` parameters, e.g. `{"axes": {"X": 20.0}}` or
+/// `{"axes": {"X": 0.1}, "mode": "distance"}`. Axis names are checked by the daemon.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JogParams {
+    pub axes: std::collections::BTreeMap<String, f64>,
+    #[serde(default)]
+    pub mode: JogMode,
+}
+
+/// `motion.move_to` parameters, e.g. `{"target": {"X": 10, "Y": 5}, "velocity_factor": 0.5}`;
+/// `velocity` optionally gives target velocities per axis (axis unit/s) for blending into a
+/// following command.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MoveToParams {
+    pub target: std::collections::BTreeMap<String, f64>,
+    #[serde(default)]
+    pub velocity: std::collections::BTreeMap<String, f64>,
+    #[serde(default = "one")]
+    pub velocity_factor: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// `mdi` parameters: `{"line": "G1 X10 Y5 F600"}` (one or a few blocks, `\n`-separated).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MdiParams {
+    pub line: String,
+}
+
+const JOG: Usage = Usage {
+    method: Method::MotionJog,
+    example: r#"{"axes": {"X": 20.0}} (velocities, unit/s) or {"axes": {"X": 0.1}, "mode": "distance"}"#,
+    known: r#""axes" and an optional "mode" ("velocity" or "distance")"#,
+    missing: ("axes", r#"missing parameter "axes""#),
+};
+
+const MOVE_TO: Usage = Usage {
+    method: Method::MotionMoveTo,
+    example: r#"{"target": {"X": 10, "Y": 5}, "velocity_factor": 1.0}"#,
+    known: r#""target", optional "velocity" (per axis) and "velocity_factor" (0 < f <= 1)"#,
+    missing: ("target", r#"missing parameter "target""#),
+};
+
+const MDI: Usage = Usage {
+    method: Method::Mdi,
+    example: r#"{"line": "G1 X10 Y5 F600"}"#,
+    known: r#"{"line": "G1 X10 Y5 F600"}"#,
+    missing: ("line", r#"missing parameter "line""#),
+};
+
+/// Every value of an axis map is finite; `param` names the map.
+fn finite_axes(map: &std::collections::BTreeMap<String, f64>, param: &str) -> Result<(), (String, String)> {
+    for (axis, v) in map {
+        if !v.is_finite() {
+            return Err((format!("{param}.{axis}"), format!("\"{param}\".{axis} must be a finite number, got {v}")));
+        }
+    }
+    Ok(())
+}
+
+impl JogParams {
+    pub fn parse(params: Params) -> Result<JogParams, ErrorObject> {
+        let p = JOG.members::<JogParams>(params)?;
+        if p.axes.is_empty() {
+            return Err(JOG.refuse(Some("axes"), "\"axes\" names no axis; expected e.g. {\"X\": 20.0}"));
+        }
+        finite_axes(&p.axes, "axes").map_err(|(param, d)| JOG.refuse(Some(&param), &d))?;
+        Ok(p)
+    }
+}
+
+impl MoveToParams {
+    pub fn parse(params: Params) -> Result<MoveToParams, ErrorObject> {
+        let p = MOVE_TO.members::<MoveToParams>(params)?;
+        if p.target.is_empty() {
+            return Err(MOVE_TO.refuse(Some("target"), "\"target\" names no axis; expected e.g. {\"X\": 10}"));
+        }
+        finite_axes(&p.target, "target").map_err(|(param, d)| MOVE_TO.refuse(Some(&param), &d))?;
+        finite_axes(&p.velocity, "velocity").map_err(|(param, d)| MOVE_TO.refuse(Some(&param), &d))?;
+        if let Some(axis) = p.velocity.keys().find(|a| !p.target.contains_key(*a)) {
+            return Err(MOVE_TO.refuse(
+                Some(&format!("velocity.{axis}")),
+                &format!("\"velocity\" names axis {axis:?}, which \"target\" does not"),
+            ));
+        }
+        let f = p.velocity_factor;
+        if !(f > 0.0 && f <= 1.0) {
+            return Err(MOVE_TO.refuse(
+                Some("velocity_factor"),
+                &format!("\"velocity_factor\" {f} is out of range: it must be above 0 and at most 1"),
+            ));
+        }
+        Ok(p)
+    }
+}
+
+impl MdiParams {
+    pub fn parse(params: Params) -> Result<MdiParams, ErrorObject> {
+        let p = MDI.members::<MdiParams>(params)?;
+        if p.line.trim().is_empty() {
+            return Err(MDI.refuse(Some("line"), "\"line\" is empty"));
+        }
+        Ok(p)
+    }
+}

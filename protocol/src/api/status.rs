@@ -24,11 +24,13 @@ pub enum State {
     Finished,
     /// Motion was aborted by an error (see `last_error`).
     Error,
+    /// A manual motion (`motion.jog`, `motion.move_to`) is in progress.
+    Jogging,
 }
 
 impl State {
-    pub const ALL: [State; 6] =
-        [State::Idle, State::Running, State::Holding, State::Stopping, State::Finished, State::Error];
+    pub const ALL: [State; 7] =
+        [State::Idle, State::Running, State::Holding, State::Stopping, State::Finished, State::Error, State::Jogging];
 
     pub const fn as_str(self) -> &'static str {
         match self {
@@ -38,6 +40,7 @@ impl State {
             State::Stopping => "stopping",
             State::Finished => "finished",
             State::Error => "error",
+            State::Jogging => "jogging",
         }
     }
 }
@@ -156,6 +159,18 @@ pub struct Status {
     /// send failures by errno class, error frames, candump log records); absent without CAN.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub can_bus: Option<Value>,
+    /// The manual motion running or run last (`motion.jog`, `motion.move_to`); `null` until
+    /// the first one, and again after a program or MDI start.
+    pub manual: Option<ManualStatus>,
+}
+
+/// The manual motion in `status.manual`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ManualStatus {
+    pub kind: super::ManualKind,
+    /// Axes whose jog brakes to (or stands at) a soft limit, in configuration order.
+    #[serde(default)]
+    pub limit_reached: Vec<String>,
 }
 
 impl Default for Status {
@@ -176,6 +191,7 @@ impl Default for Status {
             position: Vec::new(),
             drives: Vec::new(),
             can_bus: None,
+            manual: None,
         }
     }
 }

@@ -2,7 +2,7 @@
 //! requests, notifications, batches), the calls into [`Motion`], and the error codes of its
 //! refusals.
 
-use super::errors::{LawError, LoadError, NotAllowed, ResumeError, StartError};
+use super::errors::{LawError, LoadError, ManualError, NotAllowed, ResumeError, StartError};
 use super::motion::{Motion, ProgramSource};
 use interpd_protocol::api::{self, Ack, Call, Event, LoadParams, OverrideResult, Subscribed, codes};
 use interpd_protocol::jsonrpc::{self, ErrorObject, Id, Incoming, Invalid, Request, Response};
@@ -156,6 +156,25 @@ impl Context {
                 *self.start_owner.lock().unwrap_or_else(|p| p.into_inner()) = Some(session.id);
                 to_value(&figures)
             }
+            Call::MotionJog(p) => {
+                motion.jog(&p)?;
+                *self.start_owner.lock().unwrap_or_else(|p| p.into_inner()) = Some(session.id);
+                to_value(&Ack::default())
+            }
+            Call::MotionJogStop => {
+                let Ok(()) = motion.jog_stop();
+                to_value(&Ack::default())
+            }
+            Call::MotionMoveTo(p) => {
+                let result = motion.move_to(&p)?;
+                *self.start_owner.lock().unwrap_or_else(|p| p.into_inner()) = Some(session.id);
+                to_value(&result)
+            }
+            Call::Mdi(p) => {
+                let result = motion.mdi(&p)?;
+                *self.start_owner.lock().unwrap_or_else(|p| p.into_inner()) = Some(session.id);
+                to_value(&result)
+            }
             Call::FeedOverride(p) => {
                 let Ok(()) = motion.set_override(p.factor);
                 tracing::info!(conn = session.id, factor = p.factor, "feed override");
@@ -242,6 +261,25 @@ impl From<LawError> for ErrorObject {
             LawError::Start(e) => return e.into(),
             LawError::NotAStatement { .. } | LawError::Unsupported => codes::INVALID_PARAMS,
             LawError::Laws(_) => codes::BAD_PROGRAM,
+        };
+        ErrorObject::new(code, e.to_string())
+    }
+}
+
+impl From<ManualError> for ErrorObject {
+    fn from(e: ManualError) -> ErrorObject {
+        let code = match &e {
+            ManualError::NotAllowed(e) => return (*e).into(),
+            ManualError::Param { method, param, detail } => {
+                return ErrorObject::invalid_params(method.name(), Some(param), detail);
+            }
+            ManualError::Moving { method, .. } => {
+                return ErrorObject::new(codes::NOT_ALLOWED, e.to_string())
+                    .with_data(serde_json::json!({ "action": method }));
+            }
+            ManualError::Program(_) | ManualError::Prep(_) => codes::BAD_PROGRAM,
+            ManualError::DrivesNotReady(_) => codes::DRIVES_NOT_READY,
+            ManualError::PlannerGone => codes::INTERNAL_ERROR,
         };
         ErrorObject::new(code, e.to_string())
     }

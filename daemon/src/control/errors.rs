@@ -85,6 +85,32 @@ pub enum LawError {
     Unsupported,
 }
 
+/// `motion.jog`, `motion.move_to` and `mdi` refused or failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ManualError {
+    #[error(transparent)]
+    NotAllowed(#[from] NotAllowed),
+    /// A parameter the daemon checks against the machine (−32602, `data.param` names it): an
+    /// unknown axis, a target outside the travel, a velocity above the limit.
+    #[error("invalid params for {method}: {detail}")]
+    Param { method: Method, param: String, detail: String },
+    /// The machine still moves (a hold or a `motion.jog_stop` brakes) (−32002).
+    #[error("{method} is not allowed while the machine {what}: wait until it stands (the held or jog_done event)")]
+    Moving { method: Method, what: &'static str },
+    /// The MDI blocks do not parse (−32001), with line and column.
+    #[error("bad program: {0}")]
+    Program(#[from] ProgramErrors),
+    /// The tolerance-band smoothing of the MDI blocks failed (−32001).
+    #[error("bad program: mdi: {0}")]
+    Prep(PrepError),
+    /// A CAN drive is not ready (−32005).
+    #[error(transparent)]
+    DrivesNotReady(#[from] DrivesNotReady),
+    /// The planner thread is gone (−32603).
+    #[error("internal error: the planner thread has ended")]
+    PlannerGone,
+}
+
 /// What a person can do when `action` is refused in `state`: the state machine's next step,
 /// phrased with the API's method names.
 pub fn hint(action: Method, state: State) -> &'static str {
@@ -103,6 +129,13 @@ pub fn hint(action: Method, state: State) -> &'static str {
         (MotionResume, Idle) => "load a program and call motion.start first",
         (MotionResume, Running) => "motion is not held; motion.resume applies after motion.hold",
         (MotionResume, Finished) => "the program has finished; load a program and call motion.start",
+        (MotionJog | MotionMoveTo | Mdi, Running) => {
+            "a program runs; hold it with motion.hold (then jog, move or run MDI from the hold) or stop it"
+        }
+        (MotionJog | MotionMoveTo | Mdi, Holding) => {
+            "a held MDI block or return move comes first: call motion.resume or motion.stop"
+        }
+        (Mdi, Jogging) => "a manual motion runs; end it with motion.jog_stop and wait for the jog_done event",
         _ => "check the state with status",
     }
 }

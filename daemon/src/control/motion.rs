@@ -4,8 +4,10 @@
 //! operation's error type in [`super::errors`]) into a JSON-RPC error object. Parameters
 //! arrive already checked: types, presence, and the override range 0.0..=2.0.
 
-use super::errors::{LawError, LoadError, NotAllowed, ResumeError, StartError};
-use interpd_protocol::api::{Event, LawResult, ProgramInfo, Status};
+use super::errors::{LawError, LoadError, ManualError, NotAllowed, ResumeError, StartError};
+use interpd_protocol::api::{
+    Event, JogParams, LawResult, MdiParams, MdiResult, MoveToParams, MoveToResult, ProgramInfo, Status,
+};
 use std::convert::Infallible;
 use std::path::PathBuf;
 
@@ -69,4 +71,21 @@ pub trait Motion: Send + Sync + 'static {
         let _ = statement;
         Err(LawError::Unsupported)
     }
+
+    /// Jogs (`motion.jog`): continuous at velocities or by distances; replaces a running jog or
+    /// move-to from the end of its queued motion. Allowed while idle, finished, holding (the
+    /// machine standing) and jogging.
+    fn jog(&self, params: &JogParams) -> Result<(), ManualError>;
+
+    /// Ends a manual motion (`motion.jog_stop`): every axis's fastest stop at the end of the
+    /// running chunk. A no-op when no manual motion runs.
+    fn jog_stop(&self) -> Result<(), Infallible>;
+
+    /// Moves the named axes to a target (`motion.move_to`), time-synchronised. Allowed where
+    /// [`Motion::jog`] is.
+    fn move_to(&self, params: &MoveToParams) -> Result<MoveToResult, ManualError>;
+
+    /// Runs G-code blocks (`mdi`) through the program path from where the machine stands, the
+    /// modal state carried from the previous call. Allowed while idle, finished and holding.
+    fn mdi(&self, params: &MdiParams) -> Result<MdiResult, ManualError>;
 }

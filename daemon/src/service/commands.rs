@@ -6,12 +6,19 @@
 use super::approach;
 use super::feeder::{self, FeederCommand, QUEUE_CHUNKS};
 use super::law_run;
-use super::state::{Control, Loaded, OVERRIDE_HOLD_BELOW};
+use super::manual::{ManualGoal, ManualPart, ManualPlanError};
+use super::state::{Control, Loaded, OVERRIDE_HOLD_BELOW, RunKind};
 use super::{SUBSCRIBER_CAPACITY, ServiceCore, lock};
-use crate::control::{LawError, LoadError, Motion, NotAllowed, ProgramSource, ResumeError, StartError};
+use crate::control::{LawError, LoadError, ManualError, Motion, NotAllowed, ProgramSource, ResumeError, StartError};
 use crossbeam::channel::{self, Receiver};
-use interpd_protocol::api::{Event, LawResult, Method, ProgramInfo, State, Status};
+use interpd_motion::path::MAX_AXES;
+use interpd_motion::program::{self, ModalState};
+use interpd_protocol::api::{
+    Event, JogMode, JogParams, LawResult, ManualStatus, MdiParams, MdiResult, Method, MoveToParams, MoveToResult,
+    ProgramInfo, State, Status,
+};
 use interpd_protocol::shm::flags;
+use std::collections::BTreeMap;
 use std::convert::Infallible;
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
@@ -30,14 +37,94 @@ impl ServiceCore {
     }
 
     /// Resumes a hold (the control lock held): the planner thread replans from where the
-    /// machine stands, or from where it will stand once the tail has run.
+    /// machine stands, or from where it will stand once the tail has run. A program left by a
+    /// manual motion or an MDI first moves back to the point it was held at.
     fn resume_locked(&self, ctl: &mut Control) {
         let shared = &self.shared;
+        let command = if ctl.excursion && ctl.kind == RunKind::Program {
+            ctl.excursion = false;
+            FeederCommand::ResumeSuspended { epoch: ctl.epochs.start(), here: shared.live.load().pos }
+        } else {
+            FeederCommand::Resume
+        };
         shared.hold.store(false, Ordering::SeqCst);
         ctl.state = State::Running;
         ctl.held_by_override = false;
-        let _ = shared.feeder.send(FeederCommand::Resume);
+        let _ = shared.feeder.send(command);
         shared.emit(Event::Resumed);
+    }
+
+    /// Ends a manual motion (the control lock held): its axes stop at the end of the running
+    /// chunk (every chunk's tail is their fastest stop).
+    fn jog_stop_locked(&self, ctl: &mut Control) {
+        if ctl.state == State::Jogging {
+            self.shared.hold.store(true, Ordering::SeqCst);
+            ctl.manual_braking = true;
+        }
+    }
+
+    /// The machine stands (its setpoint is flagged idle).
+    fn standing(&self) -> bool {
+        self.shared.live.load().flags & flags::IDLE != 0
+    }
+
+    /// Axis index of `name`, or a refusal naming `param.name`.
+    fn axis_index(&self, method: Method, param: &str, name: &str) -> Result<usize, ManualError> {
+        let names = self.shared.config.axis_names();
+        names.iter().position(|n| n == name).ok_or_else(|| ManualError::Param {
+            method,
+            param: format!("{param}.{name}"),
+            detail: format!("unknown axis {name:?} in \"{param}\"; this machine has {}", names.join(", ")),
+        })
+    }
+
+    /// Per-axis values of a parameter map, by axis index.
+    fn axis_values(
+        &self,
+        method: Method,
+        param: &str,
+        map: &BTreeMap<String, f64>,
+    ) -> Result<[Option<f64>; MAX_AXES], ManualError> {
+        let mut out = [None; MAX_AXES];
+        for (name, v) in map {
+            out[self.axis_index(method, param, name)?] = Some(*v);
+        }
+        Ok(out)
+    }
+
+    /// Starts the manual motion `goal`, or hands it to the running one (checked already).
+    fn start_manual(&self, ctl: &mut Control, goal: ManualGoal) -> Result<(), ManualError> {
+        let shared = &self.shared;
+        let kind = goal.kind();
+        if ctl.state == State::Jogging {
+            if let Some(m) = ctl.manual.as_mut() {
+                m.kind = kind;
+            }
+            return shared.feeder.send(FeederCommand::Manual(goal)).map_err(|_| ManualError::PlannerGone);
+        }
+        if let Some(drives) = &shared.drives {
+            drives.ready_for_motion()?;
+        }
+        let suspend = ctl.state == State::Holding;
+        let epoch = ctl.epochs.start();
+        ctl.excursion |= suspend;
+        ctl.state = State::Jogging;
+        ctl.kind = RunKind::Manual;
+        ctl.start_event_pending = true;
+        ctl.underrun = false;
+        ctl.last_error = None;
+        ctl.manual = Some(ManualStatus { kind, limit_reached: Vec::new() });
+        ctl.manual_braking = false;
+        shared.hold.store(false, Ordering::SeqCst);
+        shared.stop.store(false, Ordering::SeqCst);
+        let command = FeederCommand::StartManual {
+            goal,
+            here: shared.live.load().pos,
+            epoch,
+            feed_override: ctl.planned_override(),
+            suspend,
+        };
+        shared.feeder.send(command).map_err(|_| ManualError::PlannerGone)
     }
 
     /// Lets the planner thread stall once (underrun tests and demonstrations).
@@ -100,7 +187,7 @@ impl Motion for ServiceCore {
         let feed_override = ctl.planned_override();
         let command = match motion {
             (path, Some(laws)) => FeederCommand::StartLaws { path: Arc::new(path), laws, epoch, feed_override },
-            (path, None) => FeederCommand::Start { path: Arc::new(path), epoch, feed_override },
+            (path, None) => FeederCommand::Start { path: Arc::new(path), epoch, feed_override, suspend: false },
         };
         shared.feeder.send(command).map_err(|_| StartError::PlannerGone)
     }
@@ -108,7 +195,11 @@ impl Motion for ServiceCore {
     fn hold(&self) -> Result<(), NotAllowed> {
         let mut ctl = lock(&self.shared.control);
         ctl.check(Method::MotionHold)?;
-        self.hold_locked(&mut ctl);
+        if ctl.state == State::Jogging {
+            self.jog_stop_locked(&mut ctl);
+        } else {
+            self.hold_locked(&mut ctl);
+        }
         Ok(())
     }
 
@@ -137,6 +228,11 @@ impl Motion for ServiceCore {
                 ctl.last_error = None;
                 let _ = shared.feeder.send(FeederCommand::Abort);
             }
+            State::Jogging => {
+                shared.stop.store(true, Ordering::SeqCst);
+                ctl.state = State::Stopping;
+                let _ = shared.feeder.send(FeederCommand::Abort);
+            }
             State::Idle | State::Finished | State::Stopping => {}
         }
         Ok(())
@@ -146,6 +242,7 @@ impl Motion for ServiceCore {
         let mut ctl = lock(&self.shared.control);
         ctl.feed_override = factor;
         if factor < OVERRIDE_HOLD_BELOW {
+            self.jog_stop_locked(&mut ctl);
             if ctl.state == State::Running {
                 ctl.held_by_override = true;
                 self.hold_locked(&mut ctl);
@@ -183,6 +280,7 @@ impl Motion for ServiceCore {
             position: live.pos[..n].to_vec(),
             drives: shared.drives.as_ref().map(|d| d.drives()).unwrap_or_default(),
             can_bus: shared.drives.as_ref().and_then(|d| d.bus()),
+            manual: ctl.manual.clone(),
         }
     }
 
@@ -190,5 +288,142 @@ impl Motion for ServiceCore {
         let (tx, rx) = channel::bounded(SUBSCRIBER_CAPACITY);
         lock(&self.shared.subscribers).push(tx);
         rx
+    }
+
+    fn jog(&self, params: &JogParams) -> Result<(), ManualError> {
+        const M: Method = Method::MotionJog;
+        let values = self.axis_values(M, "axes", &params.axes)?;
+        let mut ctl = lock(&self.shared.control);
+        ctl.check_manual(M, self.standing())?;
+        if ctl.feed_override < OVERRIDE_HOLD_BELOW {
+            return Err(ManualError::Param {
+                method: M,
+                param: "axes".into(),
+                detail: "the feed override is 0 %, so a jog would not move: raise it with feed.override".into(),
+            });
+        }
+        let goal = match params.mode {
+            JogMode::Velocity => {
+                for (k, v) in values.iter().enumerate() {
+                    let (Some(v), Some(axis)) = (v, self.shared.config.axes.get(k)) else { continue };
+                    if v.abs() > axis.max_vel_per_s {
+                        return Err(ManualError::Param {
+                            method: M,
+                            param: format!("axes.{}", axis.name),
+                            detail: format!(
+                                "jog velocity {v} {unit}/s of axis {} exceeds its limit {} {unit}/s",
+                                axis.name,
+                                axis.max_vel_per_s,
+                                unit = axis.kind.unit()
+                            ),
+                        });
+                    }
+                }
+                ManualGoal::JogVelocity { vel: values }
+            }
+            JogMode::Distance => ManualGoal::JogDistance { dist: values },
+        };
+        self.start_manual(&mut ctl, goal)
+    }
+
+    fn jog_stop(&self) -> Result<(), Infallible> {
+        let mut ctl = lock(&self.shared.control);
+        self.jog_stop_locked(&mut ctl);
+        Ok(())
+    }
+
+    fn move_to(&self, params: &MoveToParams) -> Result<MoveToResult, ManualError> {
+        const M: Method = Method::MotionMoveTo;
+        let shared = &self.shared;
+        let target = self.axis_values(M, "target", &params.target)?;
+        let given_vel = self.axis_values(M, "velocity", &params.velocity)?;
+        let factor = params.velocity_factor;
+        let mut vel = [0.0; MAX_AXES];
+        for (k, axis) in shared.config.axes.iter().enumerate() {
+            let unit = axis.kind.unit();
+            if let Some(p) = target[k] {
+                if p < axis.min_pos || p > axis.max_pos {
+                    return Err(ManualError::Param {
+                        method: M,
+                        param: format!("target.{}", axis.name),
+                        detail: format!(
+                            "target {p} {unit} of axis {} is outside its travel {} to {} {unit}",
+                            axis.name, axis.min_pos, axis.max_pos
+                        ),
+                    });
+                }
+            }
+            if let Some(v) = given_vel[k] {
+                if v.abs() > axis.max_vel_per_s * factor {
+                    return Err(ManualError::Param {
+                        method: M,
+                        param: format!("velocity.{}", axis.name),
+                        detail: format!(
+                            "target velocity {v} {unit}/s of axis {} exceeds its limit {} {unit}/s × velocity_factor {factor}",
+                            axis.name, axis.max_vel_per_s
+                        ),
+                    });
+                }
+                vel[k] = v;
+            }
+        }
+        let goal = ManualGoal::MoveTo { target, vel, factor };
+        let mut ctl = lock(&shared.control);
+        ctl.check_manual(M, self.standing())?;
+        // Planned here from where the machine is now, for the checks and the duration; the
+        // planner thread plans it again from the handover state.
+        let limits = super::feeder::axis_limits(&shared.config);
+        let here = shared.live.load().pos;
+        let part = ManualPart::new(goal.clone(), here, &limits, 1.0, None).map_err(|e| match e {
+            ManualPlanError::LeavesTravel { axis, pos, min, max } => {
+                let name = shared.config.axes[axis].name;
+                ManualError::Param {
+                    method: M,
+                    param: format!("velocity.{name}"),
+                    detail: format!(
+                        "the stop after arriving at the target velocity takes axis {name} to {pos:.3}, outside its travel {min} to {max}"
+                    ),
+                }
+            }
+            ManualPlanError::Otg(e) => {
+                ManualError::Param { method: M, param: "target".into(), detail: format!("no trajectory: {e:?}") }
+            }
+        })?;
+        let duration_s = part.planned_duration_s();
+        self.start_manual(&mut ctl, goal)?;
+        Ok(MoveToResult { duration_s })
+    }
+
+    fn mdi(&self, params: &MdiParams) -> Result<MdiResult, ManualError> {
+        const NAME: &str = "mdi";
+        let shared = &self.shared;
+        let mut ctl = lock(&shared.control);
+        ctl.check_manual(Method::Mdi, self.standing())?;
+        let here = shared.live.load().pos;
+        let mut modal = ctl.mdi_modal.clone().unwrap_or_else(|| ModalState::new(&shared.settings, here));
+        modal.set_position(here);
+        let parsed = program::parse_gcode_from(&params.line, NAME, &shared.settings, &mut modal)?;
+        let prepared = interpd_motion::prep::prepare_path(&shared.settings, &parsed.path).map_err(ManualError::Prep)?;
+        ctl.mdi_modal = Some(modal);
+        let result = MdiResult { elements: prepared.path.elements.len() as u64, length_mm: prepared.path.length_mm() };
+        if prepared.path.elements.is_empty() {
+            // Modal words only (G91, F…): nothing moves.
+            return Ok(result);
+        }
+        if let Some(drives) = &shared.drives {
+            drives.ready_for_motion()?;
+        }
+        let suspend = ctl.state == State::Holding;
+        let excursion = ctl.excursion || suspend;
+        let epoch = ctl.begin_run();
+        ctl.state = State::Running;
+        ctl.kind = RunKind::Mdi;
+        ctl.excursion = excursion;
+        shared.hold.store(false, Ordering::SeqCst);
+        shared.stop.store(false, Ordering::SeqCst);
+        let feed_override = ctl.planned_override();
+        let command = FeederCommand::Start { path: Arc::new(prepared.path), epoch, feed_override, suspend };
+        shared.feeder.send(command).map_err(|_| ManualError::PlannerGone)?;
+        Ok(result)
     }
 }

@@ -6,13 +6,15 @@
 //! See [`crate::interp`] for the contract with the real-time thread.
 
 use super::law_run::LawPart;
+use super::manual::{ManualGoal, ManualPart, ManualPlanError};
+use super::otg_motion::AxisLimits;
 use crate::interp::coarse::{CoarseBuilder, CoarsePoint, split};
 use crate::interp::{Chunk, DivertCause, Epoch};
 use crossbeam::channel::{Receiver, Sender};
 use crossbeam::queue::ArrayQueue;
 use interpd_config::Config;
 use interpd_motion::Settings;
-use interpd_motion::path::{Feed, Path};
+use interpd_motion::path::{AxisVec, Feed, Path};
 use interpd_motion::planner::brake::{brake_along, next_stop_s};
 use interpd_motion::planner::{PlanError, Planner, STANDSTILL_A_MM_S2, STANDSTILL_V_MM_S, Segment};
 use std::collections::VecDeque;
@@ -24,6 +26,9 @@ pub const CHUNK_CYCLES: u32 = 8;
 /// Chunks kept queued for the real-time thread: the planner thread may stall this long
 /// (× chunk duration) without an underrun; a feed override acts after it.
 pub const QUEUE_CHUNKS: usize = 6;
+/// Chunks kept queued for a manual motion: a changed jog takes effect after them, and sampling
+/// the OTG is fast enough (tens of µs a chunk) that a shallow queue does not run dry.
+pub const MANUAL_QUEUE_CHUNKS: usize = 3;
 /// Capacity of the queues between the threads (chunks in flight never exceed it).
 pub const QUEUE_CAPACITY: usize = 16;
 /// A segment this much longer than the room left in a chunk is split rather than taken whole
@@ -40,6 +45,25 @@ pub enum FeederCommand {
         path: Arc<Path>,
         epoch: Epoch,
         feed_override: f64,
+        /// Keep the held program to resume it later (an MDI from a hold) instead of dropping it.
+        suspend: bool,
+    },
+    /// Queue the manual motion `goal` from rest at `here` as epoch `epoch`.
+    StartManual {
+        goal: ManualGoal,
+        here: AxisVec,
+        epoch: Epoch,
+        feed_override: f64,
+        /// As for `Start`.
+        suspend: bool,
+    },
+    /// A changed manual command: the running manual motion replans from the end of the queue.
+    Manual(ManualGoal),
+    /// Resume the suspended (held) program as epoch `epoch`: a move-to from `here` back to the
+    /// held point, then the rest of the program.
+    ResumeSuspended {
+        epoch: Epoch,
+        here: AxisVec,
     },
     /// Queue the motion-law moves `laws` along `path` (its lines, one per move) from its
     /// start, at rest, as epoch `epoch`. The laws' time profiles are executed as they are:
@@ -60,6 +84,7 @@ pub enum FeederCommand {
     /// The executor stands at `s_mm` after a tail.
     Stood {
         epoch: Epoch,
+        seq: u64,
         cause: DivertCause,
         s_mm: f64,
     },
@@ -82,6 +107,8 @@ pub enum FeederReport {
     Error(String),
     /// The last chunk of the program is queued.
     Complete { epoch: Epoch },
+    /// A jog of axis `axis` brakes to its soft limit `limit`.
+    JogLimit { axis: usize, limit: f64 },
 }
 
 /// The queues shared with the real-time thread.
@@ -113,8 +140,8 @@ enum Wait {
     No,
     /// The executor diverted; waiting for it to stand.
     Stand { cause: DivertCause, resume_requested: bool },
-    /// Held at rest at `s_mm`; waiting for resume.
-    Resume { s_mm: f64 },
+    /// Held at rest at `s_mm` after the tail of chunk `seq`; waiting for resume.
+    Resume { s_mm: f64, seq: u64 },
 }
 
 /// One program being planned and queued.
@@ -147,6 +174,11 @@ struct Run {
     /// Motion-law moves still to sample (instead of planning `path`); `None` for programs
     /// and after a restart (the rest of a law program then runs as rapid moves).
     law: Option<LawPart>,
+    /// Manual motion to queue (instead of planning `path`): a jog or move-to (then `path` is
+    /// empty), or the return move to the held point `s_start_mm` before a program resumes.
+    manual: Option<ManualPart>,
+    /// Path position the run (re)started at.
+    s_start_mm: f64,
 }
 
 /// The planner thread's state.
@@ -159,6 +191,11 @@ pub struct Feeder {
     #[allow(clippy::vec_box)]
     pool: Vec<Box<Chunk>>,
     run: Option<Run>,
+    /// A held program kept while a manual motion or an MDI runs (and after it, until the
+    /// program resumes or is stopped).
+    suspended: Option<Run>,
+    /// The axes' limits and travel, for manual motion.
+    axis_limits: Vec<AxisLimits>,
     reports: Sender<FeederReport>,
     stall: Option<(f64, f64)>,
     /// Axis jerk limits (for the coarse points' jerk check).
@@ -199,6 +236,7 @@ impl Feeder {
         for (m, a) in max_jerk.iter_mut().zip(&settings.axes) {
             *m = a.max_jerk_per_s3;
         }
+        let axis_limits = axis_limits(config);
         Self {
             settings,
             cycle_s,
@@ -206,6 +244,8 @@ impl Feeder {
             queues,
             pool: Vec::new(),
             run: None,
+            suspended: None,
+            axis_limits,
             reports,
             stall: None,
             max_jerk,
@@ -239,12 +279,36 @@ impl Feeder {
     /// Carries out one command (the thread's loop calls this; tests drive it directly).
     pub fn command(&mut self, cmd: FeederCommand) {
         match cmd {
-            FeederCommand::Start { path, epoch, feed_override } => {
-                self.abort();
+            FeederCommand::Start { path, epoch, feed_override, suspend } => {
+                self.replace_run(suspend);
                 let start =
                     CoarsePoint::at_rest(0.0, 0.0, path.elements.first().map_or(0, |e| e.source.line), path.start);
                 self.run = Some(Run::new(&self.settings, path, feed_override, epoch, 0.0, start));
             }
+            FeederCommand::StartManual { goal, here, epoch, feed_override, suspend } => {
+                self.replace_run(suspend);
+                match ManualPart::new(goal, here, &self.axis_limits, feed_override, None) {
+                    Ok(part) => {
+                        let path = Arc::new(Path::new(self.settings.axis_names(), here));
+                        let start = CoarsePoint::at_rest(0.0, 0.0, 0, here);
+                        let mut run = Run::new(&self.settings, path, feed_override, epoch, 0.0, start);
+                        run.manual = Some(part);
+                        self.run = Some(run);
+                    }
+                    Err(e) => self.manual_failed(&e),
+                }
+            }
+            FeederCommand::Manual(goal) => {
+                let Some(part) = self.run.as_mut().and_then(|r| r.manual.as_mut()).filter(|p| !p.is_return()) else {
+                    return;
+                };
+                if let Err(e) = part.plan(goal) {
+                    // The control side checked the goal from the state when it was sent; from
+                    // the handover state it fails: the motion stops at the end of the queue.
+                    self.manual_failed(&e);
+                }
+            }
+            FeederCommand::ResumeSuspended { epoch, here } => self.resume_suspended(epoch, here),
             FeederCommand::StartLaws { path, laws, epoch, feed_override } => {
                 self.abort();
                 let start =
@@ -264,11 +328,11 @@ impl Feeder {
                     self.pool.extend(staged);
                 }
             }
-            FeederCommand::Stood { epoch, cause, s_mm } => self.stood(epoch, cause, s_mm),
+            FeederCommand::Stood { epoch, seq, cause, s_mm } => self.stood(epoch, seq, cause, s_mm),
             FeederCommand::Resume => {
                 let Some(run) = self.run.as_mut() else { return };
                 match run.wait {
-                    Wait::Resume { s_mm } => self.restart_at_rest(s_mm),
+                    Wait::Resume { s_mm, seq } => self.restart_at_rest(seq, s_mm),
                     Wait::Stand { cause, .. } => run.wait = Wait::Stand { cause, resume_requested: true },
                     Wait::No => {}
                 }
@@ -281,17 +345,29 @@ impl Feeder {
 
     /// The executor stands after the tail of `epoch` (the run moved to `epoch.replan()` when
     /// told of the divert).
-    fn stood(&mut self, epoch: Epoch, cause: DivertCause, s_mm: f64) {
+    fn stood(&mut self, epoch: Epoch, seq: u64, cause: DivertCause, s_mm: f64) {
+        // A program held before a manual motion or an MDI took over learns where it stands.
+        if let Some(held) = self.suspended.as_mut().filter(|r| r.epoch == epoch.replan()) {
+            held.wait = Wait::Resume { s_mm, seq };
+            return;
+        }
         let Some(run) = self.run.as_mut() else { return };
         if run.epoch != epoch.replan() {
             return;
         }
         let resume_requested = matches!(run.wait, Wait::Stand { resume_requested: true, .. });
+        let manual = run.manual.as_ref().filter(|m| !m.is_return()).is_some();
         match cause {
             DivertCause::Stop => self.abort(),
-            DivertCause::Underrun => self.restart_at_rest(s_mm),
-            DivertCause::Hold if resume_requested => self.restart_at_rest(s_mm),
-            DivertCause::Hold => run.wait = Wait::Resume { s_mm },
+            // A hold (or motion.jog_stop) ends a manual motion; a held program comes back.
+            DivertCause::Hold if manual => {
+                if let Some(mut run) = self.run.take() {
+                    self.pool.append(&mut run.staged);
+                }
+            }
+            DivertCause::Underrun => self.restart_at_rest(seq, s_mm),
+            DivertCause::Hold if resume_requested => self.restart_at_rest(seq, s_mm),
+            DivertCause::Hold => run.wait = Wait::Resume { s_mm, seq },
         }
     }
 
@@ -299,11 +375,112 @@ impl Feeder {
         if let Some(mut run) = self.run.take() {
             self.pool.append(&mut run.staged);
         }
+        if let Some(mut run) = self.suspended.take() {
+            self.pool.append(&mut run.staged);
+        }
     }
 
-    /// Replans the rest of the program from rest at `s_mm`, as the run's current epoch.
-    fn restart_at_rest(&mut self, s_mm: f64) {
+    /// A new run takes over: the running one is dropped, or kept as the suspended held program.
+    fn replace_run(&mut self, suspend: bool) {
+        if suspend {
+            if let Some(mut run) = self.run.take() {
+                self.pool.append(&mut run.staged);
+                // A program held earlier stays the one to resume; a finished manual motion or
+                // MDI in between is dropped.
+                if self.suspended.is_none() {
+                    self.suspended = Some(run);
+                }
+            }
+        } else {
+            self.abort();
+        }
+    }
+
+    /// A manual motion cannot be planned: reported as a planning failure, nothing more is
+    /// queued (the queued motion ends with its stop tail).
+    fn manual_failed(&mut self, e: &ManualPlanError) {
+        tracing::error!("manual motion: {e}");
+        let _ = self.reports.send(FeederReport::Error(format!("manual motion: {e}")));
+        self.abort();
+    }
+
+    /// The held program continues as `epoch`: first a move-to from `here` back to the point it
+    /// was held at, then the rest of the program from rest there.
+    fn resume_suspended(&mut self, epoch: Epoch, here: AxisVec) {
+        let Some(held) = self.suspended.take() else { return };
+        let Wait::Resume { s_mm, .. } = held.wait else {
+            tracing::error!("resume: the held program never came to rest");
+            return;
+        };
+        if let Some(mut run) = self.run.take() {
+            self.pool.append(&mut run.staged);
+        }
+        match self.return_run(held.path.clone(), held.feed_override, epoch, s_mm, here) {
+            Ok(run) => {
+                self.stats.replans += 1;
+                self.run = Some(run);
+            }
+            Err(e) => self.manual_failed(&e),
+        }
+    }
+
+    /// A run of `path` from `s_mm` as `epoch`, preceded by the move from `here` to the path
+    /// there when the machine stands elsewhere.
+    fn return_run(
+        &self,
+        path: Arc<Path>,
+        feed_override: f64,
+        epoch: Epoch,
+        s_mm: f64,
+        here: AxisVec,
+    ) -> Result<Run, ManualPlanError> {
+        let mut at = interpd_motion::path::AxisDerivs::default();
+        path.eval(s_mm, &mut at);
+        let line = path.elements.get(path.element_index_at(s_mm)).map_or(0, |e| e.source.line);
+        let n = self.axis_limits.len();
+        let away = (0..n).any(|k| (here[k] - at.pos[k]).abs() > super::approach::AT_START_TOL);
+        let start = CoarsePoint::at_rest(0.0, s_mm, line, if away { here } else { at.pos });
+        let mut run = Run::new(&self.settings, path, feed_override, epoch, s_mm, start);
+        if away {
+            let mut target = [None; interpd_motion::path::MAX_AXES];
+            for (t, p) in target.iter_mut().zip(at.pos).take(n) {
+                *t = Some(p);
+            }
+            let goal = ManualGoal::MoveTo { target, vel: [0.0; interpd_motion::path::MAX_AXES], factor: 1.0 };
+            run.manual = Some(ManualPart::new(goal, here, &self.axis_limits, 1.0, Some(s_mm))?);
+        }
+        Ok(run)
+    }
+
+    /// Replans the rest of the program from rest at `s_mm`, as the run's current epoch; a
+    /// manual motion continues its goal from rest where the tail of chunk `seq` ended.
+    fn restart_at_rest(&mut self, seq: u64, s_mm: f64) {
         let Some(old) = self.run.take() else { return };
+        if let Some(part) = &old.manual {
+            let here = part.tail_end(seq).unwrap_or(old.end.pos);
+            self.stats.replans += 1;
+            if part.is_return() {
+                match self.return_run(old.path.clone(), old.feed_override, old.epoch, old.s_start_mm, here) {
+                    Ok(mut run) => {
+                        run.queued_s = old.queued_s;
+                        self.run = Some(run);
+                    }
+                    Err(e) => self.manual_failed(&e),
+                }
+                return;
+            }
+            match part.restarted(here) {
+                Ok(part) => {
+                    let start = CoarsePoint::at_rest(0.0, old.end.s_mm, 0, here);
+                    let mut run = Run::new(&self.settings, old.path, old.feed_override, old.epoch, 0.0, start);
+                    run.manual = Some(part);
+                    run.queued_s = old.queued_s;
+                    self.run = Some(run);
+                }
+                Err(e) => self.manual_failed(&e),
+            }
+            return;
+        }
         let mut pos = interpd_motion::path::AxisDerivs::default();
         old.path.eval(s_mm, &mut pos);
         let line = old.path.elements.get(old.path.element_index_at(s_mm)).map_or(0, |e| e.source.line);
@@ -320,6 +497,12 @@ impl Feeder {
     fn set_override(&mut self, factor: f64) {
         let Some(run) = self.run.as_mut() else { return };
         run.feed_override = factor;
+        if let Some(part) = run.manual.as_mut().filter(|p| !p.is_return()) {
+            if let Err(e) = part.set_override(factor) {
+                self.manual_failed(&e);
+            }
+            return;
+        }
         if run.wait != Wait::No || run.complete || run.law.is_some() {
             return;
         }
@@ -350,7 +533,7 @@ impl Feeder {
     /// A chunk is due: a run is producing and the queue is below its depth.
     pub fn wants_to_produce(&self) -> bool {
         match &self.run {
-            Some(run) => run.wait == Wait::No && !run.complete && self.queues.chunks.len() < QUEUE_CHUNKS,
+            Some(run) => run.wait == Wait::No && !run.complete && self.queues.chunks.len() < run.depth(),
             None => false,
         }
     }
@@ -377,7 +560,7 @@ impl Feeder {
                 let complete = chunk.last;
                 // A new epoch starts only once half the queue depth is ready (or the program
                 // is complete), so a slow first plan does not underrun at once.
-                let deep_enough = run.seq as usize >= QUEUE_CHUNKS / 2 || complete;
+                let deep_enough = run.seq as usize >= run.depth() / 2 || complete;
                 run.staged.push(chunk);
                 if deep_enough {
                     for c in run.staged.drain(..) {
@@ -436,6 +619,9 @@ impl Feeder {
         let Some(run) = self.run.as_mut() else { return Ok(false) };
         if run.law.is_some() {
             return Ok(self.fill_law_chunk(chunk));
+        }
+        if run.manual.is_some() {
+            return Ok(self.fill_manual_chunk(chunk));
         }
         let lim = run.planner.limits().clone();
         let mut segments = Vec::new();
@@ -513,7 +699,55 @@ impl Feeder {
     }
 }
 
+impl Feeder {
+    /// [`Feeder::fill_chunk`] for manual motion (and the return move before a resumed
+    /// program): samples about one chunk of the OTG motion with every axis's fastest stop as
+    /// its tail; `false` when nothing is left or planning failed.
+    fn fill_manual_chunk(&mut self, chunk: &mut Chunk) -> bool {
+        let (chunk_s, cycle_s, max_piece_s) = (self.chunk_s, self.cycle_s, 2.0 * self.cycle_s);
+        let Some(run) = self.run.as_mut() else { return false };
+        run.open_chunk(chunk);
+        let seq = run.seq;
+        let Some(part) = run.manual.as_mut() else { return false };
+        let filled = part.fill(seq, chunk_s, cycle_s, max_piece_s, &mut chunk.points, &mut chunk.tail);
+        for (axis, limit) in part.take_limit_reports() {
+            let _ = self.reports.send(FeederReport::JogLimit { axis, limit });
+        }
+        let last = match filled {
+            Ok(last) => last,
+            Err(e) => {
+                self.manual_failed(&e);
+                return false;
+            }
+        };
+        let returning = part.is_return();
+        let mut end = *chunk.points.last().expect("points");
+        if returning && last {
+            // Back on the path: the program continues from rest exactly at the held point.
+            run.manual = None;
+            let mut at = interpd_motion::path::AxisDerivs::default();
+            run.path.eval(run.s_start_mm, &mut at);
+            end.pos = at.pos;
+            end.line = run.end.line;
+            if let Some(p) = chunk.points.last_mut() {
+                *p = end;
+            }
+            chunk.last = false;
+        } else {
+            chunk.last = last;
+        }
+        run.last_tail.clear();
+        run.close_chunk(end, Vec::new());
+        true
+    }
+}
+
 impl Run {
+    /// Chunks kept queued for this run.
+    fn depth(&self) -> usize {
+        if self.manual.is_some() { MANUAL_QUEUE_CHUNKS } else { QUEUE_CHUNKS }
+    }
+
     /// Starts `chunk` as this run's next one, from its last queued point.
     fn open_chunk(&self, chunk: &mut Chunk) {
         chunk.clear();
@@ -550,6 +784,8 @@ impl Run {
             wait: Wait::No,
             queued_s: 0.0,
             law: None,
+            manual: None,
+            s_start_mm: s_mm,
         }
     }
 
@@ -591,6 +827,22 @@ impl Run {
         }
         *t += got;
     }
+}
+
+/// The limits and travel of every axis, for manual motion.
+pub fn axis_limits(config: &Config) -> Vec<AxisLimits> {
+    config
+        .axes
+        .iter()
+        .map(|a| AxisLimits {
+            vel: a.max_vel_per_s,
+            acc: a.max_acc_per_s2,
+            jerk: a.max_jerk_per_s3,
+            min: a.min_pos,
+            max: a.max_pos,
+            linear: a.kind == interpd_config::AxisKind::Linear,
+        })
+        .collect()
 }
 
 /// Look-ahead the daemon plans with: the configured one, but no more than

@@ -19,6 +19,8 @@ pub mod feeder;
 pub mod law_run;
 pub mod live;
 mod load;
+pub mod manual;
+pub mod otg_motion;
 mod rt_loop;
 mod state;
 mod supervisor;

@@ -24,10 +24,11 @@
 //! notices).
 
 use super::law_run::LawProgram;
-use crate::control::NotAllowed;
+use crate::control::{ManualError, NotAllowed};
 use crate::interp::Epochs;
 use interpd_motion::path::Path;
-use interpd_protocol::api::{Method, ProgramInfo, State};
+use interpd_motion::program::ModalState;
+use interpd_protocol::api::{ManualStatus, Method, ProgramInfo, State};
 use std::sync::Arc;
 
 /// Override factors below this act as a feed hold (0 % feed).
@@ -39,6 +40,17 @@ pub const OVERRIDE_HOLD_BELOW: f64 = 1e-3;
 pub(super) enum Loaded {
     Path(Arc<Path>),
     Laws(Arc<LawProgram>),
+}
+
+/// What the current (or last) motion is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum RunKind {
+    /// The loaded program (or a law move).
+    Program,
+    /// MDI blocks.
+    Mdi,
+    /// A jog or move-to (state `jogging`).
+    Manual,
 }
 
 /// The control-side state, behind one mutex.
@@ -57,6 +69,16 @@ pub(super) struct Control {
     pub underrun: bool,
     /// The cycle the run started in, for the duration in `finished`.
     pub start_cycle: u64,
+    pub kind: RunKind,
+    /// A held program waits while (or since) a manual motion or an MDI moved the machine:
+    /// `motion.resume` returns to the held point first.
+    pub excursion: bool,
+    /// The manual motion running or run last, for `status.manual`.
+    pub manual: Option<ManualStatus>,
+    /// `motion.jog_stop` (or a hold) brakes the manual motion to rest.
+    pub manual_braking: bool,
+    /// The G-code modal state MDI carries from call to call.
+    pub mdi_modal: Option<ModalState>,
 }
 
 impl Control {
@@ -71,6 +93,30 @@ impl Control {
             start_event_pending: false,
             underrun: false,
             start_cycle: 0,
+            kind: RunKind::Program,
+            excursion: false,
+            manual: None,
+            manual_braking: false,
+            mdi_modal: None,
+        }
+    }
+
+    /// Whether a manual motion or MDI (`action`) may start or change now: from rest (idle,
+    /// finished, a held program with the machine standing) and, for jog and move-to, while
+    /// one runs (unless it brakes after `motion.jog_stop`).
+    pub fn check_manual(&self, action: Method, standing: bool) -> Result<(), ManualError> {
+        let refuse = || ManualError::from(NotAllowed { state: self.state, action });
+        match self.state {
+            State::Idle | State::Finished => Ok(()),
+            State::Holding if self.kind != RunKind::Program => Err(refuse()),
+            State::Holding if !standing => Err(ManualError::Moving { method: action, what: "brakes for the hold" }),
+            State::Holding => Ok(()),
+            State::Jogging if action == Method::Mdi => Err(refuse()),
+            State::Jogging if self.manual_braking => {
+                Err(ManualError::Moving { method: action, what: "brakes to rest after motion.jog_stop" })
+            }
+            State::Jogging => Ok(()),
+            _ => Err(refuse()),
         }
     }
 
@@ -82,7 +128,7 @@ impl Control {
         let allowed = match action {
             Method::ProgramLoad => at_rest,
             Method::MotionStart => at_rest && self.program.is_some(),
-            Method::MotionHold => self.state == State::Running,
+            Method::MotionHold => matches!(self.state, State::Running | State::Jogging),
             Method::MotionResume => self.state == State::Holding,
             _ => true,
         };
@@ -104,6 +150,9 @@ impl Control {
         self.start_event_pending = true;
         self.underrun = false;
         self.last_error = None;
+        self.kind = RunKind::Program;
+        self.excursion = false;
+        self.manual = None;
         epoch
     }
 

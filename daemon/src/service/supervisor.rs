@@ -5,6 +5,7 @@
 //! cannot wake anyone on.
 
 use super::feeder::{FeederCommand, FeederReport};
+use super::state::{Control, RunKind};
 use super::{Shared, lock};
 use crate::interp::{DivertCause, Notice};
 use crossbeam::channel::Receiver;
@@ -49,8 +50,12 @@ fn on_notice(shared: &Shared, n: Notice) {
             if ctl.start_event_pending {
                 ctl.start_event_pending = false;
                 ctl.start_cycle = cycle;
+                let event = match (ctl.kind, &ctl.manual) {
+                    (RunKind::Manual, Some(m)) => Event::Jogging { kind: m.kind },
+                    _ => Event::Started,
+                };
                 drop(ctl);
-                shared.emit(Event::Started);
+                shared.emit(event);
             } else if ctl.underrun {
                 ctl.underrun = false;
                 drop(ctl);
@@ -67,12 +72,14 @@ fn on_notice(shared: &Shared, n: Notice) {
                 shared.emit(Event::Underrun { s_mm: shared.live.load().s_mm });
             }
         }
-        Notice::Stood { epoch, cause, s_mm, .. } => {
+        Notice::Stood { epoch, seq, cause, s_mm, cycle } => {
             ctl.epochs.saw(epoch);
-            let _ = shared.feeder.send(FeederCommand::Stood { epoch, cause, s_mm });
+            let _ = shared.feeder.send(FeederCommand::Stood { epoch, seq, cause, s_mm });
             if ctl.state == State::Stopping {
                 drop(ctl);
                 complete_stop(shared);
+            } else if ctl.state == State::Jogging && cause == DivertCause::Hold {
+                manual_done(shared, ctl, cycle);
             } else if cause == DivertCause::Hold && ctl.state == State::Holding {
                 drop(ctl);
                 shared.emit(Event::Held);
@@ -85,7 +92,18 @@ fn on_notice(shared: &Shared, n: Notice) {
                 complete_stop(shared);
                 return;
             }
-            ctl.state = State::Finished;
+            if ctl.state == State::Jogging {
+                manual_done(shared, ctl, cycle);
+                return;
+            }
+            // An MDI from a hold returns to the held program (resume moves back to it).
+            if ctl.kind == RunKind::Mdi && ctl.excursion {
+                ctl.state = State::Holding;
+                ctl.kind = RunKind::Program;
+                shared.hold.store(true, Ordering::SeqCst);
+            } else {
+                ctl.state = State::Finished;
+            }
             let duration_s = (cycle - ctl.start_cycle) as f64 * shared.config.cycle_s();
             drop(ctl);
             shared.emit(Event::Finished { duration_s });
@@ -107,7 +125,33 @@ fn on_report(shared: &Shared, r: FeederReport) {
             shared.emit(Event::Error { message });
         }
         FeederReport::Complete { .. } => {}
+        FeederReport::JogLimit { axis, limit } => {
+            let name = shared.config.axes.get(axis).map(|a| a.name.to_string()).unwrap_or_default();
+            let mut ctl = lock(&shared.control);
+            if let Some(m) = ctl.manual.as_mut().filter(|m| !m.limit_reached.contains(&name)) {
+                m.limit_reached.push(name.clone());
+            }
+            drop(ctl);
+            tracing::info!(axis = %name, limit, "jog brakes to the soft limit");
+            shared.emit(Event::JogLimitReached { axis: name, limit });
+        }
     }
+}
+
+/// A manual motion ended (the machine stands): back to idle, or to the held program it left.
+fn manual_done(shared: &Shared, mut ctl: std::sync::MutexGuard<'_, Control>, cycle: u64) {
+    let duration_s = cycle.saturating_sub(ctl.start_cycle) as f64 * shared.config.cycle_s();
+    let kind = ctl.manual.as_ref().map_or(interpd_protocol::api::ManualKind::Jog, |m| m.kind);
+    ctl.manual_braking = false;
+    if ctl.excursion {
+        ctl.state = State::Holding;
+        ctl.kind = RunKind::Program;
+    } else {
+        ctl.state = State::Idle;
+    }
+    shared.hold.store(ctl.excursion, Ordering::SeqCst);
+    drop(ctl);
+    shared.emit(Event::JogDone { kind, duration_s });
 }
 
 /// A drive fault (reported by the drive monitor) while the machine moves: a controlled stop
@@ -117,7 +161,7 @@ fn check_drives(shared: &Shared) {
     let Some(drives) = &shared.drives else { return };
     while let Some(message) = drives.take_fault() {
         let mut ctl = lock(&shared.control);
-        if !matches!(ctl.state, State::Running | State::Holding) {
+        if !matches!(ctl.state, State::Running | State::Holding | State::Jogging) {
             continue;
         }
         shared.stop.store(true, Ordering::SeqCst);
@@ -152,6 +196,8 @@ fn complete_stop(shared: &Shared) {
     }
     ctl.state = State::Idle;
     ctl.held_by_override = false;
+    ctl.excursion = false;
+    ctl.manual_braking = false;
     shared.hold.store(false, Ordering::SeqCst);
     shared.stop.store(false, Ordering::SeqCst);
     drop(ctl);

@@ -49,7 +49,7 @@ impl Sim {
     }
 
     pub fn start(&mut self, path: Arc<Path>) {
-        self.feeder.command(FeederCommand::Start { path, epoch: Epoch::FIRST, feed_override: 1.0 });
+        self.feeder.command(FeederCommand::Start { path, epoch: Epoch::FIRST, feed_override: 1.0, suspend: false });
     }
 
     /// One cycle: the planner thread tops up the queue (as if it were fast enough), then the
@@ -78,8 +78,8 @@ impl Sim {
         while let Some(n) = self.notices.pop() {
             match n {
                 Notice::Diverted { epoch, cause, .. } => self.feeder.command(FeederCommand::Diverted { epoch, cause }),
-                Notice::Stood { epoch, cause, s_mm, .. } => {
-                    self.feeder.command(FeederCommand::Stood { epoch, cause, s_mm })
+                Notice::Stood { epoch, seq, cause, s_mm, .. } => {
+                    self.feeder.command(FeederCommand::Stood { epoch, seq, cause, s_mm })
                 }
                 _ => {}
             }

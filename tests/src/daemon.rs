@@ -257,3 +257,44 @@ pub fn limit_ratios(cycle_s: f64, limits: &[AxisLimits], sps: &[Setpoints]) -> [
     }
     worst
 }
+
+/// Collects every plant feedback published on `<prefix>/feedback` in a thread of its own.
+pub struct FeedbackCollector {
+    stop: Arc<AtomicBool>,
+    samples: Arc<Mutex<Vec<interpd_protocol::shm::Feedback>>>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl FeedbackCollector {
+    pub fn start(prefix: &str) -> FeedbackCollector {
+        let stop = Arc::new(AtomicBool::new(false));
+        let samples = Arc::new(Mutex::new(Vec::new()));
+        let (ready_tx, ready_rx) = std::sync::mpsc::channel();
+        let (s2, st2, p2) = (samples.clone(), stop.clone(), prefix.to_string());
+        let thread = std::thread::spawn(move || {
+            let node = NodeOptions::new().name("interpd-e2e-feedback").create().expect("iceoryx2 node");
+            let service = open_service::<interpd_protocol::shm::Feedback>(&node, &p2).expect("feedback service");
+            let port =
+                service.subscriber_builder().buffer_size(qos::SUBSCRIBER_BUFFER_SIZE).create().expect("subscriber");
+            ready_tx.send(()).expect("ready");
+            while !st2.load(Ordering::SeqCst) {
+                let mut got = Vec::new();
+                while let Ok(Some(sample)) = port.receive() {
+                    got.push(*sample);
+                }
+                s2.lock().expect("samples").extend(got);
+                std::thread::sleep(Duration::from_millis(10));
+            }
+        });
+        ready_rx.recv_timeout(Duration::from_secs(10)).expect("feedback collector ready");
+        FeedbackCollector { stop, samples, thread: Some(thread) }
+    }
+
+    pub fn finish(mut self) -> Vec<interpd_protocol::shm::Feedback> {
+        self.stop.store(true, Ordering::SeqCst);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+        self.samples.lock().expect("samples").clone()
+    }
+}

@@ -28,6 +28,9 @@ const CHECKS: usize = 3;
 const MAX_SPLITS: usize = 16;
 /// Below this speed (unit/s) the direction of motion is undefined: path acceleration 0.
 const STANDSTILL_SPEED: f64 = 1e-12;
+/// An OTG profile ending with |v| and |a| below this share of the axis limits ends at rest:
+/// a synchronised profile's end state is integrated, and lands within rounding of zero.
+const AT_REST_REL: f64 = 1e-9;
 
 /// One axis's motion from `t0_s` on (motion time): DoF `dof` of `traj`.
 #[derive(Debug, Clone, Copy)]
@@ -105,11 +108,10 @@ impl OtgMotion {
     pub fn end_s(&self) -> Option<f64> {
         let mut end: f64 = 0.0;
         for k in 0..self.n {
+            if !self.axis_ends_at_rest(k) {
+                return None;
+            }
             if let Some(p) = self.pieces[k].last() {
-                let (state, _) = p.traj.state_of(p.dof, p.traj.duration());
-                if state.v != 0.0 || state.a != 0.0 {
-                    return None;
-                }
                 end = end.max(p.t0_s + p.traj.duration());
             }
         }
@@ -118,9 +120,10 @@ impl OtgMotion {
 
     /// Whether axis `k` ends at rest (its last piece is not a cruise or a move ending in motion).
     pub fn axis_ends_at_rest(&self, k: usize) -> bool {
+        let l = &self.limits[k];
         self.pieces[k].last().is_none_or(|p| {
             let (s, _) = p.traj.state_of(p.dof, p.traj.duration());
-            s.v == 0.0 && s.a == 0.0
+            s.v.abs() <= AT_REST_REL * l.vel && s.a.abs() <= AT_REST_REL * l.acc
         })
     }
 

@@ -273,7 +273,7 @@ impl LawParams {
 // motion.jog, motion.move_to, mdi
 // ---------------------------------------------------------------------------------------------
 
-/// How `motion.jog` reads its axis values.
+/// How `motion.jog` reads its axis values (`"velocity"` or `"distance"` on the wire).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum JogMode {
@@ -287,12 +287,18 @@ pub enum JogMode {
 
 /// `motion.jog` parameters, e.g. `{"axes": {"X": 20.0}}` or
 /// `{"axes": {"X": 0.1}, "mode": "distance"}`. Axis names are checked by the daemon.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct JogParams {
     pub axes: std::collections::BTreeMap<String, f64>,
-    #[serde(default)]
     pub mode: JogMode,
+}
+
+/// The members of `motion.jog` before the mode is read.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct JogMembers {
+    axes: std::collections::BTreeMap<String, f64>,
+    mode: Option<String>,
 }
 
 /// `motion.move_to` parameters, e.g. `{"target": {"X": 10, "Y": 5}, "velocity_factor": 0.5}`;
@@ -352,7 +358,18 @@ fn finite_axes(map: &std::collections::BTreeMap<String, f64>, param: &str) -> Re
 
 impl JogParams {
     pub fn parse(params: Params) -> Result<JogParams, ErrorObject> {
-        let p = JOG.members::<JogParams>(params)?;
+        let m = JOG.members::<JogMembers>(params)?;
+        let mode = match m.mode.as_deref() {
+            None | Some("velocity") => JogMode::Velocity,
+            Some("distance") => JogMode::Distance,
+            Some(other) => {
+                return Err(JOG.refuse(
+                    Some("mode"),
+                    &format!("\"mode\" must be \"velocity\" or \"distance\", got {:?}", excerpt(other, 40)),
+                ));
+            }
+        };
+        let p = JogParams { axes: m.axes, mode };
         if p.axes.is_empty() {
             return Err(JOG.refuse(Some("axes"), "\"axes\" names no axis; expected e.g. {\"X\": 20.0}"));
         }

@@ -1,7 +1,8 @@
 //! Proof that the real-time cycle never allocates: a counting global allocator counts every
 //! allocation, reallocation and free made while a thread is inside a cycle (the loop marks
 //! that in `interpd::rt::IN_CYCLE`), while the real service runs programs with a hold, a
-//! resume, feed override changes, a stop and an underrun, publishing over real iceoryx2.
+//! resume, feed override changes, a stop and an underrun, and manual motion (move-to, jogs,
+//! MDI, a jog from a hold and the resume back), publishing over real iceoryx2.
 
 use interpd::config::Config;
 use interpd::control::{Motion, ProgramSource};
@@ -63,6 +64,45 @@ fn run(core: &interpd::service::ServiceCore, steps: &[(&str, u64)]) {
     assert!(matches!(s, State::Finished | State::Idle), "ended in {s}");
 }
 
+/// Manual motion: a move-to, a continuous jog changed while moving and stopped, a jog by a
+/// distance, MDI blocks, and a jog from a held program followed by the resume back to it.
+fn manual(core: &interpd::service::ServiceCore) {
+    use interpd_protocol::api::{JogMode, JogParams, MdiParams, MoveToParams};
+    let axes = |pairs: &[(&str, f64)]| pairs.iter().map(|(a, v)| (a.to_string(), *v)).collect();
+    let done = |states: &[State]| {
+        let s = core.wait_for(states, Duration::from_secs(30));
+        assert!(states.contains(&s), "ended in {s}");
+    };
+    let settle = || std::thread::sleep(Duration::from_millis(100));
+    let target = axes(&[("X", 20.0), ("Y", -5.0)]);
+    core.move_to(&MoveToParams { target, velocity: Default::default(), velocity_factor: 1.0 }).expect("move_to");
+    settle();
+    done(&[State::Idle]);
+    core.jog(&JogParams { axes: axes(&[("X", 80.0)]), mode: JogMode::Velocity }).expect("jog");
+    std::thread::sleep(Duration::from_millis(150));
+    core.jog(&JogParams { axes: axes(&[("X", -40.0), ("Y", 30.0)]), mode: JogMode::Velocity }).expect("jog");
+    std::thread::sleep(Duration::from_millis(150));
+    core.jog_stop().expect("jog_stop");
+    settle();
+    done(&[State::Idle]);
+    core.jog(&JogParams { axes: axes(&[("Z", 1.5)]), mode: JogMode::Distance }).expect("jog");
+    settle();
+    done(&[State::Idle]);
+    core.mdi(&MdiParams { line: "G91 G1 X5 F3000\nY2".into() }).expect("mdi");
+    settle();
+    done(&[State::Finished]);
+    core.load(ProgramSource::Text { name: "alloc.ngc".into(), text: PROGRAM.into() }).expect("load");
+    core.start().expect("start");
+    std::thread::sleep(Duration::from_millis(300));
+    core.hold().expect("hold");
+    std::thread::sleep(Duration::from_millis(300));
+    core.jog(&JogParams { axes: axes(&[("Z", 3.0)]), mode: JogMode::Distance }).expect("jog from the hold");
+    settle();
+    done(&[State::Holding]);
+    core.resume().expect("resume");
+    done(&[State::Finished]);
+}
+
 #[test]
 fn the_cycle_never_allocates() {
     // The probe works: an allocation inside a (pretended) cycle is counted.
@@ -85,6 +125,7 @@ fn the_cycle_never_allocates() {
     run(&core, &[("stop", 250)]);
     core.debug_stall_planner(0.2, 0.4);
     run(&core, &[]);
+    manual(&core);
     let report = service.shutdown();
     let in_cycle = IN_CYCLE_ALLOCS.load(Ordering::Relaxed);
     eprintln!(

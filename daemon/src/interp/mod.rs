@@ -31,7 +31,10 @@
 //!    queue depth).
 //! 5. Chunks go back to the planner thread through a recycle queue: the executor never
 //!    allocates or frees.
-//! 6. The executor never locks, blocks or logs either: requests arrive as two flags (hold,
+//! 6. Manual motion (jog, move-to, the return to a held point) arrives in the same form: the
+//!    planner thread samples per-axis OTG trajectories into chunks whose tails are every axis's
+//!    fastest stop (`service::manual`); the OTG never runs in the cycle.
+//! 7. The executor never locks, blocks or logs either: requests arrive as two flags (hold,
 //!    stop), and what happened leaves as [`executor::Notice`]s through a lock-free queue.
 //!    daemon/tests/rt_no_alloc.rs runs the real service and proves its cycle allocation-free.
 

@@ -10,6 +10,11 @@
 //! | finished | idle         | running¹         | refused     | refused       | no-op       |
 //! | error    | refused      | refused          | refused     | refused       | stopping    |
 //!
+//! `motion.jog`, `motion.move_to` and `mdi` start from idle, finished or a held program at rest
+//! (jog and move-to also replace a running manual motion, state `jogging`); a manual motion ends
+//! in idle, or in holding when it left a held program, whose resume returns to the held point
+//! first ([`Control::check_manual`], `excursion`).
+//!
 //! ¹ holding instead while the feed override is 0 %; ² with a program loaded; ³ not while the
 //! override is 0 %. `motion.law` is a load and a start in one. `feed.override` is allowed in
 //! every state; setting 0 % while running holds, raising it again resumes that hold.

@@ -30,7 +30,7 @@ pub mod sinks;
 pub use error::ConfigError;
 pub use keys::keys_of;
 pub use machine::{AxisConfig, AxisKind, AxisLetter, MAX_AXES, MachineSection};
-pub use sections::{ControlConfig, PlannerConfig, PrepConfig, PrepMode, RtConfig};
+pub use sections::{ControlConfig, PlannerConfig, PrepConfig, PrepMode, ProgramsConfig, RtConfig};
 
 use serde::Deserialize;
 use std::path::Path;
@@ -57,6 +57,8 @@ pub struct Config {
     pub plant: plant::PlantConfig,
     #[serde(default)]
     pub control: ControlConfig,
+    #[serde(default)]
+    pub programs: ProgramsConfig,
     #[serde(default)]
     pub rt: RtConfig,
 }
@@ -134,6 +136,7 @@ impl Config {
         self.sinks.validate(&v, &self.axes)?;
         self.plant.validate(&v, &self.axes)?;
         self.control.validate(&v)?;
+        self.programs.validate(&v)?;
         self.rt.validate(&v)?;
         Ok(())
     }

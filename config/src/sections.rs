@@ -206,6 +206,24 @@ impl ControlConfig {
     }
 }
 
+/// `[programs]`: where `program.load {"path"}` may read programs from.
+#[derive(Debug, Clone, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct ProgramsConfig {
+    /// The programs directory. Unset: the daemon's working directory. A path given to
+    /// `program.load` must lie inside it (after symbolic links are resolved).
+    pub dir: Option<String>,
+}
+
+impl ProgramsConfig {
+    pub(crate) fn validate(&self, v: &Validator) -> Result<(), ConfigError> {
+        if self.dir.as_deref().is_some_and(str::is_empty) {
+            return Err(v.err("programs.dir", "must not be empty (leave it out for the working directory)"));
+        }
+        Ok(())
+    }
+}
+
 /// `[rt]`: scheduling of the interpolation thread.
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]

@@ -4,7 +4,9 @@
 
 use interpd_config::plant::PlantConfig;
 use interpd_config::sinks::SinksConfig;
-use interpd_config::{AxisConfig, Config, ControlConfig, MachineSection, PlannerConfig, PrepConfig, RtConfig};
+use interpd_config::{
+    AxisConfig, Config, ControlConfig, MachineSection, PlannerConfig, PrepConfig, ProgramsConfig, RtConfig,
+};
 use serde::de::DeserializeOwned;
 use std::collections::BTreeSet;
 
@@ -38,6 +40,7 @@ fn the_example_parses_and_validates_with_and_without_its_optional_keys() {
     let plain = parse(EXAMPLE);
     assert_eq!(plain.axis_names(), ["X", "Y", "Z", "A", "B"]);
     assert_eq!(plain.control.socket.as_deref(), Some("/run/interpd/interpd.sock"));
+    assert_eq!(plain.programs.dir.as_deref(), Some("/var/lib/interpd/programs"));
     assert_eq!((plain.rt.cpu, plain.planner.lookahead_samples, plain.planner.rapid_feed_mm_s), (None, None, None));
     // Every section's values are the defaults the comments claim ("Defaults shown").
     assert_eq!(plain.planner, PlannerConfig::default());
@@ -65,6 +68,7 @@ fn the_example_names_every_key_of_every_section() {
     same("[prep]", keys_in(section("prep")), keys_of::<PrepConfig>());
     same("[sinks]", keys_in(section("sinks")), keys_of::<SinksConfig>());
     same("[control]", keys_in(section("control")), keys_of::<ControlConfig>());
+    same("[programs]", keys_in(section("programs")), keys_of::<ProgramsConfig>());
     same("[rt]", keys_in(section("rt")), keys_of::<RtConfig>());
     same("[plant]", keys_in(section("plant")), keys_of::<PlantConfig>());
     for (i, axis) in table["axis"].as_array().expect("[[axis]] tables").iter().enumerate() {

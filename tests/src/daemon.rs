@@ -37,6 +37,13 @@ impl Daemon {
         let socket = dir.join("control.sock");
         let prefix = format!("interpd-test/{name}");
         let mut cmd = Command::new(crate::binary("interpd"));
+        // The programs directory is the working directory by default: the repository, so
+        // that examples/ can be loaded by path (not there in the CAN tests' VM, which loads
+        // programs as text).
+        let root = crate::repo_root();
+        if root.is_dir() {
+            cmd.current_dir(root);
+        }
         cmd.arg("run").arg("--socket").arg(&socket).arg("--service-prefix").arg(&prefix).args(extra);
         cmd.stdout(Stdio::null()).stderr(Stdio::from(std::fs::File::create(dir.join("stderr.log")).expect("log file")));
         let child = cmd.spawn().expect("start interpd run");

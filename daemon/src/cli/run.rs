@@ -6,7 +6,7 @@ use super::signals::TerminationSignals;
 use interpd::config::Config;
 use interpd::control::{ControlServer, Motion};
 use interpd::record::{RecordFile, RecordOptions, Recorder};
-use interpd::service::{CycleStall, Service, ServiceExtras, ServiceOptions};
+use interpd::service::{CycleStall, Service, ServiceExtras, ServiceOptions, StartupError};
 use interpd::sinks::can::CanMaster;
 use interpd_protocol::api::State;
 use std::path::PathBuf;
@@ -107,7 +107,10 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     };
     let service =
         Service::start_with(ServiceOptions { config: config.clone(), shm: config.sinks.shm && !args.no_shm }, extras)
-            .map_err(|e| CliError::Failure(e.to_string()))?;
+            .map_err(|e| match e {
+            StartupError::ProgramsDir(_) => CliError::BadInput(e.to_string()),
+            e => CliError::Failure(e.to_string()),
+        })?;
     if service.sched().all_granted() {
         tracing::info!("real-time thread: {}", service.sched());
     } else {
@@ -137,6 +140,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
             "no sink".into()
         }
     );
+    eprintln!("interpd: program.load reads files from {} ([programs] dir)", service.programs_dir().display());
     if can.is_some() {
         eprintln!("interpd: CAN master on {} (CiA 402 CSP)", config.sinks.can.interface);
     }

@@ -229,6 +229,7 @@ impl From<LoadError> for ErrorObject {
             LoadError::Program(_) | LoadError::Laws(_) | LoadError::Prep { .. } => {
                 ErrorObject::new(codes::BAD_PROGRAM, e.to_string())
             }
+            LoadError::Path(e) => ErrorObject::invalid_params("program.load", Some("path"), &e.to_string()),
         }
     }
 }

@@ -4,6 +4,7 @@
 //! the message.
 
 use crate::service::law_run::LawProgramError;
+use crate::service::programs::ProgramPathError;
 use crate::sinks::DrivesNotReady;
 use interpd_motion::prep::PrepError;
 use interpd_motion::program::ProgramErrors;
@@ -32,6 +33,9 @@ pub enum LoadError {
     /// The tolerance-band smoothing of the program's G64 runs failed (−32001).
     #[error("bad program: {program}: {error}")]
     Prep { program: String, error: PrepError },
+    /// The path lies outside the programs directory (−32602, `data.param` "path").
+    #[error("invalid params for program.load: {0}")]
+    Path(#[from] ProgramPathError),
 }
 
 /// `motion.start` refused or failed.

@@ -21,6 +21,7 @@ pub mod live;
 mod load;
 pub mod manual;
 pub mod otg_motion;
+pub mod programs;
 mod rt_loop;
 mod state;
 mod supervisor;
@@ -84,6 +85,8 @@ pub enum StartupError {
     },
     #[error("cannot start the real-time thread: exited during start-up")]
     RealTimeExited,
+    #[error(transparent)]
+    ProgramsDir(#[from] programs::ProgramsDirError),
 }
 
 /// What the service did, reported at shutdown.
@@ -118,6 +121,8 @@ struct Shared {
     timing: ArrayQueue<TimingSample>,
     publish_errors: AtomicU64,
     drives: Option<Arc<dyn DriveMonitor>>,
+    /// Where `program.load {"path"}` may read from.
+    programs: programs::ProgramsDir,
 }
 
 impl Shared {
@@ -162,6 +167,7 @@ impl Service {
     /// [`Service::start`] with extra sinks and drives (see [`ServiceExtras`]).
     pub fn start_with(opts: ServiceOptions, extras: ServiceExtras) -> Result<Service, StartupError> {
         let ServiceExtras { sinks: extra_sinks, drives, start_position, debug_stall_cycle } = extras;
+        let programs = programs::ProgramsDir::from_config(&opts.config.programs)?;
         // Before any thread starts: they all inherit it; the real-time thread pins itself.
         match rt::sched::keep_off_rt_cpu(&opts.config.rt) {
             Ok(cpu) => tracing::info!(cpu, "non-real-time threads kept off the real-time CPU"),
@@ -186,6 +192,7 @@ impl Service {
             timing: ArrayQueue::new(TIMING_CAPACITY),
             publish_errors: AtomicU64::new(0),
             drives,
+            programs,
         });
         let thread_err = |what: &'static str| move |source| StartupError::Thread { what, source };
 
@@ -240,6 +247,11 @@ impl Service {
 
     pub fn core(&self) -> ServiceCore {
         self.core.clone()
+    }
+
+    /// Where `program.load {"path"}` reads files from.
+    pub fn programs_dir(&self) -> &std::path::Path {
+        self.core.shared.programs.path()
     }
 
     /// What the real-time set-up achieved.

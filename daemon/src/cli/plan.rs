@@ -197,6 +197,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             "repairs": stats.work.repairs,
             "horizon_stops": stats.horizon_stops,
             "horizon_brakes": stats.horizon_brakes,
+            "forced_stops": stats.forced_stops,
             "work": {
                 "evals": stats.work.evals,
                 "steps": stats.work.steps,

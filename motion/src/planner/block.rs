@@ -255,6 +255,9 @@ fn plan_repaired(
             Err(Failed { stuck, progress }) => (stuck, progress),
         };
         work.repairs += 1;
+        if gives_up_for_test() {
+            break;
+        }
         // Never the block end itself (a stop): lowering there changes nothing, and its zero
         // would spread to the node before it.
         if nodes.len() < 3 {
@@ -287,6 +290,29 @@ fn plan_repaired(
         before = Some((env, progress, lowered));
     }
     Err(Stuck { node: nodes.len() - 1, reason: Infeasibility::TooManyRepairs })
+}
+
+/// Whether a block gives up at its next repair as if the repairs did not converge: never,
+/// except in tests, which take the planner's fallback past it (`Planner::force_stop`) on a
+/// small program this way.
+#[cfg(not(test))]
+fn gives_up_for_test() -> bool {
+    false
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Blocks that give up at their next repair.
+    pub(super) static TEST_GIVE_UPS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+#[cfg(test)]
+fn gives_up_for_test() -> bool {
+    TEST_GIVE_UPS.with(|c| {
+        let left = c.get();
+        c.set(left.saturating_sub(1));
+        left > 0
+    })
 }
 
 /// How many nodes before the stuck node `k` a repair lowers, given the last repair's node and

@@ -67,12 +67,19 @@ pub struct PlanStats {
     /// Horizons that could not continue from that state and braked along half of its stop
     /// before trying again (each try counts).
     pub horizon_brakes: u64,
+    /// Nodes where no profile keeping the limits passed (the branches and the repairs of the
+    /// block found none), so the motion stops there (`Planner::force_stop`).
+    pub forced_stops: u64,
 }
 
 /// A retained stop at most this long is taken whole when the next horizon cannot continue
 /// from the hand-over state; a longer one is followed half-way first
 /// (`Planner::brake_along_stop`).
 const STOP_TAKEN_WHOLE_MAX_INTERVALS: usize = 4;
+
+/// Nodes a forced stop keeps from the block's ends (`Planner::force_stop`): a profile from
+/// rest to rest takes at least three constant-jerk intervals.
+const STOP_CLEARANCE_NODES: usize = 3;
 
 /// Interval lengths of a retained stop against the node spacing
 /// ([`Planner::can_stop_within_horizon`]).
@@ -331,6 +338,29 @@ impl Planner {
         (reached, (0.0, 0.0))
     }
 
+    /// The block `first..=last` found no profile through node `at`: makes the interior node
+    /// nearest to it a stop (v̄ = 0, the motion comes to rest there), counted and logged.
+    /// `None` where the block has no interior node left to stop at.
+    fn force_stop(&mut self, first: usize, last: usize, at: usize, reason: Infeasibility) -> Option<usize> {
+        // A stop needs a few intervals on both sides to brake into and to leave (jerk −, 0, +).
+        if last < first + 2 * STOP_CLEARANCE_NODES {
+            return None;
+        }
+        let k = at.clamp(first + STOP_CLEARANCE_NODES, last - STOP_CLEARANCE_NODES);
+        let node = &mut self.nodes[k];
+        node.stop = true;
+        node.vbar_mm_s = 0.0;
+        node.vbar_flat_mm_s = 0.0;
+        self.stats.forced_stops += 1;
+        tracing::warn!(
+            s_mm = node.s_mm,
+            line = node.line,
+            reason = reason.as_str(),
+            "planner: no profile through this node; stopping there"
+        );
+        Some(k)
+    }
+
     /// Plans the current horizon and hands on what is final.
     fn plan_horizon(&mut self, complete: bool) -> Result<(), PlanError> {
         self.validate_bounds()?;
@@ -372,8 +402,17 @@ impl Planner {
                     continue;
                 }
                 Err(stuck) => {
-                    let node = &self.nodes[block_start + stuck.node.min(idx - block_start)];
-                    return Err(PlanError::Infeasible { s_mm: node.s_mm, line: node.line, reason: stuck.reason });
+                    // Where the branches and their repairs find no profile through a node,
+                    // the motion stops there: the block splits into two that each end at rest,
+                    // planned again from the block start.
+                    let at = block_start + stuck.node.min(idx - block_start);
+                    let Some(k) = self.force_stop(block_start, idx, at, stuck.reason) else {
+                        let node = &self.nodes[at];
+                        return Err(PlanError::Infeasible { s_mm: node.s_mm, line: node.line, reason: stuck.reason });
+                    };
+                    debug_assert!(block_start < k && k < idx);
+                    idx = block_start + 1;
+                    continue;
                 }
             };
             if block_start == stop_from {

@@ -520,3 +520,80 @@ fn the_planning_work_does_not_jump_with_the_limits() {
     let (lo, hi) = (work.iter().min().unwrap(), work.iter().max().unwrap());
     assert!(*hi as f64 <= 1.25 * *lo as f64, "evaluations and ramp nodes {work:?}");
 }
+
+/// A trochoidal pocket path as CAM output (loops of radius 0.5 mm advancing 0.1 mm per loop,
+/// moves of ~23 µm rounded to 4 decimals), smoothed with G64 P0.01: the smoothed loops need
+/// many repairs of the velocity bound.
+fn noisy_trochoid(moves: usize) -> String {
+    let (r, pitch, step) = (0.5, 0.1, 0.023);
+    let omega = std::f64::consts::TAU / pitch;
+    let tool = |u: f64| (u + r * (omega * u).cos(), r * (omega * u).sin());
+    let mut text = format!("G21 G90 G17\nG0 X{r:.4} Y0 Z0\nG64 P0.01\nG1 F3000\n");
+    let (mut u, mut prev, mut s) = (0.0, tool(0.0), 0.0);
+    let du = step / (std::f64::consts::TAU * r / pitch) / 16.0;
+    let mut written = 0;
+    while written < moves {
+        u += du;
+        let p = tool(u);
+        s += ((p.0 - prev.0).powi(2) + (p.1 - prev.1).powi(2)).sqrt();
+        prev = p;
+        if s >= step {
+            text += &format!("X{:.4} Y{:.4}\n", p.0, p.1);
+            s -= step;
+            written += 1;
+        }
+    }
+    text + "M30\n"
+}
+
+/// Largest |value| / configured limit of velocity, acceleration and jerk over the axes, sampled
+/// every `dt_s` along the exact geometry.
+fn sampled_ratios(path: &Path, segs: &[Segment], cfg: &Settings, dt_s: f64) -> [f64; 3] {
+    let mut worst = [0.0f64; 3];
+    let mut cursor = profile::Cursor::default();
+    let mut d = crate::path::AxisDerivs::default();
+    let n = (profile::duration_s(segs) / dt_s) as usize + 1;
+    for k in 0..=n {
+        let Some(sample) = cursor.sample(segs, k as f64 * dt_s) else { break };
+        let st = sample.state;
+        if sample.at_start {
+            path.eval(st.s_mm, &mut d)
+        } else {
+            path.eval_left(st.s_mm, &mut d)
+        }
+        for (i, ax) in cfg.axes.iter().enumerate() {
+            let vel = d.d1[i] * st.v;
+            let acc = d.d2[i] * st.v * st.v + d.d1[i] * st.a;
+            let jerk = d.d3[i] * st.v.powi(3) + 3.0 * d.d2[i] * st.v * st.a + d.d1[i] * st.j;
+            worst[0] = worst[0].max(vel.abs() / ax.max_vel_per_s);
+            worst[1] = worst[1].max(acc.abs() / ax.max_acc_per_s2);
+            worst[2] = worst[2].max(jerk.abs() / ax.max_jerk_per_s3);
+        }
+    }
+    worst
+}
+
+/// Where a block's repairs do not converge (here: the first block that needs a repair gives up
+/// at once, as one does after `MAX_REPAIRS`; the noisy trochoid's smoothed loops need them), the planner stops at the node it got stuck at and
+/// plans on from rest instead of refusing the program. The motion covers the path, is
+/// continuous and keeps every limit; each forced stop is a rest in the motion.
+#[test]
+fn a_block_whose_repairs_do_not_converge_stops_at_the_bad_node() {
+    let cfg = Settings::default_machine();
+    let prog = program::parse(&noisy_trochoid(800), "t.ngc", &cfg).unwrap();
+    let path = crate::prep::prepare_path(&cfg, &prog.path).unwrap().path;
+    let (_, _, unlimited) = plan_online_stats(&cfg, &path, cfg.planner.lookahead_mm);
+    assert!(unlimited.work.repairs > 1 && unlimited.forced_stops == 0, "{unlimited:?}");
+    block::TEST_GIVE_UPS.with(|c| c.set(1));
+    let (segs, _, stats) = plan_online_stats(&cfg, &path, cfg.planner.lookahead_mm);
+    block::TEST_GIVE_UPS.with(|c| c.set(1));
+    let (whole, whole_stats) = Planner::plan_path(&cfg, &path).expect("plan");
+    assert!(stats.forced_stops >= 1 && whole_stats.forced_stops >= 1, "{stats:?} {whole_stats:?}");
+    for s in [&segs, &whole] {
+        check_covers(s, path.length_mm());
+        let [v, a, j] = sampled_ratios(&path, s, &cfg, 2.5e-4);
+        assert!(v <= 1.001 && a <= 1.001 && j <= 1.02, "vel {v} acc {a} jerk {j}");
+    }
+    let rests = segs.windows(2).filter(|w| w[0].at(w[0].dt_s).v.abs() < 1e-9 && w[1].v0 == 0.0).count();
+    assert!(rests as u64 >= stats.forced_stops, "{rests} rests for {} forced stops", stats.forced_stops);
+}

@@ -17,6 +17,12 @@ pub(super) struct RunElem {
     /// Tangent turn at the vertex before this element (0 for the first of a run), rad.
     pub turn_in_rad: f64,
     pub tol_mm: f64,
+    /// The programmed tolerance (`tol_mm` is narrower on a conditioned chord), mm.
+    pub prog_tol_mm: f64,
+    /// Where the programmed moves the element stands for start and end on the programmed
+    /// path (its own s range when it was not conditioned).
+    pub prog_s0_mm: f64,
+    pub prog_s1_mm: f64,
     /// Start and unit direction of a straight element (the common case, measured fast).
     line: Option<(AxisVec, AxisVec)>,
 }
@@ -31,6 +37,11 @@ impl RunElem {
             }
             None => distance_to(&self.element.geometry, p, n),
         }
+    }
+
+    /// Whether the element is a chord over several programmed moves (or shifted in s by one).
+    pub(super) fn conditioned(&self) -> bool {
+        self.prog_s0_mm != self.s0_mm || self.prog_s1_mm != self.s1_mm()
     }
 
     pub(super) fn s1_mm(&self) -> f64 {
@@ -80,6 +91,13 @@ impl RunElems {
 
     /// Appends an element; its turn is measured against the previous one of the run.
     pub(super) fn push(&mut self, element: Element, tol_mm: f64) {
+        let (s0, s1) = (element.s_start_mm, element.s_end_mm());
+        self.push_conditioned(element, tol_mm, tol_mm, (s0, s1));
+    }
+
+    /// Appends a conditioned element with the band left to it, the programmed tolerance and
+    /// the programmed s range it stands for.
+    pub(super) fn push_conditioned(&mut self, element: Element, tol_mm: f64, prog_tol_mm: f64, prog_s_mm: (f64, f64)) {
         let len_mm = element.geometry.length_mm();
         let mut d = AxisDerivs::default();
         element.geometry.eval(0.0, &mut d);
@@ -95,7 +113,19 @@ impl RunElems {
             }
             _ => None,
         };
-        self.items.push_back(RunElem { element, s0_mm, len_mm, t_start, t_end, turn_in_rad, tol_mm, line });
+        self.items.push_back(RunElem {
+            element,
+            s0_mm,
+            len_mm,
+            t_start,
+            t_end,
+            turn_in_rad,
+            tol_mm,
+            prog_tol_mm,
+            prog_s0_mm: prog_s_mm.0,
+            prog_s1_mm: prog_s_mm.1,
+            line,
+        });
     }
 
     /// One past the last global index.
@@ -133,6 +163,12 @@ impl RunElems {
             i -= 1;
         }
         i
+    }
+
+    /// Index of the element containing global s (the later one at a vertex), by bisection.
+    pub(super) fn index_at_bisect(&self, s_mm: f64) -> usize {
+        let i = self.items.partition_point(|e| e.s0_mm <= s_mm);
+        self.base + i.saturating_sub(1).min(self.items.len().saturating_sub(1))
     }
 
     /// Distance from `p` to the elements `from..=to` (clamped to those held), over `n` axes.

@@ -21,6 +21,8 @@ pub(super) struct Point {
     /// Unit tangent (at a vertex: the bisector of both sides).
     pub tangent: AxisVec,
     pub tol_mm: f64,
+    /// The programmed tolerance there (the check measures against the programmed path).
+    pub prog_tol_mm: f64,
     /// Element containing the point (the later one at a vertex).
     pub elem: usize,
     /// On a vertex between two elements.
@@ -187,7 +189,7 @@ impl Placer {
                 tangent = sum.map(|x| x / norm);
             }
         }
-        Point { s_mm, pos: d.pos, tangent, tol_mm: e.tol_mm, elem, vertex, seg_end }
+        Point { s_mm, pos: d.pos, tangent, tol_mm: e.tol_mm, prog_tol_mm: e.prog_tol_mm, elem, vertex, seg_end }
     }
 }
 

@@ -1,11 +1,12 @@
 //! A run: consecutive G64 elements smoothed as one chain, with the points not yet committed
 //! and the state of the committed node they start from.
 
+use super::condition::Conditioned;
 use super::elements::RunElems;
 use super::points::{Placer, Point};
 use super::settings::StageSettings;
 use super::window::State;
-use crate::path::{Element, JointKind};
+use crate::path::JointKind;
 
 /// How the run ends.
 // The join state is copied once per run end; boxing it would cost more than it saves.
@@ -22,7 +23,10 @@ pub(super) enum RunEnd {
 
 #[derive(Debug)]
 pub(super) struct Run {
+    /// The conditioned elements: what the points, bands and the exact-stop fallback follow.
     pub elems: RunElems,
+    /// The programmed elements they stand for: what the check measures against.
+    pub programmed: RunElems,
     pub placer: Placer,
     /// Points from the committed node on: `points[0]` is the committed node.
     pub points: Vec<Point>,
@@ -38,19 +42,10 @@ pub(super) struct Run {
 
 impl Run {
     /// A run starting with `first`, from `state` with `left_levels` fixed.
-    pub(super) fn new(
-        first: Element,
-        tol_mm: f64,
-        state: State,
-        left_levels: usize,
-        joint: JointKind,
-        n_axes: usize,
-    ) -> Self {
-        let dwell_s = first.dwell_before_s;
-        let mut elems = RunElems::new(n_axes);
-        elems.push(first, tol_mm);
+    pub(super) fn new(dwell_s: f64, state: State, left_levels: usize, joint: JointKind, n_axes: usize) -> Self {
         Self {
-            elems,
+            elems: RunElems::new(n_axes),
+            programmed: RunElems::new(n_axes),
             placer: Placer::new(),
             points: Vec::new(),
             state,
@@ -58,6 +53,16 @@ impl Run {
             end: RunEnd::Open,
             next_joint: joint,
             dwell_s,
+        }
+    }
+
+    /// Appends a conditioned element (tolerance `tol_mm`) and the programmed moves it stands
+    /// for; a chord keeps the band its merged vertices leave.
+    pub(super) fn push(&mut self, c: Conditioned, tol_mm: f64) {
+        let prog = (c.programmed[0].s_start_mm, c.programmed[c.programmed.len() - 1].s_end_mm());
+        self.elems.push_conditioned(c.element, tol_mm - c.deviation_mm, tol_mm, prog);
+        for m in c.programmed {
+            self.programmed.push(m, tol_mm);
         }
     }
 
@@ -91,5 +96,8 @@ impl Run {
         let s_keep = self.points[0].s_mm - 4.0 * spacing_mm;
         let keep = self.elems.index_at(s_keep, self.points[0].elem);
         self.elems.drop_before(keep.min(self.points[0].elem));
+        let prog_keep = self.elems.get(self.elems.first_index()).prog_s0_mm;
+        let i = self.programmed.index_at_bisect(prog_keep);
+        self.programmed.drop_before(i);
     }
 }

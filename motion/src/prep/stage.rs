@@ -7,6 +7,7 @@
 //! looser end, and finally to an exact stop and the programmed path for that segment; each
 //! fallback is logged and counted. G61 elements pass through unchanged.
 
+use super::condition::{Conditioned, Conditioner};
 use super::elements::{RunElem, angle_between};
 use super::pieces;
 use super::qp::QpFailure;
@@ -64,6 +65,7 @@ pub struct Prep {
     out_s_mm: f64,
     last_out: Option<Element>,
     run: Option<Run>,
+    cond: Conditioner,
     pub stats: PrepStats,
 }
 
@@ -76,16 +78,45 @@ impl Prep {
             out_s_mm: 0.0,
             last_out: None,
             run: None,
+            cond: Conditioner::new(settings.axes.len()),
             stats: PrepStats { max_excess_mm: f64::NEG_INFINITY, ..PrepStats::default() },
         }
     }
 
     /// Takes the next programmed element.
     pub fn push(&mut self, e: Element) -> Result<(), PrepError> {
-        let tol = match e.blend {
-            Blend::Tolerance { tol_mm } if self.smoothable(&e) => Some(tol_mm),
+        self.stats.moves_in += 1;
+        let tol = self.g64_tol(&e);
+        if let Some(t) = tol.filter(|_| Conditioner::mergeable(&e)) {
+            return match self.cond.push(e, t) {
+                Some(c) => self.push_conditioned(c),
+                None => Ok(()),
+            };
+        }
+        if let Some(c) = self.cond.flush() {
+            self.push_conditioned(c)?;
+        }
+        let c = self.cond.pass(e);
+        self.push_conditioned(c)
+    }
+
+    /// The tolerance of an element the stage smooths, `None` for one it passes through.
+    fn g64_tol(&self, e: &Element) -> Option<f64> {
+        match e.blend {
+            Blend::Tolerance { tol_mm } if self.smoothable(e) => Some(tol_mm),
             _ => None,
-        };
+        }
+    }
+
+    /// Takes the next conditioned element: it continues the open run, closes it, or starts one.
+    fn push_conditioned(&mut self, c: Conditioned) -> Result<(), PrepError> {
+        if c.programmed.len() > 1 {
+            self.stats.chords += 1;
+            self.stats.moves_merged += c.programmed.len() as u64 - 1;
+            self.stats.merge_deviation_mm = self.stats.merge_deviation_mm.max(c.deviation_mm);
+        }
+        let e = &c.element;
+        let tol = self.g64_tol(e);
         if let Some(run) = self.run.as_mut() {
             if let Some(t) = tol {
                 let last = run.elems.last().expect("a run holds an element");
@@ -93,23 +124,23 @@ impl Prep {
                 e.geometry.eval(0.0, &mut d);
                 let turn = angle_between(&last.t_end, &d.d1, self.st.n_axes);
                 if e.dwell_before_s == 0.0 && turn <= self.st.max_corner_rad {
-                    run.elems.push(e, t);
+                    run.push(c, t);
                     run.place(&self.st);
                     return self.advance();
                 }
             }
             let tangent = matches!(e.joint, JointKind::Smooth | JointKind::CurvatureJump);
             let end = if tol.is_none() && tangent && e.dwell_before_s == 0.0 {
-                RunEnd::Join(start_state(&e, self.st.spacing_mm))
+                RunEnd::Join(start_state(e, self.st.spacing_mm))
             } else {
                 RunEnd::Stop
             };
             self.close_run(end)?;
         }
         match tol {
-            Some(t) => self.start_run(e, t),
+            Some(t) => self.start_run(c, t),
             None => {
-                self.emit_programmed(e);
+                self.emit_programmed(c.element);
                 Ok(())
             }
         }
@@ -117,6 +148,9 @@ impl Prep {
 
     /// No more elements follow.
     pub fn finish(&mut self) -> Result<(), PrepError> {
+        if let Some(c) = self.cond.flush() {
+            self.push_conditioned(c)?;
+        }
         if self.run.is_some() {
             self.close_run(RunEnd::Stop)?;
         }
@@ -147,18 +181,20 @@ impl Prep {
         !rotary_moves && (unit - 1.0).abs() < 1e-6
     }
 
-    fn start_run(&mut self, e: Element, tol: f64) -> Result<(), PrepError> {
+    fn start_run(&mut self, c: Conditioned, tol: f64) -> Result<(), PrepError> {
+        let e = &c.element;
         let tangent = matches!(e.joint, JointKind::Smooth | JointKind::CurvatureJump) && e.dwell_before_s == 0.0;
         let (state, levels, joint) = match &self.last_out {
             Some(prev) if tangent => (end_state(prev, self.st.spacing_mm), 3.min(self.st.levels), JointKind::Smooth),
             prev => {
-                let mut s = start_state(&e, self.st.spacing_mm);
+                let mut s = start_state(e, self.st.spacing_mm);
                 s.iter_mut().for_each(|a| a[1..].iter_mut().for_each(|x| *x = 0.0));
                 (s, 1, if prev.is_none() { JointKind::Start } else { JointKind::Corner })
             }
         };
         self.stats.runs += 1;
-        let mut run = Run::new(e, tol, state, levels, joint, self.st.n_axes);
+        let mut run = Run::new(e.dwell_before_s, state, levels, joint, self.st.n_axes);
+        run.push(c, tol);
         run.place(&self.st);
         self.run = Some(run);
         self.advance()
@@ -454,7 +490,7 @@ fn check_pieces(
     for j in 0..commit {
         let delta = (p[j + 1].s_mm - p[j].s_mm) / st.spacing_mm;
         let piece = pieces::smoothed(&sol.states[j], &sol.states[j + 1], delta, &st.linear).map_err(|_| j)?;
-        let (dev, excess) = verify::piece_excess(&piece, &p[j], &p[j + 1], &run.elems, st.spacing_mm);
+        let (dev, excess) = verify::piece_excess(&piece, &p[j], &p[j + 1], &run.elems, &run.programmed, st.spacing_mm);
         stats.max_deviation_mm = stats.max_deviation_mm.max(dev);
         if excess > 0.0 {
             return Err(j);

@@ -5,6 +5,15 @@ use serde::Serialize;
 /// Totals over a preparation run.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
 pub struct PrepStats {
+    /// Programmed elements taken.
+    pub moves_in: u64,
+    /// Programmed moves merged into a chord with their neighbours (rounding zig-zags,
+    /// near-zero moves, near-collinear runs; `condition.rs`).
+    pub moves_merged: u64,
+    /// Chords that replace more than one programmed move.
+    pub chords: u64,
+    /// Largest distance of a merged vertex to its chord, mm.
+    pub merge_deviation_mm: f64,
     /// Runs of G64 elements smoothed.
     pub runs: u64,
     /// Window solves that were committed (after any retries).

@@ -10,21 +10,32 @@ use crate::path::QuinticSpan;
 pub(super) const SAMPLES_PER_PIECE: usize = 32;
 
 /// Largest distance of the sampled piece between points `a` and `b` to the programmed path,
-/// and that distance minus the tolerance allowed there (> 0: outside).
-pub(super) fn piece_excess(piece: &QuinticSpan, a: &Point, b: &Point, elems: &RunElems, spacing_mm: f64) -> (f64, f64) {
+/// and that distance minus the tolerance allowed there (> 0: outside). `elems` are the
+/// conditioned elements the points lie on, `programmed` the programmed ones they stand for.
+pub(super) fn piece_excess(
+    piece: &QuinticSpan,
+    a: &Point,
+    b: &Point,
+    elems: &RunElems,
+    programmed: &RunElems,
+    spacing_mm: f64,
+) -> (f64, f64) {
     // The piece stays near the programmed path between its ends, shifted along it by at most
     // how far its ends moved: only the elements there can be nearest.
-    let tol = a.tol_mm.min(b.tol_mm);
+    let tol = a.prog_tol_mm.min(b.prog_tol_mm);
     let p0 = piece.point_at_t(0.0);
     let p1 = piece.point_at_t(1.0);
     let moved = |p: &[f64], q: &Point| p.iter().zip(&q.pos).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt();
     let reach = (moved(&p0, a).max(moved(&p1, b)) + 2.0 * tol).min(2.0 * spacing_mm);
-    let from = elems.index_at(a.s_mm - reach, a.elem);
-    let to = elems.index_at(b.s_mm + reach, b.elem);
+    // The programmed moves of the conditioned elements there (a chord: all of its moves).
+    let (s_from, s_to) = (a.s_mm - reach, b.s_mm + reach);
+    let (e_from, e_to) = (elems.get(elems.index_at(s_from, a.elem)), elems.get(elems.index_at(s_to, b.elem)));
+    let from = programmed.index_at_bisect(if e_from.conditioned() { e_from.prog_s0_mm } else { s_from });
+    let to = programmed.index_at_bisect(if e_to.conditioned() { e_to.prog_s1_mm } else { s_to });
     let mut worst: f64 = 0.0;
     for i in 1..SAMPLES_PER_PIECE {
         let p = piece.point_at_t(i as f64 / SAMPLES_PER_PIECE as f64);
-        worst = worst.max(elems.distance(&p, from, to));
+        worst = worst.max(programmed.distance(&p, from, to));
     }
     (worst, worst - tol)
 }

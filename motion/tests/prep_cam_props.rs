@@ -1,0 +1,254 @@
+//! Property test of smoothing and planning on noisy CAM programs: random chains of
+//! micro-segments (1–25 µm) along arcs and lines, G2/G3 arcs and long G1 lines, with a zig-zag
+//! below the tolerance, coordinates rounded to 4 decimals and duplicate moves, in G64. The
+//! smoothed path, sampled every few micrometres, stays within the tolerance + 1 µm of the
+//! programmed polyline (measured here, not by the stage's own check), and the planner always
+//! returns a motion that covers the path and keeps 1.001 × the velocity and acceleration
+//! limits and 1.02 × the jerk limit, sampled every 0.25 ms.
+
+use interpd_motion::Settings;
+use interpd_motion::path::{AxisDerivs, Geometry, Path};
+use interpd_motion::planner::profile::Cursor;
+use interpd_motion::planner::{Planner, Segment};
+use interpd_motion::prep::prepare_path;
+use interpd_motion::program;
+use proptest::prelude::*;
+
+/// What the smoothed path may exceed the tolerance by, mm.
+const EXCESS_ALLOWED_MM: f64 = 1e-3;
+
+#[derive(Debug, Clone)]
+enum Piece {
+    /// Micro-segments of `step_mm` along an arc (`sweep_deg` signed: left or right).
+    MicroArc { radius_mm: f64, sweep_deg: f64, step_mm: f64 },
+    /// Micro-segments of `step_mm` along a line.
+    MicroLine { length_mm: f64, step_mm: f64 },
+    /// One G2/G3 arc.
+    Arc { radius_mm: f64, sweep_deg: f64 },
+    /// One G1 line.
+    Line { length_mm: f64 },
+}
+
+fn piece() -> impl Strategy<Value = (Piece, f64)> {
+    let sweep = prop_oneof![-120.0..-10.0f64, 10.0..120.0f64];
+    let p =
+        prop_oneof![
+            (1.0..20.0f64, sweep.clone(), 0.001..0.025f64)
+                .prop_map(|(radius_mm, sweep_deg, step_mm)| Piece::MicroArc { radius_mm, sweep_deg, step_mm }),
+            (0.2..4.0f64, 0.001..0.025f64).prop_map(|(length_mm, step_mm)| Piece::MicroLine { length_mm, step_mm }),
+            (2.0..20.0f64, sweep).prop_map(|(radius_mm, sweep_deg)| Piece::Arc { radius_mm, sweep_deg }),
+            (0.5..10.0f64).prop_map(|length_mm| Piece::Line { length_mm }),
+        ];
+    // The heading turns by up to 30° where the next piece starts.
+    (p, -30.0..30.0f64)
+}
+
+/// Writes a G-code program: the pieces one after the other, micro-segments with a zig-zag of
+/// `noise_mm` across the path, every coordinate rounded to 4 decimals, and every
+/// `dup_every`-th micro move repeated (a zero-length move).
+fn program_text(pieces: &[(Piece, f64)], tol_mm: f64, noise_mm: f64, dup_every: usize, feed: f64) -> String {
+    let mut t = format!("G21 G90 G17\nG0 X0 Y0 Z0\nG64 P{tol_mm}\nG1 F{feed:.0}\n");
+    let (mut x, mut y, mut heading) = (0.0f64, 0.0f64, 0.0f64);
+    let mut count = 0usize;
+    // The last move of a piece ends on the piece's end (no zig-zag), where the next one starts.
+    let mut micro = |t: &mut String, px: f64, py: f64, nx: f64, ny: f64, last: bool| {
+        count += 1;
+        let side = if last {
+            0.0
+        } else if count % 2 == 0 {
+            1.0
+        } else {
+            -1.0
+        };
+        let line = format!("X{:.4} Y{:.4}\n", px + side * noise_mm * nx, py + side * noise_mm * ny);
+        t.push_str(&line);
+        if count % dup_every == 0 {
+            t.push_str(&line);
+        }
+    };
+    for (p, turn_deg) in pieces {
+        heading += turn_deg.to_radians();
+        let (dx, dy) = (heading.cos(), heading.sin());
+        match *p {
+            Piece::MicroLine { length_mm, step_mm } => {
+                let n = (length_mm / step_mm).ceil() as usize;
+                for i in 1..=n {
+                    let s = length_mm * i as f64 / n as f64;
+                    micro(&mut t, x + s * dx, y + s * dy, -dy, dx, i == n);
+                }
+                (x, y) = (x + length_mm * dx, y + length_mm * dy);
+            }
+            Piece::MicroArc { radius_mm, sweep_deg, step_mm } => {
+                let sign = sweep_deg.signum();
+                // The centre lies to the left for a left turn.
+                let (cx, cy) = (x - sign * radius_mm * dy, y + sign * radius_mm * dx);
+                let a0 = (y - cy).atan2(x - cx);
+                let sweep = sweep_deg.to_radians();
+                let n = (radius_mm * sweep.abs() / step_mm).ceil() as usize;
+                for i in 1..=n {
+                    let a = a0 + sweep * i as f64 / n as f64;
+                    let (px, py) = (cx + radius_mm * a.cos(), cy + radius_mm * a.sin());
+                    micro(&mut t, px, py, a.cos(), a.sin(), i == n);
+                }
+                let a = a0 + sweep;
+                (x, y) = (cx + radius_mm * a.cos(), cy + radius_mm * a.sin());
+                heading += sweep;
+            }
+            Piece::Arc { radius_mm, sweep_deg } => {
+                let sign = sweep_deg.signum();
+                let (cx, cy) = (x - sign * radius_mm * dy, y + sign * radius_mm * dx);
+                let a = (y - cy).atan2(x - cx) + sweep_deg.to_radians();
+                let (ex, ey) = (cx + radius_mm * a.cos(), cy + radius_mm * a.sin());
+                let g = if sign > 0.0 { "G3" } else { "G2" };
+                t += &format!("{g} X{ex:.4} Y{ey:.4} I{:.4} J{:.4}\nG1\n", cx - x, cy - y);
+                (x, y) = (ex, ey);
+                heading += sweep_deg.to_radians();
+            }
+            Piece::Line { length_mm } => {
+                (x, y) = (x + length_mm * dx, y + length_mm * dy);
+                t += &format!("X{x:.4} Y{y:.4}\n");
+            }
+        }
+    }
+    t + "M30\n"
+}
+
+/// Distance from `p` to the programmed path: its lines exactly, its arcs as polylines of
+/// 1 µm chords (chord error ≤ 1e-7 mm at the radii used), searched in a grid.
+struct Reference {
+    segs: Vec<([f64; 2], [f64; 2])>,
+    grid: std::collections::HashMap<(i64, i64), Vec<usize>>,
+}
+
+/// Grid cell of the reference, mm (larger than any distance asked about).
+const CELL_MM: f64 = 0.25;
+
+impl Reference {
+    fn new(path: &Path) -> Self {
+        let mut segs = Vec::new();
+        let mut d = AxisDerivs::default();
+        for e in &path.elements {
+            let len = e.geometry.length_mm();
+            let n = match e.geometry {
+                Geometry::Line(_) => 1,
+                _ => (len / 1e-3).ceil() as usize,
+            };
+            e.geometry.eval(0.0, &mut d);
+            let mut prev = [d.pos[0], d.pos[1]];
+            for i in 1..=n {
+                e.geometry.eval(len * i as f64 / n as f64, &mut d);
+                let p = [d.pos[0], d.pos[1]];
+                segs.push((prev, p));
+                prev = p;
+            }
+        }
+        let mut grid: std::collections::HashMap<(i64, i64), Vec<usize>> = std::collections::HashMap::new();
+        for (i, (a, b)) in segs.iter().enumerate() {
+            let lo = |k: usize| ((a[k].min(b[k]) - CELL_MM) / CELL_MM).floor() as i64;
+            let hi = |k: usize| ((a[k].max(b[k]) + CELL_MM) / CELL_MM).floor() as i64;
+            for cx in lo(0)..=hi(0) {
+                for cy in lo(1)..=hi(1) {
+                    grid.entry((cx, cy)).or_default().push(i);
+                }
+            }
+        }
+        Self { segs, grid }
+    }
+
+    fn distance(&self, p: [f64; 2]) -> f64 {
+        let key = ((p[0] / CELL_MM).floor() as i64, (p[1] / CELL_MM).floor() as i64);
+        let Some(list) = self.grid.get(&key) else { return f64::INFINITY };
+        list.iter()
+            .map(|&i| {
+                let (a, b) = self.segs[i];
+                let ab = [b[0] - a[0], b[1] - a[1]];
+                let len2 = ab[0] * ab[0] + ab[1] * ab[1];
+                let t = if len2 > 0.0 {
+                    (((p[0] - a[0]) * ab[0] + (p[1] - a[1]) * ab[1]) / len2).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                ((p[0] - a[0] - t * ab[0]).powi(2) + (p[1] - a[1] - t * ab[1]).powi(2)).sqrt()
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+}
+
+/// Largest distance of `smoothed`, sampled every `step_mm` (and at least 8 times per element),
+/// from `programmed`.
+fn max_deviation(programmed: &Path, smoothed: &Path, step_mm: f64) -> f64 {
+    let reference = Reference::new(programmed);
+    let mut d = AxisDerivs::default();
+    let mut worst: f64 = 0.0;
+    for e in &smoothed.elements {
+        let len = e.geometry.length_mm();
+        let n = (len / step_mm).ceil().max(8.0) as usize;
+        for i in 0..=n {
+            e.geometry.eval(len * i as f64 / n as f64, &mut d);
+            worst = worst.max(reference.distance([d.pos[0], d.pos[1]]));
+        }
+    }
+    worst
+}
+
+/// Largest |value| / configured limit of velocity, acceleration and jerk, sampled every `dt_s`.
+fn sampled_ratios(path: &Path, segs: &[Segment], cfg: &Settings, dt_s: f64) -> [f64; 3] {
+    let mut worst = [0.0f64; 3];
+    let mut cursor = Cursor::default();
+    let mut d = AxisDerivs::default();
+    let n = (interpd_motion::planner::profile::duration_s(segs) / dt_s) as usize + 1;
+    for k in 0..=n {
+        let Some(sample) = cursor.sample(segs, k as f64 * dt_s) else { break };
+        let st = sample.state;
+        if sample.at_start {
+            path.eval(st.s_mm, &mut d)
+        } else {
+            path.eval_left(st.s_mm, &mut d)
+        }
+        for (i, ax) in cfg.axes.iter().enumerate() {
+            let vel = d.d1[i] * st.v;
+            let acc = d.d2[i] * st.v * st.v + d.d1[i] * st.a;
+            let jerk = d.d3[i] * st.v.powi(3) + 3.0 * d.d2[i] * st.v * st.a + d.d1[i] * st.j;
+            worst[0] = worst[0].max(vel.abs() / ax.max_vel_per_s);
+            worst[1] = worst[1].max(acc.abs() / ax.max_acc_per_s2);
+            worst[2] = worst[2].max(jerk.abs() / ax.max_jerk_per_s3);
+        }
+    }
+    worst
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, max_shrink_iters: 50, ..ProptestConfig::default() })]
+
+    #[test]
+    fn noisy_cam_programs_smooth_within_the_tolerance_and_plan_within_the_limits(
+        pieces in prop::collection::vec(piece(), 1..6),
+        tol_mm in 0.005..0.05f64,
+        noise_share in 0.0..0.2f64,
+        dup_every in 50usize..400,
+        feed in 600.0..12000.0f64,
+    ) {
+        let cfg = Settings::default_machine();
+        let text = program_text(&pieces, tol_mm, noise_share * tol_mm, dup_every, feed);
+        let case = format!("{pieces:?} tol {tol_mm} noise {noise_share} dup {dup_every} F{feed}");
+        let prog = program::parse(&text, "cam.ngc", &cfg)
+            .map_err(|e| TestCaseError::fail(format!("the program does not parse: {e:?}\n{case}")))?;
+        let prepared = prepare_path(&cfg, &prog.path)
+            .map_err(|e| TestCaseError::fail(format!("smoothing failed: {e}\n{case}")))?;
+        let dev = max_deviation(&prog.path, &prepared.path, 2e-3);
+        prop_assert!(
+            dev <= tol_mm + EXCESS_ALLOWED_MM,
+            "{dev} mm from the programmed path at tol {tol_mm} ({:?})\n{case}", prepared.stats
+        );
+        let (segs, stats) = Planner::plan_path(&cfg, &prepared.path)
+            .map_err(|e| TestCaseError::fail(format!("planning failed: {e}\n{case}")))?;
+        let total: f64 = segs.iter().map(|s| s.ds_mm).sum();
+        let len = prepared.path.length_mm();
+        prop_assert!((total - len).abs() <= 1e-6 * len.max(1.0), "{total} of {len} mm");
+        let [v, a, j] = sampled_ratios(&prepared.path, &segs, &cfg, 2.5e-4);
+        prop_assert!(
+            v <= 1.001 && a <= 1.001 && j <= 1.02,
+            "vel {v:.5} acc {a:.5} jerk {j:.5} ({stats:?})\n{case}"
+        );
+    }
+}

@@ -33,9 +33,31 @@ pub(super) fn piece_excess(
     let from = programmed.index_at_bisect(if e_from.conditioned() { e_from.prog_s0_mm } else { s_from });
     let to = programmed.index_at_bisect(if e_to.conditioned() { e_to.prog_s1_mm } else { s_to });
     let mut worst: f64 = 0.0;
+    if to - from < LOCAL_SEARCH_MIN_MOVES {
+        for i in 1..SAMPLES_PER_PIECE {
+            let p = piece.point_at_t(i as f64 / SAMPLES_PER_PIECE as f64);
+            worst = worst.max(programmed.distance(&p, from, to));
+        }
+        return (worst, worst - tol);
+    }
+    // Many programmed moves (micro-segments): each sample is measured against those within a
+    // few sample spacings and `reach` of where it lies proportionally along them. A subset can
+    // only make a distance larger, so the check stays on the safe side.
+    let (ps0, ps1) = (programmed.get(from).s0_mm, programmed.get(to).s1_mm());
+    let window = reach + LOCAL_SEARCH_SAMPLES * (ps1 - ps0) / SAMPLES_PER_PIECE as f64;
     for i in 1..SAMPLES_PER_PIECE {
-        let p = piece.point_at_t(i as f64 / SAMPLES_PER_PIECE as f64);
-        worst = worst.max(programmed.distance(&p, from, to));
+        let f = i as f64 / SAMPLES_PER_PIECE as f64;
+        let p = piece.point_at_t(f);
+        let s_c = ps0 + f * (ps1 - ps0);
+        let lo = programmed.index_at_bisect(s_c - window).max(from);
+        let hi = programmed.index_at_bisect(s_c + window).min(to);
+        worst = worst.max(programmed.distance(&p, lo, hi));
     }
     (worst, worst - tol)
 }
+
+/// Pieces over at least this many programmed moves are checked sample by sample against the
+/// moves near each sample (`piece_excess`) ...
+const LOCAL_SEARCH_MIN_MOVES: usize = 64;
+/// ... within this many sample spacings (and the reach) along them.
+const LOCAL_SEARCH_SAMPLES: f64 = 2.0;

@@ -1,7 +1,8 @@
 //! Time-bounded fuzzing of the program parsers (G-code with G06, path tables) and the
 //! configuration loader: mutations of the example programs and of the bad-program corpus,
 //! plus grammar-shaped random programs. Every input must yield a program or errors, never a
-//! panic; an accepted program must evaluate to finite geometry everywhere.
+//! panic; an accepted program must evaluate to finite geometry everywhere; and a word that no
+//! code uses, put into an accepted G-code program, must make it an error at that line.
 //!
 //! The run lasts `FUZZ_SECONDS` (default 2 s; CI's scripts/test.sh sets 60 s). Each run prints its
 //! `FUZZ_SEED`; setting it replays that run's inputs (up to the time limit).
@@ -57,9 +58,20 @@ const TOKENS: &[&str] = &[
     "F",
     "N",
     "M3",
+    "M4",
+    "M6",
+    "M8",
     "M30",
     "S",
     "T",
+    "H",
+    "E",
+    "D",
+    "L",
+    "O",
+    "e",
+    "1e300",
+    "G43",
     ";",
     "(",
     ")",
@@ -186,6 +198,36 @@ fn check_input(name: &str, text: &str, cfgs: &[Settings]) -> Result<(), String> 
     Ok(())
 }
 
+/// Words that no code of interpd's dialect takes.
+const STRAY_WORDS: &[&str] = &["H1", "E2", "D3", "L4", "h0", "e 5"];
+
+/// Puts a stray word at the start of a random line of an accepted G-code program (before its
+/// end: M2, M30 or a closing `%`); the program must now be refused at that line. Describes the
+/// failure.
+fn check_stray_word(rng: &mut Rng, name: &str, text: &str, cfg: &Settings) -> Result<(), String> {
+    let lines: Vec<&str> = text.lines().collect();
+    let end = lines
+        .iter()
+        .position(|l| {
+            let k: String = l.chars().filter(|c| !c.is_whitespace()).collect::<String>().to_ascii_uppercase();
+            k.contains("M2") || k.contains("M30") || k.contains('%')
+        })
+        .unwrap_or(lines.len());
+    if end == 0 {
+        return Ok(());
+    }
+    let at = rng.below(end);
+    let word = STRAY_WORDS[rng.below(STRAY_WORDS.len())];
+    let mut changed: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+    changed[at] = format!("{word} {}", changed[at]);
+    let changed = changed.join("\n");
+    match program::parse(&changed, name, cfg) {
+        Ok(_) => Err(format!("the stray word {word} at line {} was accepted", at + 1)),
+        Err(e) if e.0.iter().any(|e| e.line == at as u32 + 1) => Ok(()),
+        Err(e) => Err(format!("the stray word {word} at line {} gave errors elsewhere: {e}", at + 1)),
+    }
+}
+
 /// A failure report a reader can act on: the lines where the input differs from its base,
 /// and the whole input saved to a file.
 fn report(seed: u64, name: &str, base: &str, text: &str, what: &str) -> String {
@@ -221,6 +263,7 @@ fn fuzz_program_parsers() {
     eprintln!("fuzz_program_parsers: FUZZ_SEED={seed}");
     let mut rng = Rng(seed);
     let mut runs = 0u64;
+    let mut stray = 0u64;
     while Instant::now() < deadline {
         let (name, base) = &corpus[rng.below(corpus.len())];
         let mutated = rng.below(4) != 0;
@@ -230,10 +273,20 @@ fn fuzz_program_parsers() {
         if let Err(what) = check_input(&fname, &text, &cfgs) {
             panic!("{}", report(seed, &fname, if mutated { base } else { "" }, &text, &what));
         }
+        let gcode = fname.ends_with(".ngc") && !text.to_ascii_uppercase().contains("LAW");
+        if gcode && program::parse(&text, &fname, &cfgs[0]).is_ok() {
+            if let Err(what) = check_stray_word(&mut rng, &fname, &text, &cfgs[0]) {
+                panic!("{}", report(seed, &fname, if mutated { base } else { "" }, &text, &what));
+            }
+            stray += 1;
+        }
         runs += 1;
     }
-    eprintln!("fuzz_program_parsers: {runs} inputs in {seconds} s, no panic");
+    eprintln!(
+        "fuzz_program_parsers: {runs} inputs in {seconds} s, no panic; {stray} accepted programs with a stray word refused"
+    );
     assert!(runs > 100);
+    assert!(stray > 10, "too few accepted programs to put a stray word into: {stray}");
 }
 
 #[test]

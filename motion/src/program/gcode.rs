@@ -14,6 +14,7 @@ use crate::path::{
     spline::natural_tangents,
 };
 use interpd_config::{AxisKind, AxisLetter};
+use std::cell::Cell;
 use std::f64::consts::PI;
 
 /// Arc end points may miss the circle by this much before the arc is rejected, mm...
@@ -108,17 +109,59 @@ pub(crate) struct Interpreter<'a> {
     pub path: Path,
     pub summary: Summary,
     ended: bool,
+    /// A line other than a blank one was read (a `%` is a tape mark only as the first).
+    started: bool,
+    /// The program began with `%`: the next `%` ends it.
+    tape: bool,
 }
 
-/// Words of one block, by letter, with duplicate detection.
+/// Words of one block, by letter. Reading a word consumes it: a word that nothing in its
+/// block consumed is an error, so a typo never vanishes in silence (every letter other than G
+/// and M appears at most once per block, so one bit per letter records it).
 struct Block<'l> {
     words: &'l [Word],
     line: u32,
+    consumed: Cell<u32>,
 }
 
-impl Block<'_> {
-    fn get(&self, letter: char) -> Option<&Word> {
-        self.words.iter().find(|w| w.letter == letter)
+impl<'l> Block<'l> {
+    fn new(words: &'l [Word], line: u32) -> Self {
+        Self { words, line, consumed: Cell::new(0) }
+    }
+
+    /// The word of `letter`, consumed.
+    fn get(&self, letter: char) -> Option<&'l Word> {
+        let w = self.words.iter().find(|w| w.letter == letter);
+        if w.is_some() {
+            self.consume(letter);
+        }
+        w
+    }
+
+    fn consume(&self, letter: char) {
+        self.consumed.set(self.consumed.get() | letter_bit(letter));
+    }
+
+    /// The first word (in the line) that nothing consumed.
+    fn unconsumed(&self) -> Option<&'l Word> {
+        self.words.iter().find(|w| self.consumed.get() & letter_bit(w.letter) == 0)
+    }
+}
+
+/// One bit per letter A–Z (the lexer upper-cases letters).
+fn letter_bit(letter: char) -> u32 {
+    1 << ((letter as u32).wrapping_sub('A' as u32) % 26)
+}
+
+/// Why a word that no code of its block uses is refused.
+fn unused_word_message(letter: char) -> String {
+    match letter {
+        'P' => "P is only valid with G4, G64 or in G06 spline data".into(),
+        // Tool length compensation (G43) would consume H.
+        'H' => "H word with no G43 to use it (tool length compensation is not supported)".into(),
+        'D' => "D word with no G41/G42 to use it (cutter radius compensation is not supported)".into(),
+        'Q' => "Q word with no G-code that uses it (G64 Q, the naive-CAM tolerance, is not supported)".into(),
+        _ => format!("{letter} word with no G-code that uses it"),
     }
 }
 
@@ -160,6 +203,8 @@ impl<'a> Interpreter<'a> {
             path: Path::new(settings.axis_names(), [0.0; MAX_AXES]),
             summary: Summary::default(),
             ended: false,
+            started: false,
+            tape: false,
         }
     }
 
@@ -196,6 +241,21 @@ impl<'a> Interpreter<'a> {
                 return;
             }
         };
+        if line.percent {
+            if self.g06.is_some() {
+                self.finish_g06(d);
+            }
+            if !self.started {
+                self.tape = true;
+            } else if self.tape {
+                self.ended = true;
+            } else {
+                d.error(line_no, 1, "'%' is only valid as the first line of a program (and then as its last)");
+            }
+            self.started = true;
+            return;
+        }
+        self.started |= !line.blank;
         if self.g06.is_some() {
             if line.blank {
                 self.finish_g06(d);
@@ -226,8 +286,20 @@ impl<'a> Interpreter<'a> {
         self.pending_dwell_s = 0.0;
     }
 
+    /// Executes one block; then every word must have been consumed by it.
     fn block(&mut self, line: &Line, line_no: u32, d: &mut Diagnostics) {
-        let block = Block { words: &line.words, line: line_no };
+        let block = Block::new(&line.words, line_no);
+        let errors_before = d.errors.len();
+        self.execute(&block, line, d);
+        if d.errors.len() == errors_before {
+            if let Some(w) = block.unconsumed() {
+                d.error(line_no, w.col, unused_word_message(w.letter));
+            }
+        }
+    }
+
+    fn execute(&mut self, block: &Block, line: &Line, d: &mut Diagnostics) {
+        let line_no = block.line;
         // Each letter at most once, except G and M (one per modal group, checked below).
         for (i, w) in line.words.iter().enumerate() {
             if w.letter != 'G' && w.letter != 'M' && line.words[..i].iter().any(|o| o.letter == w.letter) {
@@ -241,19 +313,31 @@ impl<'a> Interpreter<'a> {
                 d.error(line_no, n.col, "block number N must be a non-negative integer");
                 return;
             }
-        }
-
-        let Some(g) = self.read_g_words(&block, d) else { return };
-        if !self.read_m_words(&block, d) {
-            return;
-        }
-        for w in line.words.iter() {
-            if matches!(w.letter, 'S' | 'T') {
-                self.summary.ignored_words += 1;
+            if n.col != line.words[0].col {
+                d.error(line_no, n.col, "block number N must be the first word of the block");
+                return;
             }
         }
 
+        let Some(g) = self.read_g_words(block, d) else { return };
+        if !self.read_m_words(block, d) {
+            return;
+        }
+        if !self.read_spindle_and_tool(block, d) {
+            return;
+        }
+
         // Modal settings first, as a controller executes them before motion in the same block.
+        if let (Some(_), Some(f)) = (g.units, block.words.iter().find(|w| w.letter == 'F')) {
+            // RS274NGC sets the feed before the units (LinuxCNC reads `G20 F10` as 10 mm/min):
+            // refused rather than guessed.
+            d.error(
+                line_no,
+                f.col,
+                "F in the same block as G20/G21: its unit would be ambiguous; program F in a block of its own",
+            );
+            return;
+        }
         if let Some(u) = g.units {
             self.modal.unit_mm = u;
         }
@@ -270,7 +354,6 @@ impl<'a> Interpreter<'a> {
             }
             self.modal.feed_mm_s = Some(f.value * self.modal.unit_mm / 60.0);
         }
-        let p_used_by_g = g.dwell || g.blend == Some(BlendWord::Smooth) || g.spline;
         if let Some(b) = g.blend {
             match b {
                 BlendWord::Exact => self.modal.blend = Blend::Exact,
@@ -300,14 +383,8 @@ impl<'a> Interpreter<'a> {
                 Some(p) => self.pending_dwell_s += p.value,
             }
         }
-        if !p_used_by_g {
-            if let Some(p) = block.get('P') {
-                d.error(line_no, p.col, "P is only valid with G4, G64 or in G06 spline data");
-                return;
-            }
-        }
         if g.spline {
-            self.start_g06(&block, block_no, d);
+            self.start_g06(block, block_no, d);
             return;
         }
         if let Some(m) = g.motion {
@@ -324,17 +401,12 @@ impl<'a> Interpreter<'a> {
             }
             return;
         }
-        if g.dwell {
-            let w = line.words.iter().find(|w| AxisLetter::from_char(w.letter).is_some()).expect("has axis");
-            d.error(line_no, w.col, "G4 dwell cannot move axes in the same block");
-            return;
-        }
         let Some(motion) = self.modal.motion else {
             let w = line.words.iter().find(|w| AxisLetter::from_char(w.letter).is_some()).expect("has axis");
             d.error(line_no, w.col, "axis word without a motion mode: program G0, G1, G2 or G3 first");
             return;
         };
-        let Some(target) = self.target(&block, d) else { return };
+        let Some(target) = self.target(block, d) else { return };
         let source = Source { line: line_no, block: block_no };
         match motion {
             Motion::Rapid | Motion::Linear => {
@@ -368,7 +440,7 @@ impl<'a> Interpreter<'a> {
                     );
                     return;
                 };
-                self.arc_move(&block, target, motion == Motion::ArcCcw, Feed::Programmed { mm_per_s: f }, source, d);
+                self.arc_move(block, target, motion == Motion::ArcCcw, Feed::Programmed { mm_per_s: f }, source, d);
             }
         }
     }
@@ -461,14 +533,20 @@ impl<'a> Interpreter<'a> {
             }
             groups[group] = Some(code as u32);
         }
+        block.consume('G');
         Some(g)
     }
 
     fn read_m_words(&mut self, block: &Block, d: &mut Diagnostics) -> bool {
+        // Modal groups: program end, spindle, tool change, coolant.
+        let mut groups: [Option<i64>; 4] = [None; 4];
         for w in block.words.iter().filter(|w| w.letter == 'M') {
-            match w.value as i64 {
-                2 | 30 if w.value.fract() == 0.0 => self.ended = true,
-                3..=9 if w.value.fract() == 0.0 => self.summary.ignored_words += 1,
+            let code = w.value as i64;
+            let group = match code {
+                2 | 30 if w.value.fract() == 0.0 => 0,
+                3..=5 if w.value.fract() == 0.0 => 1,
+                6 if w.value.fract() == 0.0 => 2,
+                7..=9 if w.value.fract() == 0.0 => 3,
                 _ => {
                     d.error(
                         block.line,
@@ -477,7 +555,42 @@ impl<'a> Interpreter<'a> {
                     );
                     return false;
                 }
+            };
+            if let Some(prev) = groups[group] {
+                d.error(
+                    block.line,
+                    w.col,
+                    format!("M{code} conflicts with M{prev} in the same block (same modal group)"),
+                );
+                return false;
             }
+            groups[group] = Some(code);
+            if group == 0 {
+                self.ended = true;
+            } else {
+                self.summary.ignored_words += 1;
+            }
+        }
+        block.consume('M');
+        true
+    }
+
+    /// S and T: accepted and counted (interpd interpolates motion only), but checked as a
+    /// controller would.
+    fn read_spindle_and_tool(&mut self, block: &Block, d: &mut Diagnostics) -> bool {
+        if let Some(s) = block.get('S') {
+            if s.value < 0.0 {
+                d.error(block.line, s.col, format!("spindle speed S must not be negative, got {}", s.value));
+                return false;
+            }
+            self.summary.ignored_words += 1;
+        }
+        if let Some(t) = block.get('T') {
+            if t.value < 0.0 || t.value.fract() != 0.0 {
+                d.error(block.line, t.col, format!("tool number T must be a non-negative integer, got {}", t.value));
+                return false;
+            }
+            self.summary.ignored_words += 1;
         }
         true
     }
@@ -488,6 +601,7 @@ impl<'a> Interpreter<'a> {
         let mut ok = true;
         for w in block.words {
             let Some(letter) = AxisLetter::from_char(w.letter) else { continue };
+            block.consume(w.letter);
             let Some(k) = self.settings.axis_index(letter) else {
                 d.error(
                     block.line,
@@ -747,7 +861,7 @@ impl<'a> Interpreter<'a> {
         let xyz =
             [AxisLetter::X, AxisLetter::Y, AxisLetter::Z].map(|l| self.settings.axis_index(l).expect("checked at G06"));
         let block = self.g06.as_mut().expect("in G06 block");
-        let words = Block { words: &line.words, line: line_no };
+        let words = Block::new(&line.words, line_no);
         let block_no = words.get('N').map_or(0, |w| w.value as u32);
         for (i, w) in line.words.iter().enumerate() {
             if !matches!(w.letter, 'X' | 'Y' | 'Z' | 'P' | 'Q' | 'R' | 'N') {

@@ -25,6 +25,8 @@ pub(super) struct Line {
     pub end_col: u32,
     /// Nothing but blanks (no words, no comments).
     pub blank: bool,
+    /// The line holds only `%` (a tape mark).
+    pub percent: bool,
 }
 
 /// A lexing error: column and message.
@@ -41,6 +43,7 @@ pub(super) fn lex_line(text: &str) -> Result<Line, LexError> {
     let trimmed = text.trim();
     if trimmed == "%" {
         line.blank = false;
+        line.percent = true;
         return Ok(line);
     }
     let mut i = 0;
@@ -65,6 +68,13 @@ pub(super) fn lex_line(text: &str) -> Result<Line, LexError> {
             }
             c if c.is_ascii_alphabetic() => {
                 let letter = c.to_ascii_uppercase();
+                if letter == 'O' {
+                    // An O word opens a subroutine or loop line whose keywords are no words.
+                    return Err(LexError {
+                        col,
+                        message: "O word: subroutines and loops (O codes) are not supported".into(),
+                    });
+                }
                 i += 1;
                 while i < chars.len() && (chars[i] == ' ' || chars[i] == '\t') {
                     i += 1;
@@ -87,6 +97,14 @@ pub(super) fn lex_line(text: &str) -> Result<Line, LexError> {
                     return Err(LexError { col, message: format!("word '{letter}' has no number") });
                 }
                 let number: String = chars[start..i].iter().collect();
+                if let Some(exponent) = exponent_at(&chars, i) {
+                    return Err(LexError {
+                        col,
+                        message: format!(
+                            "'{letter}{number}{exponent}': a number with an exponent is not G-code (write it in decimals)"
+                        ),
+                    });
+                }
                 let value: f64 = number
                     .parse()
                     .map_err(|_| LexError { col, message: format!("'{letter}{number}' is not a number") })?;
@@ -106,6 +124,24 @@ pub(super) fn lex_line(text: &str) -> Result<Line, LexError> {
         line.end_col = 1;
     }
     Ok(line)
+}
+
+/// The exponent (`e300`, `E-3`) that follows a number at `i`, if any. RS274 numbers have
+/// none: LinuxCNC reads `1e300` as the number 1 and an E word, so a program written for a
+/// language with exponents would silently lose it.
+fn exponent_at(chars: &[char], i: usize) -> Option<String> {
+    if !matches!(chars.get(i), Some('e' | 'E')) {
+        return None;
+    }
+    let mut j = i + 1;
+    if matches!(chars.get(j), Some('+' | '-')) {
+        j += 1;
+    }
+    let digits_start = j;
+    while chars.get(j).is_some_and(|c| c.is_ascii_digit()) {
+        j += 1;
+    }
+    (j > digits_start).then(|| chars[i..j].iter().collect())
 }
 
 #[cfg(test)]
@@ -138,9 +174,24 @@ mod tests {
     }
 
     #[test]
+    fn exponent_is_an_error_at_the_number() {
+        for (text, col, shown) in
+            [("G1 X1e300 F100", 4, "'X1e300'"), ("G0 Y 2.5E-3", 4, "'Y2.5E-3'"), ("F1e+3", 1, "'F1e+3'")]
+        {
+            let e = lex_line(text).unwrap_err();
+            assert_eq!(e.col, col, "{text}");
+            assert!(e.message.starts_with(shown), "{text}: {}", e.message);
+        }
+        // An E word after a blank, or an `e` without digits, is a separate word.
+        assert_eq!(lex_line("G0 X1 E3").unwrap().words.len(), 3);
+        assert!(lex_line("G0 X1E").unwrap_err().message.contains("'E' has no number"));
+    }
+
+    #[test]
     fn percent_and_blank() {
         assert!(lex_line("  ").unwrap().blank);
         assert!(!lex_line("%").unwrap().blank);
+        assert!(lex_line(" % ").unwrap().percent);
         assert!(!lex_line("(only a comment)").unwrap().blank);
     }
 }

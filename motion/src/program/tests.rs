@@ -35,7 +35,7 @@ fn modal_state_carries_between_blocks() {
 
 #[test]
 fn inches_convert_to_mm() {
-    let p = ok("G20 G1 X1 F10\n");
+    let p = ok("G20\nG1 X1 F10\n");
     assert!(close(end(&p), [25.4, 0.0, 0.0]));
     assert_eq!(p.path.elements[0].feed, Feed::Programmed { mm_per_s: 25.4 * 10.0 / 60.0 });
 }
@@ -138,6 +138,58 @@ fn error_positions() {
     for (text, expect) in cases {
         assert_eq!(first_error(text), expect, "program:\n{text}");
     }
+}
+
+#[test]
+fn every_word_is_used_or_an_error() {
+    let cases = [
+        ("G1 X1 H5 F100\n", "t.ngc:1:7: H word with no G43 to use it (tool length compensation is not supported)"),
+        ("G1 X1 F100 E3\n", "t.ngc:1:12: E word with no G-code that uses it"),
+        ("G1 X1e300 F100\n", "t.ngc:1:4: 'X1e300': a number with an exponent is not G-code (write it in decimals)"),
+        ("G1 X1 F100 P2\n", "t.ngc:1:12: P is only valid with G4, G64 or in G06 spline data"),
+        (
+            "F100 Q1\n",
+            "t.ngc:1:6: Q word with no G-code that uses it (G64 Q, the naive-CAM tolerance, is not supported)",
+        ),
+        (
+            "G64 P0.1 Q0.01\n",
+            "t.ngc:1:10: Q word with no G-code that uses it (G64 Q, the naive-CAM tolerance, is not supported)",
+        ),
+        ("G0 X1 D2\n", "t.ngc:1:7: D word with no G41/G42 to use it (cutter radius compensation is not supported)"),
+        ("G0 X1 L2\n", "t.ngc:1:7: L word with no G-code that uses it"),
+        ("O100 G0 X1\n", "t.ngc:1:1: O word: subroutines and loops (O codes) are not supported"),
+        ("G61 P1\n", "t.ngc:1:5: P is only valid with G4, G64 or in G06 spline data"),
+        ("G0 X1 N5\n", "t.ngc:1:7: block number N must be the first word of the block"),
+        ("M3 M4\n", "t.ngc:1:4: M4 conflicts with M3 in the same block (same modal group)"),
+        ("M7 M8\n", "t.ngc:1:4: M8 conflicts with M7 in the same block (same modal group)"),
+        ("M2 M30\n", "t.ngc:1:4: M30 conflicts with M2 in the same block (same modal group)"),
+        ("S-1\n", "t.ngc:1:1: spindle speed S must not be negative, got -1"),
+        ("T1.5\n", "t.ngc:1:1: tool number T must be a non-negative integer, got 1.5"),
+        (
+            "G20 G1 X1 F10\n",
+            "t.ngc:1:11: F in the same block as G20/G21: its unit would be ambiguous; program F in a block of its own",
+        ),
+        ("G0 X1\n%\n", "t.ngc:2:1: '%' is only valid as the first line of a program (and then as its last)"),
+        ("G4 P1 X5\n", "t.ngc:1:7: axis word without a motion mode: program G0, G1, G2 or G3 first"),
+    ];
+    for (text, expect) in cases {
+        assert_eq!(first_error(text), expect, "program:\n{text}");
+    }
+}
+
+#[test]
+fn words_that_mean_something_are_accepted() {
+    // Dwell and motion in one block: the dwell comes first, as in RS274NGC.
+    let p = ok("G1 X1 F100\nG4 P1 X5\nG4 P0.5 G0 Y5\n");
+    assert_eq!(p.path.elements.len(), 3);
+    assert_eq!((p.path.elements[1].dwell_before_s, p.path.elements[2].dwell_before_s), (1.0, 0.5));
+    assert!(close(end(&p), [5.0, 5.0, 0.0]));
+    // Spindle, coolant and tool words are counted; one of each group per block.
+    let p = ok("N10 M3 S1000 M8 T2 M6\nG0 X1\n");
+    assert_eq!(p.summary.ignored_words, 5);
+    // A tape: `%` first, and the next `%` ends the program.
+    let p = ok("%\nG0 X1\n%\nG0 X$\n");
+    assert!(close(end(&p), [1.0, 0.0, 0.0]));
 }
 
 #[test]

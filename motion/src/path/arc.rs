@@ -56,13 +56,19 @@ impl Helix {
         self.radius_mm
     }
 
-    pub(crate) fn sweep_rad(&self) -> f64 {
+    /// Signed swept angle: positive counter-clockwise (G3).
+    pub fn sweep_rad(&self) -> f64 {
         self.sweep_rad
     }
 
-    /// Centre in the arc plane.
-    pub(crate) fn center(&self) -> [f64; 2] {
+    /// Centre in the arc plane, in the order of [`Helix::plane_axes`].
+    pub fn center(&self) -> [f64; 2] {
         self.center
+    }
+
+    /// The axis indices (p, q) of the arc plane: X Y for G17, Z X for G18, Y Z for G19.
+    pub fn plane_axes(&self) -> (usize, usize) {
+        (self.p, self.q)
     }
 
     pub fn eval(&self, s: f64, out: &mut AxisDerivs) {

@@ -1,0 +1,158 @@
+#!/usr/bin/python3
+"""Canonical motion of G-code programs as LinuxCNC's interpreter produces it, one JSON object per
+program on stdout, for the differential test (tests/tests/rs274_differential.rs).
+
+Runs each FILE through the `gcode` Python module of the Debian package `linuxcnc-uspace` (the
+interpreter `rs274` links, with the canonical calls handed over as doubles instead of
+`rs274 -g`'s four decimals), starting in G21 like interpd. Output per program:
+
+    {"file": ..., "ok": true|false, "error": "...", "moves": [...], "final_dwell_s": ...}
+
+Each move: {"kind": "rapid"|"feed"|"arc", "end": [X Y Z A B C U V W] (mm, deg),
+"feed_mm_min": number or null, "dwell_s": seconds of dwell before it} and for arcs also
+"plane" (17, 18, 19), "centre" (mm, in the plane's axis order: X Y, Z X, Y Z) and "turns"
+(signed: positive counter-clockwise). Moves shorter than 1e-9 mm are dropped, as interpd drops
+them. Usage: /usr/bin/python3 scripts/rs274_canon.py FILE...
+"""
+import json
+import math
+import os
+import sys
+import tempfile
+
+import gcode
+
+MM_PER_INCH = 25.4
+# Linear axes among X Y Z A B C U V W: the module reports them in inches.
+LINEAR = [True, True, True, False, False, False, True, True, True]
+# interpd drops moves shorter than this (motion/src/program/gcode.rs, MIN_MOVE_MM).
+MIN_MOVE_MM = 1e-9
+# LinuxCNC's plane codes (CANON_PLANE_XY, _YZ, _XZ) as G17, G19, G18, and the axis indices
+# of (first, second, helix) for each.
+PLANES = {1: (17, (0, 1, 2)), 2: (19, (1, 2, 0)), 3: (18, (2, 0, 1))}
+
+
+def to_mm(values):
+    return [v * MM_PER_INCH if lin else v for v, lin in zip(values, LINEAR)]
+
+
+class Recorder:
+    """The canon the module calls back; records moves, feeds, dwells and the plane."""
+
+    def __init__(self, parameter_file):
+        self.parameter_file = parameter_file
+        self.moves = []
+        self.pos = [0.0] * 9
+        self.feed_mm_min = None
+        self.plane = 1
+        self.dwell_s = 0.0
+
+    def _move(self, kind, end, extra=None):
+        lin = math.sqrt(sum((e - p) ** 2 for e, p, l in zip(end, self.pos, LINEAR) if l))
+        rot = math.sqrt(sum((e - p) ** 2 for e, p, l in zip(end, self.pos, LINEAR) if not l))
+        if kind != "arc" and lin <= MIN_MOVE_MM and rot <= MIN_MOVE_MM:
+            self.pos = end
+            return
+        move = {"kind": kind, "end": end, "feed_mm_min": None if kind == "rapid" else self.feed_mm_min,
+                "dwell_s": self.dwell_s}
+        move.update(extra or {})
+        self.moves.append(move)
+        self.dwell_s = 0.0
+        self.pos = end
+
+    def straight_traverse(self, *a):
+        self._move("rapid", to_mm(a))
+
+    def straight_feed(self, *a):
+        self._move("feed", to_mm(a))
+
+    def arc_feed(self, first_end, second_end, first_centre, second_centre, rotation, axis_end, a, b, c, u, v, w):
+        g, (i, j, k) = PLANES[self.plane]
+        end = list(self.pos[:3]) + [a, b, c, u * MM_PER_INCH, v * MM_PER_INCH, w * MM_PER_INCH]
+        end[i], end[j], end[k] = (first_end * MM_PER_INCH, second_end * MM_PER_INCH, axis_end * MM_PER_INCH)
+        centre = [first_centre * MM_PER_INCH, second_centre * MM_PER_INCH]
+        self._move("arc", end, {"plane": g, "centre": centre, "turns": rotation})
+
+    def set_feed_rate(self, rate):
+        self.feed_mm_min = rate * MM_PER_INCH
+
+    def set_plane(self, plane):
+        self.plane = plane
+
+    def dwell(self, seconds):
+        self.dwell_s += seconds
+
+    # Calls without an effect on the compared motion.
+    def next_line(self, state):
+        pass
+
+    def comment(self, text):
+        pass
+
+    def message(self, text):
+        pass
+
+    def set_traverse_rate(self, rate):
+        pass
+
+    def set_xy_rotation(self, *a):
+        pass
+
+    def set_g5x_offset(self, *a):
+        pass
+
+    def set_g92_offset(self, *a):
+        pass
+
+    def tool_offset(self, *a):
+        pass
+
+    def change_tool(self, *a):
+        pass
+
+    def straight_probe(self, *a):
+        pass
+
+    def rigid_tap(self, *a):
+        pass
+
+    def user_defined_function(self, *a):
+        pass
+
+    def get_tool(self, pocket):
+        return (-1,) + (0.0,) * 12 + (0,)
+
+    def get_external_angular_units(self):
+        return 1.0
+
+    def get_external_length_units(self):
+        return 1.0 / MM_PER_INCH
+
+    def get_axis_mask(self):
+        return 0x1FF
+
+    def get_block_delete(self):
+        return False
+
+    def check_abort(self):
+        return False
+
+
+def run(path, parameter_file):
+    canon = Recorder(parameter_file)
+    result, _seq = gcode.parse(path, canon, ["G21"], "")
+    ok = result <= gcode.MIN_ERROR
+    return {"file": path, "ok": ok, "error": "" if ok else gcode.strerror(result),
+            "moves": canon.moves, "final_dwell_s": canon.dwell_s}
+
+
+def main():
+    with tempfile.TemporaryDirectory() as tmp:
+        parameter_file = os.path.join(tmp, "rs274.var")
+        open(parameter_file, "w").close()
+        for path in sys.argv[1:]:
+            print(json.dumps(run(path, parameter_file)), flush=True)
+
+
+if __name__ == "__main__":
+    main()

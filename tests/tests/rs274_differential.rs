@@ -1,0 +1,544 @@
+//! Differential test against LinuxCNC's interpreter (`rs274` of the Debian package
+//! `linuxcnc-uspace`): on the bad-program corpus and on seeded generated programs of the subset
+//! both dialects have (G0 G1 G2 G3 G4 G17–G19 G20 G21 G61 G64 G90 G91, F, N, S, M3–M9,
+//! comments; no G06, no LAW), interpd accepts exactly the programs `rs274 -g` accepts, and for
+//! accepted programs the canonical motion agrees within 1e-9 mm: end points, arc centres, planes
+//! and directions, feeds, dwells, with units converted. The numbers come from LinuxCNC's `gcode`
+//! Python module (the same interpreter, handing the canonical calls over as doubles) through
+//! `scripts/rs274_canon.py`. The corpus programs interpd refuses on purpose are listed in
+//! `DELIBERATE` with the reason, as in docs/formats.md.
+//!
+//! Without `rs274` or the module the test fails and says how to install them.
+
+use interpd_e2e::repo_root;
+use interpd_motion::Settings;
+use interpd_motion::path::{AxisDerivs, Feed, Geometry, MAX_AXES};
+use interpd_motion::program;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::Mutex;
+
+/// Positions and centres agree to this, mm (and deg for rotary axes).
+const TOL_MM: f64 = 1e-9;
+/// Feeds agree to this, mm/min: the feed is one number converted once, so only rounding differs.
+const FEED_TOL_MM_MIN: f64 = 1e-9;
+/// Generated programs per run, from a fixed seed so that CI runs the same programs every time.
+const GENERATED: usize = 300;
+const SEED: u64 = 0x5eed_1234_abcd_0001;
+/// The Python with Debian's LinuxCNC modules (not a virtualenv's).
+const SYSTEM_PYTHON: &str = "/usr/bin/python3";
+const INSTALL_HINT: &str = "install LinuxCNC's interpreter: `apt-get install -y --no-install-recommends linuxcnc-uspace` \
+     (Debian 12; listed in .ci/apt-packages)";
+
+/// Corpus programs interpd refuses and LinuxCNC accepts, each with the reason (docs/formats.md,
+/// "Differences from LinuxCNC").
+const DELIBERATE: &[(&str, &str)] = &[
+    ("01_unknown_axis.ngc", "axis words of axes the machine does not have"),
+    ("02_travel_max.ngc", "targets beyond the travel range"),
+    ("03_travel_incremental.ngc", "targets beyond the travel range"),
+    ("21_g64_bad_tolerance.ngc", "G64 P0"),
+    ("23_offset_without_endpoint.ngc", "an arc without axis words (a full circle in LinuxCNC)"),
+    ("37_arc_leaves_travel.ngc", "targets beyond the travel range"),
+    ("38_block_delete.ngc", "codes interpd does not carry out (block delete)"),
+    ("39_fractional_block_number.ngc", "fractional block number"),
+    ("61_g64_q.ngc", "G64 Q"),
+    ("64_o_word.ngc", "codes interpd does not carry out (O codes)"),
+    ("69_feed_with_units.ngc", "F with G20/G21 in one block"),
+    ("73_arc_turns_p.ngc", "P with G2/G3"),
+];
+
+fn require_linuxcnc() {
+    match Command::new("rs274").arg("-g").arg("/dev/null").output() {
+        Ok(_) => {}
+        Err(e) => panic!("cannot run rs274 ({e}): {INSTALL_HINT}"),
+    }
+    let out = Command::new(SYSTEM_PYTHON).args(["-c", "import gcode"]).output();
+    match out {
+        Ok(o) if o.status.success() => {}
+        Ok(o) => panic!(
+            "{SYSTEM_PYTHON} cannot import LinuxCNC's gcode module ({}): {INSTALL_HINT}",
+            String::from_utf8_lossy(&o.stderr).trim()
+        ),
+        Err(e) => panic!("cannot run {SYSTEM_PYTHON} ({e}): {INSTALL_HINT}"),
+    }
+}
+
+/// The program as LinuxCNC is given it: with M2 at the end, since interpd ends a program at the
+/// end of its file and LinuxCNC needs an end code (a listed difference).
+fn with_end(text: &str) -> String {
+    format!("{}\nM2\n", text.trim_end_matches('\n'))
+}
+
+static RS274_LOCK: Mutex<()> = Mutex::new(());
+
+/// `rs274 -g`'s verdict and, on refusal, its message.
+fn rs274_verdict(file: &Path) -> Result<(), String> {
+    // rs274 keeps its parameter file in the working directory: one directory per test, so
+    // tests running at once do not share it.
+    let dir = file.parent().expect("file in a directory");
+    // Two rs274 at once share its tool-data memory and crash (SIGBUS): one at a time.
+    let _one = RS274_LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    let out = Command::new("rs274").arg("-g").arg(file).current_dir(dir).output().expect("run rs274");
+    if out.status.success() {
+        return Ok(());
+    }
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let msg = stdout.lines().find(|l| !l.trim_start().starts_with(char::is_numeric) && *l != "executing");
+    Err(match msg {
+        Some(m) => m.to_string(),
+        None => format!("{} ({})", out.status, String::from_utf8_lossy(&out.stderr).trim()),
+    })
+}
+
+/// Canonical motion from LinuxCNC's module for `files`, one JSON object each. Programs with a
+/// T word are left out: the module reads the tool table of a running LinuxCNC and crashes
+/// without one (`rs274 -g` still judges them).
+fn canon(files: &[PathBuf]) -> Vec<Value> {
+    let script = repo_root().join("scripts/rs274_canon.py");
+    let out = Command::new(SYSTEM_PYTHON).arg(script).args(files).output().expect("run rs274_canon.py");
+    assert!(out.status.success(), "rs274_canon.py failed: {}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).expect("utf-8");
+    let values: Vec<Value> = text.lines().map(|l| serde_json::from_str(l).expect("JSON line")).collect();
+    assert_eq!(values.len(), files.len(), "rs274_canon.py answered for {} of {} files", values.len(), files.len());
+    values
+}
+
+/// The words of a program outside comments contain a T word.
+fn has_tool_word(text: &str) -> bool {
+    text.lines().any(|l| {
+        let mut depth = false;
+        for c in l.chars() {
+            match c {
+                ';' if !depth => break,
+                '(' => depth = true,
+                ')' => depth = false,
+                't' | 'T' if !depth => return true,
+                _ => {}
+            }
+        }
+        false
+    })
+}
+
+/// One canonical move: kind, end point, feed (mm/min, None for rapids), dwell before it, and for
+/// arcs the plane (17, 18, 19), the centre in the plane and the direction (+1 counter-clockwise).
+#[derive(Debug)]
+struct Move {
+    kind: &'static str,
+    end: [f64; 9],
+    feed_mm_min: Option<f64>,
+    dwell_s: f64,
+    arc: Option<(u32, [f64; 2], i64)>,
+}
+
+fn linuxcnc_moves(v: &Value) -> (Vec<Move>, f64) {
+    let moves = v["moves"]
+        .as_array()
+        .expect("moves")
+        .iter()
+        .map(|m| {
+            let mut end = [0.0; 9];
+            for (k, e) in m["end"].as_array().expect("end").iter().enumerate() {
+                end[k] = e.as_f64().expect("number");
+            }
+            let kind = match m["kind"].as_str() {
+                Some("rapid") => "rapid",
+                Some("feed") => "feed",
+                Some("arc") => "arc",
+                k => panic!("unknown move kind {k:?}"),
+            };
+            let arc = (kind == "arc").then(|| {
+                let c = m["centre"].as_array().expect("centre");
+                (
+                    m["plane"].as_u64().expect("plane") as u32,
+                    [c[0].as_f64().expect("c"), c[1].as_f64().expect("c")],
+                    m["turns"].as_i64().expect("turns"),
+                )
+            });
+            Move {
+                kind,
+                end,
+                feed_mm_min: m["feed_mm_min"].as_f64(),
+                dwell_s: m["dwell_s"].as_f64().expect("dwell"),
+                arc,
+            }
+        })
+        .collect();
+    (moves, v["final_dwell_s"].as_f64().expect("final dwell"))
+}
+
+/// interpd's path as canonical moves (axes X Y Z of the default machine; the others stay 0).
+fn interpd_moves(p: &program::Program) -> (Vec<Move>, f64) {
+    let mut out = Vec::new();
+    for e in &p.path.elements {
+        let mut d = AxisDerivs::default();
+        e.geometry.eval(e.geometry.length_mm(), &mut d);
+        let mut end = [0.0; 9];
+        end[..p.path.n_axes.min(MAX_AXES)].copy_from_slice(&d.pos[..p.path.n_axes]);
+        let feed_mm_min = match e.feed {
+            Feed::Rapid => None,
+            Feed::Programmed { mm_per_s } => Some(mm_per_s * 60.0),
+        };
+        let (kind, arc) = match &e.geometry {
+            Geometry::Line(_) if feed_mm_min.is_none() => ("rapid", None),
+            Geometry::Line(_) => ("feed", None),
+            Geometry::Helix(h) => {
+                let plane = match h.plane_axes() {
+                    (0, 1) => 17,
+                    (2, 0) => 18,
+                    (1, 2) => 19,
+                    other => panic!("arc in axes {other:?}"),
+                };
+                ("arc", Some((plane, h.center(), if h.sweep_rad() > 0.0 { 1 } else { -1 })))
+            }
+            other => panic!("unexpected element {}", other.kind_name()),
+        };
+        out.push(Move { kind, end, feed_mm_min, dwell_s: e.dwell_before_s, arc });
+    }
+    (out, p.path.final_dwell_s)
+}
+
+/// The first difference between two canonical move lists.
+fn compare(ours: &(Vec<Move>, f64), theirs: &(Vec<Move>, f64)) -> Result<(), String> {
+    let close = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol;
+    if ours.0.len() != theirs.0.len() {
+        return Err(format!("{} moves in interpd, {} in LinuxCNC", ours.0.len(), theirs.0.len()));
+    }
+    for (i, (a, b)) in ours.0.iter().zip(&theirs.0).enumerate() {
+        let what = if a.kind != b.kind {
+            Some(format!("kind {} vs {}", a.kind, b.kind))
+        } else if !a.end.iter().zip(&b.end).all(|(x, y)| close(*x, *y, TOL_MM)) {
+            Some(format!("end {:?} vs {:?}", a.end, b.end))
+        } else if !match (a.feed_mm_min, b.feed_mm_min) {
+            (Some(x), Some(y)) => close(x, y, FEED_TOL_MM_MIN),
+            (None, None) => true,
+            _ => false,
+        } {
+            Some(format!("feed {:?} vs {:?} mm/min", a.feed_mm_min, b.feed_mm_min))
+        } else if !close(a.dwell_s, b.dwell_s, 1e-12) {
+            Some(format!("dwell before {} vs {} s", a.dwell_s, b.dwell_s))
+        } else {
+            match (a.arc, b.arc) {
+                (Some((pa, ca, ta)), Some((pb, cb, tb)))
+                    if pa != pb || ta != tb || !close(ca[0], cb[0], TOL_MM) || !close(ca[1], cb[1], TOL_MM) =>
+                {
+                    Some(format!("arc G{pa} centre {ca:?} turn {ta} vs G{pb} centre {cb:?} turn {tb}"))
+                }
+                _ => None,
+            }
+        };
+        if let Some(w) = what {
+            return Err(format!("move {}: {w} (interpd vs LinuxCNC)", i + 1));
+        }
+    }
+    if !close(ours.1, theirs.1, 1e-12) {
+        return Err(format!("final dwell {} vs {} s", ours.1, theirs.1));
+    }
+    Ok(())
+}
+
+/// One program through both interpreters; describes any disagreement.
+struct Case {
+    name: String,
+    text: String,
+    file: PathBuf,
+}
+
+fn run_cases(cases: &[Case], deliberate: &[(&str, &str)]) -> (Vec<String>, usize, usize) {
+    let settings = Settings::default_machine();
+    let with_numbers: Vec<&Case> = cases.iter().filter(|c| !has_tool_word(&c.text)).collect();
+    let files: Vec<PathBuf> = with_numbers.iter().map(|c| c.file.clone()).collect();
+    let numbers = canon(&files);
+    let mut failures = Vec::new();
+    let (mut accepted, mut compared) = (0, 0);
+    for case in cases {
+        let ours = program::parse(&case.text, &case.name, &settings);
+        let theirs = rs274_verdict(&case.file);
+        let listed = deliberate.iter().find(|(n, _)| *n == case.name);
+        match (&ours, &theirs, listed) {
+            (Err(_), Ok(()), Some(_)) => continue,
+            (_, _, Some((_, why))) => {
+                failures.push(format!(
+                    "{}: listed as a deliberate difference ({why}) but interpd {} and rs274 {}",
+                    case.name,
+                    if ours.is_ok() { "accepts" } else { "refuses" },
+                    if theirs.is_ok() { "accepts" } else { "refuses" }
+                ));
+                continue;
+            }
+            (Ok(_), Err(msg), None) => {
+                failures.push(format!("{}: interpd accepts, rs274 refuses: {msg}\n{}", case.name, case.text));
+                continue;
+            }
+            (Err(e), Ok(()), None) => {
+                failures.push(format!("{}: rs274 accepts, interpd refuses: {}\n{}", case.name, e.0[0], case.text));
+                continue;
+            }
+            _ => {}
+        }
+        let Ok(p) = &ours else { continue };
+        accepted += 1;
+        let Some(pos) = with_numbers.iter().position(|c| c.name == case.name) else { continue };
+        let v = &numbers[pos];
+        // The module lets a G1 without feed pass where `rs274 -g` refuses it; on programs both accept
+        // it must agree with `rs274 -g`, the reference for the verdict.
+        if v["ok"].as_bool() != Some(true) {
+            failures.push(format!("{}: rs274 -g accepts, LinuxCNC's gcode module refuses: {}", case.name, v["error"]));
+            continue;
+        }
+        if let Err(what) = compare(&interpd_moves(p), &linuxcnc_moves(v)) {
+            failures.push(format!("{}: {what}\n{}", case.name, case.text));
+        }
+        compared += 1;
+    }
+    (failures, accepted, compared)
+}
+
+fn scratch_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("interpd-rs274-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("scratch dir");
+    dir
+}
+
+#[test]
+fn corpus_verdicts_agree_with_linuxcnc() {
+    require_linuxcnc();
+    let dir = scratch_dir("corpus");
+    let mut cases = Vec::new();
+    let corpus = repo_root().join("tests/programs/bad");
+    let mut names: Vec<String> = std::fs::read_dir(&corpus)
+        .expect("corpus")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".ngc"))
+        .collect();
+    names.sort();
+    for name in names {
+        let text = std::fs::read_to_string(corpus.join(&name)).expect("read");
+        if text.to_ascii_uppercase().contains("G06") || text.to_ascii_uppercase().contains("LAW ") {
+            continue; // interpd's own formats
+        }
+        let file = dir.join(&name);
+        std::fs::write(&file, with_end(&text)).expect("write");
+        cases.push(Case { name, text, file });
+    }
+    assert!(cases.len() >= 40, "corpus too small: {}", cases.len());
+    let (failures, accepted, _) = run_cases(&cases, DELIBERATE);
+    std::fs::remove_dir_all(&dir).ok();
+    eprintln!(
+        "rs274 differential, corpus: {} programs, {} deliberate differences, {accepted} accepted by both",
+        cases.len(),
+        DELIBERATE.len()
+    );
+    assert!(failures.is_empty(), "{} disagreements with LinuxCNC:\n{}", failures.len(), failures.join("\n"));
+    assert_eq!(accepted, 0, "the corpus holds bad programs only");
+}
+
+#[test]
+fn generated_programs_agree_with_linuxcnc() {
+    require_linuxcnc();
+    let dir = scratch_dir("generated");
+    let mut rng = Rng(SEED);
+    let mut cases = Vec::new();
+    for i in 0..GENERATED {
+        let text = generate(&mut rng);
+        let name = format!("gen_{i:03}.ngc");
+        let file = dir.join(&name);
+        std::fs::write(&file, with_end(&text)).expect("write");
+        cases.push(Case { name, text, file });
+    }
+    let (failures, accepted, compared) = run_cases(&cases, &[]);
+    eprintln!(
+        "rs274 differential, generated: {} programs (seed {SEED:#x}), {accepted} accepted by both, {compared} compared move by move, {} refused by both",
+        cases.len(),
+        cases.len() - accepted - failures.len()
+    );
+    if failures.is_empty() {
+        std::fs::remove_dir_all(&dir).ok();
+    }
+    assert!(failures.is_empty(), "{} disagreements with LinuxCNC:\n{}", failures.len(), failures.join("\n\n"));
+    assert!(compared >= GENERATED / 2, "too few accepted programs to compare: {compared}");
+    assert!(accepted < GENERATED, "no generated program was refused: the faults are not exercised");
+}
+
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        // xorshift64*
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
+    }
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n.max(1) as u64) as usize
+    }
+    fn unit(&mut self) -> f64 {
+        (self.next() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.unit()
+    }
+    fn chance(&mut self, p: f64) -> bool {
+        self.unit() < p
+    }
+}
+
+/// Generator state: the modal state and the position as both interpreters will read it back
+/// from the printed numbers.
+struct Gen {
+    pos_mm: [f64; 3],
+    inch: bool,
+    absolute: bool,
+    /// 0: G17 (X Y), 1: G18 (Z X), 2: G19 (Y Z).
+    plane: usize,
+    has_feed: bool,
+    lines: Vec<String>,
+}
+
+const AXES: [char; 3] = ['X', 'Y', 'Z'];
+const OFFSETS: [char; 3] = ['I', 'J', 'K'];
+const PLANE_AXES: [(usize, usize, usize); 3] = [(0, 1, 2), (2, 0, 1), (1, 2, 0)];
+
+impl Gen {
+    fn unit_mm(&self) -> f64 {
+        if self.inch { 25.4 } else { 1.0 }
+    }
+
+    /// Prints a value in program units with twelve decimals and returns what it reads back as.
+    fn print(&self, v_mm: f64) -> (String, f64) {
+        let s = format!("{:.12}", v_mm / self.unit_mm());
+        let s = s.trim_end_matches('0').trim_end_matches('.').to_string();
+        let s = if s == "-0" || s.is_empty() { "0".to_string() } else { s };
+        let back = s.parse::<f64>().expect("number") * self.unit_mm();
+        (s, back)
+    }
+
+    /// The word moving `axis` to `target_mm`; updates the position to what it reads back as.
+    fn axis_word(&mut self, axis: usize, target_mm: f64) -> String {
+        let base = if self.absolute { 0.0 } else { self.pos_mm[axis] };
+        let (s, back) = self.print(target_mm - base);
+        self.pos_mm[axis] = base + back;
+        format!("{}{}", AXES[axis], s)
+    }
+
+    fn feed_word(&mut self, rng: &mut Rng) -> String {
+        self.has_feed = true;
+        format!("F{}", [100.0, 600.0, 1234.5, 6000.0, 25.4][rng.below(5)])
+    }
+
+    fn linear(&mut self, rng: &mut Rng, rapid: bool) -> String {
+        let mut words = vec![if rapid { "G0".to_string() } else { "G1".to_string() }];
+        let mut any = false;
+        for axis in 0..3 {
+            if rng.chance(0.6) || (axis == 2 && !any) {
+                let t = rng.range(-200.0, 200.0);
+                words.push(self.axis_word(axis, t));
+                any = true;
+            }
+        }
+        if !rapid && (!self.has_feed || rng.chance(0.2)) {
+            words.push(self.feed_word(rng));
+        }
+        words.join(" ")
+    }
+
+    fn arc(&mut self, rng: &mut Rng) -> String {
+        let (p, q, h) = PLANE_AXES[self.plane];
+        let (sp, sq) = (self.pos_mm[p], self.pos_mm[q]);
+        let r = rng.range(1.0, 50.0);
+        let a0 = rng.range(-std::f64::consts::PI, std::f64::consts::PI);
+        let (cp, cq) = (sp - r * a0.cos(), sq - r * a0.sin());
+        let ccw = rng.chance(0.5);
+        let radius_form = rng.chance(0.35);
+        let full = !radius_form && !self.absolute && rng.chance(0.15);
+        // Keep R-form sweeps away from a half circle, where the sign of R decides.
+        let mut sweep = rng.range(0.1, 6.1);
+        if radius_form && (sweep - std::f64::consts::PI).abs() < 0.2 {
+            sweep += 0.5;
+        }
+        let signed = if ccw { sweep } else { -sweep };
+        let mut words = vec![if ccw { "G3".to_string() } else { "G2".to_string() }];
+        // The offsets are from the start point, in program units, whatever G90/G91.
+        let (op, back_p) = self.print(cp - sp);
+        let (oq, back_q) = self.print(cq - sq);
+        let (cp, cq) = (sp + back_p, sq + back_q);
+        if full {
+            words.push(format!("{}0", AXES[p]));
+            words.push(format!("{}0", AXES[q]));
+        } else {
+            let r_back = (sp - cp).hypot(sq - cq);
+            let a1 = (sq - cq).atan2(sp - cp) + signed;
+            words.push(self.axis_word(p, cp + r_back * a1.cos()));
+            words.push(self.axis_word(q, cq + r_back * a1.sin()));
+        }
+        if rng.chance(0.3) {
+            let t = self.pos_mm[h] + rng.range(-20.0, 20.0);
+            words.push(self.axis_word(h, t));
+        }
+        if radius_form {
+            let rr = (sp - cp).hypot(sq - cq);
+            let (s, _) = self.print(if sweep > std::f64::consts::PI { -rr } else { rr });
+            words.push(format!("R{s}"));
+        } else {
+            words.push(format!("{}{op}", OFFSETS[p]));
+            words.push(format!("{}{oq}", OFFSETS[q]));
+        }
+        if !self.has_feed || rng.chance(0.2) {
+            words.push(self.feed_word(rng));
+        }
+        words.join(" ")
+    }
+}
+
+/// A program of the common subset; about a third carry one fault that both dialects refuse.
+fn generate(rng: &mut Rng) -> String {
+    let mut g = Gen { pos_mm: [0.0; 3], inch: false, absolute: true, plane: 0, has_feed: false, lines: Vec::new() };
+    if rng.chance(0.5) {
+        g.lines.push("G21 G90 G17".into());
+    }
+    let mut moves = Vec::new();
+    for _ in 0..3 + rng.below(20) {
+        let line = match rng.below(16) {
+            0..=2 => g.linear(rng, true),
+            3..=6 => g.linear(rng, false),
+            7..=9 => g.arc(rng),
+            10 => {
+                g.plane = rng.below(3);
+                ["G17", "G18", "G19"][g.plane].to_string()
+            }
+            11 => {
+                g.inch = rng.chance(0.5);
+                if g.inch { "G20" } else { "G21" }.to_string()
+            }
+            12 => {
+                g.absolute = rng.chance(0.5);
+                if g.absolute { "G90" } else { "G91" }.to_string()
+            }
+            13 => format!("G4 P{}", [0.0, 0.25, 1.5][rng.below(3)]),
+            14 => ["G61".to_string(), "G64".to_string(), format!("G64 P{}", [0.01, 0.05, 0.2][rng.below(3)])]
+                [rng.below(3)]
+            .clone(),
+            _ => ["(a comment)", "; a comment", "M3 S1000", "M5", "M8", "M9", "F600"][rng.below(7)].to_string(),
+        };
+        if line.starts_with("G0 ") || line.starts_with("G1 ") {
+            moves.push(g.lines.len());
+        }
+        if line == "F600" {
+            g.has_feed = true;
+        }
+        let numbered = rng.chance(0.15);
+        g.lines.push(if numbered { format!("N{} {line}", 10 * (g.lines.len() + 1)) } else { line });
+    }
+    if !moves.is_empty() && rng.chance(0.35) {
+        let at = moves[rng.below(moves.len())];
+        let faults = [" H5", " E3", " D2", " L2", " Q1", " P2", " I5", " X1e2", " F-5", " S-1", " N5", " Y1 Y2"];
+        let fault = faults[rng.below(faults.len())];
+        g.lines[at].push_str(fault);
+    } else if rng.chance(0.1) {
+        let lines = ["G90 G91 X1", "G0 G1 X1 F100", "M3 M4", "M7 M8", "G17 G18", "G20 G21"];
+        g.lines.push(lines[rng.below(lines.len())].to_string());
+    }
+    g.lines.join("\n") + "\n"
+}

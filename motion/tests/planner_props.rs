@@ -4,9 +4,7 @@
 //! every axis within 1.001 × its velocity and acceleration limit and 1.02 × its jerk limit.
 
 use interpd_motion::Settings;
-use interpd_motion::path::{AxisDerivs, Path};
-use interpd_motion::planner::profile::Cursor;
-use interpd_motion::planner::{Planner, Segment};
+use interpd_motion::planner::Planner;
 use interpd_motion::program;
 use proptest::prelude::*;
 
@@ -78,33 +76,6 @@ fn program_text(moves: &[Move], feed: f64) -> String {
     t
 }
 
-/// Largest |value| / configured limit per quantity, sampled every `dt` seconds.
-fn sampled_ratios(path: &Path, segs: &[Segment], cfg: &Settings, dt: f64) -> [f64; 3] {
-    let mut worst = [0.0f64; 3];
-    let mut cursor = Cursor::default();
-    let mut d = AxisDerivs::default();
-    let end = interpd_motion::planner::profile::duration_s(segs);
-    let n = (end / dt) as usize + 1;
-    for k in 0..=n {
-        let Some(sample) = cursor.sample(segs, k as f64 * dt) else { break };
-        let st = sample.state;
-        if sample.at_start {
-            path.eval(st.s_mm, &mut d)
-        } else {
-            path.eval_left(st.s_mm, &mut d)
-        }
-        for (i, ax) in cfg.axes.iter().enumerate() {
-            let vel = d.d1[i] * st.v;
-            let acc = d.d2[i] * st.v * st.v + d.d1[i] * st.a;
-            let jerk = d.d3[i] * st.v.powi(3) + 3.0 * d.d2[i] * st.v * st.a + d.d1[i] * st.j;
-            worst[0] = worst[0].max(vel.abs() / ax.max_vel_per_s);
-            worst[1] = worst[1].max(acc.abs() / ax.max_acc_per_s2);
-            worst[2] = worst[2].max(jerk.abs() / ax.max_jerk_per_s3);
-        }
-    }
-    worst
-}
-
 proptest! {
     #![proptest_config(ProptestConfig { cases: 160, max_shrink_iters: 200, ..ProptestConfig::default() })]
 
@@ -134,7 +105,7 @@ proptest! {
         }
         let total: f64 = segs.iter().map(|s| s.ds_mm).sum();
         prop_assert!((total - prog.path.length_mm()).abs() <= 1e-6 * prog.path.length_mm().max(1.0));
-        let [v, a, j] = sampled_ratios(&prog.path, &segs, &cfg, 2e-4);
+        let [v, a, j] = interpd_motion::planner::profile::limit_ratios(&prog.path, &segs, &cfg, 2e-4);
         prop_assert!(v <= 1.001 && a <= 1.001 && j <= 1.02, "vel {v:.5} acc {a:.5} jerk {j:.5}\nprogram:\n{text}\nlimits {vel} {acc} {jerk}");
     }
 }

@@ -8,8 +8,7 @@
 
 use interpd_motion::Settings;
 use interpd_motion::path::{AxisDerivs, Geometry, Path};
-use interpd_motion::planner::profile::Cursor;
-use interpd_motion::planner::{Planner, Segment};
+use interpd_motion::planner::Planner;
 use interpd_motion::prep::prepare_path;
 use interpd_motion::program;
 use proptest::prelude::*;
@@ -191,32 +190,6 @@ fn max_deviation(programmed: &Path, smoothed: &Path, step_mm: f64) -> f64 {
     worst
 }
 
-/// Largest |value| / configured limit of velocity, acceleration and jerk, sampled every `dt_s`.
-fn sampled_ratios(path: &Path, segs: &[Segment], cfg: &Settings, dt_s: f64) -> [f64; 3] {
-    let mut worst = [0.0f64; 3];
-    let mut cursor = Cursor::default();
-    let mut d = AxisDerivs::default();
-    let n = (interpd_motion::planner::profile::duration_s(segs) / dt_s) as usize + 1;
-    for k in 0..=n {
-        let Some(sample) = cursor.sample(segs, k as f64 * dt_s) else { break };
-        let st = sample.state;
-        if sample.at_start {
-            path.eval(st.s_mm, &mut d)
-        } else {
-            path.eval_left(st.s_mm, &mut d)
-        }
-        for (i, ax) in cfg.axes.iter().enumerate() {
-            let vel = d.d1[i] * st.v;
-            let acc = d.d2[i] * st.v * st.v + d.d1[i] * st.a;
-            let jerk = d.d3[i] * st.v.powi(3) + 3.0 * d.d2[i] * st.v * st.a + d.d1[i] * st.j;
-            worst[0] = worst[0].max(vel.abs() / ax.max_vel_per_s);
-            worst[1] = worst[1].max(acc.abs() / ax.max_acc_per_s2);
-            worst[2] = worst[2].max(jerk.abs() / ax.max_jerk_per_s3);
-        }
-    }
-    worst
-}
-
 proptest! {
     #![proptest_config(ProptestConfig { cases: 24, max_shrink_iters: 50, ..ProptestConfig::default() })]
 
@@ -245,7 +218,7 @@ proptest! {
         let total: f64 = segs.iter().map(|s| s.ds_mm).sum();
         let len = prepared.path.length_mm();
         prop_assert!((total - len).abs() <= 1e-6 * len.max(1.0), "{total} of {len} mm");
-        let [v, a, j] = sampled_ratios(&prepared.path, &segs, &cfg, 2.5e-4);
+        let [v, a, j] = interpd_motion::planner::profile::limit_ratios(&prepared.path, &segs, &cfg, 2.5e-4);
         prop_assert!(
             v <= 1.001 && a <= 1.001 && j <= 1.02,
             "vel {v:.5} acc {a:.5} jerk {j:.5} ({stats:?})\n{case}"

@@ -4,6 +4,9 @@
 //! Segments are back to back in time and path position; within a segment
 //! s(τ) = s₀ + v₀τ + a₀τ²/2 + jτ³/6 for τ ∈ [0, dt]. A dwell is a segment with v = a = j = 0.
 
+use crate::Settings;
+use crate::path::{AxisDerivs, Path};
+
 /// One piece of the planned motion.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Segment {
@@ -98,4 +101,34 @@ pub struct Sample {
 /// Total duration of a profile.
 pub fn duration_s(segments: &[Segment]) -> f64 {
     segments.last().map_or(0.0, Segment::t1_s)
+}
+
+/// The largest |velocity|, |acceleration| and |jerk| of any axis over its limit, sampled every
+/// `dt_s` along the exact geometry of `path` (chain rule: A′v, A″v² + A′a,
+/// A‴v³ + 3A″va + A′j): the independent check of a profile against the axis limits. At a
+/// joint, a sample at the start of a segment sees the element that starts there, any other
+/// the element that ends there.
+pub fn limit_ratios(path: &Path, segments: &[Segment], settings: &Settings, dt_s: f64) -> [f64; 3] {
+    let mut worst = [0.0f64; 3];
+    let mut cursor = Cursor::default();
+    let mut d = AxisDerivs::default();
+    let n = (duration_s(segments) / dt_s) as usize + 1;
+    for k in 0..=n {
+        let Some(sample) = cursor.sample(segments, k as f64 * dt_s) else { break };
+        let st = sample.state;
+        if sample.at_start {
+            path.eval(st.s_mm, &mut d)
+        } else {
+            path.eval_left(st.s_mm, &mut d)
+        }
+        for (i, ax) in settings.axes.iter().enumerate() {
+            let vel = d.d1[i] * st.v;
+            let acc = d.d2[i] * st.v * st.v + d.d1[i] * st.a;
+            let jerk = d.d3[i] * st.v.powi(3) + 3.0 * d.d2[i] * st.v * st.a + d.d1[i] * st.j;
+            worst[0] = worst[0].max(vel.abs() / ax.max_vel_per_s);
+            worst[1] = worst[1].max(acc.abs() / ax.max_acc_per_s2);
+            worst[2] = worst[2].max(jerk.abs() / ax.max_jerk_per_s3);
+        }
+    }
+    worst
 }

@@ -546,33 +546,6 @@ fn noisy_trochoid(moves: usize) -> String {
     text + "M30\n"
 }
 
-/// Largest |value| / configured limit of velocity, acceleration and jerk over the axes, sampled
-/// every `dt_s` along the exact geometry.
-fn sampled_ratios(path: &Path, segs: &[Segment], cfg: &Settings, dt_s: f64) -> [f64; 3] {
-    let mut worst = [0.0f64; 3];
-    let mut cursor = profile::Cursor::default();
-    let mut d = crate::path::AxisDerivs::default();
-    let n = (profile::duration_s(segs) / dt_s) as usize + 1;
-    for k in 0..=n {
-        let Some(sample) = cursor.sample(segs, k as f64 * dt_s) else { break };
-        let st = sample.state;
-        if sample.at_start {
-            path.eval(st.s_mm, &mut d)
-        } else {
-            path.eval_left(st.s_mm, &mut d)
-        }
-        for (i, ax) in cfg.axes.iter().enumerate() {
-            let vel = d.d1[i] * st.v;
-            let acc = d.d2[i] * st.v * st.v + d.d1[i] * st.a;
-            let jerk = d.d3[i] * st.v.powi(3) + 3.0 * d.d2[i] * st.v * st.a + d.d1[i] * st.j;
-            worst[0] = worst[0].max(vel.abs() / ax.max_vel_per_s);
-            worst[1] = worst[1].max(acc.abs() / ax.max_acc_per_s2);
-            worst[2] = worst[2].max(jerk.abs() / ax.max_jerk_per_s3);
-        }
-    }
-    worst
-}
-
 /// Where a block's repairs do not converge (here: the first block that needs a repair gives up
 /// at once, as one does after `MAX_REPAIRS`; the noisy trochoid's smoothed loops need them), the planner stops at the node it got stuck at and
 /// plans on from rest instead of refusing the program. The motion covers the path, is
@@ -591,7 +564,7 @@ fn a_block_whose_repairs_do_not_converge_stops_at_the_bad_node() {
     assert!(stats.forced_stops >= 1 && whole_stats.forced_stops >= 1, "{stats:?} {whole_stats:?}");
     for s in [&segs, &whole] {
         check_covers(s, path.length_mm());
-        let [v, a, j] = sampled_ratios(&path, s, &cfg, 2.5e-4);
+        let [v, a, j] = profile::limit_ratios(&path, s, &cfg, 2.5e-4);
         assert!(v <= 1.001 && a <= 1.001 && j <= 1.02, "vel {v} acc {a} jerk {j}");
     }
     let rests = segs.windows(2).filter(|w| w[0].at(w[0].dt_s).v.abs() < 1e-9 && w[1].v0 == 0.0).count();

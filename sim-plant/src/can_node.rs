@@ -236,9 +236,7 @@ impl DriveNode {
     /// The SYNC watchdog at `now_us`: in Operation enabled, no SYNC for [`WATCHDOG_CYCLES`]
     /// cycles trips it (quick-stop ramp, Fault, EMCY 0x8100). Returns whether it tripped now.
     pub fn check_watchdog(&mut self, now_us: u64, out: &mut Vec<Message>) -> bool {
-        let Some(last) = self.last_sync_us else { return false };
-        let armed = self.nmt.pdo_allowed() && self.power.state().is_operation_enabled();
-        if armed && now_us.saturating_sub(last) > WATCHDOG_CYCLES * self.p.cycle_us {
+        if self.watchdog_deadline_us().is_some_and(|deadline| now_us >= deadline) {
             self.stats.watchdog_trips += 1;
             self.fault(emcy_code::COMMUNICATION, comm_fault::SYNC_WATCHDOG, now_us, out);
             return true;

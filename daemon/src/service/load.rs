@@ -13,30 +13,23 @@ use interpd_motion::law::LawMove;
 use interpd_motion::program;
 use interpd_protocol::api::{Method, ProgramInfo};
 use std::borrow::Cow;
-use std::path::Path;
 use std::sync::Arc;
 
 impl ServiceCore {
     pub(super) fn load_program(&self, source: ProgramSource) -> Result<ProgramInfo, LoadError> {
         let shared = &self.shared;
         lock(&shared.control).check(Method::ProgramLoad)?;
-        // The name stays the path as given; the file read is the one inside the directory.
-        let (source, given) = match source {
-            ProgramSource::File(p) => (ProgramSource::File(shared.programs.resolve(&p)?), Some(p)),
-            text => (text, None),
+        // The name is the path as given; the file read is the one inside the programs directory.
+        let (name, source) = match source {
+            ProgramSource::File(p) => (p.display().to_string(), ProgramSource::File(shared.programs.resolve(&p)?)),
+            ProgramSource::Text { name, text } => (name.clone(), ProgramSource::Text { name, text }),
         };
-        if let Some((name, laws)) = law_program_of(&source, given.as_deref())? {
+        if let Some(laws) = law_program_of(&source, &name)? {
             return self.load_laws(name, laws).map(|(info, _)| info);
         }
-        let (name, parsed) = match source {
-            ProgramSource::File(p) => {
-                let name = given.as_deref().unwrap_or(&p).display().to_string();
-                (name, program::load(&p, &shared.settings))
-            }
-            ProgramSource::Text { name, text } => {
-                let parsed = program::parse(&text, &name, &shared.settings);
-                (name, parsed)
-            }
+        let parsed = match &source {
+            ProgramSource::File(p) => program::load(p, &shared.settings),
+            ProgramSource::Text { text, .. } => program::parse(text, &name, &shared.settings),
         };
         let prog = parsed?;
         // Tolerance-band smoothing (G64 P…) of the whole program, here in the control thread:
@@ -86,17 +79,16 @@ impl ServiceCore {
     }
 }
 
-/// The law program in `source`, if it is one (see [`law_run::parse_law_program`]); `given`
-/// is the path as the client gave it (the name in messages).
-fn law_program_of(source: &ProgramSource, given: Option<&Path>) -> Result<Option<(String, LawProgram)>, LoadError> {
-    let (name, text) = match source {
-        ProgramSource::Text { name, text } => (name.clone(), Cow::Borrowed(text.as_str())),
+/// The law program in `source` (named `name` in messages), if it is one (see
+/// [`law_run::parse_law_program`]).
+fn law_program_of(source: &ProgramSource, name: &str) -> Result<Option<LawProgram>, LoadError> {
+    let text = match source {
+        ProgramSource::Text { text, .. } => Cow::Borrowed(text.as_str()),
         ProgramSource::File(p) => match std::fs::read_to_string(p) {
-            Ok(t) => (given.unwrap_or(p).display().to_string(), Cow::Owned(t)),
+            Ok(t) => Cow::Owned(t),
             // Unreadable or not text: the program reader reports it.
             Err(_) => return Ok(None),
         },
     };
-    let laws = law_run::parse_law_program(&text, &name)?;
-    Ok(laws.map(|l| (name, l)))
+    Ok(law_run::parse_law_program(&text, name)?)
 }

@@ -25,10 +25,14 @@ use std::time::{Duration, Instant};
 const RUN_TIMEOUT: Duration = Duration::from_secs(30);
 const START_TIMEOUT: Duration = Duration::from_secs(20);
 const SPEED: f64 = 4.0;
-/// Largest deviation of a replayed setpoint's arrival from its recorded time / SPEED, after
-/// removing the common offset. Generous: on a shared virtual machine even a SCHED_FIFO thread
-/// now and then wakes many milliseconds late.
-const TIMING_TOLERANCE_NS: f64 = 25e6;
+/// Deviation of a replayed setpoint's arrival from its recorded time / SPEED, after removing
+/// the common offset, that 99 % of the setpoints keep. A replay that paces wrongly (bursts,
+/// wrong speed, drift) moves most setpoints, not 1 %.
+const TIMING_P99_TOLERANCE_NS: f64 = 8e6;
+/// Largest deviation of any one setpoint. Generous: the test's arrival clock is an ordinary
+/// thread and the replayer shares a busy 2-core host, so either one now and then wakes tens of
+/// milliseconds late; a replay that waited for nothing or stopped would exceed it.
+const TIMING_WORST_TOLERANCE_NS: f64 = 100e6;
 /// Accepted relative error of the replay's total duration (recorded span / SPEED).
 const DURATION_TOLERANCE: f64 = 0.05;
 
@@ -267,22 +271,27 @@ fn a_recorded_run_replayed_and_recorded_again_gives_identical_payloads_at_the_or
     sorted.sort_by(f64::total_cmp);
     let median = sorted[sorted.len() / 2];
     dev.iter_mut().for_each(|d| *d -= median);
-    let worst = dev.iter().fold(0.0f64, |m, d| m.max(d.abs()));
-    assert!(worst <= TIMING_TOLERANCE_NS, "a replayed setpoint arrived {:.1} ms off its time", worst * 1e-6);
+    let mut abs_dev: Vec<f64> = dev.iter().map(|d| d.abs()).collect();
+    abs_dev.sort_by(f64::total_cmp);
+    let worst = *abs_dev.last().expect("arrivals");
+    let p99 = abs_dev[(abs_dev.len() * 99) / 100];
+    assert!(
+        p99 <= TIMING_P99_TOLERANCE_NS,
+        "1 % of the replayed setpoints arrived {:.1} ms or more off their time",
+        p99 * 1e-6
+    );
+    assert!(worst <= TIMING_WORST_TOLERANCE_NS, "a replayed setpoint arrived {:.1} ms off its time", worst * 1e-6);
     let (last_cycle, last_rx) = *arrivals.last().expect("arrivals");
     let span_ns = (log_by_cycle[&last_cycle] - t0_log) as f64 / SPEED;
     let ratio = (last_rx - t0_rx) as f64 / span_ns;
     assert!((ratio - 1.0).abs() <= DURATION_TOLERANCE, "replay took {ratio:.3} × the recorded span / {SPEED}");
     eprintln!(
         "B: {} messages identical to A; replay at speed {SPEED}: duration ratio {ratio:.4}, largest arrival \
-         deviation {:.2} ms, median |deviation| {:.3} ms; test {:.1} s",
+         deviation {:.2} ms, 99th percentile {:.2} ms, median |deviation| {:.3} ms; test {:.1} s",
         mb.len(),
         worst * 1e-6,
-        {
-            let mut a: Vec<f64> = dev.iter().map(|d| d.abs()).collect();
-            a.sort_by(f64::total_cmp);
-            a[a.len() / 2] * 1e-6
-        },
+        p99 * 1e-6,
+        abs_dev[abs_dev.len() / 2] * 1e-6,
         started.elapsed().as_secs_f64()
     );
     let _ = std::fs::remove_dir_all(&dir);

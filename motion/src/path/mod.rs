@@ -205,6 +205,50 @@ impl Path {
         self.elements.push(Element { geometry, s_start_mm, feed, source, joint, dwell_before_s, blend });
     }
 
+    /// Moves every element but the last to `out`: a reader hands elements on as they are made
+    /// and keeps the last one for the joint with its successor.
+    pub(crate) fn drain_settled(&mut self, out: &mut std::collections::VecDeque<Element>) {
+        let n = self.elements.len().saturating_sub(1);
+        out.extend(self.elements.drain(..n));
+    }
+
+    /// Moves every element to `out` (no successor follows).
+    pub(crate) fn drain_all(&mut self, out: &mut std::collections::VecDeque<Element>) {
+        out.extend(self.elements.drain(..));
+    }
+
+    /// Appends an element made elsewhere (by the smoothing stage or a reader), keeping its
+    /// place in s and its joint. A streamed path grows at the end this way and is trimmed at
+    /// the front by [`Path::trim_before`].
+    pub fn push_element(&mut self, element: Element) {
+        debug_assert!(
+            self.elements
+                .last()
+                .is_none_or(|l| (l.s_end_mm() - element.s_start_mm).abs() <= 1e-6 * l.s_end_mm().max(1.0)),
+            "elements are appended back to back in s"
+        );
+        self.elements.push(element);
+    }
+
+    /// Drops the elements that end at or before `s_mm`, keeping at least the last one, so a
+    /// streamed path holds only what is still ahead of the motion. Path positions stay
+    /// absolute; the path's start becomes the first kept element's start.
+    pub fn trim_before(&mut self, s_mm: f64) {
+        let n = self.elements.partition_point(|e| e.s_end_mm() <= s_mm).min(self.elements.len().saturating_sub(1));
+        if n == 0 {
+            return;
+        }
+        self.elements.drain(..n);
+        let mut d = AxisDerivs::default();
+        self.elements[0].geometry.eval(0.0, &mut d);
+        self.start = d.pos;
+    }
+
+    /// Path position where the first element starts (0 unless trimmed).
+    pub fn s_begin_mm(&self) -> f64 {
+        self.elements.first().map_or(0.0, |e| e.s_start_mm)
+    }
+
     /// Index of the element containing path position `s_mm` (the later one at a joint).
     pub fn element_index_at(&self, s_mm: f64) -> usize {
         let i = self.elements.partition_point(|e| e.s_start_mm <= s_mm);

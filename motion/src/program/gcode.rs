@@ -99,8 +99,8 @@ struct G06Block {
     unterminated: bool,
 }
 
-pub(crate) struct Interpreter<'a> {
-    settings: &'a Settings,
+pub(crate) struct Interpreter {
+    settings: Settings,
     linear: [bool; MAX_AXES],
     modal: Modal,
     g06: Option<G06Block>,
@@ -165,7 +165,7 @@ fn unused_word_message(letter: char) -> String {
     }
 }
 
-impl<'a> Interpreter<'a> {
+impl Interpreter {
     /// The modal state a program starts with: G17, G21, G90, no feed and no motion mode yet,
     /// the `[prep]` blend, at `pos`.
     pub(super) fn initial_modal(settings: &Settings, pos: AxisVec) -> Modal {
@@ -176,7 +176,7 @@ impl<'a> Interpreter<'a> {
         Modal { motion: None, plane: Plane::Xy, unit_mm: 1.0, absolute: true, feed_mm_s: None, blend, pos }
     }
 
-    pub(super) fn new(settings: &'a Settings) -> Self {
+    pub(super) fn new(settings: &Settings) -> Self {
         let mut linear = [false; MAX_AXES];
         for (k, a) in settings.axes.iter().enumerate() {
             linear[k] = a.kind == AxisKind::Linear;
@@ -186,7 +186,7 @@ impl<'a> Interpreter<'a> {
             interpd_config::PrepMode::Smooth => Blend::Tolerance { tol_mm: settings.prep.tolerance_mm },
         };
         Self {
-            settings,
+            settings: settings.clone(),
             linear,
             modal: Modal {
                 motion: None,
@@ -209,7 +209,7 @@ impl<'a> Interpreter<'a> {
     }
 
     /// An interpreter that continues from `modal` (its position is where the path starts).
-    pub(super) fn resume(settings: &'a Settings, modal: Modal) -> Self {
+    pub(super) fn resume(settings: &Settings, modal: Modal) -> Self {
         let mut interp = Self::new(settings);
         interp.path = Path::new(settings.axis_names(), modal.pos);
         interp.modal = modal;

@@ -230,11 +230,11 @@ impl Path {
         self.elements.push(element);
     }
 
-    /// Drops the elements that end at or before `s_mm`, keeping at least the last one, so a
+    /// Drops the elements that end before `s_mm`, keeping at least the last one, so a
     /// streamed path holds only what is still ahead of the motion. Path positions stay
     /// absolute; the path's start becomes the first kept element's start.
     pub fn trim_before(&mut self, s_mm: f64) {
-        let n = self.elements.partition_point(|e| e.s_end_mm() <= s_mm).min(self.elements.len().saturating_sub(1));
+        let n = self.elements.partition_point(|e| e.s_end_mm() < s_mm).min(self.elements.len().saturating_sub(1));
         if n == 0 {
             return;
         }

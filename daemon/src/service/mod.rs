@@ -21,6 +21,7 @@ pub mod live;
 mod load;
 pub mod manual;
 pub mod otg_motion;
+pub mod path_feed;
 pub mod programs;
 mod rt_loop;
 mod state;

@@ -158,6 +158,20 @@ impl Element {
         self.s_start_mm + self.geometry.length_mm()
     }
 
+    /// The element from `s_mm` on, as the first of a path (joint `Start`): cut there unless
+    /// `s_mm` is at its start; a cut inside it drops its dwell, which lies behind.
+    pub fn from(&self, s_mm: f64) -> Element {
+        let mut e = self.clone();
+        let offset = s_mm - e.s_start_mm;
+        if offset > SUFFIX_AT_START_MM {
+            e.geometry = Geometry::Suffix(Box::new(Suffix::new(e.geometry, offset)));
+            e.s_start_mm = s_mm;
+            e.dwell_before_s = 0.0;
+        }
+        e.joint = JointKind::Start;
+        e
+    }
+
     /// Whether the motion must come to rest (v = a = 0) where this element starts.
     pub fn stops_before(&self) -> bool {
         matches!(self.joint, JointKind::Start | JointKind::Corner) || self.dwell_before_s > 0.0
@@ -230,6 +244,19 @@ impl Path {
         self.elements.push(element);
     }
 
+    /// Appends an element of another path moved by `s_offset_mm` along s: a program streamed
+    /// behind an approach move. The element that starts its own path joins the last one here
+    /// as their geometry does.
+    pub fn append_shifted(&mut self, mut element: Element, s_offset_mm: f64) {
+        element.s_start_mm += s_offset_mm;
+        if element.joint == JointKind::Start {
+            if let Some(prev) = self.elements.last() {
+                element.joint = classify_joint(&prev.geometry, &element.geometry, self.n_axes);
+            }
+        }
+        self.push_element(element);
+    }
+
     /// Drops the elements that end before `s_mm`, keeping at least the last one, so a
     /// streamed path holds only what is still ahead of the motion. Path positions stay
     /// absolute; the path's start becomes the first kept element's start.
@@ -286,25 +313,21 @@ impl Path {
         if s_mm >= self.length_mm() {
             return out;
         }
-        let mut first = self.element_index_at(s_mm);
-        // A cut at an element's very end starts with the next element (no sliver).
-        if self.elements[first].s_end_mm() - s_mm <= SUFFIX_AT_START_MM && first + 1 < self.elements.len() {
-            first += 1;
-        }
+        let first = self.first_index_from(s_mm);
         for (k, e) in self.elements[first..].iter().enumerate() {
-            let mut e = e.clone();
-            if k == 0 {
-                let offset = s_mm - e.s_start_mm;
-                if offset > SUFFIX_AT_START_MM {
-                    e.geometry = Geometry::Suffix(Box::new(Suffix::new(e.geometry, offset)));
-                    e.s_start_mm = s_mm;
-                    e.dwell_before_s = 0.0;
-                }
-                e.joint = JointKind::Start;
-            }
-            out.elements.push(e);
+            out.elements.push(if k == 0 { e.from(s_mm) } else { e.clone() });
         }
         out
+    }
+
+    /// Index of the element a path cut at `s_mm` starts with ([`Path::suffix_from`]): the one
+    /// containing `s_mm`, or the next one when `s_mm` is at its very end (no sliver).
+    pub fn first_index_from(&self, s_mm: f64) -> usize {
+        let first = self.element_index_at(s_mm);
+        match self.elements.get(first) {
+            Some(e) if e.s_end_mm() - s_mm <= SUFFIX_AT_START_MM && first + 1 < self.elements.len() => first + 1,
+            _ => first,
+        }
     }
 
     /// End position of the path.

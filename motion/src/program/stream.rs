@@ -243,6 +243,8 @@ pub struct Checked {
     pub elements: u64,
     /// Length of the programmed path, mm.
     pub length_mm: f64,
+    /// Joints where the tangent breaks (a stop unless smoothed).
+    pub corners: u64,
 }
 
 /// Reads the program at `path` to its end, keeping no geometry: every error (up to the cap,
@@ -257,7 +259,7 @@ pub fn check_text(text: String, origin: &str, settings: &Settings) -> Result<Che
 }
 
 fn check_stream(mut stream: ProgramStream) -> Result<Checked, ProgramErrors> {
-    let (mut elements, mut length_mm) = (0u64, 0.0f64);
+    let (mut elements, mut length_mm, mut corners) = (0u64, 0.0f64, 0u64);
     loop {
         if !stream.d.errors.is_empty() {
             return Err(stream.all_errors());
@@ -265,13 +267,14 @@ fn check_stream(mut stream: ProgramStream) -> Result<Checked, ProgramErrors> {
         while let Some(e) = stream.ready.pop_front() {
             elements += 1;
             length_mm = e.s_end_mm();
+            corners += u64::from(e.joint == crate::path::JointKind::Corner);
         }
         if stream.eof {
             break;
         }
         stream.read_line();
     }
-    Ok(Checked { summary: stream.summary().clone(), elements, length_mm })
+    Ok(Checked { summary: stream.summary().clone(), elements, length_mm, corners })
 }
 
 fn fatal(origin: &str, message: String) -> ProgramErrors {

@@ -60,6 +60,11 @@ impl Diagnostics {
         }
     }
 
+    /// The file the errors name.
+    pub(super) fn file(&self) -> &str {
+        &self.file
+    }
+
     pub(super) fn full(&self) -> bool {
         self.errors.len() >= MAX_ERRORS
     }

@@ -76,6 +76,7 @@ pub(crate) struct Modal {
 }
 
 /// A span record inside a G06 block.
+#[derive(Clone)]
 struct SpanRecord {
     target: AxisVec,
     tangent: Option<[f64; 3]>,
@@ -85,6 +86,7 @@ struct SpanRecord {
 }
 
 /// An open G06 block.
+#[derive(Clone)]
 struct G06Block {
     start: AxisVec,
     start_tangent: Option<[f64; 3]>,
@@ -99,6 +101,7 @@ struct G06Block {
     unterminated: bool,
 }
 
+#[derive(Clone)]
 pub(crate) struct Interpreter {
     settings: Settings,
     linear: [bool; MAX_AXES],
@@ -221,6 +224,16 @@ impl Interpreter {
         &self.modal
     }
 
+    /// Whether the program has ended (M2, M30, a closing `%`): later lines are not read.
+    pub(super) fn ended(&self) -> bool {
+        self.ended
+    }
+
+    /// Whether a G06 block is open (its spans wait for the block's end).
+    pub(super) fn in_g06(&self) -> bool {
+        self.g06.is_some()
+    }
+
     /// Feeds one source line (1-based number).
     pub(super) fn line(&mut self, text: &str, line_no: u32, d: &mut Diagnostics) {
         if self.ended {
@@ -249,6 +262,7 @@ impl Interpreter {
                 self.tape = true;
             } else if self.tape {
                 self.ended = true;
+                self.summary.program_end = true;
             } else {
                 d.error(line_no, 1, "'%' is only valid as the first line of a program (and then as its last)");
             }
@@ -567,6 +581,7 @@ impl Interpreter {
             groups[group] = Some(code);
             if group == 0 {
                 self.ended = true;
+                self.summary.program_end = true;
             } else {
                 self.summary.ignored_words += 1;
             }

@@ -2,15 +2,17 @@
 //! (the data form of the five-axis example in Kopp et al. 2019, §2 and §4), turned into a
 //! [`Path`].
 
+mod append;
 mod error;
 mod gcode;
 mod lexer;
 mod stream;
 mod table;
 
+pub use append::{AppendBuffer, AppendChecker, AppendError, Appended};
 pub use error::{ProgramError, ProgramErrors};
 pub(crate) use gcode::fmt_num;
-pub use stream::{Checked, MAX_LINE_BYTES, ProgramStream, check, check_text};
+pub use stream::{Checked, MAX_LINE_BYTES, ProgramStream, check, check_appended, check_text};
 
 use crate::Settings;
 use crate::path::Path;
@@ -34,6 +36,9 @@ pub struct Summary {
     pub zero_length_moves: usize,
     /// Spindle, coolant and tool words (M3–M9, S, T), accepted and ignored.
     pub ignored_words: usize,
+    /// The program ends with M2, M30 or a closing `%` (a path table always ends); one without
+    /// an end can be continued (`program.append`).
+    pub program_end: bool,
 }
 
 /// A parsed program: its path and what was read.

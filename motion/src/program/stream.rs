@@ -7,6 +7,7 @@
 //! every support point of the block). Path tables are read whole: they are the data form of
 //! short multi-axis paths, not CAM output.
 
+use super::append::{AppendBuffer, AppendChecker, Take};
 use super::error::Diagnostics;
 use super::gcode::Interpreter;
 use super::{Format, ProgramError, ProgramErrors, Summary, table};
@@ -14,6 +15,7 @@ use crate::Settings;
 use crate::path::{AxisVec, Element, MAX_AXES, Path};
 use std::collections::VecDeque;
 use std::io::{BufRead, BufReader, Read};
+use std::sync::Arc;
 
 /// The longest line read, bytes: far beyond any real block, and it bounds the memory a file
 /// without line breaks can take.
@@ -48,6 +50,13 @@ pub struct ProgramStream {
     eof: bool,
     axis_names: Vec<String>,
     start: AxisVec,
+    /// Text appended while the program runs, read after `lines` (`program.append`).
+    appends: Option<Arc<AppendBuffer>>,
+    /// The last read found no whole line in `appends`: more may come.
+    waiting: bool,
+    /// At the end of the text the interpreter is finished (closing a G06 block, attaching a
+    /// trailing dwell); a check of an open program leaves it open for what is appended.
+    finish_at_eof: bool,
 }
 
 impl ProgramStream {
@@ -107,7 +116,25 @@ impl ProgramStream {
             eof: false,
             axis_names: settings.axis_names(),
             start,
+            appends: None,
+            waiting: false,
+            finish_at_eof: true,
         }
+    }
+
+    /// The program continues with the text appended to `buffer` after its own text (a path
+    /// table takes none).
+    pub fn with_appends(mut self, buffer: Arc<AppendBuffer>) -> Self {
+        if matches!(self.reader, Reader::GCode(_)) {
+            self.appends = Some(buffer);
+        }
+        self
+    }
+
+    /// The stream has handed out everything there is but the program goes on: text appended
+    /// later continues it.
+    pub fn waiting(&self) -> bool {
+        self.waiting && !self.eof
     }
 
     fn read_table(&mut self, text: &str, settings: &Settings) {
@@ -150,6 +177,7 @@ impl ProgramStream {
     /// The next element, `None` at the end of the program. The first error ends the stream:
     /// every element handed out before it is valid.
     pub fn next_element(&mut self) -> Result<Option<Element>, ProgramErrors> {
+        self.waiting = false;
         loop {
             if !self.d.errors.is_empty() {
                 return Err(ProgramErrors(self.d.errors.clone()));
@@ -157,7 +185,7 @@ impl ProgramStream {
             if let Some(e) = self.ready.pop_front() {
                 return Ok(Some(e));
             }
-            if self.eof {
+            if self.eof || self.waiting {
                 return Ok(None);
             }
             self.read_line();
@@ -174,7 +202,7 @@ impl ProgramStream {
     /// Reads the rest of the program, handing out nothing: every error (up to the cap) and the
     /// summary.
     fn read_to_end(&mut self) {
-        while !self.eof && !self.d.full() {
+        while !self.eof && !self.waiting && !self.d.full() {
             self.read_line();
             self.ready.clear();
         }
@@ -197,7 +225,24 @@ impl ProgramStream {
                 Ok(n)
             }
         };
+        // After the program's own text, the appended text (nothing after the program's end).
+        let got = match (got, &self.appends) {
+            (Ok(0), Some(more)) if !interp.ended() => match more.take_line(&mut self.buf, MAX_LINE_BYTES) {
+                Take::Line => Ok(self.buf.len().max(1)),
+                Take::Waiting => {
+                    self.waiting = true;
+                    return;
+                }
+                Take::End => Ok(0),
+            },
+            (got, _) => got,
+        };
         match got {
+            Ok(0) if !self.finish_at_eof && !interp.ended() => {
+                // A check of an open program: it stays open for appended text.
+                self.eof = true;
+                return;
+            }
             Ok(0) => {
                 interp.finish(&mut self.d);
                 interp.path.drain_all(&mut self.ready);
@@ -250,31 +295,55 @@ pub struct Checked {
 /// Reads the program at `path` to its end, keeping no geometry: every error (up to the cap,
 /// each as FILE:LINE:COL) or the summary.
 pub fn check(path: &std::path::Path, settings: &Settings) -> Result<Checked, ProgramErrors> {
-    check_stream(ProgramStream::open(path, settings)?)
+    check_stream(ProgramStream::open(path, settings)?).map(|(c, _)| c)
 }
 
 /// [`check`] of program text held in memory.
 pub fn check_text(text: String, origin: &str, settings: &Settings) -> Result<Checked, ProgramErrors> {
-    check_stream(ProgramStream::from_text(text, origin, settings))
+    check_stream(ProgramStream::from_text(text, origin, settings)).map(|(c, _)| c)
 }
 
-fn check_stream(mut stream: ProgramStream) -> Result<Checked, ProgramErrors> {
-    let (mut elements, mut length_mm, mut corners) = (0u64, 0.0f64, 0u64);
+/// [`check`] of the program at `path` (or of `text`, named `path`) that keeps a program
+/// without an end (M2, M30, a closing `%`) open: its checker takes the text appended to it.
+pub fn check_appended(
+    path: &std::path::Path,
+    text: Option<String>,
+    settings: &Settings,
+) -> Result<(Checked, Option<AppendChecker>), ProgramErrors> {
+    let mut stream = match text {
+        Some(t) => ProgramStream::from_text(t, &path.display().to_string(), settings),
+        None => ProgramStream::open(path, settings)?,
+    };
+    stream.finish_at_eof = false;
+    check_stream(stream)
+}
+
+fn check_stream(mut stream: ProgramStream) -> Result<(Checked, Option<AppendChecker>), ProgramErrors> {
+    let (mut corners, mut length_mm) = (0u64, 0.0f64);
     loop {
         if !stream.d.errors.is_empty() {
             return Err(stream.all_errors());
         }
         while let Some(e) = stream.ready.pop_front() {
-            elements += 1;
-            length_mm = e.s_end_mm();
             corners += u64::from(e.joint == crate::path::JointKind::Corner);
+            length_mm = length_mm.max(e.s_end_mm());
         }
         if stream.eof {
             break;
         }
         stream.read_line();
     }
-    Ok(Checked { summary: stream.summary().clone(), elements, length_mm, corners })
+    let summary = stream.summary().clone();
+    let elements = summary.kinds.values().map(|&n| n as u64).sum();
+    let (length_mm, checker) = match &stream.reader {
+        Reader::GCode(interp) => {
+            let checker = (!summary.program_end)
+                .then(|| AppendChecker::new((**interp).clone(), stream.line_no, stream.d.file().to_string()));
+            (length_mm.max(interp.path.length_mm()), checker)
+        }
+        Reader::Table { .. } => (length_mm, None),
+    };
+    Ok((Checked { summary, elements, length_mm, corners }, checker))
 }
 
 fn fatal(origin: &str, message: String) -> ProgramErrors {
@@ -293,6 +362,7 @@ fn not_text(origin: &str, e: std::io::Error) -> ProgramErrors {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::program::{AppendBuffer, AppendError};
 
     fn xyz() -> Settings {
         Settings::default_machine()
@@ -366,5 +436,46 @@ mod tests {
         let e = check(&file, &xyz()).expect_err("utf8").0;
         assert_eq!((e[0].line, e[0].col, e[0].message.as_str()), (2, 8, "the file is not UTF-8 text"));
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn appended_text_continues_an_open_program_and_waits_for_more() {
+        let settings = xyz();
+        let (checked, checker) =
+            check_appended(std::path::Path::new("open.ngc"), Some("G1 X1 F600\nG1 X2\n".into()), &settings)
+                .expect("valid");
+        assert!(!checked.summary.program_end);
+        assert_eq!((checked.elements, checked.length_mm), (2, 2.0));
+        let mut checker = checker.expect("an open program takes appended text");
+
+        let buffer = Arc::new(AppendBuffer::new(64));
+        let mut s =
+            ProgramStream::from_text("G1 X1 F600\nG1 X2\n".into(), "open.ngc", &settings).with_appends(buffer.clone());
+        assert_eq!(s.next_element().expect("ok").map(|e| e.source.line), Some(1));
+        // The second element waits for its successor's joint; nothing more is there.
+        assert_eq!(s.next_element().expect("ok"), None);
+        assert!(s.waiting());
+
+        // A bad piece is refused with the program's line and column and changes nothing.
+        let e = checker.append("G1 X3 H1\n", false).expect_err("H").0;
+        assert_eq!((e[0].line, e[0].col), (3, 7));
+        let a = checker.append("G1 X3\nG1 Y1\n", false).expect("valid");
+        assert_eq!((a.lines, a.elements, a.length_mm, a.program_end), ((3, 4), 2, 2.0, false));
+        buffer.push("G1 X3\nG1 Y1", false).expect("fits");
+        assert_eq!(s.next_element().expect("ok").map(|e| e.source.line), Some(2));
+        assert_eq!(s.next_element().expect("ok").map(|e| e.source.line), Some(3));
+        assert_eq!(s.next_element().expect("ok"), None);
+        assert!(s.waiting());
+
+        // The buffer is bounded; M2 ends the program.
+        let full = buffer.push(&"G1 X5\n".repeat(20), false).expect_err("full");
+        assert!(matches!(full, AppendError::Full { limit_bytes: 64, .. }), "{full}");
+        let a = checker.append("G1 X0 Y0\nM2\n", false).expect("valid");
+        assert!(a.program_end && checker.ended());
+        buffer.push("G1 X0 Y0\nM2\n", true).expect("fits");
+        let lines: Vec<u32> = std::iter::from_fn(|| s.next_element().expect("ok")).map(|e| e.source.line).collect();
+        assert_eq!(lines, vec![4, 5]);
+        assert!(!s.waiting());
+        assert_eq!(buffer.push("G1 X1", false), Err(AppendError::Ended));
     }
 }

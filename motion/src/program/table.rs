@@ -166,6 +166,7 @@ pub(crate) fn parse_table(text: &str, settings: &Settings, d: &mut Diagnostics) 
     } else if path.elements.is_empty() && d.errors.is_empty() {
         d.error(summary.lines.max(1), 1, "path table needs at least two rows with different s");
     }
+    summary.program_end = true;
     Program { path, summary }
 }
 

@@ -206,13 +206,23 @@ impl ControlConfig {
     }
 }
 
-/// `[programs]`: where `program.load {"path"}` may read programs from.
-#[derive(Debug, Clone, Deserialize, PartialEq, Default)]
+/// `[programs]`: where `program.load {"path"}` may read programs from, and how much text
+/// `program.append` may hold ahead of the motion.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct ProgramsConfig {
     /// The programs directory. Unset: the daemon's working directory. A path given to
     /// `program.load` must lie inside it (after symbolic links are resolved).
     pub dir: Option<String>,
+    /// Program text appended and not yet read by the motion, at most, KiB: the back-pressure
+    /// of `program.append`.
+    pub append_buffer_kib: u32,
+}
+
+impl Default for ProgramsConfig {
+    fn default() -> Self {
+        Self { dir: None, append_buffer_kib: 4096 }
+    }
 }
 
 impl ProgramsConfig {
@@ -220,7 +230,12 @@ impl ProgramsConfig {
         if self.dir.as_deref().is_some_and(str::is_empty) {
             return Err(v.err("programs.dir", "must not be empty (leave it out for the working directory)"));
         }
-        Ok(())
+        v.in_range("programs.append_buffer_kib", f64::from(self.append_buffer_kib), 1.0, 1_048_576.0)
+    }
+
+    /// [`ProgramsConfig::append_buffer_kib`] in bytes.
+    pub fn append_buffer_bytes(&self) -> usize {
+        self.append_buffer_kib as usize * 1024
     }
 }
 

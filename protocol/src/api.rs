@@ -10,8 +10,8 @@
 pub mod params;
 pub mod status;
 
-pub use params::{JogMode, JogParams, LawParams, LoadParams, MdiParams, MoveToParams, OverrideParams};
-pub use status::{CycleStats, DriveStatus, ManualStatus, Percentiles, ProgramInfo, State, Status};
+pub use params::{AppendParams, JogMode, JogParams, LawParams, LoadParams, MdiParams, MoveToParams, OverrideParams};
+pub use status::{CycleStats, DriveStatus, ManualStatus, Percentiles, ProgramBuffer, ProgramInfo, State, Status};
 
 use crate::jsonrpc::params::Params;
 use crate::jsonrpc::{ErrorObject, Notification};
@@ -41,6 +41,9 @@ pub mod codes {
     pub const NOT_ALLOWED: i32 = -32002;
     /// `motion.start`: a CAN drive is not in Operation enabled (the message names the drive).
     pub const DRIVES_NOT_READY: i32 = -32005;
+    /// `program.append`: the program buffer cannot take the text now (`data` holds
+    /// `buffered_bytes` and `limit_bytes`); send it again when the motion has used some.
+    pub const BUFFER_FULL: i32 = -32006;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -51,6 +54,7 @@ pub mod codes {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Method {
     ProgramLoad,
+    ProgramAppend,
     MotionStart,
     MotionHold,
     MotionResume,
@@ -66,8 +70,9 @@ pub enum Method {
 }
 
 impl Method {
-    pub const ALL: [Method; 13] = [
+    pub const ALL: [Method; 14] = [
         Method::ProgramLoad,
+        Method::ProgramAppend,
         Method::MotionStart,
         Method::MotionHold,
         Method::MotionResume,
@@ -86,6 +91,7 @@ impl Method {
     pub const fn name(self) -> &'static str {
         match self {
             Method::ProgramLoad => "program.load",
+            Method::ProgramAppend => "program.append",
             Method::MotionStart => "motion.start",
             Method::MotionHold => "motion.hold",
             Method::MotionResume => "motion.resume",
@@ -141,6 +147,7 @@ pub fn invalid_params(method: Method, param: Option<&str>, detail: &str) -> Erro
 #[derive(Debug, Clone, PartialEq)]
 pub enum Call {
     ProgramLoad(LoadParams),
+    ProgramAppend(AppendParams),
     MotionStart,
     MotionHold,
     MotionResume,
@@ -163,6 +170,7 @@ impl Call {
         let params = Params::new(params);
         Ok(match m {
             Method::ProgramLoad => Call::ProgramLoad(LoadParams::parse(params)?),
+            Method::ProgramAppend => Call::ProgramAppend(AppendParams::parse(params)?),
             Method::FeedOverride => Call::FeedOverride(OverrideParams::parse(params)?),
             Method::MotionLaw => Call::MotionLaw(LawParams::parse(params)?),
             Method::MotionJog => Call::MotionJog(JogParams::parse(params)?),
@@ -181,6 +189,7 @@ impl Call {
     pub fn method(&self) -> Method {
         match self {
             Call::ProgramLoad(_) => Method::ProgramLoad,
+            Call::ProgramAppend(_) => Method::ProgramAppend,
             Call::MotionStart => Method::MotionStart,
             Call::MotionHold => Method::MotionHold,
             Call::MotionResume => Method::MotionResume,
@@ -251,6 +260,23 @@ pub struct MoveToResult {
     /// Time from the start (or the handover instant, when it replaces a running manual motion)
     /// until every axis has reached the target, s.
     pub duration_s: f64,
+}
+
+/// Result of `program.append`: what the text added, and the buffer after it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct AppendResult {
+    /// The program's lines the text took (first, last), counted over the whole program.
+    pub lines: [u32; 2],
+    /// Geometry elements it added.
+    pub elements: u64,
+    /// Path length it added, mm.
+    pub length_mm: f64,
+    /// The program has ended (M2, M30, a closing `%`, or `"end": true`): nothing more can follow.
+    pub program_end: bool,
+    /// Appended text not yet read by the motion, bytes.
+    pub buffered_bytes: u64,
+    /// `[programs] append_buffer_kib` in bytes.
+    pub limit_bytes: u64,
 }
 
 /// Result of `mdi`: the blocks as parsed (they have started).

@@ -2,7 +2,7 @@
 //! requests, notifications, batches), the calls into [`Motion`], and the error codes of its
 //! refusals.
 
-use super::errors::{LawError, LoadError, ManualError, NotAllowed, ResumeError, StartError};
+use super::errors::{AppendError, LawError, LoadError, ManualError, NotAllowed, ResumeError, StartError};
 use super::motion::{Motion, ProgramSource};
 use interpd_protocol::api::{self, Ack, Call, Event, LoadParams, OverrideResult, Subscribed, codes};
 use interpd_protocol::jsonrpc::{self, ErrorObject, Id, Incoming, Invalid, Request, Response};
@@ -170,6 +170,7 @@ impl Context {
                 *self.start_owner.lock().unwrap_or_else(|p| p.into_inner()) = Some(session.id);
                 to_value(&result)
             }
+            Call::ProgramAppend(p) => to_value(&motion.append(&p)?),
             Call::Mdi(p) => {
                 let result = motion.mdi(&p)?;
                 *self.start_owner.lock().unwrap_or_else(|p| p.into_inner()) = Some(session.id);
@@ -232,12 +233,26 @@ impl From<LoadError> for ErrorObject {
     }
 }
 
+impl From<AppendError> for ErrorObject {
+    fn from(e: AppendError) -> ErrorObject {
+        match e {
+            AppendError::NoProgram => ErrorObject::new(codes::NOT_ALLOWED, e.to_string()),
+            AppendError::Closed(_) | AppendError::Program(_) => ErrorObject::new(codes::BAD_PROGRAM, e.to_string()),
+            AppendError::Full { buffered_bytes, limit_bytes, .. } => {
+                ErrorObject::new(codes::BUFFER_FULL, e.to_string())
+                    .with_data(serde_json::json!({ "buffered_bytes": buffered_bytes, "limit_bytes": limit_bytes }))
+            }
+        }
+    }
+}
+
 impl From<StartError> for ErrorObject {
     fn from(e: StartError) -> ErrorObject {
         let code = match e {
             StartError::NotAllowed(e) => return e.into(),
             StartError::DrivesNotReady(_) => codes::DRIVES_NOT_READY,
             StartError::Laws(_) => codes::BAD_PROGRAM,
+            StartError::AppendedOnce => codes::NOT_ALLOWED,
             StartError::PlannerGone => codes::INTERNAL_ERROR,
         };
         ErrorObject::new(code, e.to_string())

@@ -35,6 +35,25 @@ pub enum LoadError {
     Path(#[from] ProgramPathError),
 }
 
+/// `program.append` refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum AppendError {
+    /// No program is loaded (−32002).
+    #[error("no program is loaded: load one without M2/M30 with program.load first")]
+    NoProgram,
+    /// The loaded program has ended or cannot be continued (−32001).
+    #[error("bad program: {0}")]
+    Closed(#[from] interpd_motion::program::AppendError),
+    /// The text does not parse as the continuation of the program (−32001).
+    #[error("bad program: {0}")]
+    Program(#[from] ProgramErrors),
+    /// The buffer cannot take the text now (−32006).
+    #[error(
+        "program buffer full: {buffered_bytes} of {limit_bytes} bytes used, {wanted_bytes} more do not fit; send again when the motion has used some"
+    )]
+    Full { buffered_bytes: usize, limit_bytes: usize, wanted_bytes: usize },
+}
+
 /// `motion.start` refused or failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum StartError {
@@ -47,6 +66,10 @@ pub enum StartError {
     /// (−32001).
     #[error("bad program: {0}")]
     Laws(#[from] LawProgramError),
+    /// The loaded program was continued with `program.append` and has run (−32002): its
+    /// appended text is gone, so it cannot run again.
+    #[error("the program was continued with program.append and has run; load it again")]
+    AppendedOnce,
     /// The planner thread is gone (−32603): the daemon is shutting down or failed.
     #[error("internal error: the planner thread has ended")]
     PlannerGone,

@@ -4,9 +4,10 @@
 //! operation's error type in [`super::errors`]) into a JSON-RPC error object. Parameters
 //! arrive already checked: types, presence, and the override range 0.0..=2.0.
 
-use super::errors::{LawError, LoadError, ManualError, NotAllowed, ResumeError, StartError};
+use super::errors::{AppendError, LawError, LoadError, ManualError, NotAllowed, ResumeError, StartError};
 use interpd_protocol::api::{
-    Event, JogParams, LawResult, MdiParams, MdiResult, MoveToParams, MoveToResult, ProgramInfo, Status,
+    AppendParams, AppendResult, Event, JogParams, LawResult, MdiParams, MdiResult, MoveToParams, MoveToResult,
+    ProgramInfo, Status,
 };
 use std::convert::Infallible;
 use std::path::PathBuf;
@@ -34,6 +35,11 @@ pub trait Motion: Send + Sync + 'static {
     /// Reads, parses and prepares a program, replacing the loaded one. Refused while motion is
     /// in progress; a program that cannot be read, parsed or prepared says where and why.
     fn load(&self, source: ProgramSource) -> Result<ProgramInfo, LoadError>;
+
+    /// Continues the loaded program, which has no end yet, with `params.text` (`program.append`):
+    /// checked against the program so far, then buffered for the motion to read. Allowed in
+    /// every state while such a program is loaded.
+    fn append(&self, params: &AppendParams) -> Result<AppendResult, AppendError>;
 
     /// Starts the loaded program from its beginning.
     fn start(&self) -> Result<(), StartError>;

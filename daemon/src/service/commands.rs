@@ -9,13 +9,15 @@ use super::manual::{ManualGoal, ManualPart, ManualPlanError};
 use super::path_feed::PathSource;
 use super::state::{Control, Loaded, OVERRIDE_HOLD_BELOW, RunKind};
 use super::{SUBSCRIBER_CAPACITY, ServiceCore, lock};
-use crate::control::{LawError, LoadError, ManualError, Motion, NotAllowed, ProgramSource, ResumeError, StartError};
+use crate::control::{
+    AppendError, LawError, LoadError, ManualError, Motion, NotAllowed, ProgramSource, ResumeError, StartError,
+};
 use crossbeam::channel::{self, Receiver};
 use interpd_motion::path::MAX_AXES;
 use interpd_motion::program::{self, ModalState};
 use interpd_protocol::api::{
-    Event, JogMode, JogParams, LawResult, ManualStatus, MdiParams, MdiResult, Method, MoveToParams, MoveToResult,
-    ProgramInfo, State, Status,
+    AppendParams, AppendResult, Event, JogMode, JogParams, LawResult, ManualStatus, MdiParams, MdiResult, Method,
+    MoveToParams, MoveToResult, ProgramBuffer, ProgramInfo, State, Status,
 };
 use interpd_protocol::shm::flags;
 use std::collections::BTreeMap;
@@ -161,6 +163,52 @@ impl Motion for ServiceCore {
         Ok(LawResult { duration_s, length_mm: info.length_mm })
     }
 
+    fn append(&self, params: &AppendParams) -> Result<AppendResult, AppendError> {
+        let appends = match &lock(&self.shared.control).program {
+            Some((_, Loaded::Program { appends: Some(a), .. })) => a.clone(),
+            Some(_) => return Err(interpd_motion::program::AppendError::Ended.into()),
+            None => return Err(AppendError::NoProgram),
+        };
+        // One append at a time: the checker holds the program so far.
+        let mut checker = appends.checker.lock().unwrap_or_else(|p| p.into_inner());
+        if checker.ended() {
+            return Err(interpd_motion::program::AppendError::Ended.into());
+        }
+        // Refused before it is checked when it cannot fit, so the checker stays as it is.
+        let (buffered, limit) = (appends.buffer.buffered_bytes(), appends.buffer.limit_bytes());
+        if buffered + params.text.len() + 1 > limit {
+            return Err(AppendError::Full {
+                buffered_bytes: buffered,
+                limit_bytes: limit,
+                wanted_bytes: params.text.len() + 1,
+            });
+        }
+        let mut trial = checker.clone();
+        let appended = trial.append(&params.text, params.end)?;
+        let end = params.end || appended.program_end;
+        match appends.buffer.push(&params.text, end) {
+            Ok(()) => *checker = trial,
+            Err(interpd_motion::program::AppendError::Full { buffered_bytes, limit_bytes, wanted_bytes }) => {
+                return Err(AppendError::Full { buffered_bytes, limit_bytes, wanted_bytes });
+            }
+            Err(e) => return Err(e.into()),
+        }
+        if let Some((info, _)) = lock(&self.shared.control).program.as_mut() {
+            info.lines = appended.lines.1.max(info.lines);
+            info.elements += appended.elements;
+            info.length_mm += appended.length_mm;
+            info.program_end = end;
+        }
+        Ok(AppendResult {
+            lines: [appended.lines.0, appended.lines.1],
+            elements: appended.elements,
+            length_mm: appended.length_mm,
+            program_end: end,
+            buffered_bytes: appends.buffer.buffered_bytes() as u64,
+            limit_bytes: limit as u64,
+        })
+    }
+
     fn start(&self) -> Result<(), StartError> {
         let shared = &self.shared;
         let mut ctl = lock(&shared.control);
@@ -174,7 +222,13 @@ impl Motion for ServiceCore {
         let here = shared.live.load().pos;
         // Law moves are made (and checked against the limits) from where the machine stands.
         let motion = match &loaded {
-            Loaded::Program(text) => (PathSource::Program { text: text.clone(), here }, None),
+            Loaded::Program { text, appends } => {
+                let appends = appends.as_ref().map(|a| a.buffer.clone());
+                if appends.as_ref().is_some_and(|b| b.taken_bytes() > 0) {
+                    return Err(StartError::AppendedOnce);
+                }
+                (PathSource::Program { text: text.clone(), here, appends }, None)
+            }
             Loaded::Laws(prog) => {
                 let moves = prog.moves(&shared.settings, &here, &info.name)?;
                 let (path, laws) = law_run::law_path(&shared.settings, moves, here, &prog.lines());
@@ -276,6 +330,14 @@ impl Motion for ServiceCore {
             cycles: lock(&shared.histograms).cycle_stats(),
             last_error: ctl.last_error.clone(),
             program: ctl.program.as_ref().map(|(i, _)| i.clone()),
+            program_buffer: ctl.program.as_ref().and_then(|(_, loaded)| match loaded {
+                Loaded::Program { appends: Some(a), .. } => Some(ProgramBuffer {
+                    buffered_bytes: a.buffer.buffered_bytes() as u64,
+                    limit_bytes: a.buffer.limit_bytes() as u64,
+                    open: !a.buffer.is_closed(),
+                }),
+                _ => None,
+            }),
             axes: shared.config.axis_names(),
             position: live.pos[..n].to_vec(),
             drives: shared.drives.as_ref().map(|d| d.drives()).unwrap_or_default(),

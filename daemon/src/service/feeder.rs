@@ -37,6 +37,9 @@ pub const QUEUE_CAPACITY: usize = 16;
 const SPLIT_OVERHANG: f64 = 0.25;
 /// How long the thread waits for a command when it has nothing to do.
 const IDLE_WAIT: Duration = Duration::from_millis(2);
+/// A program waiting for appended text stops at the end of what is there once no more than
+/// this many chunks are queued (until then, text that arrives continues it without a stop).
+const STARVED_STOP_CHUNKS: usize = 2;
 
 /// Commands to the planner thread.
 #[derive(Debug, Clone)]
@@ -161,6 +164,15 @@ struct Run {
     /// element at `plan_from_s_mm` is found.
     next_element: Option<usize>,
     finished_input: bool,
+    /// The next element for the planner is the first of its path: cut at `plan_from_s_mm`.
+    cut_first: bool,
+    /// Elements pushed to the planner since the run (re)started.
+    pushed: u64,
+    /// The program waits for appended text and nothing of it is left to plan.
+    idle_for_input: bool,
+    /// The program waits for appended text and the planner was told to stop at the end of what
+    /// is there: the run ends at rest there, and an underrun restart continues it.
+    stopped_for_input: bool,
     /// Start positions of the chunks of this run the real-time thread gave back, newest last:
     /// the path behind the oldest of them is no longer needed (see [`Run::reclaimed`]).
     reclaimed_s: VecDeque<f64>,
@@ -557,7 +569,10 @@ impl Feeder {
     /// A chunk is due: a run is producing and the queue is below its depth.
     pub fn wants_to_produce(&self) -> bool {
         match &self.run {
-            Some(run) => run.wait == Wait::No && !run.complete && self.queues.chunks.len() < run.depth(),
+            Some(run) => {
+                let queued = self.queues.chunks.len();
+                run.wait == Wait::No && !run.complete && queued < run.depth() && !run.waits_for_input(queued)
+            }
             None => false,
         }
     }
@@ -644,6 +659,7 @@ impl Feeder {
     fn fill_chunk(&mut self, chunk: &mut Chunk) -> Result<bool, RunError> {
         let chunk_s = self.chunk_s;
         let max_piece_s = 2.0 * self.cycle_s;
+        let stop_if_waiting = self.queues.chunks.len() <= STARVED_STOP_CHUNKS;
         let Some(run) = self.run.as_mut() else { return Ok(false) };
         if run.law.is_some() {
             return Ok(self.fill_law_chunk(chunk));
@@ -656,7 +672,7 @@ impl Feeder {
         let mut t = 0.0;
         let mut target = chunk_s;
         let tail = loop {
-            run.fill_buffer(target - t)?;
+            run.fill_buffer(target - t, stop_if_waiting)?;
             run.take(target - t, &mut segments, &mut t);
             let Some(last) = segments.last() else { return Ok(false) };
             let end = last.at(last.dt_s);
@@ -676,7 +692,7 @@ impl Feeder {
         let mut builder = CoarseBuilder::new(run.feed.path(), max_piece_s, &self.max_jerk);
         builder.build(&segments, 0.0, &mut chunk.points);
         let end = *chunk.points.last().expect("points");
-        chunk.last = run.buffer.is_empty() && run.planner.done();
+        chunk.last = run.buffer.is_empty() && run.planner.done() && !run.stopped_for_input;
         if !tail.is_empty() {
             chunk.tail.push(CoarsePoint { t_s: 0.0, ..end });
             builder.build(&tail, 0.0, &mut chunk.tail);
@@ -779,6 +795,19 @@ impl Feeder {
 }
 
 impl Run {
+    /// Nothing to do until appended text arrives: the program waits for it, nothing planned is
+    /// left to queue, and either the motion is planned to rest at the end of what is there or
+    /// the `queued` chunks still bridge the wait.
+    fn waits_for_input(&self, queued: usize) -> bool {
+        if !self.feed.waiting() || !self.buffer.is_empty() {
+            return false;
+        }
+        if self.stopped_for_input {
+            return self.planner.done();
+        }
+        !self.feed.has_input() && (self.idle_for_input || queued > STARVED_STOP_CHUNKS)
+    }
+
     /// Chunks kept queued for this run.
     fn depth(&self) -> usize {
         if self.manual.is_some() { MANUAL_QUEUE_CHUNKS } else { QUEUE_CHUNKS }
@@ -811,6 +840,10 @@ impl Run {
             plan_from_s_mm: s_mm,
             next_element: None,
             finished_input: false,
+            cut_first: false,
+            pushed: 0,
+            idle_for_input: false,
+            stopped_for_input: false,
             reclaimed_s: VecDeque::new(),
             buffer: VecDeque::new(),
             last_tail: Vec::new(),
@@ -825,23 +858,58 @@ impl Run {
         }
     }
 
-    /// Plans until at least `need_s` of motion is buffered or the program is planned.
-    fn fill_buffer(&mut self, need_s: f64) -> Result<(), RunError> {
+    /// Plans until at least `need_s` of motion is buffered or the program is planned. When the
+    /// program waits for appended text, planning stops there, or with `stop_if_waiting` the
+    /// motion is planned to rest at the end of what is there.
+    fn fill_buffer(&mut self, need_s: f64, stop_if_waiting: bool) -> Result<(), RunError> {
         let mut have: f64 = self.buffer.iter().map(|s| s.dt_s).sum();
         while have < need_s && !self.planner.done() {
-            let (index, first) = match self.next_element {
-                Some(i) => (i, false),
-                None => (self.feed.index_from(self.plan_from_s_mm)?, true),
+            let index = match self.next_element {
+                Some(i) => i,
+                None => {
+                    let i = self.feed.index_from(self.plan_from_s_mm)?;
+                    self.next_element = Some(i);
+                    self.cut_first = true;
+                    i
+                }
             };
-            match self.feed.element(index)? {
-                Some(e) => {
-                    // The planner's path: from `plan_from_s_mm`, with the feeds scaled.
-                    let mut e = if first { e.from(self.plan_from_s_mm) } else { e.clone() };
+            // The planner's path: from `plan_from_s_mm`, with the feeds scaled.
+            let (from_s_mm, cut) = (self.plan_from_s_mm, self.cut_first);
+            let got = self.feed.element(index)?.map(|e| if cut { e.from(from_s_mm) } else { e.clone() });
+            match got {
+                Some(mut e) => {
                     if let Feed::Programmed { mm_per_s } = &mut e.feed {
                         *mm_per_s *= self.feed_override;
                     }
                     self.planner.push(e);
+                    self.pushed += 1;
+                    self.cut_first = false;
+                    self.idle_for_input = false;
                     self.next_element = Some(index + 1);
+                }
+                None if self.feed.waiting() && !self.finished_input => {
+                    self.next_element = Some(index);
+                    // What is there is planned now, so the motion goes on as far as it can
+                    // still stop within it.
+                    let planned = self.planner.plan_now().map_err(RunError::Plan)?;
+                    if !planned.is_empty() || !stop_if_waiting {
+                        self.buffer.extend(planned);
+                        return Ok(());
+                    }
+                    // The queue runs low: the smoothing stage closes its run at the end of what
+                    // exists, and the planner brings the motion to rest there.
+                    self.feed.flush()?;
+                    if self.feed.element(index)?.is_some() {
+                        continue;
+                    }
+                    if self.pushed == 0 {
+                        // Nothing to move along: wait for text.
+                        self.idle_for_input = true;
+                        return Ok(());
+                    }
+                    self.planner.finish(0.0);
+                    self.finished_input = true;
+                    self.stopped_for_input = true;
                 }
                 None if !self.finished_input => {
                     self.planner.finish(self.feed.final_dwell_s());

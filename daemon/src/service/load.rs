@@ -8,11 +8,12 @@
 
 use super::law_run::{self, LawProgram};
 use super::path_feed::{FileStamp, ProgramText};
-use super::state::Loaded;
+use super::state::{Appendable, Loaded};
 use super::{ServiceCore, lock};
 use crate::control::{LoadError, ProgramSource};
 use interpd_motion::law::LawMove;
 use interpd_motion::program;
+use interpd_motion::program::AppendBuffer;
 use interpd_protocol::api::{Method, ProgramInfo};
 use std::borrow::Cow;
 use std::sync::Arc;
@@ -31,12 +32,12 @@ impl ServiceCore {
         }
         // One streaming pass checks the whole program and keeps no geometry; the motion reads
         // it again, smoothing and planning as it goes (`PathFeed`).
-        let (checked, text) = match source {
+        let (checked, checker, text) = match source {
             ProgramSource::File(p) => {
                 // Taken before reading: a file changed while it is read or later is refused at
                 // the start.
                 let stamp = FileStamp::of(&p);
-                let checked = program::check(&p, &shared.settings)?;
+                let (checked, checker) = program::check_appended(&p, None, &shared.settings)?;
                 let stamp = stamp.map_err(|e| {
                     program::ProgramErrors(vec![program::ProgramError {
                         file: p.display().to_string(),
@@ -45,23 +46,29 @@ impl ServiceCore {
                         message: format!("cannot read: {e}"),
                     }])
                 })?;
-                (checked, ProgramText::File { path: p, stamp })
+                (checked, checker, ProgramText::File { path: p, stamp })
             }
             ProgramSource::Text { name, text } => {
-                let checked = program::check_text(text.clone(), &name, &shared.settings)?;
-                (checked, ProgramText::Text { name, text: Arc::new(text) })
+                let (checked, checker) =
+                    program::check_appended(std::path::Path::new(&name), Some(text.clone()), &shared.settings)?;
+                (checked, checker, ProgramText::Text { name, text: Arc::new(text) })
             }
         };
+        let appends = checker.map(|c| Appendable {
+            checker: Arc::new(std::sync::Mutex::new(c)),
+            buffer: Arc::new(AppendBuffer::new(shared.config.programs.append_buffer_bytes())),
+        });
         let info = ProgramInfo {
             name,
             elements: checked.elements,
             length_mm: checked.length_mm,
             lines: checked.summary.lines,
+            program_end: checked.summary.program_end,
         };
         let mut ctl = lock(&shared.control);
         // The state may have changed while the program was checked.
         ctl.check(Method::ProgramLoad)?;
-        ctl.loaded(info.clone(), Loaded::Program(text));
+        ctl.loaded(info.clone(), Loaded::Program { text, appends });
         Ok(info)
     }
 
@@ -79,6 +86,7 @@ impl ServiceCore {
             elements: laws.blocks.len() as u64,
             length_mm: path.length_mm(),
             lines: laws.blocks.last().map_or(0, |(n, _)| *n),
+            program_end: true,
         };
         let mut ctl = lock(&shared.control);
         ctl.check(Method::ProgramLoad)?;

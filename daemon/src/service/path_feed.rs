@@ -10,7 +10,7 @@ use super::approach::approach_line;
 use interpd_motion::Settings;
 use interpd_motion::path::{AxisDerivs, AxisVec, Blend, Element, Feed, Path, Source};
 use interpd_motion::prep::Prep;
-use interpd_motion::program::ProgramStream;
+use interpd_motion::program::{AppendBuffer, ProgramStream};
 use std::sync::Arc;
 use std::time::SystemTime;
 
@@ -44,8 +44,9 @@ pub enum PathSource {
     /// A path made whole (MDI blocks, law moves).
     Whole(Arc<Path>),
     /// A loaded program, read and smoothed as the motion goes, preceded by a straight rapid
-    /// move from `here` to its start when the machine stands elsewhere.
-    Program { text: ProgramText, here: AxisVec },
+    /// move from `here` to its start when the machine stands elsewhere; a program without an
+    /// end continues with the text appended to `appends`.
+    Program { text: ProgramText, here: AxisVec, appends: Option<Arc<AppendBuffer>> },
 }
 
 /// Why the path cannot go on.
@@ -66,11 +67,13 @@ pub struct PathFeed {
     first_index: usize,
     /// Every element is in the window (or was).
     done: bool,
+    /// The last read found nothing more yet: the program goes on with appended text.
+    waiting: bool,
     final_dwell_s: f64,
 }
 
 enum Input {
-    Stream { stream: Box<ProgramStream>, prep: Box<Prep>, s_offset_mm: f64 },
+    Stream { stream: Box<ProgramStream>, prep: Box<Prep>, s_offset_mm: f64, appends: Option<Arc<AppendBuffer>> },
     Empty,
 }
 
@@ -78,7 +81,14 @@ impl PathFeed {
     /// A feed over a path held whole (it is small: MDI blocks, law moves).
     pub fn whole(path: &Path) -> PathFeed {
         let final_dwell_s = path.final_dwell_s;
-        PathFeed { input: Input::Empty, window: path.clone(), first_index: 0, done: true, final_dwell_s }
+        PathFeed {
+            input: Input::Empty,
+            window: path.clone(),
+            first_index: 0,
+            done: true,
+            waiting: false,
+            final_dwell_s,
+        }
     }
 
     /// An empty path at `here` (manual motion plans no path).
@@ -88,15 +98,16 @@ impl PathFeed {
             window: Path::new(settings.axis_names(), here),
             first_index: 0,
             done: true,
+            waiting: false,
             final_dwell_s: 0.0,
         }
     }
 
     /// Opens `source`: a program's file is opened and checked to be the one loaded.
     pub fn open(source: PathSource, settings: &Settings) -> Result<PathFeed, FeedError> {
-        let (text, here) = match source {
+        let (text, here, appends) = match source {
             PathSource::Whole(path) => return Ok(PathFeed::whole(&path)),
-            PathSource::Program { text, here } => (text, here),
+            PathSource::Program { text, here, appends } => (text, here, appends),
         };
         let stream = match &text {
             ProgramText::File { path, stamp } => {
@@ -114,6 +125,10 @@ impl PathFeed {
             }
             ProgramText::Text { name, text } => ProgramStream::from_text(text.to_string(), name, settings),
         };
+        let stream = match &appends {
+            Some(buffer) => stream.with_appends(buffer.clone()),
+            None => stream,
+        };
         let mut window = Path::new(settings.axis_names(), here);
         let linear: Vec<bool> = settings.axes.iter().map(|a| a.kind == interpd_config::AxisKind::Linear).collect();
         if let Some(line) = approach_line(&linear, &here, &stream.start()) {
@@ -121,10 +136,16 @@ impl PathFeed {
         }
         let s_offset_mm = window.length_mm();
         Ok(PathFeed {
-            input: Input::Stream { stream: Box::new(stream), prep: Box::new(Prep::new(settings)), s_offset_mm },
+            input: Input::Stream {
+                stream: Box::new(stream),
+                prep: Box::new(Prep::new(settings)),
+                s_offset_mm,
+                appends,
+            },
             window,
             first_index: 0,
             done: false,
+            waiting: false,
             final_dwell_s: 0.0,
         })
     }
@@ -139,6 +160,19 @@ impl PathFeed {
         self.done
     }
 
+    /// The program goes on, but no more of it is there yet (`program.append`).
+    pub fn waiting(&self) -> bool {
+        self.waiting && !self.done
+    }
+
+    /// More of a waiting program has arrived (a whole line, or its end).
+    pub fn has_input(&self) -> bool {
+        match &self.input {
+            Input::Stream { appends: Some(b), .. } => b.has_input(),
+            _ => false,
+        }
+    }
+
     /// The dwell after the last element, s (once [`PathFeed::done`]).
     pub fn final_dwell_s(&self) -> f64 {
         self.final_dwell_s
@@ -147,7 +181,8 @@ impl PathFeed {
     /// Index in the whole path of the element a run from `s_mm` starts with, reading on until
     /// the window holds it.
     pub fn index_from(&mut self, s_mm: f64) -> Result<usize, FeedError> {
-        while !self.done && self.window.length_mm() <= s_mm {
+        self.waiting = false;
+        while !self.done && !self.waiting && self.window.length_mm() <= s_mm {
             self.read()?;
         }
         if self.window.elements.is_empty() || s_mm >= self.window.length_mm() {
@@ -160,7 +195,8 @@ impl PathFeed {
     /// The element at `index` of the whole path, reading on as needed; `None` after the last.
     pub fn element(&mut self, index: usize) -> Result<Option<&Element>, FeedError> {
         debug_assert!(index >= self.first_index, "element {index} was dropped (window from {})", self.first_index);
-        while !self.done && index >= self.first_index + self.window.elements.len() {
+        self.waiting = false;
+        while !self.done && !self.waiting && index >= self.first_index + self.window.elements.len() {
             self.read()?;
         }
         Ok(self.window.elements.get(index - self.first_index))
@@ -168,13 +204,31 @@ impl PathFeed {
 
     /// Position and derivatives at `s_mm` (reading on until the window holds it).
     pub fn eval(&mut self, s_mm: f64) -> Result<(AxisDerivs, u32), FeedError> {
-        while !self.done && self.window.length_mm() <= s_mm {
+        self.waiting = false;
+        while !self.done && !self.waiting && self.window.length_mm() <= s_mm {
             self.read()?;
         }
         let mut d = AxisDerivs::default();
         self.window.eval(s_mm, &mut d);
         let line = self.window.elements.get(self.window.element_index_at(s_mm)).map_or(0, |e| e.source.line);
         Ok((d, line))
+    }
+
+    /// A waiting program stops at the end of what is there: the smoothing stage closes its open
+    /// run there (ending at rest), so every element read is in the window. Text appended later
+    /// continues from rest at that end.
+    pub fn flush(&mut self) -> Result<(), FeedError> {
+        if let Input::Stream { stream, prep, s_offset_mm, .. } = &mut self.input {
+            stream.flush_waiting();
+            while let Some(e) = stream.next_element().map_err(|e| FeedError::Program(e.to_string()))? {
+                prep.push(e)?;
+            }
+            prep.finish()?;
+            while let Some(e) = prep.pop() {
+                self.window.append_shifted(e, *s_offset_mm);
+            }
+        }
+        Ok(())
     }
 
     /// Drops the elements that end before `s_mm`.
@@ -187,8 +241,13 @@ impl PathFeed {
     /// Reads the next element into the window (through the smoothing stage for a program).
     fn read(&mut self) -> Result<(), FeedError> {
         match &mut self.input {
-            Input::Stream { stream, prep, s_offset_mm } => {
+            Input::Stream { stream, prep, s_offset_mm, .. } => {
                 let got = stream.next_element().map_err(|e| FeedError::Program(e.to_string()))?;
+                if got.is_none() && stream.waiting() {
+                    // Nothing more yet; the smoothing stage keeps its open run for what comes.
+                    self.waiting = true;
+                    return Ok(());
+                }
                 let ended = got.is_none();
                 match got {
                     Some(e) => prep.push(e)?,

@@ -91,7 +91,11 @@ mod tests {
         std::fs::write(root.join("../interpd-programs-outside.ngc"), "G1 X1 F100\n").expect("write");
         #[cfg(unix)]
         std::os::unix::fs::symlink("/etc", root.join("etc")).expect("symlink");
-        let dir = ProgramsDir::from_config(&ProgramsConfig { dir: Some(root.display().to_string()) }).expect("dir");
+        let dir = ProgramsDir::from_config(&ProgramsConfig {
+            dir: Some(root.display().to_string()),
+            ..ProgramsConfig::default()
+        })
+        .expect("dir");
         let canon = root.canonicalize().expect("canonical");
         assert_eq!(dir.resolve(Path::new("sub/part.ngc")), Ok(canon.join("sub/part.ngc")));
         assert_eq!(dir.resolve(&canon.join("sub/part.ngc")), Ok(canon.join("sub/part.ngc")));
@@ -110,8 +114,11 @@ mod tests {
 
     #[test]
     fn a_missing_directory_is_an_error_naming_the_key() {
-        let e = ProgramsDir::from_config(&ProgramsConfig { dir: Some("/nonexistent/interpd".into()) })
-            .expect_err("missing");
+        let e = ProgramsDir::from_config(&ProgramsConfig {
+            dir: Some("/nonexistent/interpd".into()),
+            ..ProgramsConfig::default()
+        })
+        .expect_err("missing");
         assert!(e.to_string().starts_with("programs.dir /nonexistent/interpd: "), "{e}");
     }
 }

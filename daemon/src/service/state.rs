@@ -32,7 +32,7 @@ use super::law_run::LawProgram;
 use super::path_feed::ProgramText;
 use crate::control::{ManualError, NotAllowed};
 use crate::interp::Epochs;
-use interpd_motion::program::ModalState;
+use interpd_motion::program::{AppendBuffer, AppendChecker, ModalState};
 use interpd_protocol::api::{ManualStatus, Method, ProgramInfo, State};
 use std::sync::Arc;
 
@@ -43,9 +43,21 @@ pub const OVERRIDE_HOLD_BELOW: f64 = 1e-3;
 /// when it starts).
 #[derive(Clone)]
 pub(super) enum Loaded {
-    /// G-code or a path table, read as the motion runs.
-    Program(ProgramText),
+    /// G-code or a path table, read as the motion runs; a program without an end takes the
+    /// text `program.append` adds.
+    Program {
+        text: ProgramText,
+        appends: Option<Appendable>,
+    },
     Laws(Arc<LawProgram>),
+}
+
+/// The continuation of a loaded program without an end: the checker of appended text (the
+/// program so far) and the buffer the motion reads it from.
+#[derive(Clone)]
+pub(super) struct Appendable {
+    pub checker: Arc<std::sync::Mutex<AppendChecker>>,
+    pub buffer: Arc<AppendBuffer>,
 }
 
 /// What the current (or last) motion is.

@@ -188,6 +188,17 @@ impl Planner {
         Ok(std::mem::take(&mut self.out))
     }
 
+    /// Plans the horizon now, however short, when elements came since the last plan: for a
+    /// path that is not known further yet (a program still arriving). What it hands on does
+    /// not depend on the stop assumed at the horizon's end, as always.
+    pub fn plan_now(&mut self) -> Result<Vec<Segment>, PlanError> {
+        self.sample_pending();
+        if self.nodes.len() >= 2 && (self.end_sampled || self.nodes.len() > self.planned_len) {
+            self.plan_horizon(self.end_sampled)?;
+        }
+        Ok(std::mem::take(&mut self.out))
+    }
+
     /// Whether the machine, in the state handed over last, can still come to rest within the
     /// path planned so far (the nodes held for the horizon): the invariant every hand-over
     /// keeps. The stop the last horizon planned proves it when it starts in that state, runs

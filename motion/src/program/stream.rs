@@ -54,6 +54,8 @@ pub struct ProgramStream {
     appends: Option<Arc<AppendBuffer>>,
     /// The last read found no whole line in `appends`: more may come.
     waiting: bool,
+    /// The interpreter's last element was handed out by `flush_waiting`.
+    flushed: bool,
     /// At the end of the text the interpreter is finished (closing a G06 block, attaching a
     /// trailing dwell); a check of an open program leaves it open for what is appended.
     finish_at_eof: bool,
@@ -118,6 +120,7 @@ impl ProgramStream {
             start,
             appends: None,
             waiting: false,
+            flushed: false,
             finish_at_eof: true,
         }
     }
@@ -245,7 +248,9 @@ impl ProgramStream {
             }
             Ok(0) => {
                 interp.finish(&mut self.d);
+                let before = self.ready.len();
                 interp.path.drain_all(&mut self.ready);
+                self.skip_flushed(before);
                 self.eof = true;
                 return;
             }
@@ -276,7 +281,33 @@ impl ProgramStream {
                 return;
             }
         }
+        let before = self.ready.len();
         interp.path.drain_settled(&mut self.ready);
+        self.skip_flushed(before);
+    }
+
+    /// While waiting for appended text: hands out the last element read too, which otherwise
+    /// waits for its successor (the motion is to stop at the end of what is there). It stays
+    /// with the interpreter for the joint and the path position of the next one, and is not
+    /// handed out again.
+    pub fn flush_waiting(&mut self) {
+        let Reader::GCode(interp) = &self.reader else { return };
+        if !self.waiting() || self.flushed {
+            return;
+        }
+        if let Some(last) = interp.path.elements.last() {
+            self.ready.push_back(last.clone());
+            self.flushed = true;
+        }
+    }
+
+    /// Drops the element [`ProgramStream::flush_waiting`] handed out early from those just
+    /// drained (from index `from` of `ready` on).
+    fn skip_flushed(&mut self, from: usize) {
+        if self.flushed && self.ready.len() > from {
+            self.ready.remove(from);
+            self.flushed = false;
+        }
     }
 }
 

@@ -27,6 +27,16 @@ pub enum LoadParams {
     },
 }
 
+/// `program.append` parameters: `{"text": "G1 X10\nG1 Y5\n"}`, optionally `"end": true` when
+/// no more text follows (as M2 would say).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AppendParams {
+    pub text: String,
+    #[serde(default)]
+    pub end: bool,
+}
+
 /// `motion.law` parameters: one motion-law statement in the program syntax, e.g.
 /// `{"statement": "LAW PRESET=rr7 DURATION=0.8 X=10 Y=-5"}` (docs/motion-laws.md).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -59,6 +69,13 @@ const LOAD: Usage = Usage {
     example: r#"{"path": "/abs/part.ngc"} or {"text": "G1 X10 F600\n", "name": "part"}"#,
     known: r#""path", or "text" with an optional "name""#,
     missing: ("path", r#"missing parameter "path" or "text""#),
+};
+
+const APPEND: Usage = Usage {
+    method: Method::ProgramAppend,
+    example: r#"{"text": "G1 X10\nG1 Y5\n"} or {"text": "M2\n", "end": true}"#,
+    known: r#""text" and an optional "end" (bool)"#,
+    missing: ("text", r#"missing parameter "text""#),
 };
 
 const OVERRIDE: Usage = Usage {
@@ -398,6 +415,16 @@ impl MoveToParams {
                 Some("velocity_factor"),
                 &format!("\"velocity_factor\" {f} is out of range: it must be above 0 and at most 1"),
             ));
+        }
+        Ok(p)
+    }
+}
+
+impl AppendParams {
+    pub fn parse(params: Params) -> Result<AppendParams, ErrorObject> {
+        let p = APPEND.members::<AppendParams>(params)?;
+        if p.text.trim().is_empty() && !p.end {
+            return Err(APPEND.refuse(Some("text"), "\"text\" is empty (send \"end\": true to end the program)"));
         }
         Ok(p)
     }

@@ -87,6 +87,26 @@ pub struct ProgramInfo {
     pub length_mm: f64,
     /// Source lines.
     pub lines: u32,
+    /// The program ends (M2, M30, a closing `%`; path tables always end). One without an end
+    /// can be continued with `program.append`; running out of it stops the motion until more
+    /// arrives.
+    #[serde(default = "ended")]
+    pub program_end: bool,
+}
+
+fn ended() -> bool {
+    true
+}
+
+/// The text `program.append` holds ahead of the motion (`status.program_buffer`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ProgramBuffer {
+    /// Appended text not yet read by the motion, bytes.
+    pub buffered_bytes: u64,
+    /// `[programs] append_buffer_kib` in bytes.
+    pub limit_bytes: u64,
+    /// More text can be appended (the program has not ended).
+    pub open: bool,
 }
 
 /// One CAN drive as the master sees it (`status.drives`). Members the master has not received
@@ -149,6 +169,8 @@ pub struct Status {
     pub cycles: CycleStats,
     pub last_error: Option<String>,
     pub program: Option<ProgramInfo>,
+    /// For a loaded program without an end: the `program.append` buffer; `null` otherwise.
+    pub program_buffer: Option<ProgramBuffer>,
     /// Axis names in configuration order.
     pub axes: Vec<String>,
     /// Commanded position per axis, in the order of `axes` (mm or deg).
@@ -187,6 +209,7 @@ impl Default for Status {
             cycles: CycleStats::default(),
             last_error: None,
             program: None,
+            program_buffer: None,
             axes: Vec::new(),
             position: Vec::new(),
             drives: Vec::new(),

@@ -22,6 +22,12 @@ the programmed polyline minus the tolerance; the axis velocity, acceleration and
 differences at 0.25 ms against the configured limits; smoothing + planning wall time against
 the motion time (x real time); the longest single plan() call (plan_call_max_ms); exact-stop
 fallbacks, forced stops, merged moves. dense2 is also compared with dense20 (same curve).
+
+Memory (streaming): the dense curve at 2 um with 100 000 and 1 000 000 moves through
+`interpd plan --json` alone (no CSV, no node export, which keep the whole problem): peak
+resident memory (wait4 ru_maxrss), smoothing + planning against the motion time, and the
+longest look-ahead step (step_max_ms: one element read, smoothed and planned). Skipped with
+--quick.
 """
 import argparse
 import importlib.util
@@ -142,6 +148,8 @@ def run(binary, name, program, tmp, fd_limits, optimum):
     dev = max_distance(pts, smoothed[start:])
     bound = optimum_bound(optimum, nodes)
     s = j["prep"]["stats"]
+    # Smoothing and planning; reading the program is not counted (the baseline read it whole
+    # before, outside these figures).
     work_s = (j["prep"]["wall_ms"] + j["plan_ms"]) * 1e-3
     os.remove(csv)
     os.remove(nodes)
@@ -153,6 +161,45 @@ def run(binary, name, program, tmp, fd_limits, optimum):
         "forced": j.get("forced_stops", 0), "merged": s.get("moves_merged", 0), "moves": s.get("moves_in", 0),
         "wall_s": wall,
     }
+
+
+def plan_memory(binary, program):
+    """Peak RSS (MB, GNU time's %M: the process's own, not the forking Python's) and the
+    --json figures of `interpd plan PROGRAM --json`; the work counts reading too."""
+    r = subprocess.run(["/usr/bin/time", "-f", "%M", binary, "plan", program, "--json"], capture_output=True,
+                       text=True)
+    if r.returncode != 0:
+        return {"error": r.stderr.strip().splitlines()[-1:]}
+    j = json.loads(r.stdout)
+    rss_kb = float(r.stderr.strip().splitlines()[-1])
+    work_s = (j.get("read_ms", 0.0) + j["prep"]["wall_ms"] + j["plan_ms"]) * 1e-3
+    return {"rss_mb": rss_kb / 1024.0, "duration_s": j["duration_s"], "rt": j["duration_s"] / work_s,
+            "step_max_ms": j.get("step_max_ms", float("nan")), "call_max_ms": j["plan_call_max_ms"],
+            "max_ratio": j["max_ratio"]}
+
+
+def memory_section(bins, tmp):
+    progs = []
+    for moves in (100_000, 1_000_000):
+        path = os.path.join(tmp, f"dense2_{moves}.ngc")
+        subprocess.run([sys.executable, os.path.join(ROOT, "scripts", "gen-examples.py"), "--cam-dense", "0.002",
+                        str(moves), path], check=True, stdout=subprocess.DEVNULL)
+        progs.append((moves, path))
+    print("\nbinary    moves      peak_MB  motion_s  x_real  step_max_ms  call_max_ms  vel    acc    jerk")
+    for label, b in bins:
+        rss = {}
+        for moves, path in progs:
+            f = plan_memory(b, path)
+            if "error" in f:
+                print(f"{label:9s} {moves:9d} FAILED: {f['error']}")
+                continue
+            rss[moves] = f["rss_mb"]
+            r = f["max_ratio"]
+            print(f"{label:9s} {moves:9d} {f['rss_mb']:8.1f} {f['duration_s']:9.3f} {f['rt']:7.1f} "
+                  f"{f['step_max_ms']:12.2f} {f['call_max_ms']:12.2f}  {r['vel']:.4f} {r['acc']:.4f} {r['jerk']:.4f}")
+        if len(rss) == 2:
+            print(f"{label}: peak memory 1 000 000 / 100 000 moves {rss[1_000_000] / rss[100_000]:.3f} "
+                  f"(target <= 1.5, and <= 300 MB)")
 
 
 def optimum_bound(optimum, nodes):
@@ -200,6 +247,8 @@ def main():
             a, b = results.get((label, "dense2")), results.get((label, "dense20"))
             if a and b and "error" not in a and "error" not in b:
                 print(f"{label}: dense2 / dense20 motion time {a['duration_s'] / b['duration_s']:.4f} (target <= 1.05)")
+        if not args.quick and (not args.only or "memory" in args.only):
+            memory_section(bins, tmp)
         if args.baseline:
             for name in programs:
                 a, b = results.get(("this", name)), results.get(("baseline", name))

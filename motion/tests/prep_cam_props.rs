@@ -201,7 +201,10 @@ proptest! {
         dup_every in 50usize..400,
         feed in 600.0..12000.0f64,
     ) {
-        let cfg = Settings::default_machine();
+        let mut cfg = Settings::default_machine();
+        // No wall-time limit on a window's solve: a loaded machine must not change what a
+        // case checks (the time-limit fallback is the same ladder as an infeasible window).
+        cfg.prep.max_solve_ms = 1e5;
         let text = program_text(&pieces, tol_mm, noise_share * tol_mm, dup_every, feed);
         let case = format!("{pieces:?} tol {tol_mm} noise {noise_share} dup {dup_every} F{feed}");
         let prog = program::parse(&text, "cam.ngc", &cfg)

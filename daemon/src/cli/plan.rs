@@ -197,6 +197,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             "duration_s": duration,
             "plan_ms": plan_s * 1e3,
             "plan_call_max_ms": pipe.plan_call_max_s * 1e3,
+            "read_ms": pipe.read_s * 1e3,
             "step_max_ms": pipe.step_max_s * 1e3,
             "samples": samples,
             "period_ms": period_s * 1e3,
@@ -357,7 +358,8 @@ struct Pipeline {
     planned_until_s: f64,
     /// Segments planned in all.
     segments: u64,
-    /// Wall time in the smoothing stage and in the planner, s.
+    /// Wall time reading the program, in the smoothing stage and in the planner, s.
+    read_s: f64,
     prep_s: f64,
     plan_s: f64,
     /// The longest single `Planner::plan` call, s.
@@ -386,6 +388,7 @@ impl Pipeline {
             input_done: false,
             planned_until_s: 0.0,
             segments: 0,
+            read_s: 0.0,
             prep_s: 0.0,
             plan_s: 0.0,
             plan_call_max_s: 0.0,
@@ -409,14 +412,17 @@ impl Pipeline {
         let t0 = Instant::now();
         if !self.input_done {
             let prep_err = |e: interpd_motion::prep::PrepError| CliError::Failure(e.to_string());
-            match self.stream.next_element()? {
+            let next = self.stream.next_element()?;
+            let t_read = Instant::now();
+            self.read_s += (t_read - t0).as_secs_f64();
+            match next {
                 Some(e) => self.prep.push(e).map_err(prep_err)?,
                 None => {
                     self.prep.finish().map_err(prep_err)?;
                     self.input_done = true;
                 }
             }
-            self.prep_s += t0.elapsed().as_secs_f64();
+            self.prep_s += t_read.elapsed().as_secs_f64();
             while let Some(e) = self.prep.pop() {
                 self.path.push_element(e.clone());
                 self.planner.push(e);

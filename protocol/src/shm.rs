@@ -103,6 +103,98 @@ impl ServicePayload for Feedback {
     }
 }
 
+impl ServicePayload for Measurement {
+    fn service_name(prefix: &str) -> String {
+        format!("{prefix}/measurement")
+    }
+}
+
+impl ServicePayload for ActuatorCommand {
+    fn service_name(prefix: &str) -> String {
+        format!("{prefix}/actuator")
+    }
+}
+
+/// Bits of [`Measurement::flags`].
+pub mod measurement_flags {
+    /// `tool_pos` holds an external position measurement taken at `measured_ns`.
+    pub const POSITION: u32 = 1 << 0;
+    /// `force_n` holds the force signal at `time_ns`.
+    pub const FORCE: u32 = 1 << 1;
+    /// `actuator_pos` holds the fast actuators' positions at `time_ns`.
+    pub const ACTUATOR: u32 = 1 << 2;
+}
+
+/// One sample of the plant's measurements (service `<prefix>/measurement`), published when it
+/// arrives: the external position measurement has a cycle and a dead time of its own, so this
+/// stream is not paced by the setpoints. 256 bytes.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("interpd::Measurement")]
+pub struct Measurement {
+    /// [`PAYLOAD_VERSION`].
+    pub version: u32,
+    /// Number of valid axis entries.
+    pub n_axes: u32,
+    /// Sample number, +1 per sample.
+    pub seq: u64,
+    /// When the position was measured (plant time, the setpoints' clock), ns.
+    pub measured_ns: u64,
+    /// When the sample arrived (measured_ns + dead time), ns; the force and actuator values are for this instant.
+    pub time_ns: u64,
+    /// [`measurement_flags`] bits.
+    pub flags: u32,
+    /// Reserved, 0.
+    pub reserved: u32,
+    /// Measured tool position (load plus fast actuator), axis unit; NaN on axes not measured.
+    pub tool_pos: [f64; MAX_AXES],
+    /// Force signal at the load along the axis, N (positive: towards positive positions).
+    pub force_n: [f64; MAX_AXES],
+    /// Fast actuator position relative to its mid-stroke, axis unit; 0 on axes without one.
+    pub actuator_pos: [f64; MAX_AXES],
+}
+
+impl Default for Measurement {
+    fn default() -> Self {
+        Self {
+            version: PAYLOAD_VERSION,
+            n_axes: 0,
+            seq: 0,
+            measured_ns: 0,
+            time_ns: 0,
+            flags: 0,
+            reserved: 0,
+            tool_pos: [f64::NAN; MAX_AXES],
+            force_n: [0.0; MAX_AXES],
+            actuator_pos: [0.0; MAX_AXES],
+        }
+    }
+}
+
+/// Position commands for the fast actuators, one per interpolation cycle (service
+/// `<prefix>/actuator`), published before the cycle's setpoints. 96 bytes.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("interpd::ActuatorCommand")]
+pub struct ActuatorCommand {
+    /// [`PAYLOAD_VERSION`].
+    pub version: u32,
+    /// Number of valid axis entries.
+    pub n_axes: u32,
+    /// Cycle number of the setpoints it goes with.
+    pub cycle: u64,
+    /// The time the commands are for, ns (as [`Setpoints::time_ns`]).
+    pub time_ns: u64,
+    /// Actuator position relative to mid-stroke, axis unit.
+    pub pos: [f64; MAX_AXES],
+}
+
+impl Default for ActuatorCommand {
+    fn default() -> Self {
+        Self { version: PAYLOAD_VERSION, n_axes: 0, cycle: 0, time_ns: 0, pos: [0.0; MAX_AXES] }
+    }
+}
+
 /// Bits of [`Setpoints::flags`].
 pub mod flags {
     /// Motion is running (program or jog).
@@ -278,6 +370,9 @@ mod tests {
         assert_eq!(offset_of!(Setpoints, acc), 72 + 2 * 72);
         assert_eq!(size_of::<Feedback>(), 400);
         assert_eq!(offset_of!(Feedback, motor_pos), 40);
+        assert_eq!(size_of::<Measurement>(), 256);
+        assert_eq!(offset_of!(Measurement, tool_pos), 40);
+        assert_eq!(size_of::<ActuatorCommand>(), 96);
     }
 
     #[test]

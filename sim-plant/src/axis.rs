@@ -32,8 +32,13 @@ pub struct AxisOutput {
     pub motor_force: f64,
     /// Force in the transmission spring, N (N·m).
     pub spring_force: f64,
-    /// Process force acting on the load, N (N·m).
+    /// Process force acting on the load, N (N·m); positive pushes the load towards negative
+    /// positions.
     pub process_force: f64,
+    /// Fast actuator position from its mid-stroke, axis unit (0 without an actuator).
+    pub actuator_pos: f64,
+    /// Tool position: load plus actuator, axis unit.
+    pub tool_pos: f64,
     /// The two crosstalk outputs this axis produces (3-mass model), in the target axes' unit.
     pub crosstalk: [f64; 2],
     /// The last force command hit the drive's limit.
@@ -59,6 +64,8 @@ pub struct Axis {
     process: ProcessParams,
     /// Process force set through the API instead of the configured static part.
     process_override: Option<f64>,
+    /// Force on the load from outside the axis (the milling force), along +axis, N (N·m).
+    f_ext: f64,
     f_proc_now: f64,
     /// The holding brake: the motor position it clamps (SI) while engaged.
     brake: Option<f64>,
@@ -86,6 +93,7 @@ impl Axis {
             target: Command::default(),
             process: r.process,
             process_override: None,
+            f_ext: 0.0,
             f_proc_now: r.process.static_force,
             brake: None,
         })
@@ -116,7 +124,7 @@ impl Axis {
     /// Static process force at time `t_s` (N or N·m).
     #[inline]
     fn process_force(&self, t_s: f64) -> f64 {
-        let base = self.process_override.unwrap_or(self.process.static_force);
+        let base = self.process_override.unwrap_or(self.process.static_force) - self.f_ext;
         if self.process.dyn_force != 0.0 && self.process.dyn_hz > 0.0 {
             base + self.process.dyn_force * (2.0 * std::f64::consts::PI * self.process.dyn_hz * t_s).sin()
         } else {
@@ -127,6 +135,26 @@ impl Axis {
     /// Replaces the configured static process force (N or N·m); `None` restores it.
     pub fn set_process_force(&mut self, force: Option<f64>) {
         self.process_override = force;
+    }
+
+    /// Sets the force on the load from outside the axis (N or N·m, positive towards positive
+    /// positions), held until the next call.
+    #[inline]
+    pub fn set_external_force(&mut self, force: f64) {
+        self.f_ext = force;
+    }
+
+    /// The whole process force on the load in the last step along +axis (what a force sensor
+    /// at the load sees), N (N·m).
+    #[inline]
+    pub fn load_force(&self) -> f64 {
+        -self.f_proc_now
+    }
+
+    /// True load position in the axis unit (without crosstalk).
+    #[inline]
+    pub fn load_pos(&self) -> f64 {
+        self.mech.load_pos() / self.scale
     }
 
     /// Standing still at `pos` (axis unit), in equilibrium with the static process force.
@@ -216,6 +244,8 @@ impl Axis {
             motor_force: self.mech.motor_force(),
             spring_force: self.mech.spring_force(),
             process_force: self.f_proc_now,
+            actuator_pos: 0.0,
+            tool_pos: load_pos,
             // Crosstalk goes into linear target axes: m → mm.
             crosstalk: [ct[0] * 1e3, ct[1] * 1e3],
             saturated: self.drive.saturated(),

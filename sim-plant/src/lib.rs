@@ -57,8 +57,10 @@ pub mod discretize;
 pub mod drive;
 pub mod metrics;
 pub mod model;
+pub mod noise;
 pub mod plant;
 pub mod plot;
+pub mod process;
 pub mod scenario;
 pub mod shm;
 

@@ -48,6 +48,10 @@ struct Args {
     /// Also write the summary figures as one JSON object to this file at exit.
     #[arg(long)]
     summary_json: Option<PathBuf>,
+    /// Write the recorded run as CSV at exit: per setpoint t_s and per axis the setpoint,
+    /// load, tool and actuator position (axis unit) and the process force (N).
+    #[arg(long)]
+    trace: Option<PathBuf>,
     /// Run with SCHED_FIFO at this priority (1–99), or fail if the system refuses. For the
     /// drives on CAN: a real drive is hardware of its own whose SYNC watchdog never waits for
     /// the master's host; give the simulated drives a priority above the daemon's real-time
@@ -123,7 +127,8 @@ fn run(args: &Args) -> Result<(), Failure> {
     let prefix = args.service_prefix.clone().unwrap_or_else(shm::prefix_from_env);
     interpd_protocol::shm::check_service_prefix(&prefix)
         .map_err(|e| Failure::bad_input(format!("--service-prefix: {e}")))?;
-    let node = ShmPlant::open(&prefix)?;
+    let mut node = ShmPlant::open(&prefix)?;
+    node.open_process_io(&plant)?;
     let axes: Vec<String> = plant.axes().iter().map(|a| format!("{} {}", a.name, a.preset)).collect();
     eprintln!(
         "sim-plant: ready: {} axes ({}), servo {:.0} Hz, subscribed to {}, publishing {}",
@@ -144,6 +149,9 @@ fn run(args: &Args) -> Result<(), Failure> {
         let json = summary_json(&report, &metrics);
         std::fs::write(p, format!("{json}\n"))
             .map_err(|e| Failure { code: 1, message: format!("--summary-json {}: {e}", p.display()) })?;
+    }
+    if let Some(p) = &args.trace {
+        write_trace(p, &metrics).map_err(|e| Failure { code: 1, message: format!("--trace {}: {e}", p.display()) })?;
     }
     if let Some(p) = &args.plot {
         if metrics.count() < 2 {
@@ -306,6 +314,12 @@ fn summary_json(report: &RunReport, metrics: &Metrics) -> serde_json::Value {
                 "max_motor_force": a.max_motor_force,
                 "residual_amplitude": a.residual_amplitude,
                 "residual_peak_hz": a.residual_peak_hz,
+                "settling_time_s": a.settling.and_then(|s| s.settling_time_s),
+                "settling_band": a.settling.map(|s| s.band),
+                "settling_window_s": a.settling.map(|s| s.window_s),
+                "overshoot": a.settling.map(|s| s.overshoot),
+                "vibration_amplitude": a.settling.and_then(|s| s.vibration_amplitude),
+                "vibration_hz": a.settling.and_then(|s| s.vibration_hz),
             })
         })
         .collect();
@@ -318,6 +332,30 @@ fn summary_json(report: &RunReport, metrics: &Metrics) -> serde_json::Value {
         "rms_contour_error": m.rms_contour_error,
         "axes": axes,
     })
+}
+
+/// The recording as CSV (see `--trace`).
+fn write_trace(path: &std::path::Path, metrics: &Metrics) -> std::io::Result<()> {
+    use std::io::Write;
+    let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
+    let names = metrics.axis_names();
+    let mut header = vec!["t_s".to_string()];
+    for n in names {
+        for col in ["setpoint", "load", "tool", "actuator", "process_force_n"] {
+            header.push(format!("{n}_{col}"));
+        }
+    }
+    writeln!(w, "{}", header.join(","))?;
+    let samples: Vec<Vec<sim_plant::metrics::Sample>> = (0..names.len()).map(|i| metrics.samples(i)).collect();
+    for (k, t) in metrics.times().iter().enumerate() {
+        write!(w, "{t:.6}")?;
+        for s in &samples {
+            let s = &s[k];
+            write!(w, ",{:.9},{:.9},{:.9},{:.9},{:.3}", s.setpoint, s.load, s.tool, s.actuator, s.process_force)?;
+        }
+        writeln!(w)?;
+    }
+    w.flush()
 }
 
 fn init_logging(verbose: u8) {

@@ -192,10 +192,83 @@ pub struct AxisSummary {
     pub max_motor_force: f64,
     /// Servo samples at the force limit (counted per setpoint output).
     pub saturated_samples: u64,
-    /// Largest |detrended load error| after the motion ended (None: no standstill recorded).
+    /// Largest |detrended load error| after the motion ended (None: no standstill recorded):
+    /// settling and vibration together.
     pub residual_amplitude: Option<f64>,
-    /// Peak of the load-error spectrum after the motion ended (or over the recording), Hz.
+    /// Peak of the load-error spectrum after the motion ended (or over the recording), Hz;
+    /// None for a decay without an oscillation.
     pub residual_peak_hz: Option<f64>,
+    /// How the load settled after the motion end (None: no standstill recorded).
+    pub settling: Option<Settling>,
+}
+
+/// The load error after the motion end, split into its settling and its vibration.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settling {
+    /// Time from the motion end until the load error stays within the band around its final
+    /// value, s; None if it has not settled by the end of the recording.
+    pub settling_time_s: Option<f64>,
+    /// The band: [`SETTLE_FRACTION`] of the deviation at the motion end, at least
+    /// [`SETTLE_BAND_MIN`], axis unit.
+    pub band: f64,
+    /// Largest excursion beyond the final value on the far side from the deviation at the
+    /// motion end, axis unit (0: an aperiodic approach).
+    pub overshoot: f64,
+    /// Amplitude of the oscillation at the spectral peak after the motion end, axis unit; None
+    /// when the spectrum has no peak (a decay, no vibration).
+    pub vibration_amplitude: Option<f64>,
+    /// Frequency of that peak, Hz.
+    pub vibration_hz: Option<f64>,
+    /// Length of the standstill recorded, s.
+    pub window_s: f64,
+}
+
+/// Settling band: 2 % of the deviation at the motion end, the usual settling criterion.
+pub const SETTLE_FRACTION: f64 = 0.02;
+/// Smallest settling band, axis unit (1 µm or 1 mdeg): half an encoder step of the robot presets.
+pub const SETTLE_BAND_MIN: f64 = 1e-3;
+
+/// Smallest vibration reported, axis unit (10 nm or 10 µdeg): below every encoder step of the
+/// presets, a spectral peak this small is numerical noise.
+pub const VIBRATION_FLOOR: f64 = 1e-5;
+
+/// Settling and vibration of the load error `x` sampled every `dt_s` from the motion end.
+pub fn settling(x: &[f64], dt_s: f64) -> Option<Settling> {
+    let n = x.len();
+    if n < 16 || dt_s.is_nan() || dt_s <= 0.0 {
+        return None;
+    }
+    // Final value: the mean of the last tenth.
+    let tail = (n / 10).max(4);
+    let fin = x[n - tail..].iter().sum::<f64>() / tail as f64;
+    let dev0 = x[0] - fin;
+    let band = (SETTLE_FRACTION * dev0.abs()).max(SETTLE_BAND_MIN);
+    let last_out = x.iter().rposition(|v| (v - fin).abs() > band);
+    // A tail that still moves by more than the band has not settled, whatever its mean.
+    let (lo, hi) = x[n - tail..].iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| (l.min(*v), h.max(*v)));
+    let settling_time_s = match last_out {
+        _ if hi - lo > band => None,
+        None => Some(0.0),
+        Some(k) if k + tail >= n => None,
+        Some(k) => Some((k + 1) as f64 * dt_s),
+    };
+    let sign = if dev0 >= 0.0 { 1.0 } else { -1.0 };
+    let overshoot = x.iter().map(|v| -sign * (v - fin)).fold(0.0_f64, f64::max);
+    let d = detrend(x);
+    let spec = spectrum(&d, dt_s);
+    let peak = peak_frequency(&spec, 0.5, 0.5 / dt_s);
+    // The amplitude at the bin nearest the refined peak.
+    let vibration = peak
+        .map(|f| (f, spec.iter().min_by(|a, b| (a.0 - f).abs().total_cmp(&(b.0 - f).abs())).map_or(0.0, |p| p.1)))
+        .filter(|(_, amp)| *amp >= VIBRATION_FLOOR);
+    Some(Settling {
+        settling_time_s,
+        band,
+        overshoot,
+        vibration_amplitude: vibration.map(|v| v.1),
+        vibration_hz: vibration.map(|v| v.0),
+        window_s: n as f64 * dt_s,
+    })
 }
 
 /// Figures of a run.
@@ -233,6 +306,12 @@ pub struct Sample {
     pub load: f64,
     pub following_error: f64,
     pub load_error: f64,
+    /// Tool position (load plus fast actuator), axis unit.
+    pub tool: f64,
+    /// Fast actuator position from mid-stroke, axis unit.
+    pub actuator: f64,
+    /// Process force on the load, N (N·m), positive towards negative positions.
+    pub process_force: f64,
 }
 
 /// Accumulates the plant outputs, one call per setpoint.
@@ -292,6 +371,9 @@ impl Metrics {
                 load: o.load_pos,
                 following_error: o.following_error,
                 load_error: o.load_error,
+                tool: o.tool_pos,
+                actuator: o.actuator_pos,
+                process_force: o.process_force,
             });
             run.max_fe = run.max_fe.max(o.following_error.abs());
             run.sum_fe2 += o.following_error * o.following_error;
@@ -389,15 +471,15 @@ impl Metrics {
             .map(|i| {
                 let run = &self.running[i];
                 let n = self.samples.max(1) as f64;
-                let (residual_amplitude, residual_peak_hz) = match end {
+                let (residual_amplitude, residual_peak_hz, settled) = match end {
                     Some(k) if self.t.len() - k >= 16 => {
                         let x: Vec<f64> = self.rec[i].iter().skip(k).map(|s| s.load_error).collect();
                         let d = detrend(&x);
                         let amp = d.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
                         let peak = if amp > 0.0 { peak_frequency(&spectrum(&d, dt), 0.5, 0.5 / dt) } else { None };
-                        (Some(amp), peak)
+                        (Some(amp), peak, settling(&x, dt))
                     }
-                    _ => (None, None),
+                    _ => (None, None, None),
                 };
                 AxisSummary {
                     name: self.names[i],
@@ -411,6 +493,7 @@ impl Metrics {
                     saturated_samples: run.saturated,
                     residual_amplitude,
                     residual_peak_hz,
+                    settling: settled,
                 }
             })
             .collect();
@@ -440,7 +523,7 @@ impl fmt::Display for MetricsSummary {
         writeln!(
             f,
             "{:<4} {:<17} {:>12} {:>12} {:>12} {:>12} {:>10} {:>12} {:>9}",
-            "axis", "preset", "max|FE|", "rms FE", "max|LE|", "rms LE", "max|F|", "residual", "f_res"
+            "axis", "preset", "max|FE|", "rms FE", "max|LE|", "rms LE", "max|F|", "vibration", "f_vib"
         )?;
         for a in &self.axes {
             // µm for linear axes, mdeg for rotary axes; force or torque.
@@ -448,8 +531,9 @@ impl fmt::Display for MetricsSummary {
                 AxisKind::Linear => (1e3, "um", "N "),
                 AxisKind::Rotary => (1e3, "mdeg", "Nm"),
             };
-            let res = a.residual_amplitude.map_or("-".to_string(), |r| format!("{:.3} {unit}", r * k));
-            let fres = a.residual_peak_hz.map_or("-".to_string(), |h| format!("{h:.2} Hz"));
+            let vib = a.settling.and_then(|s| s.vibration_amplitude);
+            let res = vib.map_or("-".to_string(), |r| format!("{:.3} {unit}", r * k));
+            let fres = a.settling.and_then(|s| s.vibration_hz).map_or("-".to_string(), |h| format!("{h:.2} Hz"));
             writeln!(
                 f,
                 "{:<4} {:<17} {:>9.3} {unit:<2} {:>9.3} {unit:<2} {:>9.3} {unit:<2} {:>9.3} {unit:<2} {:>8.1} {force_unit} {:>12} {:>9}",
@@ -467,8 +551,25 @@ impl fmt::Display for MetricsSummary {
         if let (Some(m), Some(r)) = (self.max_contour_error, self.rms_contour_error) {
             writeln!(f, "contour error (linear axes): max {:.3} um, rms {:.3} um", m * 1e3, r * 1e3)?;
         }
+        for a in &self.axes {
+            let Some(st) = a.settling else { continue };
+            let unit = if a.kind == AxisKind::Linear { "um" } else { "mdeg" };
+            let settle = st
+                .settling_time_s
+                .map_or_else(|| format!("not settled within {:.2} s", st.window_s), |t| format!("settled in {t:.3} s"));
+            writeln!(
+                f,
+                "{:<4} after the motion end: {settle} (band ±{:.3} {unit}), overshoot {:.3} {unit}",
+                a.name.to_string(),
+                st.band * 1e3,
+                st.overshoot * 1e3
+            )?;
+        }
         if let Some(t) = self.motion_end_s {
-            writeln!(f, "motion end at {t:.3} s; residual = max |detrended load error| after it")?;
+            writeln!(
+                f,
+                "motion end at {t:.3} s; vibration = the spectral peak of the load error after it (- for a decay)"
+            )?;
         }
         if self.dropped_samples > 0 {
             writeln!(f, "{} older samples dropped from the recording (plant.record_s)", self.dropped_samples)?;
@@ -493,6 +594,32 @@ mod tests {
         assert!((f - 6.02).abs() < 0.01, "{f}");
         let amp = s.iter().map(|p| p.1).fold(0.0, f64::max);
         assert!((amp - 0.07).abs() < 0.01, "{amp}");
+    }
+
+    #[test]
+    fn a_decay_settles_without_vibration_and_a_ringing_has_both() {
+        let dt = 0.004;
+        // Aperiodic decay from 45 µm, time constant 1 s, recorded for 1 s: still moving.
+        let decay: Vec<f64> = (0..250).map(|i| 0.045 * (-(i as f64) * dt).exp()).collect();
+        let s = settling(&decay, dt).unwrap();
+        // Excursions within the band are the final value's estimate, not an overshoot.
+        assert!(s.vibration_amplitude.is_none() && s.overshoot < s.band, "{s:?}");
+        assert!(s.settling_time_s.is_none(), "the tail still moves by more than 1 µm: {s:?}");
+        // Time constant 0.3 s over 4 s: the final value ≈ 0, the band 1 µm (its floor), so it
+        // settles where 45 µm · e^{−t/0.3} = 1 µm, t = 1.14 s.
+        let long: Vec<f64> = (0..1000).map(|i| 0.045 * (-(i as f64) * dt / 0.3).exp()).collect();
+        let t = settling(&long, dt).unwrap().settling_time_s.unwrap();
+        assert!((t - 1.142).abs() < 0.01, "{t}");
+        // A ringing at 6 Hz around 0, 20 µm, slowly decaying.
+        let ring: Vec<f64> = (0..500)
+            .map(|i| {
+                let t = i as f64 * dt;
+                0.02 * (-t / 3.0).exp() * (2.0 * std::f64::consts::PI * 6.0 * t).cos()
+            })
+            .collect();
+        let s = settling(&ring, dt).unwrap();
+        assert!((s.vibration_hz.unwrap() - 6.0).abs() < 0.1, "{s:?}");
+        assert!(s.vibration_amplitude.unwrap() > 0.005 && s.overshoot > 0.015, "{s:?}");
     }
 
     #[test]

@@ -7,10 +7,15 @@
 
 use crate::PlantError;
 use crate::axis::{Axis, AxisOutput};
+use crate::process::actuator::Actuator;
+use crate::process::measurement::Sensors;
+use crate::process::milling::Milling;
 use interpd_config::Config;
 use interpd_config::plant::{PlantConfig, PlantModel, ResolvedAxisPlant};
 use interpd_protocol::MAX_AXES;
-use interpd_protocol::shm::{Feedback, PAYLOAD_VERSION, Setpoints, feedback_flags};
+use interpd_protocol::shm::{
+    ActuatorCommand, Feedback, Measurement, PAYLOAD_VERSION, Setpoints, feedback_flags, measurement_flags,
+};
 use thiserror::Error;
 
 /// A longer silence than this between two setpoints restarts the plant at the new setpoint
@@ -85,6 +90,16 @@ pub struct Plant {
     outputs: Vec<AxisOutput>,
     stats: InputStats,
     last_cycle: Option<u64>,
+    /// The milling force of `[plant.milling]`.
+    milling: Option<Milling>,
+    /// The sensors of `[plant.measurement]`.
+    sensors: Option<Sensors>,
+    /// The fast actuator of each axis (`[plant.actuator]`).
+    actuators: Vec<Option<Actuator>>,
+    /// Actuator commands for the next segment, axis unit.
+    actuator_cmd: [f64; MAX_AXES],
+    /// Actuator commands rejected (wrong version or axis count, non-finite values).
+    pub actuator_rejected: u64,
 }
 
 impl Plant {
@@ -109,6 +124,19 @@ impl Plant {
             .iter()
             .map(|r| Axis::new(r, h_s, options.substeps, options.fine_interpolation))
             .collect::<Result<Vec<_>, _>>()?;
+        let index = |n: interpd_config::AxisLetter| axes.iter().position(|a| a.axis == n);
+        let milling = match &options.milling {
+            Some(m) => match (index(m.axes[0]), index(m.axes[1])) {
+                (Some(a), Some(b)) => Some(Milling::new(m, [a, b])),
+                _ => return Err(PlantError::Model("plant.milling.axes: axis not in the machine".into())),
+            },
+            None => None,
+        };
+        let sensors = options.measurement.as_ref().map(|m| Sensors::new(m, axes.len()));
+        let actuators = axes
+            .iter()
+            .map(|a| options.actuator.as_ref().filter(|c| c.axes.contains(&a.axis)).map(Actuator::new))
+            .collect();
         let mut routes = Vec::new();
         for (src, r) in axes.iter().enumerate() {
             if let PlantModel::ThreeMass(p) = &r.model {
@@ -135,6 +163,11 @@ impl Plant {
             was_reset: false,
             stats: InputStats::default(),
             last_cycle: None,
+            milling,
+            sensors,
+            actuators,
+            actuator_cmd: [0.0; MAX_AXES],
+            actuator_rejected: 0,
         })
     }
 
@@ -195,7 +228,18 @@ impl Plant {
         self.was_reset = true;
         let t_s = self.time_s();
         for (a, &p) in self.axes.iter_mut().zip(positions) {
+            a.set_external_force(0.0);
             a.reset(p, t_s);
+        }
+        if let Some(m) = &mut self.milling {
+            m.reset();
+        }
+        for a in self.actuators.iter_mut().flatten() {
+            a.reset();
+        }
+        self.actuator_cmd = [0.0; MAX_AXES];
+        if let Some(s) = &mut self.sensors {
+            s.reset(t_ns);
         }
         self.update_outputs();
         Ok(&self.outputs)
@@ -241,13 +285,38 @@ impl Plant {
         for (a, t) in self.axes.iter_mut().zip(targets) {
             a.set_target(t.pos, t.vel, t.acc, dur_s);
         }
+        for (i, a) in self.actuators.iter_mut().enumerate() {
+            if let Some(a) = a {
+                a.command(self.actuator_cmd[i] * 1e-3, dur_s);
+            }
+        }
+        if let Some(m) = &mut self.milling {
+            m.set_feed([targets[m.axes[0]].vel, targets[m.axes[1]].vel]);
+        }
         let n = (gap_ns + half) / self.h_ns;
         let t0_s = self.time_s();
         for j in 0..n {
             let t_seg = j as f64 * self.h_s;
             let t_s = t0_s + t_seg;
+            if let Some(m) = &mut self.milling {
+                let f = m.step(t_s, self.h_s);
+                self.axes[m.axes[0]].set_external_force(f[0]);
+                self.axes[m.axes[1]].set_external_force(f[1]);
+            }
             for a in self.axes.iter_mut() {
                 a.step(t_seg, t_s);
+            }
+            for a in self.actuators.iter_mut().flatten() {
+                a.step(self.h_s);
+            }
+            if let Some(s) = &mut self.sensors {
+                let (axes, acts) = (&self.axes, &self.actuators);
+                let t_step_ns = self.t_ns + (j + 1) * self.h_ns;
+                s.after_step(t_step_ns, t_s + self.h_s, |i| {
+                    let act_mm = acts[i].as_ref().map_or(0.0, |a| a.pos_m() * 1e3);
+                    let ax = &axes[i];
+                    [ax.load_pos() + act_mm, ax.load_force(), act_mm]
+                });
             }
         }
         self.t_ns += n * self.h_ns;
@@ -338,6 +407,65 @@ impl Plant {
         }
     }
 
+    /// Sets the fast actuators' position commands (axis unit from mid-stroke), reached by a ramp
+    /// over the next setpoint interval. Entries of axes without an actuator are ignored.
+    pub fn set_actuator_commands(&mut self, pos: &[f64]) {
+        for (c, p) in self.actuator_cmd.iter_mut().zip(pos) {
+            if p.is_finite() {
+                *c = *p;
+            }
+        }
+    }
+
+    /// Takes an [`ActuatorCommand`] payload: checked like a setpoint; a rejected one is counted
+    /// in [`Plant::actuator_rejected`] and changes nothing.
+    pub fn take_actuator_command(&mut self, c: &ActuatorCommand) -> bool {
+        let n = self.axes.len();
+        if c.version != PAYLOAD_VERSION || c.n_axes as usize != n || c.pos[..n].iter().any(|p| !p.is_finite()) {
+            self.actuator_rejected += 1;
+            return false;
+        }
+        self.actuator_cmd[..n].copy_from_slice(&c.pos[..n]);
+        true
+    }
+
+    /// Whether the plant has sensors (`[plant.measurement]`).
+    pub fn has_sensors(&self) -> bool {
+        self.sensors.is_some()
+    }
+
+    /// The fast actuator of axis `i`, if it has one.
+    pub fn actuator(&self, i: usize) -> Option<&Actuator> {
+        self.actuators.get(i).and_then(|a| a.as_ref())
+    }
+
+    /// The milling force generator, if configured.
+    pub fn milling(&self) -> Option<&Milling> {
+        self.milling.as_ref()
+    }
+
+    /// The next measurement that has arrived by the plant's current time, as its payload.
+    pub fn pop_measurement(&mut self, out: &mut Measurement) -> bool {
+        let Some(s) = self.sensors.as_mut().and_then(|s| s.pop()) else { return false };
+        let n = self.axes.len();
+        let mut flags = measurement_flags::POSITION | measurement_flags::FORCE;
+        if self.actuators.iter().any(|a| a.is_some()) {
+            flags |= measurement_flags::ACTUATOR;
+        }
+        *out = Measurement {
+            n_axes: n as u32,
+            seq: s.seq,
+            measured_ns: s.measured_ns,
+            time_ns: s.arrived_ns,
+            flags,
+            ..Measurement::default()
+        };
+        out.tool_pos[..n].copy_from_slice(&s.tool_pos[..n]);
+        out.force_n[..n].copy_from_slice(&s.force_n[..n]);
+        out.actuator_pos[..n].copy_from_slice(&s.actuator_pos[..n]);
+        true
+    }
+
     fn check_len(&self, n: usize) -> Result<(), PlantError> {
         if n != self.axes.len() {
             return Err(PlantError::Input(format!("{n} targets for {} axes", self.axes.len())));
@@ -346,8 +474,11 @@ impl Plant {
     }
 
     fn update_outputs(&mut self) {
-        for (o, a) in self.outputs.iter_mut().zip(&self.axes) {
+        for ((o, a), act) in self.outputs.iter_mut().zip(&self.axes).zip(&self.actuators) {
             *o = a.output();
+            if let Some(act) = act {
+                o.actuator_pos = act.pos_m() * 1e3;
+            }
         }
         if self.apply_crosstalk {
             for &(src, slot, dst) in &self.routes {
@@ -356,6 +487,9 @@ impl Plant {
                 o.load_pos += c;
                 o.load_error = o.setpoint - o.load_pos;
             }
+        }
+        for o in self.outputs.iter_mut() {
+            o.tool_pos = o.load_pos + o.actuator_pos;
         }
     }
 }

@@ -16,7 +16,9 @@ use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use interpd_protocol::MAX_AXES;
-use interpd_protocol::shm::{self, Feedback, NodeOptions, ServiceError, Setpoints, flags, open_service, qos};
+use interpd_protocol::shm::{
+    self, ActuatorCommand, Feedback, Measurement, NodeOptions, ServiceError, Setpoints, flags, open_service, qos,
+};
 use std::time::{Duration, Instant};
 use tracing::warn;
 
@@ -82,6 +84,8 @@ struct Progress {
     published: u64,
     /// Reused feedback payload.
     feedback: Feedback,
+    /// Reused measurement payload.
+    measurement: Measurement,
 }
 
 /// The iceoryx2 node with its setpoint subscriber and feedback publisher.
@@ -89,6 +93,11 @@ pub struct ShmPlant {
     node: Node<ipc::Service>,
     subscriber: Subscriber<ipc::Service, Setpoints, ()>,
     publisher: Publisher<ipc::Service, Feedback, ()>,
+    /// `PREFIX/measurement` when the plant has sensors.
+    measurement: Option<Publisher<ipc::Service, Measurement, ()>>,
+    /// `PREFIX/actuator` when the plant has fast actuators.
+    actuator: Option<Subscriber<ipc::Service, ActuatorCommand, ()>>,
+    prefix: String,
     setpoints_name: String,
     feedback_name: String,
 }
@@ -135,7 +144,39 @@ impl ShmPlant {
             .publisher_builder()
             .create()
             .map_err(|e| PlantError::Transport(format!("cannot publish on {feedback_name}: {e:?}")))?;
-        Ok(Self { node, subscriber, publisher, setpoints_name, feedback_name })
+        Ok(Self {
+            node,
+            subscriber,
+            publisher,
+            measurement: None,
+            actuator: None,
+            prefix: prefix.to_string(),
+            setpoints_name,
+            feedback_name,
+        })
+    }
+
+    /// Opens `PREFIX/measurement` (publisher) when `plant` has sensors and `PREFIX/actuator`
+    /// (subscriber) when it has fast actuators.
+    pub fn open_process_io(&mut self, plant: &Plant) -> Result<(), PlantError> {
+        let transport = |e: ServiceError| PlantError::Transport(e.to_string());
+        if plant.has_sensors() {
+            let service = open_service::<Measurement>(&self.node, &self.prefix).map_err(transport)?;
+            let p = service
+                .publisher_builder()
+                .create()
+                .map_err(|e| PlantError::Transport(format!("cannot publish on {}/measurement: {e:?}", self.prefix)))?;
+            self.measurement = Some(p);
+        }
+        if (0..plant.n_axes()).any(|i| plant.actuator(i).is_some()) {
+            let service = open_service::<ActuatorCommand>(&self.node, &self.prefix).map_err(transport)?;
+            let sub =
+                service.subscriber_builder().buffer_size(qos::SUBSCRIBER_BUFFER_SIZE).create().map_err(|e| {
+                    PlantError::Transport(format!("cannot subscribe to {}/actuator: {e:?}", self.prefix))
+                })?;
+            self.actuator = Some(sub);
+        }
+        Ok(())
     }
 
     /// The setpoint service name.
@@ -211,6 +252,15 @@ impl ShmPlant {
         run: &mut Progress,
     ) -> Result<bool, PlantError> {
         let (prev_ns, was_started) = (plant.time_ns(), plant.started());
+        // The actuator commands of this cycle are published before its setpoints.
+        if let Some(sub) = &self.actuator {
+            while let Some(c) = sub
+                .receive()
+                .map_err(|e| PlantError::Transport(format!("receive on {}/actuator: {e:?}", self.prefix)))?
+            {
+                plant.take_actuator_command(&c);
+            }
+        }
         let t = Instant::now();
         let result = plant.step_setpoint(sp).map(|_| ());
         run.compute += t.elapsed();
@@ -229,6 +279,15 @@ impl ShmPlant {
         plant.fill_feedback(sp, &mut run.feedback);
         self.publish(&run.feedback)?;
         run.published += 1;
+        while plant.pop_measurement(&mut run.measurement) {
+            if let Some(p) = &self.measurement {
+                let err = |e: &dyn std::fmt::Debug| {
+                    PlantError::Transport(format!("publish on {}/measurement: {e:?}", self.prefix))
+                };
+                let sample = p.loan_uninit().map_err(|e| err(&e))?;
+                sample.write_payload(run.measurement).send().map_err(|e| err(&e))?;
+            }
+        }
         if let Some(m) = metrics {
             m.record_plant(plant);
         }

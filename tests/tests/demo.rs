@@ -14,9 +14,15 @@ fn demo_runs_end_to_end_and_writes_its_plot() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "interpd demo failed:\n{stdout}\n{stderr}");
     assert!(started.elapsed().as_secs() < 60, "the demo took {:?}", started.elapsed());
-    for want in
-        ["finished in", "max following error", "max contour error", "wake-up latency", "residual vibration", "plot:"]
-    {
+    for want in [
+        "finished in",
+        "max following error",
+        "max contour error",
+        "wake-up latency",
+        "overshoot",
+        "residual vibration",
+        "plot:",
+    ] {
         assert!(stdout.contains(want), "summary lacks {want:?}:\n{stdout}");
     }
     assert!(stdout.contains("missed cycles: 0"), "the plant missed setpoints:\n{stdout}");

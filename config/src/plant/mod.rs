@@ -30,6 +30,7 @@
 //! are in `preset` and `[[plant.axis]]` in `overrides`.
 
 mod drive;
+mod milling;
 mod overrides;
 mod params;
 mod preset;
@@ -38,6 +39,7 @@ mod three_mass;
 mod two_mass;
 
 pub use drive::{DriveParams, LinearDrive, RotaryDrive};
+pub use milling::{ActuatorConfig, MeasurementConfig, MillingConfig};
 pub use overrides::PlantAxisConfig;
 pub use params::{AxisParams, ModelParams, ParamSet, ParamTable};
 pub use preset::{DEFAULT_LINEAR_PRESET, DEFAULT_ROTARY_PRESET, ModelKind, PRESETS, PresetFile, preset, preset_names};
@@ -84,6 +86,12 @@ pub struct PlantConfig {
     pub record_s: f64,
     /// Per-axis overrides, `[[plant.axis]]` with `name` and any model parameter.
     pub axis: Vec<PlantAxisConfig>,
+    /// `[plant.milling]`: the milling process force (none without the section).
+    pub milling: Option<MillingConfig>,
+    /// `[plant.measurement]`: force signal and external position measurement (none without).
+    pub measurement: Option<MeasurementConfig>,
+    /// `[plant.actuator]`: fast auxiliary actuators between load and tool (none without).
+    pub actuator: Option<ActuatorConfig>,
     /// Presets read from files ([`PlantConfig::select`]), by the name `preset` uses for them;
     /// looked up before the embedded ones.
     #[serde(skip)]
@@ -101,6 +109,9 @@ impl Default for PlantConfig {
             apply_crosstalk: true,
             record_s: 600.0,
             axis: Vec::new(),
+            milling: None,
+            measurement: None,
+            actuator: None,
             file_presets: Vec::new(),
         }
     }
@@ -132,6 +143,15 @@ impl PlantConfig {
             return Err(v.err("plant.substeps", &format!("must lie in 1..=64, got {}", self.substeps)));
         }
         v.in_range("plant.record_s", self.record_s, 1.0, 86_400.0)?;
+        if let Some(m) = &self.milling {
+            m.validate(v, axes)?;
+        }
+        if let Some(m) = &self.measurement {
+            m.validate(v)?;
+        }
+        if let Some(a) = &self.actuator {
+            a.validate(v, axes)?;
+        }
         self.resolve_with(v, axes).map(|_| ())
     }
 

@@ -249,14 +249,13 @@ fn print_summary(status: &Value, plant: &Value, motion_s: f64, plot: &Path, wall
     if let Some(axes) = plant["axes"].as_array() {
         for a in axes {
             println!(
-                "  axis {} ({}): max following error {}, max load error {}, residual vibration {} at {}",
+                "  axis {} ({}): max following error {}, max load error {}",
                 a["name"].as_str().unwrap_or("?"),
                 a["preset"].as_str().unwrap_or("?"),
                 um(&a["max_following_error"]),
                 um(&a["max_load_error"]),
-                um(&a["residual_amplitude"]),
-                a["residual_peak_hz"].as_f64().map_or("n/a".to_string(), |f| format!("{f:.1} Hz"))
             );
+            println!("    after the motion end: {}", settling_text(a));
         }
     }
     println!("  max contour error (load side): {}", um(&plant["max_contour_error"]));
@@ -269,4 +268,23 @@ fn print_summary(status: &Value, plant: &Value, motion_s: f64, plot: &Path, wall
         status["cycles"]["late"]
     );
     println!("  plot: {}", plot.display());
+}
+
+/// Settling and vibration after the motion end, apart: a decay is settling (time, overshoot),
+/// an oscillation (a spectral peak) is vibration (amplitude, frequency).
+fn settling_text(a: &Value) -> String {
+    let um = |v: &Value| v.as_f64().map_or("n/a".to_string(), |x| format!("{:.2} µm", x * 1e3));
+    let window = a["settling_window_s"].as_f64().unwrap_or(0.0);
+    if a["settling_band"].is_null() {
+        return "no standstill recorded".to_string();
+    }
+    let settle = match a["settling_time_s"].as_f64() {
+        Some(t) => format!("settled in {t:.3} s within ±{}", um(&a["settling_band"])),
+        None => format!("still settling after {window:.2} s (band ±{})", um(&a["settling_band"])),
+    };
+    let vib = match (a["vibration_amplitude"].as_f64(), a["vibration_hz"].as_f64()) {
+        (Some(x), Some(f)) => format!("residual vibration {:.2} µm at {f:.1} Hz", x * 1e3),
+        _ => "residual vibration none (no spectral peak)".to_string(),
+    };
+    format!("{settle}, overshoot {}, {vib}", um(&a["overshoot"]))
 }

@@ -16,10 +16,12 @@
 //! max = 1000.0
 //! ```
 //!
-//! plus optional `[planner]`, `[prep]`, `[sinks]`, `[plant]`, `[control]` and `[rt]` sections.
+//! plus optional `[planner]`, `[prep]`, `[sinks]`, `[plant]`, `[control]`, `[rt]` and
+//! `[compensation]` sections.
 //! Unknown keys, missing keys and values out of range are errors that name the file and the
 //! key; nothing is silently defaulted except the optional sections and keys documented here.
 
+pub mod compensation;
 mod error;
 mod keys;
 mod machine;
@@ -61,6 +63,9 @@ pub struct Config {
     pub programs: ProgramsConfig,
     #[serde(default)]
     pub rt: RtConfig,
+    /// `[compensation]`: corrections after the fine interpolation (none without the section).
+    #[serde(default)]
+    pub compensation: Option<compensation::CompensationConfig>,
 }
 
 impl Config {
@@ -138,6 +143,9 @@ impl Config {
         self.control.validate(&v)?;
         self.programs.validate(&v)?;
         self.rt.validate(&v)?;
+        if let Some(c) = &self.compensation {
+            c.validate(&v, &self.axes)?;
+        }
         Ok(())
     }
 }

@@ -14,6 +14,7 @@
 //! the crate `interpd-motion`; the configuration is `interpd-config`; the wire formats are
 //! `interpd-protocol`. docs/architecture.md shows how they fit together.
 
+pub mod comp;
 pub mod control;
 pub mod interp;
 pub mod record;

@@ -103,8 +103,12 @@ fn manual(core: &interpd::service::ServiceCore) {
     done(&[State::Finished]);
 }
 
+/// The two tests share the counters: one at a time.
+static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 #[test]
 fn the_cycle_never_allocates() {
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     // The probe works: an allocation inside a (pretended) cycle is counted.
     interpd::rt::IN_CYCLE.with(|c| c.set(true));
     let probe = std::hint::black_box(vec![1u8; 64]);
@@ -136,4 +140,55 @@ fn the_cycle_never_allocates() {
     assert!(report.totals.cycles > 500, "too few cycles ran: {}", report.totals.cycles);
     assert!(ALL_ALLOCS.load(Ordering::Relaxed) > 0, "the counting allocator saw nothing: the test could not fail");
     assert_eq!(in_cycle, 0, "the real-time cycle allocated or freed memory");
+}
+
+/// The cycle with the compensation stage (mid-ranging on X and Y, position control on nothing
+/// else) against the real plant over iceoryx2: measurements in, actuator commands out, every
+/// cycle, and still no allocation in it.
+#[test]
+fn the_compensation_stage_never_allocates() {
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    IN_CYCLE_ALLOCS.store(0, Ordering::Relaxed);
+    let machine = include_str!("../../examples/milling_circle.toml");
+    let text = format!(
+        "{machine}\n[compensation]\n[compensation.measurement]\nforce_axes = [\"X\", \"Y\"]\nposition_axes = \
+         [\"X\", \"Y\"]\nactuator_axes = [\"X\", \"Y\"]\n[[compensation.axis]]\nname = \"X\"\nstrategy = \
+         \"position+actuator\"\n[[compensation.axis]]\nname = \"Y\"\nstrategy = \"position\"\n"
+    );
+    let mut config = Config::from_toml_str(&text, "milling").expect("config");
+    let prefix = format!("interpd-test/comp-alloc{}", std::process::id());
+    config.sinks.shm_prefix = prefix.clone();
+    // The plant in a thread of this process, on the same services.
+    let mut plant = sim_plant::Plant::from_config(&config).expect("plant");
+    let (ready_tx, ready_rx) = std::sync::mpsc::channel();
+    let plant_prefix = prefix.clone();
+    let plant_thread = std::thread::spawn(move || {
+        // iceoryx2 ports stay in the thread that creates them.
+        let mut node = sim_plant::shm::ShmPlant::open(&plant_prefix).expect("plant node");
+        node.open_process_io(&plant).expect("plant measurement");
+        ready_tx.send(()).expect("ready");
+        let options = sim_plant::shm::RunOptions { exit_on_finish: true, settle_s: 0.1, ..Default::default() };
+        node.run(&mut plant, None, &options).expect("plant run");
+        plant
+    });
+    ready_rx.recv().expect("the plant is ready");
+    let service = Service::start(ServiceOptions { config, shm: true }).expect("service");
+    let core = service.core();
+    let program = "G21 G90 G17\nG1 X5 F600\nG3 X5 Y0 I-5 J0\nG1 X0 Y0\nM30\n";
+    core.load(ProgramSource::Text { name: "comp.ngc".into(), text: program.into() }).expect("load");
+    core.start().expect("start");
+    let s = core.wait_for(&[State::Finished, State::Error], Duration::from_secs(30));
+    assert_eq!(s, State::Finished);
+    let plant = plant_thread.join().expect("plant thread");
+    let report = service.shutdown();
+    let in_cycle = IN_CYCLE_ALLOCS.load(Ordering::Relaxed);
+    let comp = report.compensation.expect("the stage ran");
+    eprintln!(
+        "{} cycles; {comp:?}; actuator X used up to {:.4} mm",
+        report.totals.cycles,
+        plant.actuator(0).map_or(0.0, |a| a.max_abs_m() * 1e3)
+    );
+    assert!(comp.accepted > 500, "the stage saw too few measurements: {comp:?}");
+    assert!(plant.actuator(0).is_some_and(|a| a.max_abs_m() > 0.0), "no actuator command reached the plant");
+    assert_eq!(in_cycle, 0, "the real-time cycle with compensation allocated or freed memory");
 }

@@ -333,11 +333,16 @@ pub enum Event {
     JogLimitReached { axis: String, limit: f64 },
     /// A manual motion ended: the machine stands after `duration_s` of motion.
     JogDone { kind: ManualKind, duration_s: f64 },
+    /// The compensation stage has had no valid measurement for `age_ms` (more than its
+    /// `max_age_ms`): its corrections fade out.
+    MeasurementLost { age_ms: f64 },
+    /// Valid measurements arrive again: the corrections fade back in.
+    MeasurementRestored,
 }
 
 impl Event {
     /// The `event` tag of every variant, in declaration order.
-    pub const NAMES: [&'static str; 12] = [
+    pub const NAMES: [&'static str; 14] = [
         "started",
         "line_reached",
         "underrun",
@@ -350,6 +355,8 @@ impl Event {
         "jogging",
         "jog_limit_reached",
         "jog_done",
+        "measurement_lost",
+        "measurement_restored",
     ];
 
     pub fn name(&self) -> &'static str {
@@ -366,6 +373,8 @@ impl Event {
             Event::Jogging { .. } => "jogging",
             Event::JogLimitReached { .. } => "jog_limit_reached",
             Event::JogDone { .. } => "jog_done",
+            Event::MeasurementLost { .. } => "measurement_lost",
+            Event::MeasurementRestored => "measurement_restored",
         }
     }
 

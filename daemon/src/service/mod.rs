@@ -101,6 +101,8 @@ pub struct ShutdownReport {
     pub executor_faults: ExecutorFaults,
     /// Per deferred publisher (shared memory): published, dropped, failed.
     pub publishers: Vec<DeferredStats>,
+    /// The compensation stage's measurement counters (`None` without one).
+    pub compensation: Option<crate::comp::CompStats>,
 }
 
 /// What the threads of the service share.
@@ -121,6 +123,10 @@ struct Shared {
     notices: ArrayQueue<Notice>,
     timing: ArrayQueue<TimingSample>,
     publish_errors: AtomicU64,
+    /// Changes of the compensation stage's measurement (lost, restored), from the cycle.
+    comp_events: ArrayQueue<crate::comp::CompEvent>,
+    /// The stage's counters at the end of the real-time loop.
+    comp_stats: Mutex<Option<crate::comp::CompStats>>,
     drives: Option<Arc<dyn DriveMonitor>>,
     /// Where `program.load {"path"}` may read from.
     programs: programs::ProgramsDir,
@@ -147,8 +153,29 @@ pub struct Service {
     sched: SchedReport,
     rt: Option<JoinHandle<(LoopTotals, ExecutorFaults)>>,
     publishers: Vec<DeferredWorker>,
+    /// The compensation stage's shared-memory thread (stopped when dropped).
+    comp_io: Option<crate::comp::io::CompIoWorker>,
     feeder: Option<JoinHandle<FeederStats>>,
     supervisor: Option<JoinHandle<()>>,
+}
+
+/// Compensation events queued for the supervisor (it drains them every 2 ms).
+const COMP_EVENT_CAPACITY: usize = 16;
+
+/// The configuration the planner plans with: with an active `[compensation]`, every axis's
+/// velocity, acceleration and jerk limit less the share the corrections may use, so setpoint
+/// plus correction keep the full limits.
+fn planning_config(config: &Config) -> Config {
+    let factor = crate::comp::planner_limit_factor(config);
+    let mut c = config.clone();
+    if factor < 1.0 {
+        for a in &mut c.axes {
+            a.max_vel_per_s *= factor;
+            a.max_acc_per_s2 *= factor;
+            a.max_jerk_per_s3 *= factor;
+        }
+    }
+    c
 }
 
 /// A poisoned lock only means another thread panicked while holding it; the state behind it
@@ -174,12 +201,14 @@ impl Service {
             Ok(cpu) => tracing::info!(cpu, "non-real-time threads kept off the real-time CPU"),
             Err(why) => tracing::info!("non-real-time threads share the real-time CPU: {why}"),
         }
+        // With corrections the planner plans with what the limiter leaves of each limit.
+        let plan_config = planning_config(&opts.config);
         let (feeder_tx, feeder_rx) = channel::unbounded();
         let (report_tx, report_rx) = channel::unbounded();
         let queues = Queues::new();
         let shared = Arc::new(Shared {
             config: opts.config.clone(),
-            settings: Settings::from_config(&opts.config),
+            settings: Settings::from_config(&plan_config),
             hold: AtomicBool::new(false),
             stop: AtomicBool::new(false),
             quit: AtomicBool::new(false),
@@ -192,12 +221,14 @@ impl Service {
             notices: ArrayQueue::new(NOTICE_CAPACITY),
             timing: ArrayQueue::new(TIMING_CAPACITY),
             publish_errors: AtomicU64::new(0),
+            comp_events: ArrayQueue::new(COMP_EVENT_CAPACITY),
+            comp_stats: Mutex::new(None),
             drives,
             programs,
         });
         let thread_err = |what: &'static str| move |source| StartupError::Thread { what, source };
 
-        let feeder = Feeder::new(&opts.config, queues, report_tx);
+        let feeder = Feeder::new(&plan_config, queues, report_tx);
         let planner_nice = opts.config.rt.planner_nice;
         let feeder = std::thread::Builder::new()
             .name("interpd-planner".into())
@@ -223,11 +254,24 @@ impl Service {
         // The caller's sinks (the CAN master's) publish in the cycle itself: they neither
         // allocate nor block.
         sinks.extend(extra_sinks);
+        // The compensation stage and, over shared memory, its measurement and actuator streams.
+        let mut comp_io = None;
+        let comp = match crate::comp::Compensation::new(&opts.config) {
+            Some(stage) if opts.shm => {
+                let prefix = &opts.config.sinks.shm_prefix;
+                let (io, worker) = crate::comp::io::spawn(prefix, stage.uses_actuator())
+                    .map_err(|message| crate::sinks::SinkError::Setup { sink: "compensation".into(), message })?;
+                comp_io = Some(worker);
+                Some((stage, Some(io)))
+            }
+            Some(stage) => Some((stage, None)),
+            None => None,
+        };
         let (ready_tx, ready_rx) = channel::bounded(1);
         let rt_shared = shared.clone();
         let rt = std::thread::Builder::new()
             .name("interpd-rt".into())
-            .spawn(move || rt_loop::run(rt_shared, sinks, start_position, debug_stall_cycle, ready_tx))
+            .spawn(move || rt_loop::run(rt_shared, sinks, comp, start_position, debug_stall_cycle, ready_tx))
             .map_err(thread_err("real-time"))?;
         let Ok(sched) = ready_rx.recv() else { return Err(StartupError::RealTimeExited) };
 
@@ -241,6 +285,7 @@ impl Service {
             sched,
             rt: Some(rt),
             publishers,
+            comp_io,
             feeder: Some(feeder),
             supervisor: Some(supervisor),
         })
@@ -272,6 +317,7 @@ impl Service {
         }
         supervisor::drain_timing(shared);
         let publishers = self.publishers.drain(..).map(DeferredWorker::stop).collect();
+        drop(self.comp_io.take());
         ShutdownReport {
             sched: self.sched.clone(),
             totals,
@@ -280,6 +326,7 @@ impl Service {
             publish_errors: shared.publish_errors.load(Ordering::Relaxed),
             executor_faults,
             publishers,
+            compensation: *lock(&shared.comp_stats),
         }
     }
 }

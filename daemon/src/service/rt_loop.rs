@@ -6,6 +6,8 @@
 //! (daemon/tests/rt_no_alloc.rs proves the allocation part).
 
 use super::Shared;
+use crate::comp::Compensation;
+use crate::comp::io::CompIo;
 use crate::interp::executor::ExecutorFaults;
 use crate::interp::{Executor, Io};
 use crate::rt::{self, LoopTotals, sched::SchedReport};
@@ -39,6 +41,7 @@ pub struct CycleStall {
 pub(super) fn run(
     shared: Arc<Shared>,
     mut sinks: Vec<Box<dyn SetpointSink + Send>>,
+    mut comp: Option<(Compensation, Option<CompIo>)>,
     start_position: Option<[f64; MAX_AXES]>,
     stall: Option<CycleStall>,
     ready: Sender<SchedReport>,
@@ -69,6 +72,16 @@ pub(super) fn run(
         if late {
             sp.flags |= flags::LATE;
         }
+        if let Some((stage, io)) = comp.as_mut() {
+            let event = stage.apply(&mut sp, dt_s, || io.as_ref().and_then(|io| io.measurements.pop()));
+            if let Some(io) = io.as_ref().filter(|_| stage.uses_actuator()) {
+                // Before the setpoints: the plant takes the latest command with each setpoint.
+                io.send_actuator(stage.actuator_command());
+            }
+            if let Some(e) = event {
+                let _ = shared.comp_events.push(e);
+            }
+        }
         if let Some((after, pause)) = stall {
             if sp.flags & flags::RUNNING != 0 {
                 running_cycles += 1;
@@ -90,5 +103,18 @@ pub(super) fn run(
         true
     });
     shared.publish_errors.store(publish_errors, Ordering::Relaxed);
+    if let Some((stage, _)) = &comp {
+        let s = stage.stats();
+        // After the loop: the lock is outside the cycle.
+        *super::lock(&shared.comp_stats) = Some(*s);
+        tracing::info!(
+            accepted = s.accepted,
+            discarded_invalid = s.discarded_invalid,
+            discarded_absurd = s.discarded_absurd,
+            lost = s.lost,
+            limiter_clamps = s.limiter_clamps,
+            "compensation: measurements"
+        );
+    }
     (totals, executor.faults)
 }

@@ -27,6 +27,19 @@ pub(super) fn run(shared: Arc<Shared>, reports: Receiver<FeederReport>) {
         while let Ok(r) = reports.try_recv() {
             on_report(&shared, r);
         }
+        while let Some(e) = shared.comp_events.pop() {
+            let event = match e {
+                crate::comp::CompEvent::Lost { age_ms } => {
+                    tracing::warn!(age_ms, "compensation: no valid measurement, the corrections fade out");
+                    Event::MeasurementLost { age_ms }
+                }
+                crate::comp::CompEvent::Restored => {
+                    tracing::info!("compensation: measurements again, the corrections fade back in");
+                    Event::MeasurementRestored
+                }
+            };
+            shared.emit(event);
+        }
         drain_timing(&shared);
         check_drives(&shared);
         finish_stop_if_standing(&shared);

@@ -151,3 +151,19 @@ fn the_actuator_moves_the_tool_and_stays_within_its_stroke() {
     println!("largest |actuator| {:.4} mm, {} servo steps at a limit", worst, a.saturated_steps());
     assert!(worst <= 0.25 && a.max_abs_m() <= 0.25e-3, "{worst}");
 }
+
+#[test]
+fn the_static_load_test_identifies_the_deflection_model_with_noise() {
+    let mut plant = Plant::from_config(&config("")).expect("plant");
+    let id = sim_plant::process::identify::static_load_test(&mut plant, &[0, 1], DT_S).expect("test");
+    for (axis, m) in ["X", "Y"].iter().zip(&id) {
+        println!(
+            "{axis}: k+ {:.1} N/mm, k- {:.1} N/mm, gap {:.4} mm, zero load {:.2} N (plant: 545 N/mm both, 0.228 mm, 0 N)",
+            m.k_pos_n_per_mm, m.k_neg_n_per_mm, m.gap_mm, m.zero_load_n
+        );
+        // Identified, not copied: close to the plant but not equal.
+        assert!((m.k_pos_n_per_mm / 545.0 - 1.0).abs() < 0.05 && m.k_pos_n_per_mm != 545.0);
+        assert!((m.k_neg_n_per_mm / 545.0 - 1.0).abs() < 0.05);
+        assert!((m.gap_mm - 0.228).abs() < 0.03, "{}", m.gap_mm);
+    }
+}

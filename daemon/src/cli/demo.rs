@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 const DEMO_PROGRAM: &str = include_str!("../../../examples/demo.ngc");
 /// How long a phase may take before the demo gives up.
 const START_TIMEOUT: Duration = Duration::from_secs(20);
-const RUN_TIMEOUT: Duration = Duration::from_secs(60);
+const RUN_TIMEOUT: Duration = Duration::from_secs(120);
 
 /// Options of `interpd demo`.
 #[derive(Debug, clap::Args)]
@@ -27,6 +27,13 @@ pub struct DemoArgs {
     /// Run this program instead of the embedded one (G-code or path table).
     #[arg(long)]
     pub program: Option<PathBuf>,
+    /// Run a scenario instead: `milling-circle` (the Ø 70 mm circle of Schneider 2016, Tab. 5.1,
+    /// milled by the soft robot under the process force, once per compensation strategy).
+    #[arg(long, value_name = "NAME")]
+    pub scenario: Option<String>,
+    /// With --scenario: print the figures as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// A child process that is terminated when dropped.
@@ -148,6 +155,15 @@ fn wait_until(what: &str, timeout: Duration, mut ready: impl FnMut() -> bool) ->
 }
 
 pub fn run(args: &DemoArgs) -> Result<(), CliError> {
+    if let Some(name) = &args.scenario {
+        return match name.as_str() {
+            "milling-circle" => super::milling::run(args),
+            other => Err(CliError::BadInput(format!("--scenario {other}: unknown; known: milling-circle"))),
+        };
+    }
+    if args.json {
+        return Err(CliError::BadInput("--json goes with --scenario".into()));
+    }
     let (program_text, program_name) = match &args.program {
         Some(p) => (
             std::fs::read_to_string(p).map_err(|e| CliError::BadInput(format!("--program {}: {e}", p.display())))?,
@@ -156,81 +172,125 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
         None => (DEMO_PROGRAM.to_string(), "demo.ngc".to_string()),
     };
     let plot = std::path::absolute(&args.plot).map_err(|e| CliError::BadInput(format!("--plot: {e}")))?;
-    let interpd = std::env::current_exe().map_err(|e| CliError::Failure(e.to_string()))?;
-    let sim_plant = sibling_binary("sim-plant")?;
     let dir = std::env::temp_dir().join(format!("interpd-demo-{}", std::process::id()));
     std::fs::create_dir_all(&dir).map_err(|e| CliError::Failure(format!("{}: {e}", dir.display())))?;
-    let prefix = format!("interpd-demo/{}", std::process::id());
-    let socket = dir.join("control.sock");
-    let summary_path = dir.join("plant.json");
     let started = Instant::now();
-
-    eprintln!("demo: starting sim-plant and interpd run (service prefix {prefix})");
-    let plot_s = plot.display().to_string();
-    let summary_s = summary_path.display().to_string();
-    let mut plant = Proc::spawn(
-        "sim-plant",
-        &sim_plant,
-        &["--service-prefix", &prefix, "--exit-on-finish", "--plot", &plot_s, "--summary-json", &summary_s],
-        &dir,
-    )?;
-    wait_until("sim-plant to subscribe", START_TIMEOUT, || plant.log_text().contains("ready"))?;
-    let socket_s = socket.display().to_string();
-    let mut daemon =
-        Proc::spawn("interpd", &interpd, &["run", "--socket", &socket_s, "--service-prefix", &prefix], &dir)?;
-    wait_until("the control socket", START_TIMEOUT, || socket.exists())?;
-
-    let mut rpc = Rpc::connect(&socket)?;
-    let info = rpc.call("program.load", json!({ "text": program_text, "name": program_name }))?;
-    eprintln!(
-        "demo: loaded {program_name}: {} elements, {:.1} mm",
-        info["elements"],
-        info["length_mm"].as_f64().unwrap_or(0.0)
-    );
-    rpc.call("motion.start", Value::Null)?;
-    let t0 = Instant::now();
-    let mut last_print = Instant::now();
-    let status = loop {
-        let st = rpc.call("status", Value::Null)?;
-        let state = st["state"].as_str().unwrap_or("?").to_string();
-        if last_print.elapsed() > Duration::from_millis(500) {
-            eprintln!(
-                "demo: {state} line {} s = {:.1} mm, {:.1} mm/s",
-                st["line"],
-                st["s_mm"].as_f64().unwrap_or(0.0),
-                st["feed_mm_s"].as_f64().unwrap_or(0.0)
-            );
-            last_print = Instant::now();
-        }
-        if state == "finished" || state == "error" {
-            break st;
-        }
-        if t0.elapsed() > RUN_TIMEOUT {
-            return Err(CliError::Failure(format!("the program did not finish within {} s", RUN_TIMEOUT.as_secs())));
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    };
-    if status["state"] != "finished" {
-        return Err(CliError::Failure(format!("motion ended in error: {}", status["last_error"])));
-    }
-    let motion_s = t0.elapsed().as_secs_f64();
-    drop(rpc);
-    daemon.terminate();
-    let code = daemon.wait(Duration::from_secs(15))?;
-    if code != 0 {
-        return Err(CliError::Failure(format!("interpd run exited with {code}; its log:\n{}", daemon.log_text())));
-    }
-    let code = plant.wait(Duration::from_secs(30))?;
-    if code != 0 {
-        return Err(CliError::Failure(format!("sim-plant exited with {code}; its log:\n{}", plant.log_text())));
-    }
-    let summary: Value = std::fs::read_to_string(&summary_path)
-        .ok()
-        .and_then(|t| serde_json::from_str(&t).ok())
-        .ok_or_else(|| CliError::Failure(format!("sim-plant wrote no summary; its log:\n{}", plant.log_text())))?;
+    let pair = Pair { dir: dir.clone(), machine: None, plot: Some(plot.clone()), trace: None };
+    let (status, summary, motion_s) = pair.run("interpd-demo", &program_text, &program_name, true)?;
     print_summary(&status, &summary, motion_s, &plot, started.elapsed());
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
+}
+
+/// One run of `interpd run` and `sim-plant` together over iceoryx2 on a program.
+pub(super) struct Pair {
+    /// Working directory: logs, socket, summary.
+    pub dir: PathBuf,
+    /// Machine file for both (default: the embedded machine).
+    pub machine: Option<PathBuf>,
+    pub plot: Option<PathBuf>,
+    /// Where the plant writes its recorded run (CSV, `sim-plant --trace`).
+    pub trace: Option<PathBuf>,
+}
+
+impl Pair {
+    /// Runs `program_text` to its end; the daemon's final status, the plant's summary JSON and
+    /// the motion time. `tag` names the service prefix; `verbose` prints progress on stderr.
+    pub fn run(
+        &self,
+        tag: &str,
+        program_text: &str,
+        program_name: &str,
+        verbose: bool,
+    ) -> Result<(Value, Value, f64), CliError> {
+        let interpd = std::env::current_exe().map_err(|e| CliError::Failure(e.to_string()))?;
+        let sim_plant = sibling_binary("sim-plant")?;
+        let dir = &self.dir;
+        let prefix = format!("{tag}/{}", std::process::id());
+        let socket = dir.join("control.sock");
+        let _ = std::fs::remove_file(&socket);
+        let summary_path = dir.join("plant.json");
+        let _ = std::fs::remove_file(&summary_path);
+        if verbose {
+            eprintln!("demo: starting sim-plant and interpd run (service prefix {prefix})");
+        }
+        let summary_s = summary_path.display().to_string();
+        let mut plant_args: Vec<String> =
+            ["--service-prefix", &prefix, "--exit-on-finish", "--summary-json", &summary_s].map(String::from).to_vec();
+        let mut daemon_args: Vec<String> = vec!["run".into(), "--socket".into(), socket.display().to_string()];
+        daemon_args.extend(["--service-prefix".to_string(), prefix.clone()]);
+        if let Some(m) = &self.machine {
+            plant_args.extend(["--config".to_string(), m.display().to_string()]);
+            daemon_args.extend(["--config".to_string(), m.display().to_string()]);
+        }
+        if let Some(p) = &self.plot {
+            plant_args.extend(["--plot".to_string(), p.display().to_string()]);
+        }
+        if let Some(t) = &self.trace {
+            plant_args.extend(["--trace".to_string(), t.display().to_string()]);
+        }
+        let pa: Vec<&str> = plant_args.iter().map(String::as_str).collect();
+        let da: Vec<&str> = daemon_args.iter().map(String::as_str).collect();
+        let mut plant = Proc::spawn("sim-plant", &sim_plant, &pa, dir)?;
+        wait_until("sim-plant to subscribe", START_TIMEOUT, || plant.log_text().contains("ready"))?;
+        let mut daemon = Proc::spawn("interpd", &interpd, &da, dir)?;
+        wait_until("the control socket", START_TIMEOUT, || socket.exists())?;
+
+        let mut rpc = Rpc::connect(&socket)?;
+        let info = rpc.call("program.load", json!({ "text": program_text, "name": program_name }))?;
+        if verbose {
+            eprintln!(
+                "demo: loaded {program_name}: {} elements, {:.1} mm",
+                info["elements"],
+                info["length_mm"].as_f64().unwrap_or(0.0)
+            );
+        }
+        rpc.call("motion.start", Value::Null)?;
+        let t0 = Instant::now();
+        let mut last_print = Instant::now();
+        let status = loop {
+            let st = rpc.call("status", Value::Null)?;
+            let state = st["state"].as_str().unwrap_or("?").to_string();
+            if verbose && last_print.elapsed() > Duration::from_millis(500) {
+                eprintln!(
+                    "demo: {state} line {} s = {:.1} mm, {:.1} mm/s",
+                    st["line"],
+                    st["s_mm"].as_f64().unwrap_or(0.0),
+                    st["feed_mm_s"].as_f64().unwrap_or(0.0)
+                );
+                last_print = Instant::now();
+            }
+            if state == "finished" || state == "error" {
+                break st;
+            }
+            if t0.elapsed() > RUN_TIMEOUT {
+                return Err(CliError::Failure(format!(
+                    "the program did not finish within {} s",
+                    RUN_TIMEOUT.as_secs()
+                )));
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        };
+        if status["state"] != "finished" {
+            return Err(CliError::Failure(format!("motion ended in error: {}", status["last_error"])));
+        }
+        let motion_s = t0.elapsed().as_secs_f64();
+        drop(rpc);
+        daemon.terminate();
+        let code = daemon.wait(Duration::from_secs(15))?;
+        if code != 0 {
+            return Err(CliError::Failure(format!("interpd run exited with {code}; its log:\n{}", daemon.log_text())));
+        }
+        let code = plant.wait(Duration::from_secs(60))?;
+        if code != 0 {
+            return Err(CliError::Failure(format!("sim-plant exited with {code}; its log:\n{}", plant.log_text())));
+        }
+        let summary: Value = std::fs::read_to_string(&summary_path)
+            .ok()
+            .and_then(|t| serde_json::from_str(&t).ok())
+            .ok_or_else(|| CliError::Failure(format!("sim-plant wrote no summary; its log:\n{}", plant.log_text())))?;
+        Ok((status, summary, motion_s))
+    }
 }
 
 #[allow(clippy::print_stdout)]

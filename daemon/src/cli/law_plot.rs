@@ -16,7 +16,7 @@ static REGISTER: Once = Once::new();
 const WIDTH_PX: u32 = 1000;
 const HEIGHT_PX: u32 = 1200;
 
-fn register_font() {
+pub(super) fn register_font() {
     REGISTER.call_once(|| {
         if plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).is_err() {
             tracing::warn!("embedded plot font could not be registered; text will be missing");

@@ -4,6 +4,7 @@ mod check;
 mod demo;
 mod law;
 mod law_plot;
+mod milling;
 mod otg;
 mod plan;
 mod record;

@@ -1,7 +1,9 @@
 //! The machining process and what the thesis measured around it (Schneider 2016): the milling
 //! force on the load ([`milling`]), the force signal and the external position measurement
-//! ([`measurement`]) and the fast auxiliary actuator between load and tool ([`actuator`]).
+//! ([`measurement`]), the fast auxiliary actuator between load and tool ([`actuator`]), and the
+//! static load test that identifies the deflection model from them ([`identify`]).
 
 pub mod actuator;
+pub mod identify;
 pub mod measurement;
 pub mod milling;

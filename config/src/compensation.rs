@@ -122,6 +122,10 @@ pub struct AxisCompensation {
     pub zero_load_n: f64,
     /// Half-width of the backlash zone, the cubic joining the two lines with continuous slope, N.
     pub blend_n: f64,
+    /// Below this distance of the force from the zero-load point the model gives no correction
+    /// (rising smoothly to the full model at twice it), N: there the load rests anywhere in the
+    /// backlash, and the force signal's drift alone is of this size.
+    pub deadband_n: f64,
     /// Position control: proportional gain (eq. 4.8).
     pub kp: f64,
     /// Position control: integral gain, 1/s (no D term: the measurement is noisy).
@@ -150,6 +154,8 @@ impl Default for AxisCompensation {
             gap_mm: 0.0,
             zero_load_n: 0.0,
             blend_n: 5.0,
+            // The force signal drifts by a few N (Schneider 2016: drift matters more than the noise).
+            deadband_n: 5.0,
             // Loop design against the axis (position loop Kv ≈ 20/s, a 6 Hz mode with Q ≈ 17):
             // crossover ≈ 3 rad/s, 56° phase margin, gain margin ≈ 10 at the mode with the 1 Hz
             // bandwidth limit.
@@ -224,6 +230,7 @@ impl CompensationConfig {
                     v.in_range(&key("gap_mm"), a.gap_mm, 0.0, 10.0)?;
                     v.in_range(&key("zero_load_n"), a.zero_load_n, -1e5, 1e5)?;
                     v.in_range(&key("blend_n"), a.blend_n, 1e-3, 1e5)?;
+                    v.in_range(&key("deadband_n"), a.deadband_n, 0.0, 1e5)?;
                 }
                 Strategy::Position => {
                     needs(&self.measurement.position_axes, "position measurement", "position_axes")?;

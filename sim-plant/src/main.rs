@@ -145,6 +145,7 @@ fn run(args: &Args) -> Result<(), Failure> {
     };
     let report = node.run(&mut plant, Some(&mut metrics), &options)?;
     print_summary(&report, &metrics);
+    print_actuators(&plant);
     if let Some(p) = &args.summary_json {
         let json = summary_json(&report, &metrics);
         std::fs::write(p, format!("{json}\n"))
@@ -298,13 +299,30 @@ fn print_summary(report: &RunReport, metrics: &Metrics) {
     }
 }
 
+/// Stroke use of the fast actuators (`[plant.actuator]`).
+fn print_actuators(plant: &Plant) {
+    for (i, a) in plant.axes().iter().enumerate() {
+        if let Some(act) = plant.actuator(i) {
+            eprintln!(
+                "sim-plant: actuator {}: largest |x| {:.4} mm of ±{:.4} mm ({:.0} % of the stroke), {} servo steps at a limit",
+                a.name,
+                act.max_abs_m() * 1e3,
+                act.stroke_m() * 1e3,
+                100.0 * act.max_abs_m() / act.stroke_m(),
+                act.saturated_steps()
+            );
+        }
+    }
+}
+
 /// The figures of a run as JSON (units: mm or deg, N or N·m, s, Hz; null where not measured).
 fn summary_json(report: &RunReport, metrics: &Metrics) -> serde_json::Value {
     let m = metrics.summary();
     let axes: Vec<serde_json::Value> = m
         .axes
         .iter()
-        .map(|a| {
+        .enumerate()
+        .map(|(i, a)| {
             serde_json::json!({
                 "name": a.name.to_string(),
                 "preset": a.preset,
@@ -320,6 +338,7 @@ fn summary_json(report: &RunReport, metrics: &Metrics) -> serde_json::Value {
                 "overshoot": a.settling.map(|s| s.overshoot),
                 "vibration_amplitude": a.settling.and_then(|s| s.vibration_amplitude),
                 "vibration_hz": a.settling.and_then(|s| s.vibration_hz),
+                "actuator_max_abs": metrics_actuator_max(metrics, i),
             })
         })
         .collect();
@@ -332,6 +351,11 @@ fn summary_json(report: &RunReport, metrics: &Metrics) -> serde_json::Value {
         "rms_contour_error": m.rms_contour_error,
         "axes": axes,
     })
+}
+
+/// Largest |actuator position| of axis `i` over the recording, axis unit.
+fn metrics_actuator_max(metrics: &Metrics, i: usize) -> f64 {
+    metrics.samples(i).iter().fold(0.0_f64, |m, s| m.max(s.actuator.abs()))
 }
 
 /// The recording as CSV (see `--trace`).

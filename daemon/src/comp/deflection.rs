@@ -4,6 +4,11 @@
 //! u = F − F₀ about the zero-load point F₀ (the thesis's cubic, as printed, is not centred on
 //! it), with the lines u/k₊ + g/2 and u/k₋ − g/2 (stiffnesses k±, backlash g) and the whole
 //! characteristic shifted so that δ(F₀) = 0: no load, no correction.
+//!
+//! Near the zero-load point the load rests anywhere in the backlash, held by friction, and the
+//! force signal there is mostly its own drift: within a deadband d about F₀ the model gives no
+//! correction, and between d and 2d it is faded in by a smoothstep (value and slope continuous),
+//! so an unloaded axis is not moved by the sensor's drift.
 
 use interpd_config::compensation::AxisCompensation;
 
@@ -20,11 +25,20 @@ pub struct Deflection {
     k: [f64; 4],
     /// δ at F₀ before the shift.
     offset: f64,
+    /// Deadband about F₀, N.
+    deadband_n: f64,
 }
 
 impl Deflection {
     pub fn new(a: &AxisCompensation) -> Self {
         Self::from_parts(a.stiffness_pos_n_per_mm, a.stiffness_neg_n_per_mm, a.gap_mm, a.zero_load_n, a.blend_n)
+            .with_deadband(a.deadband_n)
+    }
+
+    /// The same model with a deadband of `d_n` about the zero-load point.
+    pub fn with_deadband(mut self, d_n: f64) -> Self {
+        self.deadband_n = d_n.max(0.0);
+        self
     }
 
     /// From stiffnesses (N/mm), backlash (mm), zero-load point and zone half-width (N).
@@ -38,7 +52,12 @@ impl Deflection {
         let c1 = (p - q) / (2.0 * e) - c3 * e * e;
         let c2 = (dp - dq) / (4.0 * e);
         let c0 = (p + q) / 2.0 - c2 * e * e;
-        Self { f0_n, eps_n, c_pos, c_neg, half_gap_mm: h, k: [c0, c1, c2, c3], offset: c0 }
+        Self { f0_n, eps_n, c_pos, c_neg, half_gap_mm: h, k: [c0, c1, c2, c3], offset: c0, deadband_n: 0.0 }
+    }
+
+    /// The zero-load point F₀, N.
+    pub fn zero_load_n(&self) -> f64 {
+        self.f0_n
     }
 
     /// The displacement under the force `f_n` (along the axis, positive towards positive
@@ -54,13 +73,37 @@ impl Deflection {
             let [c0, c1, c2, c3] = self.k;
             c0 + u * (c1 + u * (c2 + u * c3))
         };
-        d - self.offset
+        let gate = if self.deadband_n > 0.0 {
+            let w = ((u.abs() - self.deadband_n) / self.deadband_n).clamp(0.0, 1.0);
+            w * w * (3.0 - 2.0 * w)
+        } else {
+            1.0
+        };
+        gate * (d - self.offset)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_deadband_leaves_small_forces_alone_and_large_ones_exact() {
+        let plain = Deflection::from_parts(545.0, 545.0, 0.228, 2.0, 5.0);
+        let m = plain.with_deadband(5.0);
+        for f in [-3.0, 0.0, 2.0, 6.9] {
+            assert_eq!(m.displacement_mm(f), 0.0, "{f} N");
+        }
+        for f in [-100.0, 12.0, 12.1, 200.0] {
+            assert_eq!(m.displacement_mm(f), plain.displacement_mm(f), "{f} N");
+        }
+        let mut last = m.displacement_mm(7.0);
+        for i in 1..=300 {
+            let d = m.displacement_mm(7.0 + 5.0 * i as f64 / 300.0);
+            assert!(d >= last && d - last < 0.01, "a step at {i}");
+            last = d;
+        }
+    }
 
     #[test]
     fn continuous_with_continuous_slope_and_zero_at_zero_load() {

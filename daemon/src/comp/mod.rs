@@ -260,13 +260,13 @@ impl Compensation {
         let alpha = 1.0 - (-2.0 * std::f64::consts::PI * self.cfg.force_filter_hz * dt_s).exp();
         for i in 0..n {
             let a = &mut self.axes[i];
-            if a.model.is_some() {
-                if a.force_init {
-                    a.force += alpha * (m.force_n[i] - a.force);
-                } else {
-                    a.force = m.force_n[i];
+            if let Some(model) = a.model {
+                if !a.force_init {
+                    // The filter starts from "no load", not from one noisy sample.
+                    a.force = model.zero_load_n();
                     a.force_init = true;
                 }
+                a.force += alpha * (m.force_n[i] - a.force);
             }
             if matches!(a.strategy, Strategy::Position | Strategy::PositionActuator) {
                 a.err_sum += reference[i] - m.tool_pos[i];

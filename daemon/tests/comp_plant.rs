@@ -40,6 +40,12 @@ fn circle(c: &Config) -> Vec<(f64, f64)> {
 
 /// The tool positions and the largest correction applied, mm.
 fn circle_with(c: &Config) -> (Vec<(f64, f64)>, f64) {
+    let (tool, largest, _) = circle_full(c);
+    (tool, largest)
+}
+
+/// The tool positions, the largest correction and the setpoints sent to the plant (x, y).
+fn circle_full(c: &Config) -> (Vec<(f64, f64)>, f64, Vec<(f64, f64)>) {
     let mut plant = Plant::from_config(c).expect("plant");
     let mut stage = Compensation::new(c);
     let len = 2.0 * PI * R_MM;
@@ -48,6 +54,7 @@ fn circle_with(c: &Config) -> (Vec<(f64, f64)>, f64) {
     let mut inbox: Vec<Measurement> = Vec::new();
     let mut m = Measurement::default();
     let mut tool = Vec::new();
+    let mut sent = Vec::new();
     let mut largest = 0.0_f64;
     for k in 0..n {
         let (s, v, a) = mv.eval(k as f64 * DT);
@@ -63,6 +70,7 @@ fn circle_with(c: &Config) -> (Vec<(f64, f64)>, f64) {
             plant.set_actuator_commands(&st.actuator_command().pos[..3]);
             largest = largest.max(st.correction(0).abs()).max(st.correction(1).abs());
         }
+        sent.push((sp.pos[0], sp.pos[1]));
         let t: Vec<AxisTarget> =
             (0..3).map(|i| AxisTarget { pos: sp.pos[i], vel: sp.vel[i], acc: sp.acc[i] }).collect();
         plant.advance_to(sp.time_ns, &t).expect("step");
@@ -72,7 +80,7 @@ fn circle_with(c: &Config) -> (Vec<(f64, f64)>, f64) {
         let o = plant.outputs();
         tool.push((o[0].tool_pos, o[1].tool_pos));
     }
-    (tool, largest)
+    (tool, largest, sent)
 }
 
 #[test]
@@ -112,5 +120,25 @@ fn every_strategy_reduces_the_error_of_the_milled_circle() {
     assert!((150.0..=600.0).contains(&maes[0]), "uncompensated {}", maes[0]);
     for (i, least) in [(1, 0.227), (2, 0.815), (3, 0.874)] {
         assert!(1.0 - maes[i] / maes[0] >= least, "{maes:?}");
+    }
+}
+
+/// The setpoints leaving the stage keep every axis limit, checked on their finite differences,
+/// with the milling force and the measurement noise acting, for every strategy.
+#[test]
+fn the_corrected_setpoints_keep_the_axis_limits_on_the_circle() {
+    for s in ["deflection", "position", "position+actuator"] {
+        let c = config(MACHINE, s);
+        let (_, _, sent) = circle_full(&c);
+        for (i, axis) in c.axes.iter().take(2).enumerate() {
+            let x: Vec<f64> = sent.iter().map(|p| if i == 0 { p.0 } else { p.1 }).collect();
+            let v: Vec<f64> = x.windows(2).map(|w| (w[1] - w[0]) / DT).collect();
+            let a: Vec<f64> = v.windows(2).map(|w| (w[1] - w[0]) / DT).collect();
+            let j: Vec<f64> = a.windows(2).map(|w| (w[1] - w[0]) / DT).collect();
+            let m = |x: &[f64]| x.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+            let r = (m(&v) / axis.max_vel_per_s, m(&a) / axis.max_acc_per_s2, m(&j) / axis.max_jerk_per_s3);
+            println!("{s:<18} {}: largest use of v, a, j: {:.3}, {:.3}, {:.3}", axis.name, r.0, r.1, r.2);
+            assert!(r.0 <= 1.0 && r.1 <= 1.0 && r.2 <= 1.0, "{s} {}: {r:?}", axis.name);
+        }
     }
 }

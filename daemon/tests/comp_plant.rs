@@ -44,8 +44,11 @@ fn circle_with(c: &Config) -> (Vec<(f64, f64)>, f64) {
     (tool, largest)
 }
 
+/// Points in the X–Y plane, mm.
+type Path = Vec<(f64, f64)>;
+
 /// The tool positions, the largest correction and the setpoints sent to the plant (x, y).
-fn circle_full(c: &Config) -> (Vec<(f64, f64)>, f64, Vec<(f64, f64)>) {
+fn circle_full(c: &Config) -> (Path, f64, Path) {
     let mut plant = Plant::from_config(c).expect("plant");
     let mut stage = Compensation::new(c);
     let len = 2.0 * PI * R_MM;

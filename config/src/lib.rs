@@ -16,7 +16,8 @@
 //! max = 1000.0
 //! ```
 //!
-//! plus optional `[planner]`, `[prep]`, `[sinks]`, `[plant]`, `[control]` and `[rt]` sections.
+//! plus optional `[planner]`, `[prep]`, `[sinks]`, `[plant]`, `[control]`, `[rt]`,
+//! `[work_offsets]` sections and `[[tool]]` tables.
 //! Unknown keys, missing keys and values out of range are errors that name the file and the
 //! key; nothing is silently defaulted except the optional sections and keys documented here.
 
@@ -26,11 +27,13 @@ mod machine;
 pub mod plant;
 mod sections;
 pub mod sinks;
+mod tooling;
 
 pub use error::ConfigError;
 pub use keys::keys_of;
 pub use machine::{AxisConfig, AxisKind, AxisLetter, MAX_AXES, MachineSection};
 pub use sections::{ControlConfig, PlannerConfig, PrepConfig, PrepMode, ProgramsConfig, RtConfig};
+pub use tooling::{MAX_TOOL_NUMBER, ToolConfig, WORK_SYSTEMS, WorkOffsetsConfig, validate_tools};
 
 use serde::Deserialize;
 use std::path::Path;
@@ -61,6 +64,12 @@ pub struct Config {
     pub programs: ProgramsConfig,
     #[serde(default)]
     pub rt: RtConfig,
+    /// The tool table: `[[tool]]` tables (optional).
+    #[serde(rename = "tool", default)]
+    pub tools: Vec<ToolConfig>,
+    /// Work coordinate systems G54 … G59 (optional).
+    #[serde(default)]
+    pub work_offsets: WorkOffsetsConfig,
 }
 
 impl Config {
@@ -138,6 +147,8 @@ impl Config {
         self.control.validate(&v)?;
         self.programs.validate(&v)?;
         self.rt.validate(&v)?;
+        validate_tools(&v, &self.tools)?;
+        self.work_offsets.validate(&v, &self.axes)?;
         Ok(())
     }
 }

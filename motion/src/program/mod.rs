@@ -2,6 +2,7 @@
 //! (the data form of the five-axis example in Kopp et al. 2019, §2 and §4), turned into a
 //! [`Path`].
 
+mod cutter;
 mod error;
 mod gcode;
 mod lexer;
@@ -13,7 +14,7 @@ pub(crate) use gcode::fmt_num;
 use crate::Settings;
 use crate::path::Path;
 use error::Diagnostics;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 /// A line holding only this word ends G06 spline data (Huan, §2: "CR", end of record); an
 /// empty line or the next ordinary block does too.
@@ -32,6 +33,12 @@ pub struct Summary {
     pub zero_length_moves: usize,
     /// Spindle, coolant and tool words (M3–M9, S, T), accepted and ignored.
     pub ignored_words: usize,
+    /// Tools of the tool table the program uses (G43 H, G41/G42 D).
+    pub tools: BTreeSet<u32>,
+    /// Work coordinate systems the program selects (G54 … G59).
+    pub work_offsets: BTreeSet<&'static str>,
+    /// The program turns cutter radius compensation on.
+    pub compensation: bool,
 }
 
 /// A parsed program: its path and what was read.

@@ -236,12 +236,15 @@ fn all_ways(name: &str, blocks: fn(bool) -> Vec<String>, approach_start: Approac
     }
 }
 
-fn shape_approach(_ccw: bool) -> ((f64, f64), (f64, f64)) {
-    ((20.0, -10.0), (20.0, 0.0))
+// The entry move (as LinuxCNC) ends at the offset of its own end point and meets the contour
+// at an ordinary corner; on a closed contour a corner arc around the start point would touch
+// the contour's last element, so the approach runs along the contour's first tangent.
+fn shape_approach(ccw: bool) -> ((f64, f64), (f64, f64)) {
+    (if ccw { (10.0, 0.0) } else { (30.0, 0.0) }, (20.0, 0.0))
 }
 
-fn ellipse_approach(_ccw: bool) -> ((f64, f64), (f64, f64)) {
-    ((55.0, 0.0), (40.0, 0.0))
+fn ellipse_approach(ccw: bool) -> ((f64, f64), (f64, f64)) {
+    (if ccw { (40.0, -10.0) } else { (40.0, 10.0) }, (40.0, 0.0))
 }
 
 #[test]

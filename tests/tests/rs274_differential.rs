@@ -92,8 +92,8 @@ fn rs274_verdict(file: &Path) -> Result<(), String> {
 }
 
 /// Canonical motion from LinuxCNC's module for `files`, one JSON object each. Programs with a
-/// T word are left out: the module reads the tool table of a running LinuxCNC and crashes
-/// without one (`rs274 -g` still judges them).
+/// T, D or H word are left out: the module reads the tool table of a running LinuxCNC for
+/// them and crashes without one (`rs274 -g` still judges them).
 fn canon(files: &[PathBuf]) -> Vec<Value> {
     let script = repo_root().join("scripts/rs274_canon.py");
     let out = Command::new(SYSTEM_PYTHON).arg(script).args(files).output().expect("run rs274_canon.py");
@@ -104,7 +104,7 @@ fn canon(files: &[PathBuf]) -> Vec<Value> {
     values
 }
 
-/// The words of a program outside comments contain a T word.
+/// The words of a program outside comments contain a T, D or H word (a tool table look-up).
 fn has_tool_word(text: &str) -> bool {
     text.lines().any(|l| {
         let mut depth = false;
@@ -113,7 +113,7 @@ fn has_tool_word(text: &str) -> bool {
                 ';' if !depth => break,
                 '(' => depth = true,
                 ')' => depth = false,
-                't' | 'T' if !depth => return true,
+                't' | 'T' | 'd' | 'D' | 'h' | 'H' if !depth => return true,
                 _ => {}
             }
         }

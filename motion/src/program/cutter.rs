@@ -8,9 +8,10 @@
 //!   spline interpolator carry out the compensation; here it is a stage before the planner).
 //! - Outside corners get an arc of the tool radius around the corner point, so the path stays
 //!   tangent-continuous; inside corners are trimmed at the intersection of the two offsets.
-//! - The move after G41/G42 (the entry move) goes from where the tool stands to the offset
-//!   point of the contour's first point; the move after G40 (the exit move) goes from the
-//!   offset point of the contour's last point to its programmed end, as LinuxCNC.
+//! - The move after G41/G42 (the entry move, a line) goes from where the tool stands to the
+//!   offset of its end point, and joins the contour at an ordinary corner; the move after G40
+//!   (the exit move) goes from the offset of the contour's last point to its programmed end,
+//!   as LinuxCNC.
 //! - A concave arc or spline section whose radius is not larger than the tool radius, or an
 //!   inside corner the tool cannot reach, is an error naming the block.
 //!
@@ -81,6 +82,10 @@ pub(crate) enum CutterErrorKind {
     InsideCorner { radius_mm: String },
     #[error("cutter compensation: the move after G41/G42 (the entry move) must be a straight line (G0/G1)")]
     EntryNotLine,
+    #[error(
+        "cutter compensation: the entry move ends where the tool stands: start it at least the tool radius away from the contour"
+    )]
+    EntryTooShort,
     #[error("cutter compensation: the move after G40 (the exit move) must be a straight line (G0/G1)")]
     ExitNotLine,
     #[error("cutter compensation: more than {MAX_HELD_MOVES} moves without motion in the compensation plane in a row")]
@@ -123,19 +128,12 @@ impl Piece {
     }
 }
 
-/// The last contour element's offset, not yet handed on.
-#[derive(Debug)]
-enum Tail {
-    /// The entry move from `start`; it ends at the offset of the contour's next point.
-    Entry { piece: Piece, start: AxisVec },
-    /// The offset of the contour element, whose end the next corner may trim.
-    Offset(Piece),
-}
-
 /// What is held back while compensation is on.
 #[derive(Debug)]
 struct Held {
-    tail: Tail,
+    /// The offset of the last contour element (or the entry move), whose end the next corner
+    /// may trim.
+    tail: Piece,
     /// The contour point where the tail's contour element ends, and its unit tangent there
     /// in the plane.
     corner: AxisVec,
@@ -268,15 +266,17 @@ impl Cutter {
                 let Geometry::Line(_) = piece.geometry else {
                     return Err(piece.error(CutterErrorKind::EntryNotLine));
                 };
+                // As LinuxCNC: the entry move starts where the tool stands and ends at the offset
+                // of its end point; the corner to the next element is an ordinary one.
                 let (a, b) = self.ends(&piece.geometry);
                 let tangent = self.end_tangent(&piece.geometry);
                 let start = self.plus(a, shift);
-                self.state = State::On(Box::new(Held {
-                    tail: Tail::Entry { piece, start },
-                    corner: b,
-                    tangent,
-                    moves: Vec::new(),
-                }));
+                let end = self.plus(b, self.normal(tangent));
+                let Some(g) = self.line(start, end) else {
+                    return Err(piece.error(CutterErrorKind::EntryTooShort));
+                };
+                let tail = Piece { geometry: g, ..piece };
+                self.state = State::On(Box::new(Held { tail, corner: b, tangent, moves: Vec::new() }));
                 Ok(())
             }
             State::On(held) => {
@@ -305,66 +305,44 @@ impl Cutter {
         let n2 = self.normal(t2);
         let (_, contour_end) = self.ends(&piece.geometry);
         let end_tangent = self.end_tangent(&piece.geometry);
-        match tail {
-            Tail::Entry { piece: entry, start } => {
-                // The entry move ends at the offset of the contour's first point.
-                let (_, end) = self.ends(&entry.geometry);
-                let end = self.plus(end, n2);
-                if let Some(g) = self.line(start, end) {
-                    self.out.push_back(Piece { geometry: g, ..entry });
-                }
-                self.hand_on_moves(moves, n2)?;
+        let last = tail;
+        let turn = cross(t1, t2).atan2(dot(t1, t2));
+        let outside = self.side.sign() * turn < 0.0;
+        if turn.abs() <= STRAIGHT_JOINT_RAD {
+            self.out.push_back(last);
+            self.hand_on_moves(moves, n1)?;
+        } else if outside {
+            self.out.push_back(last);
+            let at = self.hand_on_moves(moves, n1)?.unwrap_or(corner);
+            let a = self.plus(at, n1);
+            let b = self.plus(at, n2);
+            let arc = Helix::new(self.p, self.q, [at[self.p], at[self.q]], turn, a, b, &self.linear[..self.n_axes]);
+            if arc.length_mm() > MIN_PLANE_MOVE_MM {
+                // The corner arc comes after arriving at the corner: a dwell programmed
+                // for the next block happens before it.
+                let dwell = std::mem::take(&mut offsets[0].dwell_before_s);
+                self.out.push_back(Piece { geometry: Geometry::Helix(arc), dwell_before_s: dwell, ..piece.clone() });
             }
-            Tail::Offset(last) => {
-                let turn = cross(t1, t2).atan2(dot(t1, t2));
-                let outside = self.side.sign() * turn < 0.0;
-                if turn.abs() <= STRAIGHT_JOINT_RAD {
-                    self.out.push_back(last);
-                    self.hand_on_moves(moves, n1)?;
-                } else if outside {
-                    self.out.push_back(last);
-                    let at = self.hand_on_moves(moves, n1)?.unwrap_or(corner);
-                    let a = self.plus(at, n1);
-                    let b = self.plus(at, n2);
-                    let arc =
-                        Helix::new(self.p, self.q, [at[self.p], at[self.q]], turn, a, b, &self.linear[..self.n_axes]);
-                    if arc.length_mm() > MIN_PLANE_MOVE_MM {
-                        // The corner arc comes after arriving at the corner: a dwell programmed
-                        // for the next block happens before it.
-                        let dwell = std::mem::take(&mut offsets[0].dwell_before_s);
-                        self.out.push_back(Piece {
-                            geometry: Geometry::Helix(arc),
-                            dwell_before_s: dwell,
-                            ..piece.clone()
-                        });
-                    }
-                } else {
-                    let first = &offsets[0];
-                    let Some((s1, s2)) = intersect(&last.geometry, &first.geometry, self.p, self.q) else {
-                        return Err(
-                            piece.error(CutterErrorKind::InsideCorner { radius_mm: super::fmt_num(self.radius_mm) })
-                        );
-                    };
-                    let trimmed_last = trim(&last.geometry, 0.0, s1, &self.linear[..self.n_axes]);
-                    let trimmed_first =
-                        trim(&first.geometry, s2, first.geometry.length_mm(), &self.linear[..self.n_axes]);
-                    let (Some(g1), Some(g2)) = (trimmed_last, trimmed_first) else {
-                        return Err(
-                            piece.error(CutterErrorKind::InsideCorner { radius_mm: super::fmt_num(self.radius_mm) })
-                        );
-                    };
-                    let mut d = AxisDerivs::default();
-                    g1.eval(g1.length_mm(), &mut d);
-                    let shift = [d.pos[self.p] - corner[self.p], d.pos[self.q] - corner[self.q]];
-                    self.out.push_back(Piece { geometry: g1, ..last });
-                    self.hand_on_moves(moves, shift)?;
-                    offsets[0].geometry = g2;
-                }
-            }
+        } else {
+            let first = &offsets[0];
+            let Some((s1, s2)) = intersect(&last.geometry, &first.geometry, self.p, self.q) else {
+                return Err(piece.error(CutterErrorKind::InsideCorner { radius_mm: super::fmt_num(self.radius_mm) }));
+            };
+            let trimmed_last = trim(&last.geometry, 0.0, s1, &self.linear[..self.n_axes]);
+            let trimmed_first = trim(&first.geometry, s2, first.geometry.length_mm(), &self.linear[..self.n_axes]);
+            let (Some(g1), Some(g2)) = (trimmed_last, trimmed_first) else {
+                return Err(piece.error(CutterErrorKind::InsideCorner { radius_mm: super::fmt_num(self.radius_mm) }));
+            };
+            let mut d = AxisDerivs::default();
+            g1.eval(g1.length_mm(), &mut d);
+            let shift = [d.pos[self.p] - corner[self.p], d.pos[self.q] - corner[self.q]];
+            self.out.push_back(Piece { geometry: g1, ..last });
+            self.hand_on_moves(moves, shift)?;
+            offsets[0].geometry = g2;
         }
         let last = offsets.pop().expect("an offset has at least one piece");
         self.out.extend(offsets);
-        Ok(Held { tail: Tail::Offset(last), corner: contour_end, tangent: end_tangent, moves: Vec::new() })
+        Ok(Held { tail: last, corner: contour_end, tangent: end_tangent, moves: Vec::new() })
     }
 
     /// Hands on the held moves shifted by `shift` in the plane; returns where the last one
@@ -382,15 +360,7 @@ impl Cutter {
     /// Hands on the held tail untrimmed; returns the shift of the tool from the contour.
     fn release(&mut self, held: Held) -> [f64; 2] {
         let n1 = self.normal(held.tangent);
-        match held.tail {
-            Tail::Entry { piece, start } => {
-                let (_, end) = self.ends(&piece.geometry);
-                if let Some(g) = self.line(start, self.plus(end, n1)) {
-                    self.out.push_back(Piece { geometry: g, ..piece });
-                }
-            }
-            Tail::Offset(last) => self.out.push_back(last),
-        }
+        self.out.push_back(held.tail);
         for m in held.moves {
             // Held moves are lines (checked when offset), so shifting cannot fail.
             if let Ok(moved) = self.shifted(&m, n1) {

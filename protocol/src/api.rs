@@ -9,9 +9,11 @@
 
 pub mod params;
 pub mod status;
+pub mod tooling;
 
 pub use params::{JogMode, JogParams, LawParams, LoadParams, MdiParams, MoveToParams, OverrideParams};
 pub use status::{CycleStats, DriveStatus, ManualStatus, Percentiles, ProgramInfo, State, Status};
+pub use tooling::{Tool, ToolTable, WorkOffsets};
 
 use crate::jsonrpc::params::Params;
 use crate::jsonrpc::{ErrorObject, Notification};
@@ -63,10 +65,14 @@ pub enum Method {
     MotionJogStop,
     MotionMoveTo,
     Mdi,
+    ToolsGet,
+    ToolsSet,
+    OffsetsGet,
+    OffsetsSet,
 }
 
 impl Method {
-    pub const ALL: [Method; 13] = [
+    pub const ALL: [Method; 17] = [
         Method::ProgramLoad,
         Method::MotionStart,
         Method::MotionHold,
@@ -80,6 +86,10 @@ impl Method {
         Method::MotionJogStop,
         Method::MotionMoveTo,
         Method::Mdi,
+        Method::ToolsGet,
+        Method::ToolsSet,
+        Method::OffsetsGet,
+        Method::OffsetsSet,
     ];
 
     /// The wire name, e.g. `"motion.start"`.
@@ -98,6 +108,10 @@ impl Method {
             Method::MotionJogStop => "motion.jog_stop",
             Method::MotionMoveTo => "motion.move_to",
             Method::Mdi => "mdi",
+            Method::ToolsGet => "tools.get",
+            Method::ToolsSet => "tools.set",
+            Method::OffsetsGet => "offsets.get",
+            Method::OffsetsSet => "offsets.set",
         }
     }
 
@@ -153,6 +167,10 @@ pub enum Call {
     MotionJogStop,
     MotionMoveTo(MoveToParams),
     Mdi(MdiParams),
+    ToolsGet,
+    ToolsSet(ToolTable),
+    OffsetsGet,
+    OffsetsSet(WorkOffsets),
 }
 
 impl Call {
@@ -168,6 +186,10 @@ impl Call {
             Method::MotionJog => Call::MotionJog(JogParams::parse(params)?),
             Method::MotionMoveTo => Call::MotionMoveTo(MoveToParams::parse(params)?),
             Method::Mdi => Call::Mdi(MdiParams::parse(params)?),
+            Method::ToolsSet => Call::ToolsSet(ToolTable::parse(params)?),
+            Method::OffsetsSet => Call::OffsetsSet(WorkOffsets::parse(params)?),
+            Method::ToolsGet => params::none(m, params).map(|()| Call::ToolsGet)?,
+            Method::OffsetsGet => params::none(m, params).map(|()| Call::OffsetsGet)?,
             Method::MotionJogStop => params::none(m, params).map(|()| Call::MotionJogStop)?,
             Method::MotionStart => params::none(m, params).map(|()| Call::MotionStart)?,
             Method::MotionHold => params::none(m, params).map(|()| Call::MotionHold)?,
@@ -193,6 +215,10 @@ impl Call {
             Call::MotionJogStop => Method::MotionJogStop,
             Call::MotionMoveTo(_) => Method::MotionMoveTo,
             Call::Mdi(_) => Method::Mdi,
+            Call::ToolsGet => Method::ToolsGet,
+            Call::ToolsSet(_) => Method::ToolsSet,
+            Call::OffsetsGet => Method::OffsetsGet,
+            Call::OffsetsSet(_) => Method::OffsetsSet,
         }
     }
 }

@@ -15,7 +15,7 @@ use interpd_motion::path::MAX_AXES;
 use interpd_motion::program::{self, ModalState};
 use interpd_protocol::api::{
     Event, JogMode, JogParams, LawResult, ManualStatus, MdiParams, MdiResult, Method, MoveToParams, MoveToResult,
-    ProgramInfo, State, Status,
+    ProgramInfo, State, Status, ToolTable, WorkOffsets,
 };
 use interpd_protocol::shm::flags;
 use std::collections::BTreeMap;
@@ -146,6 +146,22 @@ impl ServiceCore {
 }
 
 impl Motion for ServiceCore {
+    fn tools(&self) -> ToolTable {
+        self.tool_table()
+    }
+
+    fn set_tools(&self, table: ToolTable) -> ToolTable {
+        self.set_tool_table(table)
+    }
+
+    fn offsets(&self) -> WorkOffsets {
+        self.work_offsets()
+    }
+
+    fn set_offsets(&self, offsets: WorkOffsets) -> Result<WorkOffsets, ManualError> {
+        self.set_work_offsets(offsets)
+    }
+
     fn load(&self, source: ProgramSource) -> Result<ProgramInfo, LoadError> {
         self.load_program(source)
     }
@@ -400,9 +416,10 @@ impl Motion for ServiceCore {
         let mut ctl = lock(&shared.control);
         ctl.check_manual(Method::Mdi, self.standing())?;
         let here = shared.live.load().pos;
-        let mut modal = ctl.mdi_modal.clone().unwrap_or_else(|| ModalState::new(&shared.settings, here));
+        let settings = shared.program_settings();
+        let mut modal = ctl.mdi_modal.clone().unwrap_or_else(|| ModalState::new(&settings, here));
         modal.set_position(here);
-        let parsed = program::parse_gcode_from(&params.line, NAME, &shared.settings, &mut modal)?;
+        let parsed = program::parse_gcode_from(&params.line, NAME, &settings, &mut modal)?;
         let prepared = interpd_motion::prep::prepare_path(&shared.settings, &parsed.path).map_err(ManualError::Prep)?;
         ctl.mdi_modal = Some(modal);
         let result = MdiResult { elements: prepared.path.elements.len() as u64, length_mm: prepared.path.length_mm() };

@@ -27,9 +27,11 @@ impl ServiceCore {
         if let Some(laws) = law_program_of(&source, &name)? {
             return self.load_laws(name, laws).map(|(info, _)| info);
         }
+        // The tool table and work offsets as set now (`tools.set`, `offsets.set`).
+        let settings = shared.program_settings();
         let parsed = match &source {
-            ProgramSource::File(p) => program::load(p, &shared.settings),
-            ProgramSource::Text { text, .. } => program::parse(text, &name, &shared.settings),
+            ProgramSource::File(p) => program::load(p, &settings),
+            ProgramSource::Text { text, .. } => program::parse(text, &name, &settings),
         };
         let prog = parsed?;
         // Tolerance-band smoothing (G64 P…) of the whole program, here in the control thread:
@@ -49,6 +51,9 @@ impl ServiceCore {
             elements: prepared.path.elements.len() as u64,
             length_mm: prepared.path.length_mm(),
             lines: prog.summary.lines,
+            tools: prog.summary.tools.iter().copied().collect(),
+            work_offsets: prog.summary.work_offsets.iter().map(|s| s.to_string()).collect(),
+            cutter_compensation: prog.summary.compensation,
         };
         let mut ctl = lock(&shared.control);
         // The state may have changed while the program was prepared.
@@ -71,6 +76,7 @@ impl ServiceCore {
             elements: laws.blocks.len() as u64,
             length_mm: path.length_mm(),
             lines: laws.blocks.last().map_or(0, |(n, _)| *n),
+            ..ProgramInfo::default()
         };
         let mut ctl = lock(&shared.control);
         ctl.check(Method::ProgramLoad)?;

@@ -25,6 +25,7 @@ pub mod programs;
 mod rt_loop;
 mod state;
 mod supervisor;
+mod tooling;
 
 pub use rt_loop::CycleStall;
 
@@ -123,9 +124,19 @@ struct Shared {
     drives: Option<Arc<dyn DriveMonitor>>,
     /// Where `program.load {"path"}` may read from.
     programs: programs::ProgramsDir,
+    /// The tool table and work offsets programs are read with: the machine file's, until
+    /// `tools.set` / `offsets.set` replace them.
+    tooling: Mutex<tooling::Tooling>,
 }
 
 impl Shared {
+    /// The settings a program is read with: the machine's, with the tool table and work
+    /// offsets in effect now.
+    fn program_settings(&self) -> Settings {
+        let t = lock(&self.tooling);
+        Settings { tools: t.tools.clone(), work_offsets: t.work_offsets.clone(), ..self.settings.clone() }
+    }
+
     /// Sends `event` to every subscriber without waiting: a full subscriber misses it, a gone
     /// one is forgotten.
     fn emit(&self, event: Event) {
@@ -193,6 +204,10 @@ impl Service {
             publish_errors: AtomicU64::new(0),
             drives,
             programs,
+            tooling: Mutex::new(tooling::Tooling {
+                tools: opts.config.tools.clone(),
+                work_offsets: opts.config.work_offsets.clone(),
+            }),
         });
         let thread_err = |what: &'static str| move |source| StartupError::Thread { what, source };
 

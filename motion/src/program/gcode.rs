@@ -75,10 +75,9 @@ pub(crate) struct Modal {
     blend: Blend,
     /// Machine position (work offset and tool length applied).
     pub(super) pos: AxisVec,
-    /// Active work coordinate system, 0 = G54 … 5 = G59.
+    /// Active work coordinate system, 0 = G54 … 5 = G59; its origin is read from the settings
+    /// at every target, so a changed offset applies to the next block.
     pub(super) work_system: usize,
-    /// Its origin per axis, from the machine configuration.
-    work_offset: AxisVec,
     /// Active tool length compensation: the tool (None for G43.1) and its length, mm.
     pub(super) tool_length: Option<(Option<u32>, f64)>,
 }
@@ -192,7 +191,6 @@ impl<'a> Interpreter<'a> {
             blend,
             pos,
             work_system: 0,
-            work_offset: settings.work_offsets.vector(0, &settings.axes),
             tool_length: None,
         }
     }
@@ -594,7 +592,6 @@ impl<'a> Interpreter<'a> {
                 return false;
             }
             self.modal.work_system = sys;
-            self.modal.work_offset = self.settings.work_offsets.vector(sys, &self.settings.axes);
             self.summary.work_offsets.insert(interpd_config::WORK_SYSTEMS[sys]);
         }
         true
@@ -607,7 +604,8 @@ impl<'a> Interpreter<'a> {
             Some((_, l)) if self.settings.axes[k].name == AxisLetter::Z => l,
             _ => 0.0,
         };
-        self.modal.work_offset[k] + tool
+        let work = self.settings.work_offsets.systems()[self.modal.work_system];
+        work.get(&self.settings.axes[k].name.to_string()).copied().unwrap_or(0.0) + tool
     }
 
     fn read_g_words(&self, block: &Block, d: &mut Diagnostics) -> Option<GWords> {

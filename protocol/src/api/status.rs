@@ -87,6 +87,12 @@ pub struct ProgramInfo {
     pub length_mm: f64,
     /// Source lines.
     pub lines: u32,
+    /// Tools of the tool table the program uses (G43 H, G41/G42 D).
+    pub tools: Vec<u32>,
+    /// Work coordinate systems the program selects (G54 … G59; a program starts in G54).
+    pub work_offsets: Vec<String>,
+    /// The program compensates the cutter radius (G41/G42): its path is the tool centre's.
+    pub cutter_compensation: bool,
 }
 
 /// One CAN drive as the master sees it (`status.drives`). Members the master has not received

@@ -67,6 +67,16 @@ fn tools_and_offsets_are_read_and_set_and_programs_use_them() {
     let st = c.wait_state(&["idle", "finished"], TIMEOUT);
     let pos: Vec<f64> = st["position"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
     assert!((pos[0] - 11.0).abs() < 1e-9 && (pos[1] + 3.0).abs() < 1e-9, "{st}");
+
+    // A loaded program runs with the offsets it was loaded with, whatever is set after.
+    let info = c.ok("program.load", json!({"text": "G55 G0 X1 Y2\nG0 X2\n", "name": "g55"}));
+    assert_eq!(info["work_offsets"], json!(["G55"]), "{info}");
+    c.ok("offsets.set", json!({"offsets": {"G55": {"X": 500.0}}}));
+    c.ok("motion.start", Value::Null);
+    let st = c.wait_state(&["finished", "error"], TIMEOUT);
+    assert_eq!(st["state"], "finished", "{st}");
+    let pos: Vec<f64> = st["position"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    assert!((pos[0] - 12.0).abs() < 1e-9 && (pos[1] + 3.0).abs() < 1e-9, "{st}");
     let (code, stderr) = daemon.terminate();
     assert_eq!(code, Some(0), "stderr:\n{stderr}");
 }

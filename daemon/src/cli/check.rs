@@ -13,19 +13,24 @@ pub fn run(program_path: &Path, machine: Option<&Path>) -> Result<(), CliError> 
     let config = Config::load_or_default(machine)?;
     let settings = Settings::from_config(&config);
     let t0 = Instant::now();
-    if let Ok(text) = std::fs::read_to_string(program_path) {
-        let name = program_path.display().to_string();
-        if let Some(laws) = parse_law_program(&text, &name).map_err(|e| CliError::BadInput(e.to_string()))? {
-            return check_laws(&settings, &laws, &name, t0);
+    // A law program is read whole; G-code and tables are checked in one streaming pass.
+    let has_laws = std::fs::File::open(program_path)
+        .is_ok_and(|f| interpd::service::law_run::has_law_statement(std::io::BufReader::new(f)));
+    if has_laws {
+        if let Ok(text) = std::fs::read_to_string(program_path) {
+            let name = program_path.display().to_string();
+            if let Some(laws) = parse_law_program(&text, &name).map_err(|e| CliError::BadInput(e.to_string()))? {
+                return check_laws(&settings, &laws, &name, t0);
+            }
         }
     }
-    let program = program::load(program_path, &settings)?;
+    let checked = program::check(program_path, &settings)?;
     let elapsed = t0.elapsed();
-    let s = &program.summary;
+    let s = &checked.summary;
     let kinds: Vec<String> =
         s.kinds.iter().map(|(k, n)| format!("{n} {k}{}", if *n == 1 { "" } else { "s" })).collect();
     let elements: usize = s.kinds.values().sum();
-    let corners = program.path.elements.iter().filter(|e| e.joint == interpd_motion::path::JointKind::Corner).count();
+    let corners = checked.corners;
     let mut extra = String::new();
     if s.zero_length_moves > 0 {
         extra += &format!(", {} zero-length moves dropped", s.zero_length_moves);
@@ -63,7 +68,7 @@ pub fn run(program_path: &Path, machine: Option<&Path>) -> Result<(), CliError> 
         "{}: ok: {elements} elements ({}), length {:.3} mm, {corners} corners, axes {}{extra}, parsed in {:.1} ms",
         program_path.display(),
         if kinds.is_empty() { "none".to_string() } else { kinds.join(", ") },
-        program.path.length_mm(),
+        checked.length_mm,
         config.axis_names().join(" "),
         elapsed.as_secs_f64() * 1e3
     );

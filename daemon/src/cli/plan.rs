@@ -7,9 +7,10 @@ use interpd::config::Config;
 use interpd_motion::Settings;
 use interpd_motion::path::{AxisDerivs, Path};
 use interpd_motion::planner::export::{NodeExport, NodeGeom};
-use interpd_motion::planner::profile::{Cursor, duration_s};
+use interpd_motion::planner::profile::{Cursor, Sample, duration_s};
 use interpd_motion::planner::{Planner, Segment};
-use interpd_motion::program;
+use interpd_motion::prep::Prep;
+use interpd_motion::program::{self, ProgramStream};
 use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -73,21 +74,14 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
         None => config.cycle_s(),
     };
     let settings = Settings::from_config(&config);
-    let program = program::load(&args.program, &settings)?;
-    // G64 runs are smoothed within their tolerance before planning (Haas 2012; docs/smoothing.md).
-    let prepared =
-        interpd_motion::prep::prepare_path(&settings, &program.path).map_err(|e| CliError::Failure(e.to_string()))?;
-    let path = &prepared.path;
-    if path.elements.is_empty() {
+    // One streaming pass for the program's errors, then a second that reads, smooths, plans and
+    // samples it as it goes: memory grows with the look-ahead, not with the program.
+    let checked = program::check(&args.program, &settings)?;
+    if checked.elements == 0 {
         return Err(CliError::BadInput(format!("{}: the program has no motion", args.program.display())));
     }
+    let mut pipe = Pipeline::open(&args.program, &settings, args.export_nodes.is_some())?;
 
-    let t0 = Instant::now();
-    let (segments, planner, longest_call_s) = plan_online(&settings, path)?;
-    let plan_s = t0.elapsed().as_secs_f64();
-    let stats = planner.stats;
-
-    let duration = duration_s(&segments);
     let mut out: Option<BufWriter<std::fs::File>> = match &args.out {
         Some(p) => Some(BufWriter::new(
             std::fs::File::create(p).map_err(|e| CliError::Failure(format!("{}: cannot create: {e}", p.display())))?,
@@ -95,51 +89,57 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
         None => None,
     };
     let write_err = |e: std::io::Error| CliError::Failure(format!("cannot write output: {e}"));
+    let axis_names = settings.axis_names();
     if let Some(w) = out.as_mut() {
         write!(w, "t,s,v,a,j").map_err(write_err)?;
-        for name in &path.axis_names {
+        for name in &axis_names {
             write!(w, ",{name}").map_err(write_err)?;
         }
         if args.plant.is_none() {
             writeln!(w).map_err(write_err)?;
         }
     }
-    let lim = planner.limits();
-    let n = path.n_axes;
-    if let Some(p) = &args.export_nodes {
-        export_nodes(p, &settings, path, &segments)?;
-    }
+    let lim = pipe.planner.limits().clone();
+    let n = settings.axes.len();
     let mut ratios = Ratios::default();
-    let mut cursor = Cursor::default();
     let mut d = AxisDerivs::default();
-    let samples_f = (duration / period_s).ceil() + 1.0;
-    if samples_f.is_nan() || samples_f > MAX_SAMPLES as f64 {
-        return Err(CliError::BadInput(format!(
-            "{}: the planned motion lasts {duration:.6e} s, {samples_f:.3e} samples at {} ms (at most {MAX_SAMPLES}); \
-             is the feed (F, mm/min) or an axis limit far too low?",
-            args.program.display(),
-            period_s * 1e3
-        )));
-    }
-    let samples = samples_f as u64;
     let mut plant = match &args.plant {
-        Some(choice) => Some(PlantRun::new(&config, choice, period_s, samples)?),
+        Some(choice) => Some(PlantRun::new(&config, choice, period_s)?),
         None => None,
     };
     if let (Some(w), Some(p)) = (out.as_mut(), plant.as_ref()) {
         p.write_header(w).map_err(write_err)?;
     }
-    for k in 0..samples {
+    let mut samples = 0u64;
+    loop {
         // Uniform time steps, also past the end (the machine rests there), so finite
         // differences of the output are exact in their spacing.
-        let t = k as f64 * period_s;
-        let Some(sample) = cursor.sample(&segments, t) else { break };
+        let t = samples as f64 * period_s;
+        // Sample only what is planned for good: up to the end of the planned segments, or
+        // past it once the program is planned to its end.
+        while !pipe.finished() && pipe.planned_until_s() <= t {
+            pipe.advance()?;
+        }
+        if pipe.finished() && samples as f64 >= (pipe.planned_until_s() / period_s).ceil() + 1.0 {
+            break;
+        }
+        if samples >= MAX_SAMPLES {
+            return Err(CliError::BadInput(format!(
+                "{}: the planned motion lasts more than {MAX_SAMPLES} samples at {} ms ({:.3e} s); is the feed \
+                 (F, mm/min) or an axis limit far too low?",
+                args.program.display(),
+                period_s * 1e3,
+                MAX_SAMPLES as f64 * period_s
+            )));
+        }
+        let Some(sample) = pipe.sample(t) else { break };
+        samples += 1;
         let st = sample.state;
         // The geometry on the segment's side of a joint (they differ only at corners).
         if sample.at_start {
-            path.eval(st.s_mm, &mut d)
+            pipe.path.eval(st.s_mm, &mut d)
         } else {
-            path.eval_left(st.s_mm, &mut d)
+            pipe.path.eval_left(st.s_mm, &mut d)
         }
         for i in 0..n {
             let vel = d.d1[i] * st.v;
@@ -165,6 +165,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             }
             writeln!(w).map_err(write_err)?;
         }
+        pipe.release_before(t);
     }
     if let Some(mut w) = out {
         w.flush().map_err(write_err)?;
@@ -172,8 +173,20 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
     if let Some(p) = plant.as_mut() {
         p.settle()?;
     }
+    let duration = pipe.planned_until_s();
+    if let Some(p) = &args.export_nodes {
+        export_nodes(p, &settings, &pipe.path, &pipe.kept)?;
+    }
     if !ratios.vel.is_finite() || !ratios.acc.is_finite() || !ratios.jerk.is_finite() || !duration.is_finite() {
         return Err(CliError::Failure("internal error: the planned motion is not finite".into()));
+    }
+    let stats = pipe.planner.stats;
+    let plan_s = pipe.plan_s;
+    let length_mm = pipe.path.length_mm();
+    let mut prep_stats = pipe.prep.stats;
+    if prep_stats.pieces == 0 {
+        // Nothing was smoothed, so no sample was checked against the tolerance.
+        prep_stats.max_excess_mm = 0.0;
     }
 
     let mut stdout = std::io::stdout().lock();
@@ -183,14 +196,15 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             "program": args.program.display().to_string(),
             "duration_s": duration,
             "plan_ms": plan_s * 1e3,
-            "plan_call_max_ms": longest_call_s * 1e3,
+            "plan_call_max_ms": pipe.plan_call_max_s * 1e3,
+            "step_max_ms": pipe.step_max_s * 1e3,
             "samples": samples,
             "period_ms": period_s * 1e3,
-            "axes": path.axis_names,
+            "axes": axis_names,
             "max_ratio": { "vel": ratios.vel, "acc": ratios.acc, "jerk": ratios.jerk },
-            "length_mm": path.length_mm(),
+            "length_mm": length_mm,
             "nodes": stats.nodes,
-            "segments": segments.len(),
+            "segments": pipe.segments,
             "nodes_per_s": stats.nodes as f64 / plan_s.max(1e-12),
             "evals_per_node": evals_per_node,
             "joins": stats.work.joins,
@@ -212,7 +226,8 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
                 "seed_skipped": stats.work.flat_skipped,
             },
             "lookahead_mm": config.planner.lookahead_mm,
-            "prep": { "wall_ms": prepared.wall_s * 1e3, "stats": prepared.stats },
+            "prep": { "wall_ms": pipe.prep_s * 1e3, "stats": prep_stats },
+            "programmed": { "lines": checked.summary.lines, "elements": checked.elements, "length_mm": checked.length_mm },
         });
         // The plant figures only when a plant ran (no null members in the output).
         let mut json = json;
@@ -227,7 +242,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
              max |value|/limit: vel {:.4}, acc {:.4}, jerk {:.4}{}",
             args.program.display(),
             duration,
-            path.length_mm(),
+            length_mm,
             plan_s * 1e3,
             stats.nodes,
             evals_per_node,
@@ -258,13 +273,14 @@ struct PlantRun {
 }
 
 impl PlantRun {
-    fn new(config: &Config, choice: &str, period_s: f64, samples: u64) -> Result<Self, CliError> {
+    fn new(config: &Config, choice: &str, period_s: f64) -> Result<Self, CliError> {
         let plant_config = config.plant.select(choice, &config.axes, "--plant")?;
         let resolved = plant_config.resolve(&config.axes, "--plant")?;
         let plant =
             sim_plant::Plant::new(&resolved, &plant_config).map_err(|e| CliError::BadInput(format!("--plant: {e}")))?;
-        let settle_rows = (PLANT_SETTLE_S / period_s).ceil() as u64;
-        let metrics = sim_plant::metrics::Metrics::new(&plant, (samples + settle_rows).min(1 << 24) as usize);
+        // The recording keeps the last `[plant] record_s` (the summary's residual vibration
+        // needs only the settling after the end); the maxima run over everything.
+        let metrics = sim_plant::metrics::Metrics::new(&plant, (config.plant.record_s / period_s).ceil() as usize);
         let targets = vec![sim_plant::AxisTarget::default(); plant.n_axes()];
         Ok(Self { plant, metrics, targets, period_s, names: config.axis_names() })
     }
@@ -324,30 +340,128 @@ impl PlantRun {
     }
 }
 
-/// Plans the path the way the daemon does: elements pushed one by one, planned online. Also
-/// returns the longest single `plan()` call, s: the look-ahead thread's worst step, which the
-/// motion already buffered must outlast.
-fn plan_online(settings: &Settings, path: &Path) -> Result<(Vec<Segment>, Planner, f64), CliError> {
-    let mut planner = Planner::new(settings);
-    let mut segments = Vec::new();
-    let mut longest_call_s = 0.0f64;
-    let bad = |e: interpd_motion::planner::PlanError| CliError::BadInput(e.to_string());
-    let mut plan = |planner: &mut Planner, segments: &mut Vec<Segment>| -> Result<(), CliError> {
+/// The look-ahead thread's work, done in line: the program read as a stream, smoothed (G64)
+/// and planned element by element. The planned segments and the path they run on are kept only
+/// until the samples have passed them (all of them for `--export-nodes`).
+struct Pipeline {
+    stream: ProgramStream,
+    prep: Prep,
+    planner: Planner,
+    /// The smoothed path from the segment being sampled to the newest element planned.
+    path: Path,
+    /// Planned segments from the one being sampled on.
+    kept: Vec<Segment>,
+    keep_all: bool,
+    cursor: Cursor,
+    input_done: bool,
+    planned_until_s: f64,
+    /// Segments planned in all.
+    segments: u64,
+    /// Wall time in the smoothing stage and in the planner, s.
+    prep_s: f64,
+    plan_s: f64,
+    /// The longest single `Planner::plan` call, s.
+    plan_call_max_s: f64,
+    /// The longest step of one element read, smoothed and planned, s: what the motion already
+    /// buffered must outlast in the daemon's look-ahead thread.
+    step_max_s: f64,
+}
+
+/// Segments sampled past are dropped in batches of at least this many (each drop moves the
+/// rest of the kept list).
+const RELEASE_BATCH: usize = 64;
+
+impl Pipeline {
+    fn open(program: &std::path::Path, settings: &Settings, keep_all: bool) -> Result<Self, CliError> {
+        let stream = ProgramStream::open(program, settings)?;
+        let path = Path::new(stream.axis_names().to_vec(), stream.start());
+        Ok(Self {
+            stream,
+            prep: Prep::new(settings),
+            planner: Planner::new(settings),
+            path,
+            kept: Vec::new(),
+            keep_all,
+            cursor: Cursor::default(),
+            input_done: false,
+            planned_until_s: 0.0,
+            segments: 0,
+            prep_s: 0.0,
+            plan_s: 0.0,
+            plan_call_max_s: 0.0,
+            step_max_s: 0.0,
+        })
+    }
+
+    /// The whole program is planned.
+    fn finished(&self) -> bool {
+        self.input_done && self.planner.done()
+    }
+
+    /// End time of the planned motion so far, s.
+    fn planned_until_s(&self) -> f64 {
+        self.planned_until_s
+    }
+
+    /// One step of the look-ahead: the next element through the smoothing stage and the
+    /// planner (or, at the end of the program, the last plan).
+    fn advance(&mut self) -> Result<(), CliError> {
         let t0 = Instant::now();
-        segments.extend(planner.plan().map_err(bad)?);
-        longest_call_s = longest_call_s.max(t0.elapsed().as_secs_f64());
+        if !self.input_done {
+            let prep_err = |e: interpd_motion::prep::PrepError| CliError::Failure(e.to_string());
+            match self.stream.next_element()? {
+                Some(e) => self.prep.push(e).map_err(prep_err)?,
+                None => {
+                    self.prep.finish().map_err(prep_err)?;
+                    self.input_done = true;
+                }
+            }
+            self.prep_s += t0.elapsed().as_secs_f64();
+            while let Some(e) = self.prep.pop() {
+                self.path.push_element(e.clone());
+                self.planner.push(e);
+            }
+            if self.input_done {
+                let dwell_s = self.stream.final_dwell_s().unwrap_or(0.0);
+                self.path.final_dwell_s = dwell_s;
+                self.planner.finish(dwell_s);
+            }
+        }
+        let t1 = Instant::now();
+        let new = self.planner.plan().map_err(|e| CliError::BadInput(e.to_string()))?;
+        let call_s = t1.elapsed().as_secs_f64();
+        self.plan_s += call_s;
+        self.plan_call_max_s = self.plan_call_max_s.max(call_s);
+        self.step_max_s = self.step_max_s.max(t0.elapsed().as_secs_f64());
+        if let Some(last) = new.last() {
+            self.planned_until_s = last.t1_s();
+        }
+        self.segments += new.len() as u64;
+        self.kept.extend(new);
+        if self.input_done && !self.planner.done() {
+            return Err(CliError::Failure("internal error: the planner did not finish the program".into()));
+        }
         Ok(())
-    };
-    for e in &path.elements {
-        planner.push(e.clone());
-        plan(&mut planner, &mut segments)?;
     }
-    planner.finish(path.final_dwell_s);
-    plan(&mut planner, &mut segments)?;
-    if !planner.done() {
-        return Err(CliError::Failure("internal error: the planner did not finish the program".into()));
+
+    /// The planned state at time `t`.
+    fn sample(&mut self, t: f64) -> Option<Sample> {
+        self.cursor.sample(&self.kept, t)
     }
-    Ok((segments, planner, longest_call_s))
+
+    /// Drops the segments that end before `t` and the path behind them.
+    fn release_before(&mut self, t: f64) {
+        if self.keep_all {
+            return;
+        }
+        let k = self.kept.partition_point(|s| s.t1_s() < t).min(self.kept.len().saturating_sub(1));
+        if k < RELEASE_BATCH {
+            return;
+        }
+        self.kept.drain(..k);
+        self.cursor = Cursor::default();
+        self.path.trim_before(self.kept[0].s0_mm);
+    }
 }
 
 /// The planning problem and our solution at the nodes, as JSON (read by benches/reference/optimum.py; docs/planner.md).

@@ -232,9 +232,7 @@ impl From<LoadError> for ErrorObject {
     fn from(e: LoadError) -> ErrorObject {
         match e {
             LoadError::NotAllowed(e) => e.into(),
-            LoadError::Program(_) | LoadError::Laws(_) | LoadError::Prep { .. } => {
-                ErrorObject::new(codes::BAD_PROGRAM, e.to_string())
-            }
+            LoadError::Program(_) | LoadError::Laws(_) => ErrorObject::new(codes::BAD_PROGRAM, e.to_string()),
             LoadError::Path(e) => ErrorObject::invalid_params("program.load", Some("path"), &e.to_string()),
         }
     }

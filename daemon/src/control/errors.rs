@@ -30,9 +30,6 @@ pub enum LoadError {
     /// machine stands (−32001).
     #[error("bad program: {0}")]
     Laws(#[from] LawProgramError),
-    /// The tolerance-band smoothing of the program's G64 runs failed (−32001).
-    #[error("bad program: {program}: {error}")]
-    Prep { program: String, error: PrepError },
     /// The path lies outside the programs directory (−32602, `data.param` "path").
     #[error("invalid params for program.load: {0}")]
     Path(#[from] ProgramPathError),

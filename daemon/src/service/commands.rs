@@ -3,10 +3,10 @@
 //! (hold, stop) and commands to the planner thread. None waits for the motion: its effect shows
 //! in `status` and the events.
 
-use super::approach;
 use super::feeder::{self, FeederCommand, QUEUE_CHUNKS};
 use super::law_run;
 use super::manual::{ManualGoal, ManualPart, ManualPlanError};
+use super::path_feed::PathSource;
 use super::state::{Control, Loaded, OVERRIDE_HOLD_BELOW, RunKind};
 use super::{SUBSCRIBER_CAPACITY, ServiceCore, lock};
 use crate::control::{LawError, LoadError, ManualError, Motion, NotAllowed, ProgramSource, ResumeError, StartError};
@@ -190,11 +190,13 @@ impl Motion for ServiceCore {
         let here = shared.live.load().pos;
         // Law moves are made (and checked against the limits) from where the machine stands.
         let motion = match &loaded {
-            Loaded::Path(path) => (approach::with_approach(path, &here, &shared.config), None),
+            Loaded::Program(text, tooling) => {
+                (PathSource::Program { text: text.clone(), here, tooling: tooling.clone() }, None)
+            }
             Loaded::Laws(prog) => {
                 let moves = prog.moves(&shared.settings, &here, &info.name)?;
                 let (path, laws) = law_run::law_path(&shared.settings, moves, here, &prog.lines());
-                (path, Some(Box::new(laws)))
+                (PathSource::Whole(Arc::new(path)), Some(Box::new(laws)))
             }
         };
         let epoch = ctl.begin_run();
@@ -202,8 +204,8 @@ impl Motion for ServiceCore {
         shared.stop.store(false, Ordering::SeqCst);
         let feed_override = ctl.planned_override();
         let command = match motion {
-            (path, Some(laws)) => FeederCommand::StartLaws { path: Arc::new(path), laws, epoch, feed_override },
-            (path, None) => FeederCommand::Start { path: Arc::new(path), epoch, feed_override, suspend: false },
+            (PathSource::Whole(path), Some(laws)) => FeederCommand::StartLaws { path, laws, epoch, feed_override },
+            (source, _) => FeederCommand::Start { source, epoch, feed_override, suspend: false },
         };
         shared.feeder.send(command).map_err(|_| StartError::PlannerGone)
     }
@@ -439,7 +441,8 @@ impl Motion for ServiceCore {
         shared.hold.store(false, Ordering::SeqCst);
         shared.stop.store(false, Ordering::SeqCst);
         let feed_override = ctl.planned_override();
-        let command = FeederCommand::Start { path: Arc::new(prepared.path), epoch, feed_override, suspend };
+        let command =
+            FeederCommand::Start { source: PathSource::Whole(Arc::new(prepared.path)), epoch, feed_override, suspend };
         shared.feeder.send(command).map_err(|_| ManualError::PlannerGone)?;
         Ok(result)
     }

@@ -8,6 +8,7 @@
 use super::law_run::LawPart;
 use super::manual::{ManualGoal, ManualPart, ManualPlanError};
 use super::otg_motion::AxisLimits;
+use super::path_feed::{FeedError, PathFeed, PathSource};
 use crate::interp::coarse::{CoarseBuilder, CoarsePoint, split};
 use crate::interp::{Chunk, DivertCause, Epoch};
 use crossbeam::channel::{Receiver, Sender};
@@ -40,9 +41,9 @@ const IDLE_WAIT: Duration = Duration::from_millis(2);
 /// Commands to the planner thread.
 #[derive(Debug, Clone)]
 pub enum FeederCommand {
-    /// Plan and queue `path` from its start, at rest, as epoch `epoch`.
+    /// Plan and queue the path of `source` from its start, at rest, as epoch `epoch`.
     Start {
-        path: Arc<Path>,
+        source: PathSource,
         epoch: Epoch,
         feed_override: f64,
         /// Keep the held program to resume it later (an MDI from a hold) instead of dropping it.
@@ -146,16 +147,23 @@ enum Wait {
 
 /// One program being planned and queued.
 struct Run {
-    /// The program as loaded (geometry for coarse points, suffixes for replanning).
-    path: Arc<Path>,
+    /// The program's path from a little behind the machine to the planner's horizon (geometry
+    /// for coarse points, stops and replans).
+    feed: PathFeed,
     feed_override: f64,
     epoch: Epoch,
     seq: u64,
     planner: Planner,
-    /// The path the planner is fed (a suffix of `path` with scaled feeds).
-    plan_path: Path,
-    next_element: usize,
+    /// Where the planner's path starts (the run's start, or the queue end after an override
+    /// change): the element containing it is cut there.
+    plan_from_s_mm: f64,
+    /// Index (in the whole path) of the next element for the planner; `None` until the
+    /// element at `plan_from_s_mm` is found.
+    next_element: Option<usize>,
     finished_input: bool,
+    /// Start positions of the chunks of this run the real-time thread gave back, newest last:
+    /// the path behind the oldest of them is no longer needed (see [`Run::reclaimed`]).
+    reclaimed_s: VecDeque<f64>,
     /// Planned segments not yet queued.
     buffer: VecDeque<Segment>,
     /// The last queued point (start of the next chunk).
@@ -279,19 +287,27 @@ impl Feeder {
     /// Carries out one command (the thread's loop calls this; tests drive it directly).
     pub fn command(&mut self, cmd: FeederCommand) {
         match cmd {
-            FeederCommand::Start { path, epoch, feed_override, suspend } => {
+            FeederCommand::Start { source, epoch, feed_override, suspend } => {
                 self.replace_run(suspend);
-                let start =
-                    CoarsePoint::at_rest(0.0, 0.0, path.elements.first().map_or(0, |e| e.source.line), path.start);
-                self.run = Some(Run::new(&self.settings, path, feed_override, epoch, 0.0, start));
+                let opened = PathFeed::open(source, &self.settings).and_then(|mut feed| {
+                    let line = feed.element(0)?.map_or(0, |e| e.source.line);
+                    Ok((feed, line))
+                });
+                match opened {
+                    Ok((feed, line)) => {
+                        let start = CoarsePoint::at_rest(0.0, 0.0, line, feed.path().start);
+                        self.run = Some(Run::new(&self.settings, feed, feed_override, epoch, 0.0, start));
+                    }
+                    Err(e) => self.failed(&e),
+                }
             }
             FeederCommand::StartManual { goal, here, epoch, feed_override, suspend } => {
                 self.replace_run(suspend);
                 match ManualPart::new(goal, here, &self.axis_limits, feed_override, None) {
                     Ok(part) => {
-                        let path = Arc::new(Path::new(self.settings.axis_names(), here));
+                        let feed = PathFeed::empty(&self.settings, here);
                         let start = CoarsePoint::at_rest(0.0, 0.0, 0, here);
-                        let mut run = Run::new(&self.settings, path, feed_override, epoch, 0.0, start);
+                        let mut run = Run::new(&self.settings, feed, feed_override, epoch, 0.0, start);
                         run.manual = Some(part);
                         self.run = Some(run);
                     }
@@ -313,7 +329,7 @@ impl Feeder {
                 self.abort();
                 let start =
                     CoarsePoint::at_rest(0.0, 0.0, path.elements.first().map_or(0, |e| e.source.line), path.start);
-                let mut run = Run::new(&self.settings, path, feed_override, epoch, 0.0, start);
+                let mut run = Run::new(&self.settings, PathFeed::whole(&path), feed_override, epoch, 0.0, start);
                 run.law = Some(*laws);
                 self.run = Some(run);
             }
@@ -399,8 +415,14 @@ impl Feeder {
     /// A manual motion cannot be planned: reported as a planning failure, nothing more is
     /// queued (the queued motion ends with its stop tail).
     fn manual_failed(&mut self, e: &ManualPlanError) {
-        tracing::error!("manual motion: {e}");
-        let _ = self.reports.send(FeederReport::Error(format!("manual motion: {e}")));
+        self.failed(&format!("manual motion: {e}"));
+    }
+
+    /// The run cannot go on: reported, nothing more is queued (the queued motion ends with its
+    /// stop tail).
+    fn failed(&mut self, e: &dyn std::fmt::Display) {
+        tracing::error!("{e}");
+        let _ = self.reports.send(FeederReport::Error(e.to_string()));
         self.abort();
     }
 
@@ -415,12 +437,12 @@ impl Feeder {
         if let Some(mut run) = self.run.take() {
             self.pool.append(&mut run.staged);
         }
-        match self.return_run(held.path.clone(), held.feed_override, epoch, s_mm, here) {
+        match self.return_run(held.feed, held.feed_override, epoch, s_mm, here) {
             Ok(run) => {
                 self.stats.replans += 1;
                 self.run = Some(run);
             }
-            Err(e) => self.manual_failed(&e),
+            Err(e) => self.failed(&e),
         }
     }
 
@@ -428,19 +450,17 @@ impl Feeder {
     /// there when the machine stands elsewhere.
     fn return_run(
         &self,
-        path: Arc<Path>,
+        mut feed: PathFeed,
         feed_override: f64,
         epoch: Epoch,
         s_mm: f64,
         here: AxisVec,
-    ) -> Result<Run, ManualPlanError> {
-        let mut at = interpd_motion::path::AxisDerivs::default();
-        path.eval(s_mm, &mut at);
-        let line = path.elements.get(path.element_index_at(s_mm)).map_or(0, |e| e.source.line);
+    ) -> Result<Run, ReturnError> {
+        let (at, line) = feed.eval(s_mm)?;
         let n = self.axis_limits.len();
         let away = (0..n).any(|k| (here[k] - at.pos[k]).abs() > super::approach::AT_START_TOL);
         let start = CoarsePoint::at_rest(0.0, s_mm, line, if away { here } else { at.pos });
-        let mut run = Run::new(&self.settings, path, feed_override, epoch, s_mm, start);
+        let mut run = Run::new(&self.settings, feed, feed_override, epoch, s_mm, start);
         if away {
             let mut target = [None; interpd_motion::path::MAX_AXES];
             for (t, p) in target.iter_mut().zip(at.pos).take(n) {
@@ -455,24 +475,24 @@ impl Feeder {
     /// Replans the rest of the program from rest at `s_mm`, as the run's current epoch; a
     /// manual motion continues its goal from rest where the tail of chunk `seq` ended.
     fn restart_at_rest(&mut self, seq: u64, s_mm: f64) {
-        let Some(old) = self.run.take() else { return };
-        if let Some(part) = &old.manual {
+        let Some(mut old) = self.run.take() else { return };
+        if let Some(part) = old.manual.take() {
             let here = part.tail_end(seq).unwrap_or(old.end.pos);
             self.stats.replans += 1;
             if part.is_return() {
-                match self.return_run(old.path.clone(), old.feed_override, old.epoch, old.s_start_mm, here) {
+                match self.return_run(old.feed, old.feed_override, old.epoch, old.s_start_mm, here) {
                     Ok(mut run) => {
                         run.queued_s = old.queued_s;
                         self.run = Some(run);
                     }
-                    Err(e) => self.manual_failed(&e),
+                    Err(e) => self.failed(&e),
                 }
                 return;
             }
             match part.restarted(here) {
                 Ok(part) => {
                     let start = CoarsePoint::at_rest(0.0, old.end.s_mm, 0, here);
-                    let mut run = Run::new(&self.settings, old.path, old.feed_override, old.epoch, 0.0, start);
+                    let mut run = Run::new(&self.settings, old.feed, old.feed_override, old.epoch, 0.0, start);
                     run.manual = Some(part);
                     run.queued_s = old.queued_s;
                     self.run = Some(run);
@@ -481,11 +501,12 @@ impl Feeder {
             }
             return;
         }
-        let mut pos = interpd_motion::path::AxisDerivs::default();
-        old.path.eval(s_mm, &mut pos);
-        let line = old.path.elements.get(old.path.element_index_at(s_mm)).map_or(0, |e| e.source.line);
+        let (pos, line) = match old.feed.eval(s_mm) {
+            Ok(at) => at,
+            Err(e) => return self.failed(&e),
+        };
         let start = CoarsePoint::at_rest(0.0, s_mm, line, pos.pos);
-        let mut run = Run::new(&self.settings, old.path, old.feed_override, old.epoch, s_mm, start);
+        let mut run = Run::new(&self.settings, old.feed, old.feed_override, old.epoch, s_mm, start);
         run.queued_s = old.queued_s;
         self.stats.replans += 1;
         self.run = Some(run);
@@ -516,8 +537,8 @@ impl Feeder {
             Planner::new(&self.settings)
         };
         run.planner = planner;
-        run.plan_path = scaled(&run.path.suffix_from(end.s_mm), factor);
-        run.next_element = 0;
+        run.plan_from_s_mm = end.s_mm;
+        run.next_element = None;
         run.finished_input = false;
         run.buffer.clear();
     }
@@ -525,6 +546,9 @@ impl Feeder {
     /// Returns recycled chunks to the pool.
     pub fn reclaim(&mut self) {
         while let Some(mut chunk) = self.queues.recycle.pop() {
+            if let (Some(run), Some(first)) = (self.run.as_mut(), chunk.points.first()) {
+                run.reclaimed(chunk.epoch, first.s_mm);
+            }
             chunk.clear();
             self.pool.push(chunk);
         }
@@ -580,14 +604,17 @@ impl Feeder {
                 chunk.clear();
                 self.pool.push(chunk);
             }
-            Err(e) => {
+            Err(RunError::Plan(e)) => {
                 chunk.clear();
                 self.pool.push(chunk);
                 if !self.recover(&e) {
-                    tracing::error!("planning failed: {e}");
-                    let _ = self.reports.send(FeederReport::Error(e.to_string()));
-                    self.abort();
+                    self.failed(&format!("planning failed: {e}"));
                 }
+            }
+            Err(RunError::Feed(e)) => {
+                chunk.clear();
+                self.pool.push(chunk);
+                self.failed(&e);
             }
         }
     }
@@ -602,7 +629,8 @@ impl Feeder {
         let s_stop = last.s1_mm();
         tracing::warn!("planner: {e}; stopping along the path at s = {s_stop:.3} mm and replanning from there");
         self.stats.recoveries += 1;
-        let mut fresh = Run::new(&self.settings, run.path.clone(), run.feed_override, run.epoch, s_stop, run.end);
+        let feed = std::mem::replace(&mut run.feed, PathFeed::empty(&self.settings, run.end.pos));
+        let mut fresh = Run::new(&self.settings, feed, run.feed_override, run.epoch, s_stop, run.end);
         fresh.seq = run.seq;
         fresh.queued_s = run.queued_s;
         fresh.buffer = std::mem::take(&mut run.last_tail).into();
@@ -613,7 +641,7 @@ impl Feeder {
 
     /// Fills `chunk` with the next stretch of motion (about one chunk duration, longer where
     /// no stop can follow its end); `Ok(false)` when nothing is left.
-    fn fill_chunk(&mut self, chunk: &mut Chunk) -> Result<bool, PlanError> {
+    fn fill_chunk(&mut self, chunk: &mut Chunk) -> Result<bool, RunError> {
         let chunk_s = self.chunk_s;
         let max_piece_s = 2.0 * self.cycle_s;
         let Some(run) = self.run.as_mut() else { return Ok(false) };
@@ -635,8 +663,9 @@ impl Feeder {
             if run.buffer.is_empty() && run.planner.done() {
                 break Vec::new();
             }
-            let limit = next_stop_s(&run.path, end.s_mm);
-            if let Some(stop) = brake_along(&run.path, end.s_mm, end.v, end.a, &lim, limit, last.line) {
+            // The window reaches past the planner's horizon, so a stop within it exists.
+            let limit = next_stop_s(run.feed.path(), end.s_mm);
+            if let Some(stop) = brake_along(run.feed.path(), end.s_mm, end.v, end.a, &lim, limit, last.line) {
                 break stop;
             }
             // No stop from here: end the chunk a little later.
@@ -644,7 +673,7 @@ impl Feeder {
             target = t + 0.25 * chunk_s;
         };
         run.open_chunk(chunk);
-        let mut builder = CoarseBuilder::new(&run.path, max_piece_s, &self.max_jerk);
+        let mut builder = CoarseBuilder::new(run.feed.path(), max_piece_s, &self.max_jerk);
         builder.build(&segments, 0.0, &mut chunk.points);
         let end = *chunk.points.last().expect("points");
         chunk.last = run.buffer.is_empty() && run.planner.done();
@@ -678,8 +707,10 @@ impl Feeder {
             }
             // A law may run backwards for a while (overshooting laws); the path stop needs v ≥ 0.
             if end.v_mm_s >= 0.0 {
-                let limit = next_stop_s(&run.path, end.s_mm);
-                if let Some(stop) = brake_along(&run.path, end.s_mm, end.v_mm_s, end.a_mm_s2, &lim, limit, end.line) {
+                let limit = next_stop_s(run.feed.path(), end.s_mm);
+                if let Some(stop) =
+                    brake_along(run.feed.path(), end.s_mm, end.v_mm_s, end.a_mm_s2, &lim, limit, end.line)
+                {
                     break stop;
                 }
             }
@@ -690,7 +721,7 @@ impl Feeder {
         chunk.last = law.is_done();
         if !tail.is_empty() {
             chunk.tail.push(CoarsePoint { t_s: 0.0, ..end });
-            let mut builder = CoarseBuilder::new(&run.path, max_piece_s, &self.max_jerk);
+            let mut builder = CoarseBuilder::new(run.feed.path(), max_piece_s, &self.max_jerk);
             builder.build(&tail, 0.0, &mut chunk.tail);
             self.stats.max_coarse_error_mm = self.stats.max_coarse_error_mm.max(builder.max_error_mm);
         }
@@ -725,8 +756,13 @@ impl Feeder {
         if returning && last {
             // Back on the path: the program continues from rest exactly at the held point.
             run.manual = None;
-            let mut at = interpd_motion::path::AxisDerivs::default();
-            run.path.eval(run.s_start_mm, &mut at);
+            let at = match run.feed.eval(run.s_start_mm) {
+                Ok((at, _)) => at,
+                Err(e) => {
+                    self.failed(&e);
+                    return false;
+                }
+            };
             end.pos = at.pos;
             end.line = run.end.line;
             if let Some(p) = chunk.points.last_mut() {
@@ -764,18 +800,18 @@ impl Run {
         self.seq += 1;
     }
 
-    fn new(settings: &Settings, path: Arc<Path>, feed_override: f64, epoch: Epoch, s_mm: f64, end: CoarsePoint) -> Run {
-        let plan_path = scaled(&path.suffix_from(s_mm), feed_override);
+    fn new(settings: &Settings, feed: PathFeed, feed_override: f64, epoch: Epoch, s_mm: f64, end: CoarsePoint) -> Run {
         let planner = Planner::new(settings);
         Run {
-            path,
+            feed,
             feed_override,
             epoch,
             seq: 0,
             planner,
-            plan_path,
-            next_element: 0,
+            plan_from_s_mm: s_mm,
+            next_element: None,
             finished_input: false,
+            reclaimed_s: VecDeque::new(),
             buffer: VecDeque::new(),
             last_tail: Vec::new(),
             end,
@@ -790,22 +826,52 @@ impl Run {
     }
 
     /// Plans until at least `need_s` of motion is buffered or the program is planned.
-    fn fill_buffer(&mut self, need_s: f64) -> Result<(), PlanError> {
+    fn fill_buffer(&mut self, need_s: f64) -> Result<(), RunError> {
         let mut have: f64 = self.buffer.iter().map(|s| s.dt_s).sum();
         while have < need_s && !self.planner.done() {
-            if self.next_element < self.plan_path.elements.len() {
-                self.planner.push(self.plan_path.elements[self.next_element].clone());
-                self.next_element += 1;
-            } else if !self.finished_input {
-                self.planner.finish(self.plan_path.final_dwell_s);
-                self.finished_input = true;
+            let (index, first) = match self.next_element {
+                Some(i) => (i, false),
+                None => (self.feed.index_from(self.plan_from_s_mm)?, true),
+            };
+            match self.feed.element(index)? {
+                Some(e) => {
+                    // The planner's path: from `plan_from_s_mm`, with the feeds scaled.
+                    let mut e = if first { e.from(self.plan_from_s_mm) } else { e.clone() };
+                    if let Feed::Programmed { mm_per_s } = &mut e.feed {
+                        *mm_per_s *= self.feed_override;
+                    }
+                    self.planner.push(e);
+                    self.next_element = Some(index + 1);
+                }
+                None if !self.finished_input => {
+                    self.planner.finish(self.feed.final_dwell_s());
+                    self.finished_input = true;
+                    self.next_element = Some(index);
+                }
+                None => self.next_element = Some(index),
             }
-            for seg in self.planner.plan()? {
+            for seg in self.planner.plan().map_err(RunError::Plan)? {
                 have += seg.dt_s;
                 self.buffer.push_back(seg);
             }
         }
         Ok(())
+    }
+
+    /// The real-time thread gave back a chunk of `epoch` that started at `s_mm`. At most
+    /// [`QUEUE_CAPACITY`] chunks are in flight, so the machine is past the start of a chunk
+    /// given back that many chunks ago, whatever it does now (a hold or an underrun stands
+    /// further on): the path behind it is dropped.
+    fn reclaimed(&mut self, epoch: Epoch, s_mm: f64) {
+        if epoch != self.epoch || self.wait != Wait::No || self.manual.is_some() || self.law.is_some() {
+            return;
+        }
+        self.reclaimed_s.push_back(s_mm);
+        if self.reclaimed_s.len() > QUEUE_CAPACITY {
+            if let Some(behind) = self.reclaimed_s.pop_front() {
+                self.feed.trim_before(behind.min(self.end.s_mm).min(self.plan_from_s_mm));
+            }
+        }
     }
 
     /// Moves about `want_s` of segments from the buffer to `out` (splitting a long one),
@@ -862,13 +928,20 @@ pub fn bounded_lookahead_mm(settings: &Settings) -> f64 {
 const LOOKAHEAD_STOPS: f64 = 3.0;
 const MIN_LOOKAHEAD_MM: f64 = 20.0;
 
-/// `path` with programmed feeds scaled by the override `factor` (rapid moves unchanged).
-pub fn scaled(path: &Path, factor: f64) -> Path {
-    let mut p = path.clone();
-    for e in &mut p.elements {
-        if let Feed::Programmed { mm_per_s } = &mut e.feed {
-            *mm_per_s *= factor;
-        }
-    }
-    p
+/// Why a run cannot go on.
+#[derive(Debug, thiserror::Error)]
+enum RunError {
+    #[error("{0}")]
+    Plan(PlanError),
+    #[error("{0}")]
+    Feed(#[from] FeedError),
+}
+
+/// Why the return to a held program cannot start.
+#[derive(Debug, thiserror::Error)]
+enum ReturnError {
+    #[error("manual motion: {0}")]
+    Manual(#[from] ManualPlanError),
+    #[error("{0}")]
+    Feed(#[from] FeedError),
 }

@@ -188,6 +188,12 @@ pub enum LawProgramError {
     Move { file: String, line: u32, error: LawBlockError },
 }
 
+/// Whether the text read from `reader` has a `LAW` statement (line by line; unreadable text
+/// has none).
+pub fn has_law_statement(reader: impl std::io::BufRead) -> bool {
+    reader.lines().map_while(Result::ok).any(|l| is_law_statement(&l))
+}
+
 /// `Some` when `text` is a law program (it has a `LAW` statement), checked: every other line
 /// must be blank or a comment (`;`, `( … )`, `%`), since law moves and G-code do not mix in
 /// one program. Errors name the program, line and column.

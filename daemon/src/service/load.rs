@@ -1,11 +1,13 @@
 //! `program.load`: reading, parsing and preparing a program in the control thread that asked
 //! (never near the real-time thread), then installing it if the state still allows.
 //!
-//! A program is either G-code or a path table, prepared into a path (with the tolerance-band
-//! smoothing of its G64 runs), or a program of `LAW` statements, whose moves are made and
-//! checked from where the machine stands (again at every start).
+//! A program is either G-code or a path table, checked here in one streaming pass and read
+//! again as the motion runs (smoothed and planned as it goes, see `PathFeed`), or a program of
+//! `LAW` statements, whose moves are made and checked from where the machine stands (again at
+//! every start).
 
 use super::law_run::{self, LawProgram};
+use super::path_feed::{FileStamp, ProgramText};
 use super::state::Loaded;
 use super::{ServiceCore, lock};
 use crate::control::{LoadError, ProgramSource};
@@ -27,38 +29,46 @@ impl ServiceCore {
         if let Some(laws) = law_program_of(&source, &name)? {
             return self.load_laws(name, laws).map(|(info, _)| info);
         }
-        // The tool table and work offsets as set now (`tools.set`, `offsets.set`).
-        let settings = shared.program_settings();
-        let parsed = match &source {
-            ProgramSource::File(p) => program::load(p, &settings),
-            ProgramSource::Text { text, .. } => program::parse(text, &name, &settings),
+        // Read with the tool table and work offsets as set now (`tools.set`, `offsets.set`);
+        // the motion reads the program again with the same.
+        let tooling = shared.tooling_now();
+        let settings = tooling.apply(&shared.settings);
+        // One streaming pass checks the whole program and keeps no geometry; the motion reads
+        // it again, smoothing and planning as it goes (`PathFeed`).
+        let (checked, text) = match source {
+            ProgramSource::File(p) => {
+                // Taken before reading: a file changed while it is read or later is refused at
+                // the start.
+                let stamp = FileStamp::of(&p);
+                let checked = program::check(&p, &settings)?;
+                let stamp = stamp.map_err(|e| {
+                    program::ProgramErrors(vec![program::ProgramError {
+                        file: p.display().to_string(),
+                        line: 0,
+                        col: 0,
+                        message: format!("cannot read: {e}"),
+                    }])
+                })?;
+                (checked, ProgramText::File { path: p, stamp })
+            }
+            ProgramSource::Text { name, text } => {
+                let checked = program::check_text(text.clone(), &name, &settings)?;
+                (checked, ProgramText::Text { name, text: Arc::new(text) })
+            }
         };
-        let prog = parsed?;
-        // Tolerance-band smoothing (G64 P…) of the whole program, here in the control thread:
-        // it runs ahead of the planner and never near the real-time thread.
-        let prepared = interpd_motion::prep::prepare_path(&shared.settings, &prog.path)
-            .map_err(|error| LoadError::Prep { program: name.clone(), error })?;
-        if prepared.stats.windows > 0 {
-            tracing::info!(
-                program = %name,
-                windows = prepared.stats.windows,
-                wall_ms = prepared.wall_s * 1e3,
-                "path smoothing (G64) prepared"
-            );
-        }
         let info = ProgramInfo {
             name,
-            elements: prepared.path.elements.len() as u64,
-            length_mm: prepared.path.length_mm(),
-            lines: prog.summary.lines,
-            tools: prog.summary.tools.iter().copied().collect(),
-            work_offsets: prog.summary.work_offsets.iter().map(|s| s.to_string()).collect(),
-            cutter_compensation: prog.summary.compensation,
+            elements: checked.elements,
+            length_mm: checked.length_mm,
+            lines: checked.summary.lines,
+            tools: checked.summary.tools.iter().copied().collect(),
+            work_offsets: checked.summary.work_offsets.iter().map(|s| s.to_string()).collect(),
+            cutter_compensation: checked.summary.compensation,
         };
         let mut ctl = lock(&shared.control);
-        // The state may have changed while the program was prepared.
+        // The state may have changed while the program was checked.
         ctl.check(Method::ProgramLoad)?;
-        ctl.loaded(info.clone(), Loaded::Path(Arc::new(prepared.path)));
+        ctl.loaded(info.clone(), Loaded::Program(text, tooling));
         Ok(info)
     }
 
@@ -86,15 +96,22 @@ impl ServiceCore {
 }
 
 /// The law program in `source` (named `name` in messages), if it is one (see
-/// [`law_run::parse_law_program`]).
+/// [`law_run::parse_law_program`]). A file is scanned line by line first, so a long G-code
+/// program is never read whole.
 fn law_program_of(source: &ProgramSource, name: &str) -> Result<Option<LawProgram>, LoadError> {
     let text = match source {
         ProgramSource::Text { text, .. } => Cow::Borrowed(text.as_str()),
-        ProgramSource::File(p) => match std::fs::read_to_string(p) {
-            Ok(t) => Cow::Owned(t),
-            // Unreadable or not text: the program reader reports it.
-            Err(_) => return Ok(None),
-        },
+        ProgramSource::File(p) => {
+            let Ok(file) = std::fs::File::open(p) else { return Ok(None) };
+            if !law_run::has_law_statement(std::io::BufReader::new(file)) {
+                return Ok(None);
+            }
+            match std::fs::read_to_string(p) {
+                Ok(t) => Cow::Owned(t),
+                // Unreadable or not text: the program reader reports it.
+                Err(_) => return Ok(None),
+            }
+        }
     };
     Ok(law_run::parse_law_program(&text, name)?)
 }

@@ -21,6 +21,7 @@ pub mod live;
 mod load;
 pub mod manual;
 pub mod otg_motion;
+pub mod path_feed;
 pub mod programs;
 mod rt_loop;
 mod state;
@@ -126,15 +127,19 @@ struct Shared {
     programs: programs::ProgramsDir,
     /// The tool table and work offsets programs are read with: the machine file's, until
     /// `tools.set` / `offsets.set` replace them.
-    tooling: Mutex<tooling::Tooling>,
+    tooling: Mutex<Arc<path_feed::Tooling>>,
 }
 
 impl Shared {
     /// The settings a program is read with: the machine's, with the tool table and work
     /// offsets in effect now.
     fn program_settings(&self) -> Settings {
-        let t = lock(&self.tooling);
-        Settings { tools: t.tools.clone(), work_offsets: t.work_offsets.clone(), ..self.settings.clone() }
+        self.tooling_now().apply(&self.settings)
+    }
+
+    /// The tool table and work offsets in effect now.
+    fn tooling_now(&self) -> Arc<path_feed::Tooling> {
+        lock(&self.tooling).clone()
     }
 
     /// Sends `event` to every subscriber without waiting: a full subscriber misses it, a gone
@@ -204,10 +209,10 @@ impl Service {
             publish_errors: AtomicU64::new(0),
             drives,
             programs,
-            tooling: Mutex::new(tooling::Tooling {
+            tooling: Mutex::new(Arc::new(path_feed::Tooling {
                 tools: opts.config.tools.clone(),
                 work_offsets: opts.config.work_offsets.clone(),
-            }),
+            })),
         });
         let thread_err = |what: &'static str| move |source| StartupError::Thread { what, source };
 

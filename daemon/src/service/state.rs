@@ -29,9 +29,9 @@
 //! notices).
 
 use super::law_run::LawProgram;
+use super::path_feed::{ProgramText, Tooling};
 use crate::control::{ManualError, NotAllowed};
 use crate::interp::Epochs;
-use interpd_motion::path::Path;
 use interpd_motion::program::ModalState;
 use interpd_protocol::api::{ManualStatus, Method, ProgramInfo, State};
 use std::sync::Arc;
@@ -43,7 +43,9 @@ pub const OVERRIDE_HOLD_BELOW: f64 = 1e-3;
 /// when it starts).
 #[derive(Clone)]
 pub(super) enum Loaded {
-    Path(Arc<Path>),
+    /// G-code or a path table, read as the motion runs with the tool table and work offsets
+    /// it was loaded with.
+    Program(ProgramText, Arc<Tooling>),
     Laws(Arc<LawProgram>),
 }
 

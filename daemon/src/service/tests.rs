@@ -2,6 +2,7 @@
 //! from program to setpoints, deterministic, without threads or clocks.
 
 use super::feeder::{Feeder, FeederCommand, FeederReport, Queues};
+use super::path_feed::PathSource;
 use crate::interp::{DivertCause, Epoch, Executor, Io, Notice};
 use crossbeam::channel;
 use crossbeam::queue::ArrayQueue;
@@ -49,7 +50,8 @@ impl Sim {
     }
 
     pub fn start(&mut self, path: Arc<Path>) {
-        self.feeder.command(FeederCommand::Start { path, epoch: Epoch::FIRST, feed_override: 1.0, suspend: false });
+        let source = PathSource::Whole(path);
+        self.feeder.command(FeederCommand::Start { source, epoch: Epoch::FIRST, feed_override: 1.0, suspend: false });
     }
 
     /// One cycle: the planner thread tops up the queue (as if it were fast enough), then the

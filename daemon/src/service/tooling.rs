@@ -4,17 +4,11 @@
 //! allowed in every state.
 
 use super::{ServiceCore, lock};
-use crate::config::{ToolConfig, WORK_SYSTEMS, WorkOffsetsConfig};
+use crate::config::{ToolConfig, WORK_SYSTEMS};
 use crate::control::errors::ManualError;
 use interpd_protocol::api::{Method, Tool, ToolTable, WorkOffsets};
 use std::collections::BTreeMap;
-
-/// The tool table and the work offsets in effect.
-#[derive(Debug, Clone, Default)]
-pub(super) struct Tooling {
-    pub tools: Vec<ToolConfig>,
-    pub work_offsets: WorkOffsetsConfig,
-}
+use std::sync::Arc;
 
 impl ServiceCore {
     pub(crate) fn tool_table(&self) -> ToolTable {
@@ -41,7 +35,13 @@ impl ServiceCore {
             .into_iter()
             .map(|t| ToolConfig { number: t.number, diameter_mm: t.diameter_mm, length_mm: t.length_mm, name: t.name })
             .collect();
-        lock(&self.shared.tooling).tools = tools;
+        {
+            // Copy on write: a loaded program keeps the table it was read with.
+            let mut t = lock(&self.shared.tooling);
+            let mut next = (**t).clone();
+            next.tools = tools;
+            *t = Arc::new(next);
+        }
         tracing::info!("tool table replaced");
         self.tool_table()
     }
@@ -76,10 +76,12 @@ impl ServiceCore {
         }
         {
             let mut t = lock(&self.shared.tooling);
+            let mut next = (**t).clone();
             for (system, values) in offsets.offsets {
                 let i = WORK_SYSTEMS.iter().position(|w| *w == system).expect("checked by the protocol");
-                *t.work_offsets.systems_mut()[i] = values.into_iter().collect::<BTreeMap<_, _>>();
+                *next.work_offsets.systems_mut()[i] = values.into_iter().collect::<BTreeMap<_, _>>();
             }
+            *t = Arc::new(next);
         }
         tracing::info!("work offsets changed");
         Ok(self.work_offsets())

@@ -158,6 +158,20 @@ impl Element {
         self.s_start_mm + self.geometry.length_mm()
     }
 
+    /// The element from `s_mm` on, as the first of a path (joint `Start`): cut there unless
+    /// `s_mm` is at its start; a cut inside it drops its dwell, which lies behind.
+    pub fn from(&self, s_mm: f64) -> Element {
+        let mut e = self.clone();
+        let offset = s_mm - e.s_start_mm;
+        if offset > SUFFIX_AT_START_MM {
+            e.geometry = Geometry::Suffix(Box::new(Suffix::new(e.geometry, offset)));
+            e.s_start_mm = s_mm;
+            e.dwell_before_s = 0.0;
+        }
+        e.joint = JointKind::Start;
+        e
+    }
+
     /// Whether the motion must come to rest (v = a = 0) where this element starts.
     pub fn stops_before(&self) -> bool {
         matches!(self.joint, JointKind::Start | JointKind::Corner) || self.dwell_before_s > 0.0
@@ -205,6 +219,63 @@ impl Path {
         self.elements.push(Element { geometry, s_start_mm, feed, source, joint, dwell_before_s, blend });
     }
 
+    /// Moves every element but the last to `out`: a reader hands elements on as they are made
+    /// and keeps the last one for the joint with its successor.
+    pub(crate) fn drain_settled(&mut self, out: &mut std::collections::VecDeque<Element>) {
+        let n = self.elements.len().saturating_sub(1);
+        out.extend(self.elements.drain(..n));
+    }
+
+    /// Moves every element to `out` (no successor follows).
+    pub(crate) fn drain_all(&mut self, out: &mut std::collections::VecDeque<Element>) {
+        out.extend(self.elements.drain(..));
+    }
+
+    /// Appends an element made elsewhere (by the smoothing stage or a reader), keeping its
+    /// place in s and its joint. A streamed path grows at the end this way and is trimmed at
+    /// the front by [`Path::trim_before`].
+    pub fn push_element(&mut self, element: Element) {
+        debug_assert!(
+            self.elements
+                .last()
+                .is_none_or(|l| (l.s_end_mm() - element.s_start_mm).abs() <= 1e-6 * l.s_end_mm().max(1.0)),
+            "elements are appended back to back in s"
+        );
+        self.elements.push(element);
+    }
+
+    /// Appends an element of another path moved by `s_offset_mm` along s: a program streamed
+    /// behind an approach move. The element that starts its own path joins the last one here
+    /// as their geometry does.
+    pub fn append_shifted(&mut self, mut element: Element, s_offset_mm: f64) {
+        element.s_start_mm += s_offset_mm;
+        if element.joint == JointKind::Start {
+            if let Some(prev) = self.elements.last() {
+                element.joint = classify_joint(&prev.geometry, &element.geometry, self.n_axes);
+            }
+        }
+        self.push_element(element);
+    }
+
+    /// Drops the elements that end before `s_mm`, keeping at least the last one, so a
+    /// streamed path holds only what is still ahead of the motion. Path positions stay
+    /// absolute; the path's start becomes the first kept element's start.
+    pub fn trim_before(&mut self, s_mm: f64) {
+        let n = self.elements.partition_point(|e| e.s_end_mm() < s_mm).min(self.elements.len().saturating_sub(1));
+        if n == 0 {
+            return;
+        }
+        self.elements.drain(..n);
+        let mut d = AxisDerivs::default();
+        self.elements[0].geometry.eval(0.0, &mut d);
+        self.start = d.pos;
+    }
+
+    /// Path position where the first element starts (0 unless trimmed).
+    pub fn s_begin_mm(&self) -> f64 {
+        self.elements.first().map_or(0.0, |e| e.s_start_mm)
+    }
+
     /// Index of the element containing path position `s_mm` (the later one at a joint).
     pub fn element_index_at(&self, s_mm: f64) -> usize {
         let i = self.elements.partition_point(|e| e.s_start_mm <= s_mm);
@@ -242,25 +313,21 @@ impl Path {
         if s_mm >= self.length_mm() {
             return out;
         }
-        let mut first = self.element_index_at(s_mm);
-        // A cut at an element's very end starts with the next element (no sliver).
-        if self.elements[first].s_end_mm() - s_mm <= SUFFIX_AT_START_MM && first + 1 < self.elements.len() {
-            first += 1;
-        }
+        let first = self.first_index_from(s_mm);
         for (k, e) in self.elements[first..].iter().enumerate() {
-            let mut e = e.clone();
-            if k == 0 {
-                let offset = s_mm - e.s_start_mm;
-                if offset > SUFFIX_AT_START_MM {
-                    e.geometry = Geometry::Suffix(Box::new(Suffix::new(e.geometry, offset)));
-                    e.s_start_mm = s_mm;
-                    e.dwell_before_s = 0.0;
-                }
-                e.joint = JointKind::Start;
-            }
-            out.elements.push(e);
+            out.elements.push(if k == 0 { e.from(s_mm) } else { e.clone() });
         }
         out
+    }
+
+    /// Index of the element a path cut at `s_mm` starts with ([`Path::suffix_from`]): the one
+    /// containing `s_mm`, or the next one when `s_mm` is at its very end (no sliver).
+    pub fn first_index_from(&self, s_mm: f64) -> usize {
+        let first = self.element_index_at(s_mm);
+        match self.elements.get(first) {
+            Some(e) if e.s_end_mm() - s_mm <= SUFFIX_AT_START_MM && first + 1 < self.elements.len() => first + 1,
+            _ => first,
+        }
     }
 
     /// End position of the path.

@@ -106,8 +106,8 @@ struct G06Block {
     unterminated: bool,
 }
 
-pub(crate) struct Interpreter<'a> {
-    settings: &'a Settings,
+pub(crate) struct Interpreter {
+    settings: Settings,
     linear: [bool; MAX_AXES],
     modal: Modal,
     /// Cutter radius compensation: contour elements go through it on their way to the path.
@@ -174,7 +174,7 @@ fn unused_word_message(letter: char) -> String {
     }
 }
 
-impl<'a> Interpreter<'a> {
+impl Interpreter {
     /// The modal state a program starts with: G17, G21, G90, no feed and no motion mode yet,
     /// the `[prep]` blend, at `pos`.
     pub(super) fn initial_modal(settings: &Settings, pos: AxisVec) -> Modal {
@@ -195,13 +195,13 @@ impl<'a> Interpreter<'a> {
         }
     }
 
-    pub(super) fn new(settings: &'a Settings) -> Self {
+    pub(super) fn new(settings: &Settings) -> Self {
         let mut linear = [false; MAX_AXES];
         for (k, a) in settings.axes.iter().enumerate() {
             linear[k] = a.kind == AxisKind::Linear;
         }
         Self {
-            settings,
+            settings: settings.clone(),
             linear,
             modal: Self::initial_modal(settings, [0.0; MAX_AXES]),
             cutter: Cutter::new(&linear[..settings.axes.len()]),
@@ -217,7 +217,7 @@ impl<'a> Interpreter<'a> {
     }
 
     /// An interpreter that continues from `modal` (its position is where the path starts).
-    pub(super) fn resume(settings: &'a Settings, modal: Modal) -> Self {
+    pub(super) fn resume(settings: &Settings, modal: Modal) -> Self {
         let mut interp = Self::new(settings);
         interp.path = Path::new(settings.axis_names(), modal.pos);
         interp.modal = modal;

@@ -6,10 +6,12 @@ mod cutter;
 mod error;
 mod gcode;
 mod lexer;
+mod stream;
 mod table;
 
 pub use error::{ProgramError, ProgramErrors};
 pub(crate) use gcode::fmt_num;
+pub use stream::{Checked, MAX_LINE_BYTES, ProgramStream, check, check_text};
 
 use crate::Settings;
 use crate::path::Path;
@@ -71,39 +73,28 @@ impl Format {
 
 /// Parses program text; `origin` names the file in messages.
 pub fn parse(text: &str, origin: &str, settings: &Settings) -> Result<Program, ProgramErrors> {
-    let mut d = Diagnostics::new(origin);
-    let program = match Format::detect(origin, text) {
-        Format::GCode => parse_gcode(text, settings, &mut d),
-        Format::PathTable => table::parse_table(text, settings, &mut d),
-    };
-    if d.errors.is_empty() { Ok(program) } else { Err(ProgramErrors(d.errors)) }
+    collect(ProgramStream::from_text(text.to_string(), origin, settings))
 }
 
-/// Reads and parses a program file.
+/// Reads and parses a program file whole (for programs of any length, read it as a
+/// [`ProgramStream`]).
 pub fn load(path: &std::path::Path, settings: &Settings) -> Result<Program, ProgramErrors> {
-    let origin = path.display().to_string();
-    match std::fs::read(path) {
-        Ok(bytes) => match String::from_utf8(bytes) {
-            Ok(text) => parse(&text, &origin, settings),
-            Err(e) => {
-                let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
-                let line = valid.iter().filter(|&&b| b == b'\n').count() as u32 + 1;
-                let col = valid.iter().rev().take_while(|&&b| b != b'\n').count() as u32 + 1;
-                Err(ProgramErrors(vec![ProgramError {
-                    file: origin,
-                    line,
-                    col,
-                    message: "the file is not UTF-8 text".into(),
-                }]))
-            }
-        },
-        Err(e) => Err(ProgramErrors(vec![ProgramError {
-            file: origin,
-            line: 0,
-            col: 0,
-            message: format!("cannot read: {e}"),
-        }])),
+    collect(ProgramStream::open(path, settings)?)
+}
+
+/// The whole path of a stream, or every error of the program (up to the cap).
+fn collect(mut stream: ProgramStream) -> Result<Program, ProgramErrors> {
+    let mut path = Path::new(stream.axis_names().to_vec(), stream.start());
+    loop {
+        match stream.next_element() {
+            Ok(Some(e)) => path.push_element(e),
+            Ok(None) => break,
+            Err(_) => return Err(stream.all_errors()),
+        }
     }
+    path.start = stream.start();
+    path.final_dwell_s = stream.final_dwell_s().unwrap_or(0.0);
+    Ok(Program { path, summary: stream.summary().clone() })
 }
 
 /// The G-code modal state between blocks (motion mode, plane, units, G90/G91, feed, G61/G64,
@@ -150,18 +141,6 @@ pub fn parse_gcode_from(
     }
     modal.0 = interp.modal().clone();
     Ok(Program { path: interp.path, summary: interp.summary })
-}
-
-fn parse_gcode(text: &str, settings: &Settings, d: &mut Diagnostics) -> Program {
-    let mut interp = gcode::Interpreter::new(settings);
-    for (i, line) in text.lines().enumerate() {
-        if d.full() {
-            break;
-        }
-        interp.line(line, i as u32 + 1, d);
-    }
-    interp.finish(d);
-    Program { path: interp.path, summary: interp.summary }
 }
 
 #[cfg(test)]

@@ -1,0 +1,225 @@
+//! The path a run plans along, as a window that moves with the motion.
+//!
+//! A loaded program is read from its file, parsed and smoothed (G64) element by element as the
+//! planner asks for more ([`interpd_motion::program::ProgramStream`] → [`Prep`]); the elements
+//! behind the machine are dropped. So the planner thread holds the look-ahead and what the
+//! queue still runs, never the whole program. Paths made whole in memory (MDI blocks, law
+//! moves) are handed out from the same window.
+
+use super::approach::approach_line;
+use interpd_motion::Settings;
+use interpd_motion::path::{AxisDerivs, AxisVec, Blend, Element, Feed, Path, Source};
+use interpd_motion::prep::Prep;
+use interpd_motion::program::ProgramStream;
+use std::sync::Arc;
+use std::time::SystemTime;
+
+/// Where a program's text comes from.
+#[derive(Debug, Clone)]
+pub enum ProgramText {
+    /// A file (inside the programs directory), as it was when it was loaded.
+    File { path: std::path::PathBuf, stamp: FileStamp },
+    /// Text sent with `program.load`.
+    Text { name: String, text: Arc<String> },
+}
+
+/// What identifies a file's content cheaply: a file rewritten after `program.load` is refused
+/// at the start rather than run half old, half new.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FileStamp {
+    pub len: u64,
+    pub modified: Option<SystemTime>,
+}
+
+impl FileStamp {
+    pub fn of(path: &std::path::Path) -> std::io::Result<FileStamp> {
+        let meta = std::fs::metadata(path)?;
+        Ok(FileStamp { len: meta.len(), modified: meta.modified().ok() })
+    }
+}
+
+/// The tool table and work offsets a program is read with (`tools.set`, `offsets.set`): taken
+/// at `program.load`, so the motion reads the program as it was checked.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Tooling {
+    pub tools: Vec<interpd_config::ToolConfig>,
+    pub work_offsets: interpd_config::WorkOffsetsConfig,
+}
+
+impl Tooling {
+    /// `settings` with this tool table and these work offsets.
+    pub fn apply(&self, settings: &Settings) -> Settings {
+        Settings { tools: self.tools.clone(), work_offsets: self.work_offsets.clone(), ..settings.clone() }
+    }
+}
+
+/// What a run plans along.
+#[derive(Debug, Clone)]
+pub enum PathSource {
+    /// A path made whole (MDI blocks, law moves).
+    Whole(Arc<Path>),
+    /// A loaded program, read and smoothed as the motion goes, preceded by a straight rapid
+    /// move from `here` to its start when the machine stands elsewhere.
+    Program { text: ProgramText, here: AxisVec, tooling: Arc<Tooling> },
+}
+
+/// Why the path cannot go on.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FeedError {
+    #[error("{0}")]
+    Program(String),
+    #[error("path smoothing: {0}")]
+    Prep(#[from] interpd_motion::prep::PrepError),
+}
+
+/// The elements a run plans along, from a little behind the machine to the planner's horizon.
+pub struct PathFeed {
+    input: Input,
+    /// The elements held, with absolute path positions.
+    window: Path,
+    /// Index (in the whole path) of `window.elements[0]`.
+    first_index: usize,
+    /// Every element is in the window (or was).
+    done: bool,
+    final_dwell_s: f64,
+}
+
+enum Input {
+    Stream { stream: Box<ProgramStream>, prep: Box<Prep>, s_offset_mm: f64 },
+    Empty,
+}
+
+impl PathFeed {
+    /// A feed over a path held whole (it is small: MDI blocks, law moves).
+    pub fn whole(path: &Path) -> PathFeed {
+        let final_dwell_s = path.final_dwell_s;
+        PathFeed { input: Input::Empty, window: path.clone(), first_index: 0, done: true, final_dwell_s }
+    }
+
+    /// An empty path at `here` (manual motion plans no path).
+    pub fn empty(settings: &Settings, here: AxisVec) -> PathFeed {
+        PathFeed {
+            input: Input::Empty,
+            window: Path::new(settings.axis_names(), here),
+            first_index: 0,
+            done: true,
+            final_dwell_s: 0.0,
+        }
+    }
+
+    /// Opens `source`: a program's file is opened and checked to be the one loaded.
+    pub fn open(source: PathSource, settings: &Settings) -> Result<PathFeed, FeedError> {
+        let (text, here, tooling) = match source {
+            PathSource::Whole(path) => return Ok(PathFeed::whole(&path)),
+            PathSource::Program { text, here, tooling } => (text, here, tooling),
+        };
+        let settings = &tooling.apply(settings);
+        let stream = match &text {
+            ProgramText::File { path, stamp } => {
+                let name = path.display();
+                match FileStamp::of(path) {
+                    Ok(now) if now == *stamp => {}
+                    Ok(_) => {
+                        return Err(FeedError::Program(format!(
+                            "{name}: the file changed after program.load; load it again"
+                        )));
+                    }
+                    Err(e) => return Err(FeedError::Program(format!("{name}: cannot read: {e}"))),
+                }
+                ProgramStream::open(path, settings).map_err(|e| FeedError::Program(e.to_string()))?
+            }
+            ProgramText::Text { name, text } => ProgramStream::from_text(text.to_string(), name, settings),
+        };
+        let mut window = Path::new(settings.axis_names(), here);
+        let linear: Vec<bool> = settings.axes.iter().map(|a| a.kind == interpd_config::AxisKind::Linear).collect();
+        if let Some(line) = approach_line(&linear, &here, &stream.start()) {
+            window.push(line, Feed::Rapid, Source::default(), 0.0, Blend::Exact);
+        }
+        let s_offset_mm = window.length_mm();
+        Ok(PathFeed {
+            input: Input::Stream { stream: Box::new(stream), prep: Box::new(Prep::new(settings)), s_offset_mm },
+            window,
+            first_index: 0,
+            done: false,
+            final_dwell_s: 0.0,
+        })
+    }
+
+    /// The elements held (absolute path positions; the first ones may have been dropped).
+    pub fn path(&self) -> &Path {
+        &self.window
+    }
+
+    /// Every element has been read.
+    pub fn done(&self) -> bool {
+        self.done
+    }
+
+    /// The dwell after the last element, s (once [`PathFeed::done`]).
+    pub fn final_dwell_s(&self) -> f64 {
+        self.final_dwell_s
+    }
+
+    /// Index in the whole path of the element a run from `s_mm` starts with, reading on until
+    /// the window holds it.
+    pub fn index_from(&mut self, s_mm: f64) -> Result<usize, FeedError> {
+        while !self.done && self.window.length_mm() <= s_mm {
+            self.read()?;
+        }
+        if self.window.elements.is_empty() || s_mm >= self.window.length_mm() {
+            // At the end: nothing is left to plan.
+            return Ok(self.first_index + self.window.elements.len());
+        }
+        Ok(self.first_index + self.window.first_index_from(s_mm))
+    }
+
+    /// The element at `index` of the whole path, reading on as needed; `None` after the last.
+    pub fn element(&mut self, index: usize) -> Result<Option<&Element>, FeedError> {
+        debug_assert!(index >= self.first_index, "element {index} was dropped (window from {})", self.first_index);
+        while !self.done && index >= self.first_index + self.window.elements.len() {
+            self.read()?;
+        }
+        Ok(self.window.elements.get(index - self.first_index))
+    }
+
+    /// Position and derivatives at `s_mm` (reading on until the window holds it).
+    pub fn eval(&mut self, s_mm: f64) -> Result<(AxisDerivs, u32), FeedError> {
+        while !self.done && self.window.length_mm() <= s_mm {
+            self.read()?;
+        }
+        let mut d = AxisDerivs::default();
+        self.window.eval(s_mm, &mut d);
+        let line = self.window.elements.get(self.window.element_index_at(s_mm)).map_or(0, |e| e.source.line);
+        Ok((d, line))
+    }
+
+    /// Drops the elements that end before `s_mm`.
+    pub fn trim_before(&mut self, s_mm: f64) {
+        let before = self.window.elements.len();
+        self.window.trim_before(s_mm);
+        self.first_index += before - self.window.elements.len();
+    }
+
+    /// Reads the next element into the window (through the smoothing stage for a program).
+    fn read(&mut self) -> Result<(), FeedError> {
+        match &mut self.input {
+            Input::Stream { stream, prep, s_offset_mm } => {
+                let got = stream.next_element().map_err(|e| FeedError::Program(e.to_string()))?;
+                let ended = got.is_none();
+                match got {
+                    Some(e) => prep.push(e)?,
+                    None => prep.finish()?,
+                }
+                while let Some(e) = prep.pop() {
+                    self.window.append_shifted(e, *s_offset_mm);
+                }
+                if ended {
+                    self.done = true;
+                    self.final_dwell_s = stream.final_dwell_s().unwrap_or(0.0);
+                }
+            }
+            Input::Empty => self.done = true,
+        }
+        Ok(())
+    }
+}

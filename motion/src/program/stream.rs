@@ -1,0 +1,371 @@
+//! A program read as a stream: lines are read as elements are asked for, so memory grows with
+//! the elements a caller holds, not with the program's length.
+//!
+//! [`ProgramStream`] hands out the elements of a G-code program one by one; [`check`] reads a
+//! whole program the same way, keeping no geometry, for its errors and summary. A G06 spline
+//! block is read whole before its spans are handed out (the natural spline's tangents depend on
+//! every support point of the block). Path tables are read whole: they are the data form of
+//! short multi-axis paths, not CAM output.
+
+use super::error::Diagnostics;
+use super::gcode::Interpreter;
+use super::{Format, ProgramError, ProgramErrors, Summary, table};
+use crate::Settings;
+use crate::path::{AxisVec, Element, MAX_AXES, Path};
+use std::collections::VecDeque;
+use std::io::{BufRead, BufReader, Read};
+
+/// The longest line read, bytes: far beyond any real block, and it bounds the memory a file
+/// without line breaks can take.
+pub const MAX_LINE_BYTES: usize = 64 * 1024;
+
+/// Where the lines come from.
+enum Lines {
+    File(BufReader<std::fs::File>),
+    Text { text: String, at: usize },
+}
+
+/// What turns the lines into elements.
+enum Reader {
+    GCode(Box<Interpreter>),
+    /// A path table, parsed whole when the stream opens: its end (the elements are handed
+    /// out from `ready`) and what was read.
+    Table {
+        end: Path,
+        summary: Box<Summary>,
+    },
+}
+
+/// The elements of a program, read from its file as they are asked for.
+pub struct ProgramStream {
+    lines: Lines,
+    reader: Reader,
+    d: Diagnostics,
+    line_no: u32,
+    buf: Vec<u8>,
+    ready: VecDeque<Element>,
+    /// The end of the text was reached and the reader finished.
+    eof: bool,
+    axis_names: Vec<String>,
+    start: AxisVec,
+}
+
+impl ProgramStream {
+    /// Opens the program file at `path` (named as given in messages).
+    pub fn open(path: &std::path::Path, settings: &Settings) -> Result<Self, ProgramErrors> {
+        let origin = path.display().to_string();
+        let file = std::fs::File::open(path).map_err(|e| fatal(&origin, format!("cannot read: {e}")))?;
+        let mut lines = Lines::File(BufReader::with_capacity(1 << 16, file));
+        // The format is decided on the first non-empty line (see `Format::detect`); a path
+        // table is read whole here.
+        let format = match &mut lines {
+            Lines::File(r) => {
+                let head = r.fill_buf().map_err(|e| fatal(&origin, format!("cannot read: {e}")))?;
+                let head = String::from_utf8_lossy(&head[..head.len().min(MAX_LINE_BYTES)]).into_owned();
+                Format::detect(&origin, &head)
+            }
+            Lines::Text { .. } => unreachable!("opened from a file"),
+        };
+        let mut stream = Self::with_lines(lines, &origin, settings, Format::GCode);
+        if format == Format::PathTable {
+            let mut text = String::new();
+            if let Lines::File(r) = &mut stream.lines {
+                r.read_to_string(&mut text).map_err(|e| not_text(&origin, e))?;
+            }
+            stream.lines = Lines::Text { text: String::new(), at: 0 };
+            stream.read_table(&text, settings);
+        }
+        Ok(stream)
+    }
+
+    /// A stream over program text held in memory (`origin` names it in messages).
+    pub fn from_text(text: String, origin: &str, settings: &Settings) -> Self {
+        let format = Format::detect(origin, &text);
+        if format == Format::PathTable {
+            let mut stream = Self::with_lines(Lines::Text { text: String::new(), at: 0 }, origin, settings, format);
+            stream.read_table(&text, settings);
+            return stream;
+        }
+        Self::with_lines(Lines::Text { text, at: 0 }, origin, settings, format)
+    }
+
+    fn with_lines(lines: Lines, origin: &str, settings: &Settings, format: Format) -> Self {
+        let start = [0.0; MAX_AXES];
+        let reader = match format {
+            Format::GCode => Reader::GCode(Box::new(Interpreter::new(settings))),
+            Format::PathTable => {
+                Reader::Table { end: Path::new(settings.axis_names(), start), summary: Box::default() }
+            }
+        };
+        Self {
+            lines,
+            reader,
+            d: Diagnostics::new(origin),
+            line_no: 0,
+            buf: Vec::new(),
+            ready: VecDeque::new(),
+            eof: false,
+            axis_names: settings.axis_names(),
+            start,
+        }
+    }
+
+    fn read_table(&mut self, text: &str, settings: &Settings) {
+        let program = table::parse_table(text, settings, &mut self.d);
+        self.start = program.path.start;
+        self.ready.extend(program.path.elements);
+        self.reader =
+            Reader::Table { end: Path { elements: Vec::new(), ..program.path }, summary: Box::new(program.summary) };
+        self.eof = true;
+    }
+
+    /// Axis names in machine order.
+    pub fn axis_names(&self) -> &[String] {
+        &self.axis_names
+    }
+
+    /// Where the path starts (the machine origin for G-code; a table's first row).
+    pub fn start(&self) -> AxisVec {
+        self.start
+    }
+
+    /// Lines read so far and what they held.
+    pub fn summary(&self) -> &Summary {
+        match &self.reader {
+            Reader::GCode(i) => &i.summary,
+            Reader::Table { summary, .. } => summary,
+        }
+    }
+
+    /// The dwell after the last element, s, once the stream has ended.
+    pub fn final_dwell_s(&self) -> Option<f64> {
+        if !self.eof {
+            return None;
+        }
+        Some(match &self.reader {
+            Reader::GCode(i) => i.path.final_dwell_s,
+            Reader::Table { end, .. } => end.final_dwell_s,
+        })
+    }
+
+    /// The next element, `None` at the end of the program. The first error ends the stream:
+    /// every element handed out before it is valid.
+    pub fn next_element(&mut self) -> Result<Option<Element>, ProgramErrors> {
+        loop {
+            if !self.d.errors.is_empty() {
+                return Err(ProgramErrors(self.d.errors.clone()));
+            }
+            if let Some(e) = self.ready.pop_front() {
+                return Ok(Some(e));
+            }
+            if self.eof {
+                return Ok(None);
+            }
+            self.read_line();
+        }
+    }
+
+    /// After an error: reads the rest of the program for its further errors (up to the cap)
+    /// and returns them all.
+    pub fn all_errors(&mut self) -> ProgramErrors {
+        self.read_to_end();
+        ProgramErrors(self.d.errors.clone())
+    }
+
+    /// Reads the rest of the program, handing out nothing: every error (up to the cap) and the
+    /// summary.
+    fn read_to_end(&mut self) {
+        while !self.eof && !self.d.full() {
+            self.read_line();
+            self.ready.clear();
+        }
+    }
+
+    /// Feeds the next line to the interpreter (or finishes it at the end of the text).
+    fn read_line(&mut self) {
+        let Reader::GCode(interp) = &mut self.reader else {
+            self.eof = true;
+            return;
+        };
+        self.buf.clear();
+        let got = match &mut self.lines {
+            Lines::File(r) => r.by_ref().take(MAX_LINE_BYTES as u64 + 1).read_until(b'\n', &mut self.buf),
+            Lines::Text { text, at } => {
+                let rest = &text.as_bytes()[*at..];
+                let n = rest.iter().position(|&b| b == b'\n').map_or(rest.len(), |i| i + 1);
+                self.buf.extend_from_slice(&rest[..n.min(MAX_LINE_BYTES + 1)]);
+                *at += n;
+                Ok(n)
+            }
+        };
+        match got {
+            Ok(0) => {
+                interp.finish(&mut self.d);
+                interp.path.drain_all(&mut self.ready);
+                self.eof = true;
+                return;
+            }
+            Ok(_) => {}
+            Err(e) => {
+                self.d.error(self.line_no + 1, 0, format!("cannot read: {e}"));
+                self.eof = true;
+                return;
+            }
+        }
+        self.line_no += 1;
+        if self.buf.len() > MAX_LINE_BYTES {
+            self.d.error(self.line_no, 1, format!("line longer than {MAX_LINE_BYTES} bytes"));
+            self.eof = true;
+            return;
+        }
+        if self.buf.last() == Some(&b'\n') {
+            self.buf.pop();
+        }
+        if self.buf.last() == Some(&b'\r') {
+            self.buf.pop();
+        }
+        match std::str::from_utf8(&self.buf) {
+            Ok(text) => interp.line(text, self.line_no, &mut self.d),
+            Err(e) => {
+                self.d.error(self.line_no, e.valid_up_to() as u32 + 1, "the file is not UTF-8 text");
+                self.eof = true;
+                return;
+            }
+        }
+        interp.path.drain_settled(&mut self.ready);
+    }
+}
+
+/// What a whole-program check found: the summary and the programmed path's extent.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Checked {
+    pub summary: Summary,
+    /// Elements of the programmed path (before smoothing).
+    pub elements: u64,
+    /// Length of the programmed path, mm.
+    pub length_mm: f64,
+    /// Joints where the tangent breaks (a stop unless smoothed).
+    pub corners: u64,
+}
+
+/// Reads the program at `path` to its end, keeping no geometry: every error (up to the cap,
+/// each as FILE:LINE:COL) or the summary.
+pub fn check(path: &std::path::Path, settings: &Settings) -> Result<Checked, ProgramErrors> {
+    check_stream(ProgramStream::open(path, settings)?)
+}
+
+/// [`check`] of program text held in memory.
+pub fn check_text(text: String, origin: &str, settings: &Settings) -> Result<Checked, ProgramErrors> {
+    check_stream(ProgramStream::from_text(text, origin, settings))
+}
+
+fn check_stream(mut stream: ProgramStream) -> Result<Checked, ProgramErrors> {
+    let (mut elements, mut length_mm, mut corners) = (0u64, 0.0f64, 0u64);
+    loop {
+        if !stream.d.errors.is_empty() {
+            return Err(stream.all_errors());
+        }
+        while let Some(e) = stream.ready.pop_front() {
+            elements += 1;
+            length_mm = e.s_end_mm();
+            corners += u64::from(e.joint == crate::path::JointKind::Corner);
+        }
+        if stream.eof {
+            break;
+        }
+        stream.read_line();
+    }
+    Ok(Checked { summary: stream.summary().clone(), elements, length_mm, corners })
+}
+
+fn fatal(origin: &str, message: String) -> ProgramErrors {
+    ProgramErrors(vec![ProgramError { file: origin.to_string(), line: 0, col: 0, message }])
+}
+
+fn not_text(origin: &str, e: std::io::Error) -> ProgramErrors {
+    let message = if e.kind() == std::io::ErrorKind::InvalidData {
+        "the file is not UTF-8 text".to_string()
+    } else {
+        format!("cannot read: {e}")
+    };
+    fatal(origin, message)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn xyz() -> Settings {
+        Settings::default_machine()
+    }
+
+    /// A program of `n` short G1 moves along a zig-zag.
+    fn moves(n: usize) -> String {
+        let mut t = String::from("G21 G90 G64 P0.01\nG1 X0 Y0 F600\n");
+        for i in 1..=n {
+            t.push_str(&format!("X{:.4} Y{:.4}\n", i as f64 * 0.01, (i % 2) as f64 * 0.003));
+        }
+        t.push_str("M2\n");
+        t
+    }
+
+    #[test]
+    fn elements_are_handed_out_as_the_lines_are_read() {
+        let mut s = ProgramStream::from_text(moves(10_000), "z.ngc", &xyz());
+        let mut count = 0;
+        while let Some(e) = s.next_element().expect("valid") {
+            count += 1;
+            // The reader is at most one line ahead of the element it hands out (the last
+            // element waits for its successor's joint).
+            assert!(s.line_no <= e.source.line + 2, "line {} read for element of line {}", s.line_no, e.source.line);
+            assert!(s.ready.len() <= 1);
+        }
+        assert_eq!(count, 10_000, "the move to X0 Y0 has zero length");
+        assert_eq!(s.final_dwell_s(), Some(0.0));
+    }
+
+    #[test]
+    fn the_stream_gives_the_whole_parse_for_files_and_text() {
+        let text = "G21\nG1 X1 F100\r\nG2 X3 Y0 I1 J0\nG4 P0.5\nG0 Z2\nG4 P0.25\n";
+        let dir = std::env::temp_dir().join(format!("interpd-stream-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let file = dir.join("p.ngc");
+        std::fs::write(&file, text).expect("write");
+        let from_file = super::super::load(&file, &xyz()).expect("file");
+        let from_text = super::super::parse(text, &file.display().to_string(), &xyz()).expect("text");
+        assert_eq!(from_file.path, from_text.path);
+        assert_eq!(from_file.path.elements.len(), 3);
+        assert_eq!(from_file.path.final_dwell_s, 0.25);
+        assert_eq!(from_file.summary, from_text.summary);
+        let checked = check(&file, &xyz()).expect("check");
+        assert_eq!(checked.elements, 3);
+        assert!((checked.length_mm - from_file.path.length_mm()).abs() < 1e-12);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn check_reads_on_after_an_error_and_reports_each_with_its_line() {
+        let mut t = moves(2_000);
+        t = t.replacen("X0.0100", "X0.0100 H1", 1);
+        t = t.replacen("X10.0000", "X10.0000 E2", 1);
+        let errs = check_text(t, "z.ngc", &xyz()).expect_err("two errors").0;
+        let at: Vec<(u32, u32)> = errs.iter().map(|e| (e.line, e.col)).collect();
+        assert_eq!(at, vec![(3, 9), (1002, 10)], "{errs:?}");
+    }
+
+    #[test]
+    fn an_overlong_line_and_bad_utf8_are_errors_at_their_line() {
+        let long = format!("G1 X1 F100\n({})\nG1 X2\n", "a".repeat(MAX_LINE_BYTES));
+        let e = check_text(long, "l.ngc", &xyz()).expect_err("long").0;
+        assert_eq!((e[0].line, e[0].col), (2, 1));
+        assert!(e[0].message.contains("longer than"), "{}", e[0].message);
+
+        let dir = std::env::temp_dir().join(format!("interpd-stream-utf8-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let file = dir.join("u.ngc");
+        std::fs::write(&file, b"G1 X1 F100\nG1 X2 (\xff)\n").expect("write");
+        let e = check(&file, &xyz()).expect_err("utf8").0;
+        assert_eq!((e[0].line, e[0].col, e[0].message.as_str()), (2, 8, "the file is not UTF-8 text"));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

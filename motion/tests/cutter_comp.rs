@@ -324,3 +324,53 @@ fn tool_length_and_work_offsets_move_the_programmed_coordinates() {
     assert_eq!(p.summary.tools.iter().copied().collect::<Vec<_>>(), vec![1]);
     assert_eq!(p.summary.work_offsets.iter().copied().collect::<Vec<_>>(), vec!["G54", "G55"]);
 }
+
+/// The end points of the path's elements in X, Y, Z.
+fn ends(path: &Path) -> Vec<[f64; 3]> {
+    path.elements
+        .iter()
+        .map(|e| {
+            let mut d = AxisDerivs::default();
+            e.geometry.eval(e.geometry.length_mm(), &mut d);
+            [d.pos[0], d.pos[1], d.pos[2]]
+        })
+        .collect()
+}
+
+fn assert_ends(got: &[[f64; 3]], want: &[[f64; 3]]) {
+    assert_eq!(got.len(), want.len(), "{got:?} against {want:?}");
+    for (g, w) in got.iter().zip(want) {
+        assert!(g.iter().zip(w).all(|(a, b)| (a - b).abs() < 1e-9), "{got:?} against {want:?}");
+    }
+}
+
+#[test]
+fn a_plunge_at_a_corner_and_a_reversal_are_carried_out_at_the_offset() {
+    // G41 (tool left, 3 mm): entry along +X, a plunge at (10, 0), an outside corner turning
+    // right at (20, 0) ... then a reversal at (20, -10) back up, and the exit.
+    let text = "G0 X0 Y0 Z5\nF1000\nG41 D1\nG1 X10 Y0\nG1 Z-1\nG1 X20 Y0\nG1 X20 Y-10\nG1 X20 Y0\nG40 G1 X30 Y0\n";
+    let p = program::parse(text, "t.ngc", &machine()).unwrap_or_else(|e| panic!("{e}"));
+    assert_ends(
+        &ends(&p.path),
+        &[
+            [0.0, 0.0, 5.0],   // G0 to the start
+            [10.0, 3.0, 5.0],  // entry to the offset of its end
+            [10.0, 3.0, -1.0], // the plunge, at the offset
+            [20.0, 3.0, -1.0], // along Y = 3
+            [23.0, 0.0, -1.0], // corner arc around (20, 0), turning right
+            [23.0, -10.0, -1.0],
+            [17.0, -10.0, -1.0], // half circle around the reversal at (20, -10)
+            [17.0, 0.0, -1.0],
+            [30.0, 0.0, -1.0], // exit from the offset to the programmed point
+        ],
+    );
+}
+
+#[test]
+fn compensation_works_in_the_zx_plane() {
+    // G18: the plane is Z X, counter-clockwise as G3 turns (seen from +Y). Travelling along +Z
+    // (direction (1, 0) in (Z, X)), left is a quarter turn counter-clockwise: (0, 1), i.e. +X.
+    let text = "G18\nF1000\nG41.1 D4\nG1 Z10\nG1 Z20\nG40 G1 Z30\n";
+    let p = program::parse(text, "t.ngc", &machine()).unwrap_or_else(|e| panic!("{e}"));
+    assert_ends(&ends(&p.path), &[[2.0, 0.0, 10.0], [2.0, 0.0, 20.0], [0.0, 0.0, 30.0]]);
+}

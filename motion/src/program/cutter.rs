@@ -21,6 +21,7 @@
 
 use crate::path::{AxisDerivs, AxisVec, Blend, CubicSpan, Feed, Geometry, Helix, Line, MAX_AXES, Source};
 use std::collections::VecDeque;
+use std::f64::consts::PI;
 
 /// The offset of a spline span stays this close to the true offset curve, mm: a quarter of
 /// the 1 µm the compensated path is held to, the rest for the planner's sampling.
@@ -39,6 +40,9 @@ pub(crate) const MAX_HELD_MOVES: usize = 16;
 /// Corners turning less than this are joined straight: the gap r·θ is below 1e-9 mm for any
 /// radius up to 1 m.
 const STRAIGHT_JOINT_RAD: f64 = 1e-12;
+/// Corners within this of a full reversal (π) are passed as a reversal: the offsets are too
+/// close to parallel to intersect reliably.
+const REVERSAL_RAD: f64 = 1e-9;
 /// Moves shorter than this in the plane count as moves without motion in the plane, mm.
 const MIN_PLANE_MOVE_MM: f64 = 1e-9;
 /// Newton steps for the intersection of two offset elements at an inside corner.
@@ -306,7 +310,13 @@ impl Cutter {
         let (_, contour_end) = self.ends(&piece.geometry);
         let end_tangent = self.end_tangent(&piece.geometry);
         let last = tail;
-        let turn = cross(t1, t2).atan2(dot(t1, t2));
+        let mut turn = cross(t1, t2).atan2(dot(t1, t2));
+        // A reversal (the path turns back on itself) is passed around its end: the offsets of
+        // the two elements are parallel and never meet, so it is an outside corner whose arc
+        // turns away from the tool's side.
+        if turn.abs() >= PI - REVERSAL_RAD {
+            turn = -self.side.sign() * PI;
+        }
         let outside = self.side.sign() * turn < 0.0;
         if turn.abs() <= STRAIGHT_JOINT_RAD {
             self.out.push_back(last);

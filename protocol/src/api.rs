@@ -12,7 +12,9 @@ pub mod status;
 pub mod tooling;
 
 pub use params::{JogMode, JogParams, LawParams, LoadParams, MdiParams, MoveToParams, OverrideParams};
-pub use status::{CycleStats, DriveStatus, ManualStatus, Percentiles, ProgramInfo, State, Status};
+pub use status::{
+    CycleStats, DriveStatus, ManualStatus, MdiModal, Percentiles, ProgramInfo, State, Status, ToolLength,
+};
 pub use tooling::{Tool, ToolTable, WorkOffsets};
 
 use crate::jsonrpc::params::Params;

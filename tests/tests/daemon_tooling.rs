@@ -67,6 +67,11 @@ fn tools_and_offsets_are_read_and_set_and_programs_use_them() {
     let st = c.wait_state(&["idle", "finished"], TIMEOUT);
     let pos: Vec<f64> = st["position"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
     assert!((pos[0] - 11.0).abs() < 1e-9 && (pos[1] + 3.0).abs() < 1e-9, "{st}");
+    assert_eq!(st["mdi"], json!({"work_offset": "G55", "tool_length": null}), "{st}");
+    c.ok("mdi", json!({"line": "G43 H5"}));
+    let st = c.ok("status", Value::Null);
+    assert_eq!(st["mdi"]["tool_length"], json!({"tool": 5, "length_mm": 20.0}), "{st}");
+    c.ok("mdi", json!({"line": "G49"}));
 
     // A loaded program runs with the offsets it was loaded with, whatever is set after.
     let info = c.ok("program.load", json!({"text": "G55 G0 X1 Y2\nG0 X2\n", "name": "g55"}));

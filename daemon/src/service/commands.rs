@@ -14,8 +14,8 @@ use crossbeam::channel::{self, Receiver};
 use interpd_motion::path::MAX_AXES;
 use interpd_motion::program::{self, ModalState};
 use interpd_protocol::api::{
-    Event, JogMode, JogParams, LawResult, ManualStatus, MdiParams, MdiResult, Method, MoveToParams, MoveToResult,
-    ProgramInfo, State, Status, ToolTable, WorkOffsets,
+    Event, JogMode, JogParams, LawResult, ManualStatus, MdiModal, MdiParams, MdiResult, Method, MoveToParams,
+    MoveToResult, ProgramInfo, State, Status, ToolLength, ToolTable, WorkOffsets,
 };
 use interpd_protocol::shm::flags;
 use std::collections::BTreeMap;
@@ -299,6 +299,10 @@ impl Motion for ServiceCore {
             drives: shared.drives.as_ref().map(|d| d.drives()).unwrap_or_default(),
             can_bus: shared.drives.as_ref().and_then(|d| d.bus()),
             manual: ctl.manual.clone(),
+            mdi: ctl.mdi_modal.as_ref().map(|m| MdiModal {
+                work_offset: m.work_system().to_string(),
+                tool_length: m.tool_length().map(|(tool, length_mm)| ToolLength { tool, length_mm }),
+            }),
         }
     }
 

@@ -113,6 +113,16 @@ impl ModalState {
         &self.0.pos
     }
 
+    /// The active work coordinate system, `"G54"` … `"G59"`.
+    pub fn work_system(&self) -> &'static str {
+        interpd_config::WORK_SYSTEMS[self.0.work_system]
+    }
+
+    /// Active tool length compensation: the tool (None for G43.1) and the length added to Z, mm.
+    pub fn tool_length(&self) -> Option<(Option<u32>, f64)> {
+        self.0.tool_length
+    }
+
     /// Moves the position (the machine was moved by other means), keeping the modes.
     pub fn set_position(&mut self, pos: crate::path::AxisVec) {
         self.0.pos = pos;

@@ -168,6 +168,30 @@ pub struct Status {
     /// The manual motion running or run last (`motion.jog`, `motion.move_to`); `null` until
     /// the first one, and again after a program or MDI start.
     pub manual: Option<ManualStatus>,
+    /// The modal state `mdi` blocks run in: the active work coordinate system and tool length
+    /// compensation; `null` before the first `mdi` call. (A program's own appear in
+    /// `program`; cutter compensation ends with each `mdi` call.)
+    pub mdi: Option<MdiModal>,
+}
+
+/// The tool state of `mdi` blocks, in `status.mdi`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct MdiModal {
+    /// `"G54"` … `"G59"`.
+    pub work_offset: String,
+    /// Tool length compensation (G43 H / G43.1); `null` with G49.
+    pub tool_length: Option<ToolLength>,
+}
+
+/// Active tool length compensation.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct ToolLength {
+    /// The tool of G43 H; `null` for G43.1 (the length given in the block).
+    pub tool: Option<u32>,
+    /// The length added to Z, mm.
+    pub length_mm: f64,
 }
 
 /// The manual motion in `status.manual`.
@@ -198,6 +222,7 @@ impl Default for Status {
             drives: Vec::new(),
             can_bus: None,
             manual: None,
+            mdi: None,
         }
     }
 }

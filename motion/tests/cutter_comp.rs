@@ -171,6 +171,7 @@ fn check(text: &str, contour_text: &str, entry: u32, exit: u32, left: bool, band
     contour_path.elements.retain(|e| e.source.line > entry && e.source.line < exit);
     let path = if band_mm > 0.0 { prepare_path(&settings, &prog.path).expect("prepare").path } else { prog.path };
     let (segs, _) = Planner::plan_path(&settings, &path).expect("plan");
+    assert_continuous(&path, text);
     let ratios = limit_ratios(&path, &segs, &settings, DT_S);
     let r = TOOL_DIAMETER_MM / 2.0;
     let mut cursor = Cursor::default();
@@ -373,4 +374,42 @@ fn compensation_works_in_the_zx_plane() {
     let text = "G18\nF1000\nG41.1 D4\nG1 Z10\nG1 Z20\nG40 G1 Z30\n";
     let p = program::parse(text, "t.ngc", &machine()).unwrap_or_else(|e| panic!("{e}"));
     assert_ends(&ends(&p.path), &[[2.0, 0.0, 10.0], [2.0, 0.0, 20.0], [0.0, 0.0, 30.0]]);
+}
+
+#[test]
+fn a_dense_cam_polyline_with_rounded_points_is_compensated_on_both_sides() {
+    // The first 8000 chords (about 20 µm, points rounded to 0.1 µm, moving in Z too) of the
+    // dense free-form example: between collinear chords the turn is a rounding residue
+    // (~1e-12 rad), where the offsets are too close to parallel to intersect.
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/dense_freeform.ngc"))
+        .expect("read the example");
+    let moves: Vec<&str> = text.lines().filter(|l| l.starts_with('X')).take(8000).collect();
+    // Approach along the first chord, 5 mm before the start (19.1770, 56.5968).
+    let (x0, y0): (f64, f64) = (19.1770, 56.5968);
+    let (dx, dy) = (19.1963 - x0, 56.6023 - y0);
+    let n = dx.hypot(dy);
+    for comp in ["G41.1 D0.2", "G42.1 D0.2"] {
+        let program = format!(
+            "G21 G90 G17\nG0 X{:.6} Y{:.6} Z0\nF6000\n{comp}\nG1 X{x0} Y{y0} Z0\n{}\nG40 G1 X0 Y0\n",
+            x0 - 5.0 * dx / n,
+            y0 - 5.0 * dy / n,
+            moves.join("\n")
+        );
+        let p = program::parse(&program, "dense.ngc", &machine()).unwrap_or_else(|e| panic!("{comp}: {e}"));
+        assert!(p.path.elements.len() >= 8000, "{comp}: {} elements", p.path.elements.len());
+        // The chords climb in Z: trimmed at an inside corner in the plane, consecutive
+        // elements still meet exactly.
+        assert_continuous(&p.path, comp);
+    }
+}
+
+/// Every element starts where the one before ends (1e-9 mm in every axis).
+fn assert_continuous(path: &Path, what: &str) {
+    let (mut a, mut b) = (AxisDerivs::default(), AxisDerivs::default());
+    for w in path.elements.windows(2) {
+        w[0].geometry.eval(w[0].geometry.length_mm(), &mut a);
+        w[1].geometry.eval(0.0, &mut b);
+        let gap = (0..path.n_axes).map(|k| (a.pos[k] - b.pos[k]).abs()).fold(0.0, f64::max);
+        assert!(gap <= 1e-9, "{what}: a gap of {gap} mm before line {}", w[1].source.line);
+    }
 }

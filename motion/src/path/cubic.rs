@@ -100,6 +100,13 @@ impl CubicSpan {
         out
     }
 
+    /// The span from `start` instead of P(0), with the same end and end tangents.
+    pub(crate) fn with_start(&self, start: &AxisVec) -> Result<Self, SpanError> {
+        let [_, t0, _] = self.raw_at_u(0.0);
+        let [p1, t1, _] = self.raw_at_u(1.0);
+        Self::hermite(start, &p1, &t0, &t1, &self.linear[..self.n_axes])
+    }
+
     /// The piece u ∈ [u0, u1] of this span as a span of its own: the same cubic, so the
     /// Hermite form with the end points and the tangents scaled by u1 − u0 is exact.
     pub(crate) fn sub_span(&self, u0: f64, u1: f64) -> Result<Self, SpanError> {

@@ -37,9 +37,14 @@ const SPLINE_MAX_DEPTH: usize = 16;
 const GOUGE_SCAN_POINTS: usize = 256;
 /// Moves without motion in the plane (a Z plunge, a rotary move) held back at one corner.
 pub(crate) const MAX_HELD_MOVES: usize = 16;
-/// Corners turning less than this are joined straight: the gap r·θ is below 1e-9 mm for any
-/// radius up to 1 m.
-const STRAIGHT_JOINT_RAD: f64 = 1e-12;
+/// Corners turning less than this are joined straight (the next offset starts where the last
+/// ends, moving its start by r·θ, below 1 nm for tool radii up to 10 mm): the intersection of
+/// two offsets this close to parallel is lost in rounding (CAM programs rounded to 0.1 µm have
+/// such joints between collinear chords).
+const STRAIGHT_JOINT_RAD: f64 = 1e-7;
+/// An intersection this far beyond an element's end (rounding of nearly parallel offsets) is
+/// taken at the end, mm.
+const INTERSECT_SLACK_MM: f64 = 1e-6;
 /// Corners within this of a full reversal (π) are passed as a reversal: the offsets are too
 /// close to parallel to intersect reliably.
 const REVERSAL_RAD: f64 = 1e-9;
@@ -49,6 +54,11 @@ const MIN_PLANE_MOVE_MM: f64 = 1e-9;
 const INTERSECT_STEPS: usize = 60;
 /// The intersection is accepted when the two points agree to this, mm.
 const INTERSECT_TOL_MM: f64 = 1e-10;
+/// Elements that meet this closely are left as they are, mm.
+const CONNECT_EXACT_MM: f64 = 1e-12;
+/// Only elements that meet in the plane to this (as trimmed ones do, to the intersection's
+/// tolerance) are joined along the other axes, mm.
+const CONNECT_PLANE_MM: f64 = 1e-9;
 /// Offset arcs with a smaller radius are degenerate (the tool radius equals the arc's).
 const MIN_OFFSET_RADIUS_MM: f64 = 1e-6;
 
@@ -174,6 +184,8 @@ pub(crate) struct Cutter {
     linear: [bool; MAX_AXES],
     n_axes: usize,
     out: VecDeque<Piece>,
+    /// Where the last compensated element handed on ends.
+    last_end: Option<AxisVec>,
 }
 
 impl Cutter {
@@ -189,6 +201,7 @@ impl Cutter {
             linear: mask,
             n_axes: linear.len(),
             out: VecDeque::new(),
+            last_end: None,
         }
     }
 
@@ -239,6 +252,7 @@ impl Cutter {
         let in_plane = self.plane_length(&piece.geometry) > MIN_PLANE_MOVE_MM;
         match &mut self.state {
             State::Off => {
+                self.last_end = None;
                 self.out.push_back(piece);
                 Ok(())
             }
@@ -246,7 +260,7 @@ impl Cutter {
                 let shift = *shift;
                 if !in_plane {
                     let moved = self.shifted(&piece, shift)?;
-                    self.out.push_back(moved);
+                    self.emit(moved);
                     return Ok(());
                 }
                 let Geometry::Line(_) = piece.geometry else {
@@ -255,7 +269,7 @@ impl Cutter {
                 let (a, b) = self.ends(&piece.geometry);
                 let start = self.plus(a, shift);
                 if let Some(g) = self.line(start, b) {
-                    self.out.push_back(Piece { geometry: g, ..piece });
+                    self.emit(Piece { geometry: g, ..piece });
                 }
                 self.state = State::Off;
                 Ok(())
@@ -264,7 +278,7 @@ impl Cutter {
                 let shift = *shift;
                 if !in_plane {
                     let moved = self.shifted(&piece, shift)?;
-                    self.out.push_back(moved);
+                    self.emit(moved);
                     return Ok(());
                 }
                 let Geometry::Line(_) = piece.geometry else {
@@ -319,10 +333,16 @@ impl Cutter {
         }
         let outside = self.side.sign() * turn < 0.0;
         if turn.abs() <= STRAIGHT_JOINT_RAD {
-            self.out.push_back(last);
+            self.emit(last);
             self.hand_on_moves(moves, n1)?;
+            // The offsets miss each other by at most r·θ: the next starts where this ends.
+            if let Some(end) = self.last_end {
+                if let Some(g) = self.starting_at(&offsets[0].geometry, end) {
+                    offsets[0].geometry = g;
+                }
+            }
         } else if outside {
-            self.out.push_back(last);
+            self.emit(last);
             let at = self.hand_on_moves(moves, n1)?.unwrap_or(corner);
             let a = self.plus(at, n1);
             let b = self.plus(at, n2);
@@ -331,7 +351,7 @@ impl Cutter {
                 // The corner arc comes after arriving at the corner: a dwell programmed
                 // for the next block happens before it.
                 let dwell = std::mem::take(&mut offsets[0].dwell_before_s);
-                self.out.push_back(Piece { geometry: Geometry::Helix(arc), dwell_before_s: dwell, ..piece.clone() });
+                self.emit(Piece { geometry: Geometry::Helix(arc), dwell_before_s: dwell, ..piece.clone() });
             }
         } else {
             let first = &offsets[0];
@@ -346,13 +366,49 @@ impl Cutter {
             let mut d = AxisDerivs::default();
             g1.eval(g1.length_mm(), &mut d);
             let shift = [d.pos[self.p] - corner[self.p], d.pos[self.q] - corner[self.q]];
-            self.out.push_back(Piece { geometry: g1, ..last });
+            self.emit(Piece { geometry: g1, ..last });
             self.hand_on_moves(moves, shift)?;
             offsets[0].geometry = g2;
         }
         let last = offsets.pop().expect("an offset has at least one piece");
-        self.out.extend(offsets);
+        for o in offsets {
+            self.emit(o);
+        }
         Ok(Held { tail: last, corner: contour_end, tangent: end_tangent, moves: Vec::new() })
+    }
+
+    /// Hands on a tool path element, starting exactly where the one before ends: trimming
+    /// at an inside corner is exact in the plane, but on a contour that moves along the third
+    /// axis the two trimmed elements reach the intersection at slightly different heights, so
+    /// the later one is made to start at the earlier one's end.
+    fn emit(&mut self, mut piece: Piece) {
+        if let Some(end) = self.last_end {
+            let (start, _) = self.ends(&piece.geometry);
+            let gap = (0..self.n_axes).map(|k| (start[k] - end[k]).abs()).fold(0.0, f64::max);
+            let plane_gap = (start[self.p] - end[self.p]).hypot(start[self.q] - end[self.q]);
+            if gap > CONNECT_EXACT_MM && plane_gap <= CONNECT_PLANE_MM {
+                if let Some(g) = self.starting_at(&piece.geometry, end) {
+                    piece.geometry = g;
+                }
+            }
+        }
+        self.last_end = Some(self.ends(&piece.geometry).1);
+        self.out.push_back(piece);
+    }
+
+    /// `g` from `start` instead of its own start point, to the same end.
+    fn starting_at(&self, g: &Geometry, start: AxisVec) -> Option<Geometry> {
+        let (_, end) = self.ends(g);
+        let linear = &self.linear[..self.n_axes];
+        match g {
+            Geometry::Line(_) => self.line(start, end),
+            Geometry::Helix(h) => {
+                let (p, q) = h.plane_axes();
+                Some(Geometry::Helix(Helix::new(p, q, h.center(), h.sweep_rad(), start, end, linear)))
+            }
+            Geometry::Cubic(c) => c.with_start(&start).ok().map(|c| Geometry::Cubic(Box::new(c))),
+            _ => None,
+        }
     }
 
     /// Hands on the held moves shifted by `shift` in the plane; returns where the last one
@@ -362,7 +418,7 @@ impl Cutter {
         for m in moves {
             at = Some(self.ends(&m.geometry).1);
             let moved = self.shifted(&m, shift)?;
-            self.out.push_back(moved);
+            self.emit(moved);
         }
         Ok(at)
     }
@@ -370,11 +426,11 @@ impl Cutter {
     /// Hands on the held tail untrimmed; returns the shift of the tool from the contour.
     fn release(&mut self, held: Held) -> [f64; 2] {
         let n1 = self.normal(held.tangent);
-        self.out.push_back(held.tail);
+        self.emit(held.tail);
         for m in held.moves {
             // Held moves are lines (checked when offset), so shifting cannot fail.
             if let Ok(moved) = self.shifted(&m, n1) {
-                self.out.push_back(moved);
+                self.emit(moved);
             }
         }
         n1
@@ -608,9 +664,12 @@ fn intersect(g1: &Geometry, g2: &Geometry, p: usize, q: usize) -> Option<(f64, f
     let (x, y) = solve(&a, &b)?;
     let (mut s1, mut s2) = (l1 + x, y);
     for _ in 0..INTERSECT_STEPS {
-        if !(0.0..=l1).contains(&s1) || !(0.0..=l2).contains(&s2) {
+        if !(-INTERSECT_SLACK_MM..=l1 + INTERSECT_SLACK_MM).contains(&s1)
+            || !(-INTERSECT_SLACK_MM..=l2 + INTERSECT_SLACK_MM).contains(&s2)
+        {
             return None;
         }
+        (s1, s2) = (s1.clamp(0.0, l1), s2.clamp(0.0, l2));
         g1.eval(s1, &mut a);
         g2.eval(s2, &mut b);
         if (a.pos[p] - b.pos[p]).hypot(a.pos[q] - b.pos[q]) <= INTERSECT_TOL_MM {

@@ -16,8 +16,8 @@
 //! max = 1000.0
 //! ```
 //!
-//! plus optional `[planner]`, `[prep]`, `[sinks]`, `[plant]`, `[control]`, `[rt]` and
-//! `[compensation]` sections.
+//! plus optional `[planner]`, `[prep]`, `[sinks]`, `[plant]`, `[control]`, `[rt]`,
+//! `[compensation]`, `[work_offsets]` sections and `[[tool]]` tables.
 //! Unknown keys, missing keys and values out of range are errors that name the file and the
 //! key; nothing is silently defaulted except the optional sections and keys documented here.
 
@@ -28,11 +28,13 @@ mod machine;
 pub mod plant;
 mod sections;
 pub mod sinks;
+mod tooling;
 
 pub use error::ConfigError;
 pub use keys::keys_of;
 pub use machine::{AxisConfig, AxisKind, AxisLetter, MAX_AXES, MachineSection};
 pub use sections::{ControlConfig, PlannerConfig, PrepConfig, PrepMode, ProgramsConfig, RtConfig};
+pub use tooling::{MAX_TOOL_NUMBER, ToolConfig, WORK_SYSTEMS, WorkOffsetsConfig, validate_tools};
 
 use serde::Deserialize;
 use std::path::Path;
@@ -66,6 +68,12 @@ pub struct Config {
     /// `[compensation]`: corrections after the fine interpolation (none without the section).
     #[serde(default)]
     pub compensation: Option<compensation::CompensationConfig>,
+    /// The tool table: `[[tool]]` tables (optional).
+    #[serde(rename = "tool", default)]
+    pub tools: Vec<ToolConfig>,
+    /// Work coordinate systems G54 … G59 (optional).
+    #[serde(default)]
+    pub work_offsets: WorkOffsetsConfig,
 }
 
 impl Config {
@@ -146,6 +154,8 @@ impl Config {
         if let Some(c) = &self.compensation {
             c.validate(&v, &self.axes)?;
         }
+        validate_tools(&v, &self.tools)?;
+        self.work_offsets.validate(&v, &self.axes)?;
         Ok(())
     }
 }

@@ -187,3 +187,27 @@ fn can_section_errors_name_the_key() {
     let e = err_text(&format!("[machine]\n{AXIS_X}\n[sinks.can]\nnode = [1]\n"));
     assert!(e.contains("unknown field `node`") && e.contains("sinks.can"), "{e}");
 }
+
+#[test]
+fn tool_table_and_work_offsets_are_checked_by_key() {
+    let base = format!("[machine]\n{AXIS_X}");
+    let ok = parse(&format!(
+        "{base}\n[[tool]]\nnumber = 3\ndiameter = 6.0\nlength = 40.0\n[work_offsets]\nG55 = {{ X = 2.5 }}\n"
+    ))
+    .unwrap();
+    assert_eq!((ok.tools[0].number, ok.tools[0].diameter_mm, ok.tools[0].length_mm), (3, 6.0, 40.0));
+    assert_eq!(ok.work_offsets.vector(1, &ok.axes)[0], 2.5);
+    assert_eq!(ok.work_offsets.vector(0, &ok.axes)[0], 0.0);
+    for (extra, key) in [
+        ("[[tool]]\nnumber = 1\ndiameter = -1.0\n", "tool[0].diameter"),
+        ("[[tool]]\nnumber = 1\ndiameter = 1.0\n[[tool]]\nnumber = 1\ndiameter = 2.0\n", "tool[1].number"),
+        ("[[tool]]\nnumber = 100000\ndiameter = 1.0\n", "tool[0].number"),
+        ("[work_offsets]\nG54 = { Y = 1.0 }\n", "work_offsets.G54.Y"),
+        ("[work_offsets]\nG54 = { X = nan }\n", "work_offsets.G54.X"),
+    ] {
+        let e = err_text(&format!("{base}\n{extra}"));
+        assert!(e.contains(key), "{extra}: {e}");
+    }
+    let e = err_text(&format!("{base}\n[work_offsets]\nG60 = {{ X = 1.0 }}\n"));
+    assert!(e.contains("G60"), "{e}");
+}

@@ -5,7 +5,8 @@
 use interpd_config::plant::PlantConfig;
 use interpd_config::sinks::SinksConfig;
 use interpd_config::{
-    AxisConfig, Config, ControlConfig, MachineSection, PlannerConfig, PrepConfig, ProgramsConfig, RtConfig,
+    AxisConfig, Config, ControlConfig, MachineSection, PlannerConfig, PrepConfig, ProgramsConfig, RtConfig, ToolConfig,
+    WorkOffsetsConfig,
 };
 use serde::de::DeserializeOwned;
 use std::collections::BTreeSet;
@@ -71,6 +72,12 @@ fn the_example_names_every_key_of_every_section() {
     same("[programs]", keys_in(section("programs")), keys_of::<ProgramsConfig>());
     same("[rt]", keys_in(section("rt")), keys_of::<RtConfig>());
     same("[plant]", keys_in(section("plant")), keys_of::<PlantConfig>());
+    same("[work_offsets]", keys_in(section("work_offsets")), keys_of::<WorkOffsetsConfig>());
+    for (i, tool) in table["tool"].as_array().expect("[[tool]] tables").iter().enumerate() {
+        if i == 0 {
+            same(&format!("tool[{i}]"), keys_in(tool.as_table().expect("table")), keys_of::<ToolConfig>());
+        }
+    }
     for (i, axis) in table["axis"].as_array().expect("[[axis]] tables").iter().enumerate() {
         same(&format!("axis[{i}]"), keys_in(axis.as_table().expect("table")), keys_of::<AxisConfig>());
     }

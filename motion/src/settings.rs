@@ -1,6 +1,8 @@
 //! What the motion library needs to know of a machine.
 
-use interpd_config::{AxisConfig, AxisLetter, Config, ConfigError, PlannerConfig, PrepConfig};
+use interpd_config::{
+    AxisConfig, AxisLetter, Config, ConfigError, PlannerConfig, PrepConfig, ToolConfig, WorkOffsetsConfig,
+};
 
 /// The machine's axes with their limits, and the planner and smoothing settings: the part of
 /// a machine file the motion library reads. The daemon's other sections (sinks, plant,
@@ -11,12 +13,22 @@ pub struct Settings {
     pub axes: Vec<AxisConfig>,
     pub planner: PlannerConfig,
     pub prep: PrepConfig,
+    /// The tool table (G43 H, G41/G42 D).
+    pub tools: Vec<ToolConfig>,
+    /// The work coordinate systems G54 … G59.
+    pub work_offsets: WorkOffsetsConfig,
 }
 
 impl Settings {
     /// The motion sections of a validated configuration.
     pub fn from_config(config: &Config) -> Self {
-        Self { axes: config.axes.clone(), planner: config.planner.clone(), prep: config.prep.clone() }
+        Self {
+            axes: config.axes.clone(),
+            planner: config.planner.clone(),
+            prep: config.prep.clone(),
+            tools: config.tools.clone(),
+            work_offsets: config.work_offsets.clone(),
+        }
     }
 
     /// Reads, parses and validates a machine file and takes its motion sections.
@@ -42,6 +54,11 @@ impl Settings {
     /// Index of the axis with this G-code letter, if the machine has it.
     pub fn axis_index(&self, letter: AxisLetter) -> Option<usize> {
         self.axes.iter().position(|a| a.name == letter)
+    }
+
+    /// The tool with this number, if the table has it.
+    pub fn tool(&self, number: u32) -> Option<&ToolConfig> {
+        self.tools.iter().find(|t| t.number == number)
     }
 
     /// Axis names in machine order.

@@ -9,9 +9,13 @@
 
 pub mod params;
 pub mod status;
+pub mod tooling;
 
 pub use params::{AppendParams, JogMode, JogParams, LawParams, LoadParams, MdiParams, MoveToParams, OverrideParams};
-pub use status::{CycleStats, DriveStatus, ManualStatus, Percentiles, ProgramBuffer, ProgramInfo, State, Status};
+pub use status::{
+    CycleStats, DriveStatus, ManualStatus, MdiModal, Percentiles, ProgramBuffer, ProgramInfo, State, Status, ToolLength,
+};
+pub use tooling::{Tool, ToolTable, WorkOffsets};
 
 use crate::jsonrpc::params::Params;
 use crate::jsonrpc::{ErrorObject, Notification};
@@ -67,10 +71,14 @@ pub enum Method {
     MotionJogStop,
     MotionMoveTo,
     Mdi,
+    ToolsGet,
+    ToolsSet,
+    OffsetsGet,
+    OffsetsSet,
 }
 
 impl Method {
-    pub const ALL: [Method; 14] = [
+    pub const ALL: [Method; 18] = [
         Method::ProgramLoad,
         Method::ProgramAppend,
         Method::MotionStart,
@@ -85,6 +93,10 @@ impl Method {
         Method::MotionJogStop,
         Method::MotionMoveTo,
         Method::Mdi,
+        Method::ToolsGet,
+        Method::ToolsSet,
+        Method::OffsetsGet,
+        Method::OffsetsSet,
     ];
 
     /// The wire name, e.g. `"motion.start"`.
@@ -104,6 +116,10 @@ impl Method {
             Method::MotionJogStop => "motion.jog_stop",
             Method::MotionMoveTo => "motion.move_to",
             Method::Mdi => "mdi",
+            Method::ToolsGet => "tools.get",
+            Method::ToolsSet => "tools.set",
+            Method::OffsetsGet => "offsets.get",
+            Method::OffsetsSet => "offsets.set",
         }
     }
 
@@ -160,6 +176,10 @@ pub enum Call {
     MotionJogStop,
     MotionMoveTo(MoveToParams),
     Mdi(MdiParams),
+    ToolsGet,
+    ToolsSet(ToolTable),
+    OffsetsGet,
+    OffsetsSet(WorkOffsets),
 }
 
 impl Call {
@@ -176,6 +196,10 @@ impl Call {
             Method::MotionJog => Call::MotionJog(JogParams::parse(params)?),
             Method::MotionMoveTo => Call::MotionMoveTo(MoveToParams::parse(params)?),
             Method::Mdi => Call::Mdi(MdiParams::parse(params)?),
+            Method::ToolsSet => Call::ToolsSet(ToolTable::parse(params)?),
+            Method::OffsetsSet => Call::OffsetsSet(WorkOffsets::parse(params)?),
+            Method::ToolsGet => params::none(m, params).map(|()| Call::ToolsGet)?,
+            Method::OffsetsGet => params::none(m, params).map(|()| Call::OffsetsGet)?,
             Method::MotionJogStop => params::none(m, params).map(|()| Call::MotionJogStop)?,
             Method::MotionStart => params::none(m, params).map(|()| Call::MotionStart)?,
             Method::MotionHold => params::none(m, params).map(|()| Call::MotionHold)?,
@@ -202,6 +226,10 @@ impl Call {
             Call::MotionJogStop => Method::MotionJogStop,
             Call::MotionMoveTo(_) => Method::MotionMoveTo,
             Call::Mdi(_) => Method::Mdi,
+            Call::ToolsGet => Method::ToolsGet,
+            Call::ToolsSet(_) => Method::ToolsSet,
+            Call::OffsetsGet => Method::OffsetsGet,
+            Call::OffsetsSet(_) => Method::OffsetsSet,
         }
     }
 }

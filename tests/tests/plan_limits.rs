@@ -67,7 +67,7 @@ fn fd_ratios(csv: &Csv, cfg: &Config) -> [f64; 3] {
     worst
 }
 
-const PROGRAMS: [&str; 8] = [
+const PROGRAMS: [&str; 9] = [
     "examples/circle_r10.ngc",
     "examples/corner_90.ngc",
     "examples/line_arc_line.ngc",
@@ -76,6 +76,7 @@ const PROGRAMS: [&str; 8] = [
     "examples/two_arcs.ngc",
     "examples/ellipse_g06.ngc",
     "examples/ellipse_natural.ngc",
+    "examples/ellipse_g06_comp.ngc",
 ];
 
 fn check_limits(program: &str, machine: Option<&str>) {

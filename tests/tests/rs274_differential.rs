@@ -6,7 +6,10 @@
 //! and directions, feeds, dwells, with units converted. The numbers come from LinuxCNC's `gcode`
 //! Python module (the same interpreter, handing the canonical calls over as doubles) through
 //! `scripts/rs274_canon.py`. The corpus programs interpd refuses on purpose are listed in
-//! `DELIBERATE` with the reason, as in docs/formats.md.
+//! `DELIBERATE` with the reason, as in docs/formats.md. Cutter radius compensation (G41/G42
+//! with rs274's tool 1, lines, convex and concave arcs, inside and outside corners, a plunge and
+//! a reversal) is compared move by move on `rs274 -g`'s printed canonical calls, the module
+//! needing a running LinuxCNC for tool look-ups.
 //!
 //! Without `rs274` or the module the test fails and says how to install them.
 
@@ -92,8 +95,8 @@ fn rs274_verdict(file: &Path) -> Result<(), String> {
 }
 
 /// Canonical motion from LinuxCNC's module for `files`, one JSON object each. Programs with a
-/// T word are left out: the module reads the tool table of a running LinuxCNC and crashes
-/// without one (`rs274 -g` still judges them).
+/// T, D or H word are left out: the module reads the tool table of a running LinuxCNC for
+/// them and crashes without one (`rs274 -g` still judges them).
 fn canon(files: &[PathBuf]) -> Vec<Value> {
     let script = repo_root().join("scripts/rs274_canon.py");
     let out = Command::new(SYSTEM_PYTHON).arg(script).args(files).output().expect("run rs274_canon.py");
@@ -104,7 +107,7 @@ fn canon(files: &[PathBuf]) -> Vec<Value> {
     values
 }
 
-/// The words of a program outside comments contain a T word.
+/// The words of a program outside comments contain a T, D or H word (a tool table look-up).
 fn has_tool_word(text: &str) -> bool {
     text.lines().any(|l| {
         let mut depth = false;
@@ -113,7 +116,7 @@ fn has_tool_word(text: &str) -> bool {
                 ';' if !depth => break,
                 '(' => depth = true,
                 ')' => depth = false,
-                't' | 'T' if !depth => return true,
+                't' | 'T' | 'd' | 'D' | 'h' | 'H' if !depth => return true,
                 _ => {}
             }
         }
@@ -359,6 +362,118 @@ fn generated_programs_agree_with_linuxcnc() {
     assert!(failures.is_empty(), "{} disagreements with LinuxCNC:\n{}", failures.len(), failures.join("\n\n"));
     assert!(compared >= GENERATED / 2, "too few accepted programs to compare: {compared}");
     assert!(accepted < GENERATED, "no generated program was refused: the faults are not exercised");
+}
+
+/// rs274's tool 1 without a tool table file: 0.125 in (its canonical output for `G41 D1`
+/// offsets by 1.5875 mm).
+const RS274_TOOL1_DIAMETER_MM: f64 = 3.175;
+/// `rs274 -g` prints four decimals.
+const PRINTED_TOL_MM: f64 = 1e-4;
+
+/// A printed canonical move: kind, end X Y Z, and for arcs the centre and direction.
+type PrintedMove = (&'static str, [f64; 3], Option<([f64; 2], i64)>);
+
+/// Canonical moves from `rs274 -g`'s printed calls (XY plane): kind, end X Y Z, and for arcs
+/// the centre and direction. Used where the `gcode` module cannot go (tool look-ups for D).
+fn rs274_printed_moves(file: &Path) -> Vec<PrintedMove> {
+    let dir = file.parent().expect("file in a directory");
+    let _one = RS274_LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    let out = Command::new("rs274").arg("-g").arg(file).current_dir(dir).output().expect("run rs274");
+    let text = String::from_utf8_lossy(&out.stdout);
+    let args = |line: &str, call: &str| -> Option<Vec<f64>> {
+        let rest = &line[line.find(call)? + call.len()..];
+        let inner = rest.strip_prefix('(')?.split(')').next()?;
+        Some(inner.split(',').map(|v| v.trim().parse::<f64>().expect("number")).collect())
+    };
+    let mut moves = Vec::new();
+    for line in text.lines() {
+        if let Some(a) = args(line, "STRAIGHT_TRAVERSE") {
+            moves.push(("rapid", [a[0], a[1], a[2]], None));
+        } else if let Some(a) = args(line, "STRAIGHT_FEED") {
+            moves.push(("feed", [a[0], a[1], a[2]], None));
+        } else if let Some(a) = args(line, "ARC_FEED") {
+            moves.push(("arc", [a[0], a[1], a[5]], Some(([a[2], a[3]], a[4] as i64))));
+        } else if line.contains("Cannot") || line.contains("gouging") || line.contains("not found") {
+            panic!("rs274 refuses {}: {line}", file.display());
+        }
+    }
+    moves
+}
+
+#[test]
+fn cutter_compensation_agrees_with_linuxcnc() {
+    require_linuxcnc();
+    let dir = scratch_dir("comp");
+    let mut settings = Settings::default_machine();
+    settings.tools = vec![interpd_motion::config::ToolConfig {
+        number: 1,
+        diameter_mm: RS274_TOOL1_DIAMETER_MM,
+        length_mm: 0.0,
+        name: None,
+    }];
+    // A contour of lines, convex and concave arcs, a V notch and sharp corners, from the middle
+    // of its bottom edge, counter-clockwise; the same clockwise; each with the tool left and
+    // right; a plunge at a corner and a reversal.
+    let ccw = "G1 X40 Y0\nG3 X50 Y10 I0 J10\nG1 X50 Y30\nG2 X40 Y40 I0 J10\nG1 X30 Y40\nG1 X25 Y30\nG1 X20 Y40\n\
+               G1 X10 Y40\nG3 X0 Y30 I0 J-10\nG1 X0 Y0\nG1 X20 Y0\n";
+    let cw = "G1 X0 Y0\nG1 X0 Y30\nG2 X10 Y40 I10 J0\nG1 X20 Y40\nG1 X25 Y30\nG1 X30 Y40\nG1 X40 Y40\n\
+              G3 X50 Y30 I10 J0\nG1 X50 Y10\nG2 X40 Y0 I-10 J0\nG1 X20 Y0\n";
+    let mut programs = Vec::new();
+    for comp in ["G41", "G42"] {
+        programs.push(format!("G0 X10 Y0 Z0\nF1000\n{comp} D1\nG1 X20 Y0\n{ccw}G40 G1 X10 Y0\n"));
+        programs.push(format!("G0 X30 Y0 Z0\nF1000\n{comp} D1\nG1 X20 Y0\n{cw}G40 G1 X30 Y0\n"));
+    }
+    programs.push(
+        "G0 X0 Y0 Z5\nF1000\nG41 D1\nG1 X10 Y0\nG1 Z-1\nG1 X20 Y0\nG1 X20 Y-10\nG1 X20 Y0\nG40 G1 X30 Y0\n".into(),
+    );
+    let mut failures = Vec::new();
+    let mut compared = 0;
+    for (i, text) in programs.iter().enumerate() {
+        let file = dir.join(format!("comp_{i}.ngc"));
+        std::fs::write(&file, with_end(text)).expect("write");
+        let theirs = rs274_printed_moves(&file);
+        let ours = match program::parse(text, "comp.ngc", &settings) {
+            Ok(p) => interpd_moves(&p).0,
+            Err(e) => {
+                failures.push(format!("comp_{i}: interpd refuses: {e}\n{text}"));
+                continue;
+            }
+        };
+        if ours.len() != theirs.len() {
+            failures.push(format!("comp_{i}: {} moves in interpd, {} in LinuxCNC\n{text}", ours.len(), theirs.len()));
+            continue;
+        }
+        compared += ours.len();
+        for (k, (a, (kind, end, arc))) in ours.iter().zip(&theirs).enumerate() {
+            let end_ok = (0..3).all(|j| (a.end[j] - end[j]).abs() <= PRINTED_TOL_MM);
+            let arc_ok = match (a.arc, arc) {
+                (Some((_, c, turn)), Some((c2, turn2))) => {
+                    turn == *turn2 && (c[0] - c2[0]).abs() <= PRINTED_TOL_MM && (c[1] - c2[1]).abs() <= PRINTED_TOL_MM
+                }
+                (None, None) => true,
+                _ => false,
+            };
+            if a.kind != *kind || !end_ok || !arc_ok {
+                failures.push(format!(
+                    "comp_{i} move {}: interpd {} to {:?} {:?}, LinuxCNC {kind} to {end:?} {arc:?}\n{text}",
+                    k + 1,
+                    a.kind,
+                    &a.end[..3],
+                    a.arc
+                ));
+                break;
+            }
+        }
+    }
+    eprintln!(
+        "rs274 differential, cutter compensation: {} programs, {compared} moves agree within {PRINTED_TOL_MM} mm",
+        programs.len()
+    );
+    if failures.is_empty() {
+        std::fs::remove_dir_all(&dir).ok();
+    }
+    assert!(failures.is_empty(), "{} disagreements with LinuxCNC:\n{}", failures.len(), failures.join("\n\n"));
+    assert!(compared >= 70, "only {compared} moves compared");
 }
 
 struct Rng(u64);

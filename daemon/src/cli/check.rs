@@ -38,6 +38,32 @@ pub fn run(program_path: &Path, machine: Option<&Path>) -> Result<(), CliError> 
     if s.ignored_words > 0 {
         extra += &format!(", {} spindle/coolant/tool words ignored", s.ignored_words);
     }
+    if !s.tools.is_empty() {
+        let tools: Vec<String> = s
+            .tools
+            .iter()
+            .filter_map(|n| settings.tool(*n))
+            .map(|t| format!("T{} (diameter {} mm, length {} mm)", t.number, t.diameter_mm, t.length_mm))
+            .collect();
+        extra += &format!(", tools {}", tools.join(", "));
+    }
+    if s.compensation {
+        extra += ", cutter radius compensation";
+    }
+    if !s.work_offsets.is_empty() {
+        let systems: Vec<String> = s
+            .work_offsets
+            .iter()
+            .map(|name| {
+                let i = interpd_motion::config::WORK_SYSTEMS.iter().position(|w| w == name).expect("known system");
+                let v = settings.work_offsets.vector(i, &settings.axes);
+                let axes: Vec<String> =
+                    settings.axes.iter().enumerate().map(|(k, a)| format!("{}{}", a.name, v[k])).collect();
+                format!("{name} ({})", axes.join(" "))
+            })
+            .collect();
+        extra += &format!(", work offsets {}", systems.join(", "));
+    }
     let line = format!(
         "{}: ok: {elements} elements ({}), length {:.3} mm, {corners} corners, axes {}{extra}, parsed in {:.1} ms",
         program_path.display(),

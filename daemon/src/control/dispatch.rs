@@ -176,6 +176,12 @@ impl Context {
                 *self.start_owner.lock().unwrap_or_else(|p| p.into_inner()) = Some(session.id);
                 to_value(&result)
             }
+            Call::ToolsGet => to_value(&motion.tools()),
+            Call::ToolsSet(table) => to_value(&motion.set_tools(table)),
+            Call::OffsetsGet => to_value(&motion.offsets()),
+            Call::OffsetsSet(offsets) => {
+                motion.set_offsets(offsets).map_err(ErrorObject::from).and_then(|o| to_value(&o))
+            }
             Call::FeedOverride(p) => {
                 let Ok(()) = motion.set_override(p.factor);
                 tracing::info!(conn = session.id, factor = p.factor, "feed override");

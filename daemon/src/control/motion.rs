@@ -7,7 +7,7 @@
 use super::errors::{AppendError, LawError, LoadError, ManualError, NotAllowed, ResumeError, StartError};
 use interpd_protocol::api::{
     AppendParams, AppendResult, Event, JogParams, LawResult, MdiParams, MdiResult, MoveToParams, MoveToResult,
-    ProgramInfo, Status,
+    ProgramInfo, Status, ToolTable, WorkOffsets,
 };
 use std::convert::Infallible;
 use std::path::PathBuf;
@@ -94,4 +94,17 @@ pub trait Motion: Send + Sync + 'static {
     /// Runs G-code blocks (`mdi`) through the program path from where the machine stands, the
     /// modal state carried from the previous call. Allowed while idle, finished and holding.
     fn mdi(&self, params: &MdiParams) -> Result<MdiResult, ManualError>;
+
+    /// The tool table programs are read with (`tools.get`).
+    fn tools(&self) -> ToolTable;
+
+    /// Replaces the tool table (`tools.set`) for programs loaded after the call.
+    fn set_tools(&self, table: ToolTable) -> ToolTable;
+
+    /// The work offsets G54 … G59 (`offsets.get`).
+    fn offsets(&self) -> WorkOffsets;
+
+    /// Replaces the systems given (`offsets.set`) for programs loaded after the call; an axis
+    /// the machine does not have is refused.
+    fn set_offsets(&self, offsets: WorkOffsets) -> Result<WorkOffsets, ManualError>;
 }

@@ -16,8 +16,8 @@ use crossbeam::channel::{self, Receiver};
 use interpd_motion::path::MAX_AXES;
 use interpd_motion::program::{self, ModalState};
 use interpd_protocol::api::{
-    AppendParams, AppendResult, Event, JogMode, JogParams, LawResult, ManualStatus, MdiParams, MdiResult, Method,
-    MoveToParams, MoveToResult, ProgramBuffer, ProgramInfo, State, Status,
+    AppendParams, AppendResult, Event, JogMode, JogParams, LawResult, ManualStatus, MdiModal, MdiParams, MdiResult,
+    Method, MoveToParams, MoveToResult, ProgramBuffer, ProgramInfo, State, Status, ToolLength, ToolTable, WorkOffsets,
 };
 use interpd_protocol::shm::flags;
 use std::collections::BTreeMap;
@@ -148,6 +148,22 @@ impl ServiceCore {
 }
 
 impl Motion for ServiceCore {
+    fn tools(&self) -> ToolTable {
+        self.tool_table()
+    }
+
+    fn set_tools(&self, table: ToolTable) -> ToolTable {
+        self.set_tool_table(table)
+    }
+
+    fn offsets(&self) -> WorkOffsets {
+        self.work_offsets()
+    }
+
+    fn set_offsets(&self, offsets: WorkOffsets) -> Result<WorkOffsets, ManualError> {
+        self.set_work_offsets(offsets)
+    }
+
     fn load(&self, source: ProgramSource) -> Result<ProgramInfo, LoadError> {
         self.load_program(source)
     }
@@ -222,12 +238,12 @@ impl Motion for ServiceCore {
         let here = shared.live.load().pos;
         // Law moves are made (and checked against the limits) from where the machine stands.
         let motion = match &loaded {
-            Loaded::Program { text, appends } => {
+            Loaded::Program { text, tooling, appends } => {
                 let appends = appends.as_ref().map(|a| a.buffer.clone());
                 if appends.as_ref().is_some_and(|b| b.taken_bytes() > 0) {
                     return Err(StartError::AppendedOnce);
                 }
-                (PathSource::Program { text: text.clone(), here, appends }, None)
+                (PathSource::Program { text: text.clone(), here, tooling: tooling.clone(), appends }, None)
             }
             Loaded::Laws(prog) => {
                 let moves = prog.moves(&shared.settings, &here, &info.name)?;
@@ -343,6 +359,10 @@ impl Motion for ServiceCore {
             drives: shared.drives.as_ref().map(|d| d.drives()).unwrap_or_default(),
             can_bus: shared.drives.as_ref().and_then(|d| d.bus()),
             manual: ctl.manual.clone(),
+            mdi: ctl.mdi_modal.as_ref().map(|m| MdiModal {
+                work_offset: m.work_system().to_string(),
+                tool_length: m.tool_length().map(|(tool, length_mm)| ToolLength { tool, length_mm }),
+            }),
         }
     }
 
@@ -462,9 +482,10 @@ impl Motion for ServiceCore {
         let mut ctl = lock(&shared.control);
         ctl.check_manual(Method::Mdi, self.standing())?;
         let here = shared.live.load().pos;
-        let mut modal = ctl.mdi_modal.clone().unwrap_or_else(|| ModalState::new(&shared.settings, here));
+        let settings = shared.program_settings();
+        let mut modal = ctl.mdi_modal.clone().unwrap_or_else(|| ModalState::new(&settings, here));
         modal.set_position(here);
-        let parsed = program::parse_gcode_from(&params.line, NAME, &shared.settings, &mut modal)?;
+        let parsed = program::parse_gcode_from(&params.line, NAME, &settings, &mut modal)?;
         let prepared = interpd_motion::prep::prepare_path(&shared.settings, &parsed.path).map_err(ManualError::Prep)?;
         ctl.mdi_modal = Some(modal);
         let result = MdiResult { elements: prepared.path.elements.len() as u64, length_mm: prepared.path.length_mm() };

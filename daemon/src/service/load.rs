@@ -30,6 +30,10 @@ impl ServiceCore {
         if let Some(laws) = law_program_of(&source, &name)? {
             return self.load_laws(name, laws).map(|(info, _)| info);
         }
+        // Read with the tool table and work offsets as set now (`tools.set`, `offsets.set`);
+        // the motion reads the program again with the same.
+        let tooling = shared.tooling_now();
+        let settings = tooling.apply(&shared.settings);
         // One streaming pass checks the whole program and keeps no geometry; the motion reads
         // it again, smoothing and planning as it goes (`PathFeed`).
         let (checked, checker, text) = match source {
@@ -37,7 +41,7 @@ impl ServiceCore {
                 // Taken before reading: a file changed while it is read or later is refused at
                 // the start.
                 let stamp = FileStamp::of(&p);
-                let (checked, checker) = program::check_appended(&p, None, &shared.settings)?;
+                let (checked, checker) = program::check_appended(&p, None, &settings)?;
                 let stamp = stamp.map_err(|e| {
                     program::ProgramErrors(vec![program::ProgramError {
                         file: p.display().to_string(),
@@ -50,7 +54,7 @@ impl ServiceCore {
             }
             ProgramSource::Text { name, text } => {
                 let (checked, checker) =
-                    program::check_appended(std::path::Path::new(&name), Some(text.clone()), &shared.settings)?;
+                    program::check_appended(std::path::Path::new(&name), Some(text.clone()), &settings)?;
                 (checked, checker, ProgramText::Text { name, text: Arc::new(text) })
             }
         };
@@ -64,11 +68,14 @@ impl ServiceCore {
             length_mm: checked.length_mm,
             lines: checked.summary.lines,
             program_end: checked.summary.program_end,
+            tools: checked.summary.tools.iter().copied().collect(),
+            work_offsets: checked.summary.work_offsets.iter().map(|s| s.to_string()).collect(),
+            cutter_compensation: checked.summary.compensation,
         };
         let mut ctl = lock(&shared.control);
         // The state may have changed while the program was checked.
         ctl.check(Method::ProgramLoad)?;
-        ctl.loaded(info.clone(), Loaded::Program { text, appends });
+        ctl.loaded(info.clone(), Loaded::Program { text, tooling, appends });
         Ok(info)
     }
 
@@ -87,6 +94,7 @@ impl ServiceCore {
             length_mm: path.length_mm(),
             lines: laws.blocks.last().map_or(0, |(n, _)| *n),
             program_end: true,
+            ..ProgramInfo::default()
         };
         let mut ctl = lock(&shared.control);
         ctl.check(Method::ProgramLoad)?;

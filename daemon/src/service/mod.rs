@@ -26,6 +26,7 @@ pub mod programs;
 mod rt_loop;
 mod state;
 mod supervisor;
+mod tooling;
 
 pub use rt_loop::CycleStall;
 
@@ -130,9 +131,23 @@ struct Shared {
     drives: Option<Arc<dyn DriveMonitor>>,
     /// Where `program.load {"path"}` may read from.
     programs: programs::ProgramsDir,
+    /// The tool table and work offsets programs are read with: the machine file's, until
+    /// `tools.set` / `offsets.set` replace them.
+    tooling: Mutex<Arc<path_feed::Tooling>>,
 }
 
 impl Shared {
+    /// The settings a program is read with: the machine's, with the tool table and work
+    /// offsets in effect now.
+    fn program_settings(&self) -> Settings {
+        self.tooling_now().apply(&self.settings)
+    }
+
+    /// The tool table and work offsets in effect now.
+    fn tooling_now(&self) -> Arc<path_feed::Tooling> {
+        lock(&self.tooling).clone()
+    }
+
     /// Sends `event` to every subscriber without waiting: a full subscriber misses it, a gone
     /// one is forgotten.
     fn emit(&self, event: Event) {
@@ -225,6 +240,10 @@ impl Service {
             comp_stats: Mutex::new(None),
             drives,
             programs,
+            tooling: Mutex::new(Arc::new(path_feed::Tooling {
+                tools: opts.config.tools.clone(),
+                work_offsets: opts.config.work_offsets.clone(),
+            })),
         });
         let thread_err = |what: &'static str| move |source| StartupError::Thread { what, source };
 

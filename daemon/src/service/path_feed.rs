@@ -38,15 +38,31 @@ impl FileStamp {
     }
 }
 
+/// The tool table and work offsets a program is read with (`tools.set`, `offsets.set`): taken
+/// at `program.load`, so the motion reads the program as it was checked.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Tooling {
+    pub tools: Vec<interpd_config::ToolConfig>,
+    pub work_offsets: interpd_config::WorkOffsetsConfig,
+}
+
+impl Tooling {
+    /// `settings` with this tool table and these work offsets.
+    pub fn apply(&self, settings: &Settings) -> Settings {
+        Settings { tools: self.tools.clone(), work_offsets: self.work_offsets.clone(), ..settings.clone() }
+    }
+}
+
 /// What a run plans along.
 #[derive(Debug, Clone)]
 pub enum PathSource {
     /// A path made whole (MDI blocks, law moves).
     Whole(Arc<Path>),
     /// A loaded program, read and smoothed as the motion goes, preceded by a straight rapid
-    /// move from `here` to its start when the machine stands elsewhere; a program without an
-    /// end continues with the text appended to `appends`.
-    Program { text: ProgramText, here: AxisVec, appends: Option<Arc<AppendBuffer>> },
+    /// move from `here` to its start when the machine stands elsewhere, read with the tool table
+    /// and work offsets it was loaded with; a program without an end continues with the text
+    /// appended to `appends`.
+    Program { text: ProgramText, here: AxisVec, tooling: Arc<Tooling>, appends: Option<Arc<AppendBuffer>> },
 }
 
 /// Why the path cannot go on.
@@ -105,10 +121,11 @@ impl PathFeed {
 
     /// Opens `source`: a program's file is opened and checked to be the one loaded.
     pub fn open(source: PathSource, settings: &Settings) -> Result<PathFeed, FeedError> {
-        let (text, here, appends) = match source {
+        let (text, here, tooling, appends) = match source {
             PathSource::Whole(path) => return Ok(PathFeed::whole(&path)),
-            PathSource::Program { text, here, appends } => (text, here, appends),
+            PathSource::Program { text, here, tooling, appends } => (text, here, tooling, appends),
         };
+        let settings = &tooling.apply(settings);
         let stream = match &text {
             ProgramText::File { path, stamp } => {
                 let name = path.display();

@@ -29,7 +29,7 @@
 //! notices).
 
 use super::law_run::LawProgram;
-use super::path_feed::ProgramText;
+use super::path_feed::{ProgramText, Tooling};
 use crate::control::{ManualError, NotAllowed};
 use crate::interp::Epochs;
 use interpd_motion::program::{AppendBuffer, AppendChecker, ModalState};
@@ -43,10 +43,11 @@ pub const OVERRIDE_HOLD_BELOW: f64 = 1e-3;
 /// when it starts).
 #[derive(Clone)]
 pub(super) enum Loaded {
-    /// G-code or a path table, read as the motion runs; a program without an end takes the
-    /// text `program.append` adds.
+    /// G-code or a path table, read as the motion runs with the tool table and work offsets
+    /// it was loaded with; a program without an end takes the text `program.append` adds.
     Program {
         text: ProgramText,
+        tooling: Arc<Tooling>,
         appends: Option<Appendable>,
     },
     Laws(Arc<LawProgram>),

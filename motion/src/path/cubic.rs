@@ -88,6 +88,35 @@ impl CubicSpan {
         p
     }
 
+    /// P(u), P′(u) and P″(u) in the span parameter (not arc length).
+    pub(crate) fn raw_at_u(&self, u: f64) -> [AxisVec; 3] {
+        let mut out = [[0.0; MAX_AXES]; 3];
+        let r = &self.r;
+        for k in 0..self.n_axes {
+            out[0][k] = ((r[3][k] * u + r[2][k]) * u + r[1][k]) * u + r[0][k];
+            out[1][k] = (3.0 * r[3][k] * u + 2.0 * r[2][k]) * u + r[1][k];
+            out[2][k] = 6.0 * r[3][k] * u + 2.0 * r[2][k];
+        }
+        out
+    }
+
+    /// The span from `start` instead of P(0), with the same end and end tangents.
+    pub(crate) fn with_start(&self, start: &AxisVec) -> Result<Self, SpanError> {
+        let [_, t0, _] = self.raw_at_u(0.0);
+        let [p1, t1, _] = self.raw_at_u(1.0);
+        Self::hermite(start, &p1, &t0, &t1, &self.linear[..self.n_axes])
+    }
+
+    /// The piece u ∈ [u0, u1] of this span as a span of its own: the same cubic, so the
+    /// Hermite form with the end points and the tangents scaled by u1 − u0 is exact.
+    pub(crate) fn sub_span(&self, u0: f64, u1: f64) -> Result<Self, SpanError> {
+        let [a, ta, _] = self.raw_at_u(u0);
+        let [b, tb, _] = self.raw_at_u(u1);
+        let h = u1 - u0;
+        let (ta, tb) = (ta.map(|v| v * h), tb.map(|v| v * h));
+        Self::hermite(&a, &b, &ta, &tb, &self.linear[..self.n_axes])
+    }
+
     /// Span parameter at arc length `s`.
     pub(crate) fn u_at(&self, s: f64) -> f64 {
         self.table.u_of_s(&|u| speed_of(&self.r, &self.linear[..self.n_axes], u), s)

@@ -4,6 +4,7 @@
 //! minute), N, M2/M30; spindle, coolant and tool words (M3–M9, S, T) are accepted and counted as
 //! ignored, since interpd interpolates motion only.
 
+use super::cutter::{Cutter, Piece, Side};
 use super::error::Diagnostics;
 use super::lexer::{Line, Word, lex_line};
 use super::{G06_END_MARKER, Summary};
@@ -72,7 +73,13 @@ pub(crate) struct Modal {
     absolute: bool,
     feed_mm_s: Option<f64>,
     blend: Blend,
+    /// Machine position (work offset and tool length applied).
     pub(super) pos: AxisVec,
+    /// Active work coordinate system, 0 = G54 … 5 = G59; its origin is read from the settings
+    /// at every target, so a changed offset applies to the next block.
+    pub(super) work_system: usize,
+    /// Active tool length compensation: the tool (None for G43.1) and its length, mm.
+    pub(super) tool_length: Option<(Option<u32>, f64)>,
 }
 
 /// A span record inside a G06 block.
@@ -106,6 +113,8 @@ pub(crate) struct Interpreter {
     settings: Settings,
     linear: [bool; MAX_AXES],
     modal: Modal,
+    /// Cutter radius compensation: contour elements go through it on their way to the path.
+    cutter: Cutter,
     g06: Option<G06Block>,
     pending_dwell_s: f64,
     default_tol_mm: f64,
@@ -161,8 +170,8 @@ fn unused_word_message(letter: char) -> String {
     match letter {
         'P' => "P is only valid with G4, G64 or in G06 spline data".into(),
         // Tool length compensation (G43) would consume H.
-        'H' => "H word with no G43 to use it (tool length compensation is not supported)".into(),
-        'D' => "D word with no G41/G42 to use it (cutter radius compensation is not supported)".into(),
+        'H' => "H word with no G43 to use it".into(),
+        'D' => "D word with no G41/G42 (or G41.1/G42.1) to use it".into(),
         'Q' => "Q word with no G-code that uses it (G64 Q, the naive-CAM tolerance, is not supported)".into(),
         _ => format!("{letter} word with no G-code that uses it"),
     }
@@ -176,7 +185,17 @@ impl Interpreter {
             interpd_config::PrepMode::Exact => Blend::Exact,
             interpd_config::PrepMode::Smooth => Blend::Tolerance { tol_mm: settings.prep.tolerance_mm },
         };
-        Modal { motion: None, plane: Plane::Xy, unit_mm: 1.0, absolute: true, feed_mm_s: None, blend, pos }
+        Modal {
+            motion: None,
+            plane: Plane::Xy,
+            unit_mm: 1.0,
+            absolute: true,
+            feed_mm_s: None,
+            blend,
+            pos,
+            work_system: 0,
+            tool_length: None,
+        }
     }
 
     pub(super) fn new(settings: &Settings) -> Self {
@@ -184,22 +203,11 @@ impl Interpreter {
         for (k, a) in settings.axes.iter().enumerate() {
             linear[k] = a.kind == AxisKind::Linear;
         }
-        let blend = match settings.prep.mode {
-            interpd_config::PrepMode::Exact => Blend::Exact,
-            interpd_config::PrepMode::Smooth => Blend::Tolerance { tol_mm: settings.prep.tolerance_mm },
-        };
         Self {
             settings: settings.clone(),
             linear,
-            modal: Modal {
-                motion: None,
-                plane: Plane::Xy,
-                unit_mm: 1.0,
-                absolute: true,
-                feed_mm_s: None,
-                blend,
-                pos: [0.0; MAX_AXES],
-            },
+            modal: Self::initial_modal(settings, [0.0; MAX_AXES]),
+            cutter: Cutter::new(&linear[..settings.axes.len()]),
             g06: None,
             pending_dwell_s: 0.0,
             default_tol_mm: settings.prep.tolerance_mm,
@@ -296,6 +304,8 @@ impl Interpreter {
         if self.g06.is_some() {
             self.finish_g06(d);
         }
+        self.cutter.finish();
+        self.drain(d);
         self.path.final_dwell_s += self.pending_dwell_s;
         self.pending_dwell_s = 0.0;
     }
@@ -359,6 +369,14 @@ impl Interpreter {
             self.modal.absolute = a;
         }
         if let Some(p) = g.plane {
+            if p != self.modal.plane && self.cutter.is_on() {
+                d.error(
+                    line_no,
+                    g.plane_col,
+                    format!("cannot change the plane to {} with cutter compensation on: program G40 first", p.name()),
+                );
+                return;
+            }
             self.modal.plane = p;
         }
         if let Some(f) = block.get('F') {
@@ -396,6 +414,12 @@ impl Interpreter {
                 }
                 Some(p) => self.pending_dwell_s += p.value,
             }
+        }
+        if !self.tool_and_offsets(&g, block, d) {
+            return;
+        }
+        if matches!(g.tool_length, Some((ToolLengthWord::Dynamic, _))) {
+            return; // its Z word is the tool length
         }
         if g.spline {
             self.start_g06(block, block_no, d);
@@ -443,7 +467,7 @@ impl Interpreter {
                         }
                     }
                 };
-                self.linear_move(target, feed, source);
+                self.linear_move(target, feed, source, block.words[0].col, d);
             }
             Motion::ArcCw | Motion::ArcCcw => {
                 let Some(f) = self.modal.feed_mm_s else {
@@ -459,9 +483,148 @@ impl Interpreter {
         }
     }
 
+    /// G54–G59, G43/G43.1/G49 and G40/G41/G42 (in the order RS274NGC executes them: cutter
+    /// compensation, tool length, coordinate system). False after an error.
+    fn tool_and_offsets(&mut self, g: &GWords, block: &Block, d: &mut Diagnostics) -> bool {
+        let line = block.line;
+        if let Some((word, col)) = g.comp {
+            match word {
+                CompWord::Off => self.cutter.stop(),
+                CompWord::Table(side) | CompWord::Diameter(side) => {
+                    let name = match word {
+                        CompWord::Table(Side::Left) => "G41",
+                        CompWord::Table(Side::Right) => "G42",
+                        CompWord::Diameter(Side::Left) => "G41.1",
+                        _ => "G42.1",
+                    };
+                    if self.cutter.is_on() {
+                        d.error(
+                            line,
+                            col,
+                            format!("{name} while cutter compensation is already on: program G40 first"),
+                        );
+                        return false;
+                    }
+                    let Some(dw) = block.get('D') else {
+                        let what =
+                            if matches!(word, CompWord::Table(_)) { "the tool number" } else { "the tool diameter" };
+                        d.error(line, col, format!("{name} needs D ({what})"));
+                        return false;
+                    };
+                    let radius_mm = if let CompWord::Table(_) = word {
+                        if dw.value < 0.0 || dw.value.fract() != 0.0 || dw.has_point {
+                            d.error(
+                                line,
+                                dw.col,
+                                format!("D must be a tool number (a non-negative integer), got {}", dw.value),
+                            );
+                            return false;
+                        }
+                        let number = dw.value as u32;
+                        let Some(tool) = self.settings.tool(number) else {
+                            d.error(line, dw.col, format!("tool {number} is not in the tool table"));
+                            return false;
+                        };
+                        self.summary.tools.insert(number);
+                        tool.diameter_mm / 2.0
+                    } else {
+                        if dw.value < 0.0 || !dw.value.is_finite() {
+                            d.error(line, dw.col, format!("tool diameter D must not be negative, got {}", dw.value));
+                            return false;
+                        }
+                        dw.value * self.modal.unit_mm / 2.0
+                    };
+                    let ((pl, _), (ql, _)) = self.modal.plane.axes();
+                    let (Some(p), Some(q)) = (self.settings.axis_index(pl), self.settings.axis_index(ql)) else {
+                        d.error(
+                            line,
+                            col,
+                            format!(
+                                "cutter compensation in {} needs axes {pl} and {ql} on this machine",
+                                self.modal.plane.name()
+                            ),
+                        );
+                        return false;
+                    };
+                    self.summary.compensation = true;
+                    self.cutter.start(side, radius_mm, p, q);
+                }
+            }
+        }
+        if let Some((word, col)) = g.tool_length {
+            let Some(_) = self.settings.axis_index(AxisLetter::Z) else {
+                d.error(line, col, "tool length compensation needs a Z axis on this machine");
+                return false;
+            };
+            let length = match word {
+                ToolLengthWord::Cancel => None,
+                ToolLengthWord::Table => {
+                    let Some(h) = block.get('H') else {
+                        d.error(line, col, "G43 needs H (the tool number)");
+                        return false;
+                    };
+                    if h.value < 0.0 || h.value.fract() != 0.0 || h.has_point {
+                        d.error(
+                            line,
+                            h.col,
+                            format!("H must be a tool number (a non-negative integer), got {}", h.value),
+                        );
+                        return false;
+                    }
+                    let number = h.value as u32;
+                    let Some(tool) = self.settings.tool(number) else {
+                        d.error(line, h.col, format!("tool {number} is not in the tool table"));
+                        return false;
+                    };
+                    self.summary.tools.insert(number);
+                    Some((Some(number), tool.length_mm))
+                }
+                ToolLengthWord::Dynamic => {
+                    // G43.1 Z<length>: the Z word is the length, not a move (as LinuxCNC).
+                    if let Some(w) =
+                        block.words.iter().find(|w| AxisLetter::from_char(w.letter).is_some() && w.letter != 'Z')
+                    {
+                        d.error(line, w.col, format!("G43.1 takes the tool length in Z only, not {}", w.letter));
+                        return false;
+                    }
+                    let Some(zw) = block.get('Z') else {
+                        d.error(line, col, "G43.1 needs Z (the tool length)");
+                        return false;
+                    };
+                    Some((None, zw.value * self.modal.unit_mm))
+                }
+            };
+            self.modal.tool_length = length;
+        }
+        if let Some(sys) = g.work {
+            if self.cutter.is_on() {
+                d.error(
+                    line,
+                    block.words[0].col,
+                    "cannot change the coordinate system with cutter compensation on: program G40 first",
+                );
+                return false;
+            }
+            self.modal.work_system = sys;
+            self.summary.work_offsets.insert(interpd_config::WORK_SYSTEMS[sys]);
+        }
+        true
+    }
+
+    /// The offset from program to machine coordinates on axis `k`: the work offset, and on Z
+    /// the tool length (G43).
+    fn program_offset(&self, k: usize) -> f64 {
+        let tool = match self.modal.tool_length {
+            Some((_, l)) if self.settings.axes[k].name == AxisLetter::Z => l,
+            _ => 0.0,
+        };
+        let work = self.settings.work_offsets.systems()[self.modal.work_system];
+        work.get(&self.settings.axes[k].name.to_string()).copied().unwrap_or(0.0) + tool
+    }
+
     fn read_g_words(&self, block: &Block, d: &mut Diagnostics) -> Option<GWords> {
         let mut g = GWords::default();
-        let mut groups: [Option<u32>; 6] = [None; 6];
+        let mut groups: [Option<u32>; 9] = [None; 9];
         for w in block.words.iter().filter(|w| w.letter == 'G') {
             let code = (w.value * 10.0).round() as i64;
             if (w.value * 10.0 - code as f64).abs() > 1e-6 || code < 0 {
@@ -494,14 +657,17 @@ impl Interpreter {
                     "G4"
                 }),
                 170 => (2, {
+                    g.plane_col = w.col;
                     g.plane = Some(Plane::Xy);
                     "G17"
                 }),
                 180 => (2, {
+                    g.plane_col = w.col;
                     g.plane = Some(Plane::Zx);
                     "G18"
                 }),
                 190 => (2, {
+                    g.plane_col = w.col;
                     g.plane = Some(Plane::Yz);
                     "G19"
                 }),
@@ -528,6 +694,42 @@ impl Interpreter {
                 640 => (5, {
                     g.blend = Some(BlendWord::Smooth);
                     "G64"
+                }),
+                400 => (6, {
+                    g.comp = Some((CompWord::Off, w.col));
+                    "G40"
+                }),
+                410 => (6, {
+                    g.comp = Some((CompWord::Table(Side::Left), w.col));
+                    "G41"
+                }),
+                411 => (6, {
+                    g.comp = Some((CompWord::Diameter(Side::Left), w.col));
+                    "G41.1"
+                }),
+                420 => (6, {
+                    g.comp = Some((CompWord::Table(Side::Right), w.col));
+                    "G42"
+                }),
+                421 => (6, {
+                    g.comp = Some((CompWord::Diameter(Side::Right), w.col));
+                    "G42.1"
+                }),
+                430 => (7, {
+                    g.tool_length = Some((ToolLengthWord::Table, w.col));
+                    "G43"
+                }),
+                431 => (7, {
+                    g.tool_length = Some((ToolLengthWord::Dynamic, w.col));
+                    "G43.1"
+                }),
+                490 => (7, {
+                    g.tool_length = Some((ToolLengthWord::Cancel, w.col));
+                    "G49"
+                }),
+                540 | 550 | 560 | 570 | 580 | 590 => (8, {
+                    g.work = Some((code as usize - 540) / 10);
+                    ["G54", "G55", "G56", "G57", "G58", "G59"][(code as usize - 540) / 10]
                 }),
                 _ => {
                     d.error(block.line, w.col, format!("unsupported G-code G{}", fmt_code(w.value)));
@@ -628,7 +830,7 @@ impl Interpreter {
             };
             let scale = if self.linear[k] { self.modal.unit_mm } else { 1.0 };
             let v = w.value * scale;
-            target[k] = if self.modal.absolute { v } else { self.modal.pos[k] + v };
+            target[k] = if self.modal.absolute { v + self.program_offset(k) } else { self.modal.pos[k] + v };
             if !target[k].is_finite() {
                 d.error(block.line, w.col, format!("{letter} target is not a finite number"));
                 ok = false;
@@ -668,13 +870,56 @@ impl Interpreter {
         if l > MIN_MOVE_MM { l } else { sq(false) }
     }
 
-    fn push(&mut self, geometry: Geometry, feed: Feed, source: Source) {
+    /// The one place elements leave the interpreter: the contour element goes through the
+    /// cutter compensation stage, and what it hands back goes onto the path.
+    fn push(&mut self, geometry: Geometry, feed: Feed, source: Source, col: u32, d: &mut Diagnostics) {
         let dwell = std::mem::take(&mut self.pending_dwell_s);
         *self.summary.kinds.entry(geometry.kind_name()).or_insert(0) += 1;
-        self.path.push(geometry, feed, source, dwell, self.modal.blend);
+        let piece = Piece { geometry, feed, source, col, dwell_before_s: dwell, blend: self.modal.blend };
+        if let Err(e) = self.cutter.push(piece) {
+            d.error(e.line, e.col, e.kind.to_string());
+        }
+        self.drain(d);
     }
 
-    fn linear_move(&mut self, target: AxisVec, feed: Feed, source: Source) {
+    /// Moves the tool path elements the compensation stage has ready onto the path, checking
+    /// the compensated ones against the travel range.
+    fn drain(&mut self, d: &mut Diagnostics) {
+        while let Some(p) = self.cutter.pop() {
+            if let Some(msg) = self.element_travel_violation(&p.geometry) {
+                d.error(p.source.line, p.col, msg);
+            }
+            self.path.push(p.geometry, p.feed, p.source, p.dwell_before_s, p.blend);
+        }
+    }
+
+    /// The end point of an element (and the extremes of an arc) outside the travel range.
+    fn element_travel_violation(&self, g: &Geometry) -> Option<String> {
+        if let Geometry::Helix(h) = g {
+            let (p, q) = h.plane_axes();
+            if let Some(msg) = self.arc_travel_violation(h, p, q) {
+                return Some(msg);
+            }
+        }
+        let mut e = crate::path::AxisDerivs::default();
+        g.eval(g.length_mm(), &mut e);
+        (0..self.settings.axes.len()).find_map(|k| {
+            let a = &self.settings.axes[k];
+            let v = e.pos[k];
+            (v < a.min_pos - ARC_RADIUS_ABS_TOL_MM || v > a.max_pos + ARC_RADIUS_ABS_TOL_MM).then(|| {
+                format!(
+                    "the tool path leaves the travel range of {}: it reaches {} {}, limits [{}, {}]",
+                    a.name,
+                    fmt_num(v),
+                    a.kind.unit(),
+                    a.min_pos,
+                    a.max_pos
+                )
+            })
+        })
+    }
+
+    fn linear_move(&mut self, target: AxisVec, feed: Feed, source: Source, col: u32, d: &mut Diagnostics) {
         let len = self.move_length(&self.modal.pos, &target);
         if len <= MIN_MOVE_MM {
             self.summary.zero_length_moves += 1;
@@ -682,7 +927,7 @@ impl Interpreter {
             return;
         }
         let g = Geometry::Line(LineGeom::new(self.modal.pos, target, len));
-        self.push(g, feed, source);
+        self.push(g, feed, source, col, d);
         self.modal.pos = target;
     }
 
@@ -791,7 +1036,7 @@ impl Interpreter {
             d.error(line, block.words[0].col, msg);
             return;
         }
-        self.push(Geometry::Helix(helix), feed, source);
+        self.push(Geometry::Helix(helix), feed, source, block.words[0].col, d);
         self.modal.pos = target;
     }
 
@@ -875,6 +1120,7 @@ impl Interpreter {
         let absolute = self.modal.absolute;
         let xyz =
             [AxisLetter::X, AxisLetter::Y, AxisLetter::Z].map(|l| self.settings.axis_index(l).expect("checked at G06"));
+        let offsets = xyz.map(|k| self.program_offset(k));
         let block = self.g06.as_mut().expect("in G06 block");
         let words = Block::new(&line.words, line_no);
         let block_no = words.get('N').map_or(0, |w| w.value as u32);
@@ -912,7 +1158,7 @@ impl Interpreter {
         for (i, l) in ['X', 'Y', 'Z'].iter().enumerate() {
             if let Some(w) = words.get(*l) {
                 let v = w.value * unit;
-                target[xyz[i]] = if absolute { v } else { block.point[xyz[i]] + v };
+                target[xyz[i]] = if absolute { v + offsets[i] } else { block.point[xyz[i]] + v };
             }
         }
         for (i, l) in ['X', 'Y', 'Z'].iter().enumerate() {
@@ -994,7 +1240,7 @@ impl Interpreter {
             match CubicSpan::hermite(a, b, &tangents[j], &tangents[j + 1], &self.linear[..nax]) {
                 Ok(c) => {
                     let source = Source { line: span.line, block: span.block };
-                    self.push(Geometry::Cubic(Box::new(c)), block.feed, source);
+                    self.push(Geometry::Cubic(Box::new(c)), block.feed, source, span.col, d);
                 }
                 Err(SpanError::ZeroTangent) => {
                     d.error(span.line, span.col, "degenerate G06 span: the curve stops or turns back (its tangent vanishes)")
@@ -1022,12 +1268,33 @@ enum BlendWord {
     Smooth,
 }
 
+/// G40, G41/G42 (tool table D) or G41.1/G42.1 (diameter D).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum CompWord {
+    Off,
+    Table(Side),
+    Diameter(Side),
+}
+
+/// G43 (tool table H), G43.1 (length from the Z word), G49.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum ToolLengthWord {
+    Table,
+    Dynamic,
+    Cancel,
+}
+
 #[derive(Default)]
 struct GWords {
     motion: Option<Motion>,
     spline: bool,
     dwell: bool,
     plane: Option<Plane>,
+    plane_col: u32,
+    /// With the column of the word.
+    comp: Option<(CompWord, u32)>,
+    tool_length: Option<(ToolLengthWord, u32)>,
+    work: Option<usize>,
     units: Option<f64>,
     absolute: Option<bool>,
     blend: Option<BlendWord>,

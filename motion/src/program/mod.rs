@@ -3,6 +3,7 @@
 //! [`Path`].
 
 mod append;
+mod cutter;
 mod error;
 mod gcode;
 mod lexer;
@@ -17,7 +18,7 @@ pub use stream::{Checked, MAX_LINE_BYTES, ProgramStream, check, check_appended, 
 use crate::Settings;
 use crate::path::Path;
 use error::Diagnostics;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 /// A line holding only this word ends G06 spline data (Huan, §2: "CR", end of record); an
 /// empty line or the next ordinary block does too.
@@ -39,6 +40,12 @@ pub struct Summary {
     /// The program ends with M2, M30 or a closing `%` (a path table always ends); one without
     /// an end can be continued (`program.append`).
     pub program_end: bool,
+    /// Tools of the tool table the program uses (G43 H, G41/G42 D).
+    pub tools: BTreeSet<u32>,
+    /// Work coordinate systems the program selects (G54 … G59).
+    pub work_offsets: BTreeSet<&'static str>,
+    /// The program turns cutter radius compensation on.
+    pub compensation: bool,
 }
 
 /// A parsed program: its path and what was read.
@@ -109,6 +116,16 @@ impl ModalState {
     /// Where the next block starts.
     pub fn position(&self) -> &crate::path::AxisVec {
         &self.0.pos
+    }
+
+    /// The active work coordinate system, `"G54"` … `"G59"`.
+    pub fn work_system(&self) -> &'static str {
+        interpd_config::WORK_SYSTEMS[self.0.work_system]
+    }
+
+    /// Active tool length compensation: the tool (None for G43.1) and the length added to Z, mm.
+    pub fn tool_length(&self) -> Option<(Option<u32>, f64)> {
+        self.0.tool_length
     }
 
     /// Moves the position (the machine was moved by other means), keeping the modes.

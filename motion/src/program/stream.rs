@@ -34,7 +34,7 @@ enum Reader {
     /// out from `ready`) and what was read.
     Table {
         end: Path,
-        summary: Summary,
+        summary: Box<Summary>,
     },
 }
 
@@ -105,7 +105,7 @@ impl ProgramStream {
         let reader = match format {
             Format::GCode => Reader::GCode(Box::new(Interpreter::new(settings))),
             Format::PathTable => {
-                Reader::Table { end: Path::new(settings.axis_names(), start), summary: Summary::default() }
+                Reader::Table { end: Path::new(settings.axis_names(), start), summary: Box::default() }
             }
         };
         Self {
@@ -144,7 +144,8 @@ impl ProgramStream {
         let program = table::parse_table(text, settings, &mut self.d);
         self.start = program.path.start;
         self.ready.extend(program.path.elements);
-        self.reader = Reader::Table { end: Path { elements: Vec::new(), ..program.path }, summary: program.summary };
+        self.reader =
+            Reader::Table { end: Path { elements: Vec::new(), ..program.path }, summary: Box::new(program.summary) };
         self.eof = true;
     }
 

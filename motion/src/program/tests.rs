@@ -130,7 +130,10 @@ fn error_positions() {
         ("G1 A1 F100\n", "t.ngc:1:4: axis A is not on this machine (axes: X Y Z)"),
         ("G1 X2000 F100\n", "t.ngc:1:4: X target 2000 mm is outside the travel range [-1000, 1000]"),
         ("G1 F100\nG2 X10 I0 J0\n", "t.ngc:2:8: degenerate arc: the centre lies on the start point (radius zero)"),
-        ("G42 X1\n", "t.ngc:1:1: unsupported G-code G42"),
+        ("G42 X1\n", "t.ngc:1:1: G42 needs D (the tool number)"),
+        ("G41 D3\n", "t.ngc:1:5: tool 3 is not in the tool table"),
+        ("G43\n", "t.ngc:1:1: G43 needs H (the tool number)"),
+        ("G41.1 D-1\n", "t.ngc:1:7: tool diameter D must not be negative, got -1"),
         ("G0 G1 X1\n", "t.ngc:1:4: G1 conflicts with G0 in the same block (same modal group)"),
         ("F100\nG06 I1 J0 K0\nX1 Y0 Z0 P1 Q0 R0\n", "t.ngc:3:18: G06 span must end with ';'"),
         ("F100\nG06 I1\n", "t.ngc:2:1: unterminated G06 block: no spline spans ('X.. Y.. Z.. P.. Q.. R..;') follow"),
@@ -143,7 +146,7 @@ fn error_positions() {
 #[test]
 fn every_word_is_used_or_an_error() {
     let cases = [
-        ("G1 X1 H5 F100\n", "t.ngc:1:7: H word with no G43 to use it (tool length compensation is not supported)"),
+        ("G1 X1 H5 F100\n", "t.ngc:1:7: H word with no G43 to use it"),
         ("G1 X1 F100 E3\n", "t.ngc:1:12: E word with no G-code that uses it"),
         ("G1 X1e300 F100\n", "t.ngc:1:4: 'X1e300': a number with an exponent is not G-code (write it in decimals)"),
         ("G1 X1 F100 P2\n", "t.ngc:1:12: P is only valid with G4, G64 or in G06 spline data"),
@@ -155,7 +158,7 @@ fn every_word_is_used_or_an_error() {
             "G64 P0.1 Q0.01\n",
             "t.ngc:1:10: Q word with no G-code that uses it (G64 Q, the naive-CAM tolerance, is not supported)",
         ),
-        ("G0 X1 D2\n", "t.ngc:1:7: D word with no G41/G42 to use it (cutter radius compensation is not supported)"),
+        ("G0 X1 D2\n", "t.ngc:1:7: D word with no G41/G42 (or G41.1/G42.1) to use it"),
         ("G0 X1 L2\n", "t.ngc:1:7: L word with no G-code that uses it"),
         ("O100 G0 X1\n", "t.ngc:1:1: O word: subroutines and loops (O codes) are not supported"),
         ("G61 P1\n", "t.ngc:1:5: P is only valid with G4, G64 or in G06 spline data"),

@@ -92,6 +92,12 @@ pub struct ProgramInfo {
     /// arrives.
     #[serde(default = "ended")]
     pub program_end: bool,
+    /// Tools of the tool table the program uses (G43 H, G41/G42 D).
+    pub tools: Vec<u32>,
+    /// Work coordinate systems the program selects (G54 … G59; a program starts in G54).
+    pub work_offsets: Vec<String>,
+    /// The program compensates the cutter radius (G41/G42): its path is the tool centre's.
+    pub cutter_compensation: bool,
 }
 
 fn ended() -> bool {
@@ -184,6 +190,30 @@ pub struct Status {
     /// The manual motion running or run last (`motion.jog`, `motion.move_to`); `null` until
     /// the first one, and again after a program or MDI start.
     pub manual: Option<ManualStatus>,
+    /// The modal state `mdi` blocks run in: the active work coordinate system and tool length
+    /// compensation; `null` before the first `mdi` call. (A program's own appear in
+    /// `program`; cutter compensation ends with each `mdi` call.)
+    pub mdi: Option<MdiModal>,
+}
+
+/// The tool state of `mdi` blocks, in `status.mdi`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct MdiModal {
+    /// `"G54"` … `"G59"`.
+    pub work_offset: String,
+    /// Tool length compensation (G43 H / G43.1); `null` with G49.
+    pub tool_length: Option<ToolLength>,
+}
+
+/// Active tool length compensation.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct ToolLength {
+    /// The tool of G43 H; `null` for G43.1 (the length given in the block).
+    pub tool: Option<u32>,
+    /// The length added to Z, mm.
+    pub length_mm: f64,
 }
 
 /// The manual motion in `status.manual`.
@@ -215,6 +245,7 @@ impl Default for Status {
             drives: Vec::new(),
             can_bus: None,
             manual: None,
+            mdi: None,
         }
     }
 }

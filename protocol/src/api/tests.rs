@@ -256,3 +256,40 @@ fn long_method_names_are_cut_in_messages() {
     let e = method_not_found(&"ü".repeat(1000));
     assert!(e.message.len() < 400, "{}", e.message.len());
 }
+
+#[test]
+fn tool_table_and_offsets_params() {
+    let t = Call::parse("tools.set", Some(json!({"tools": [{"number": 3, "diameter_mm": 8.0}]}))).expect("tools.set");
+    assert_eq!(
+        t,
+        Call::ToolsSet(ToolTable { tools: vec![Tool { number: 3, diameter_mm: 8.0, length_mm: 0.0, name: None }] })
+    );
+    assert_eq!(Call::parse("tools.get", None), Ok(Call::ToolsGet));
+    assert_eq!(Call::parse("offsets.get", Some(json!({}))), Ok(Call::OffsetsGet));
+    for (params, param) in [
+        (json!({"tools": [{"number": 3}]}), "diameter_mm"),
+        (json!({"tools": [{"number": 3, "diameter_mm": 1.0, "radius": 1.0}]}), "radius"),
+        (json!({"tools": [{"number": 100000, "diameter_mm": 1.0}]}), "tools[0].number"),
+        (json!({"tools": [{"number": 1, "diameter_mm": -1.0}]}), "tools[0].diameter_mm"),
+        (json!({"tools": [{"number": 1, "diameter_mm": 1.0}, {"number": 1, "diameter_mm": 2.0}]}), "tools[1].number"),
+        (json!({"tool": []}), "tool"),
+    ] {
+        let e = Call::parse("tools.set", Some(params.clone())).expect_err("bad tools");
+        assert_eq!(e.code, codes::INVALID_PARAMS, "{params}");
+        let got = e.data.as_ref().and_then(|d| d["param"].as_str()).unwrap_or_default().to_string();
+        assert!(got.ends_with(param), "{params}: {e:?}");
+    }
+    let o = Call::parse("offsets.set", Some(json!({"offsets": {"G54": {"X": 1.5}}}))).expect("offsets.set");
+    let Call::OffsetsSet(o) = o else { panic!("{o:?}") };
+    assert_eq!(o.offsets["G54"]["X"], 1.5);
+    for (params, param) in [
+        (json!({"offsets": {}}), "offsets"),
+        (json!({"offsets": {"G53": {"X": 1.0}}}), "offsets.G53"),
+        (json!({"offsets": {"G54": {"X": "1"}}}), "X"),
+    ] {
+        let e = Call::parse("offsets.set", Some(params.clone())).expect_err("bad offsets");
+        assert_eq!(e.code, codes::INVALID_PARAMS, "{params}");
+        let got = e.data.as_ref().and_then(|d| d["param"].as_str()).unwrap_or_default().to_string();
+        assert!(got.ends_with(param), "{params}: {e:?}");
+    }
+}

@@ -1,0 +1,710 @@
+//! Cutter radius compensation (G41/G42, G41.1/G42.1, G40) as a stage of its own: the
+//! interpreter hands it the programmed contour element by element, and it hands back the path
+//! of the tool centre, offset by the tool radius to the left (G41) or right (G42) of the
+//! direction of travel in the selected plane.
+//!
+//! - Lines and arcs are offset exactly; G06 spline spans are offset by cubic spans that stay
+//!   within [`SPLINE_OFFSET_TOL_MM`] of the true offset curve P(u) + r·n(u) (Huan, §4 has the
+//!   spline interpolator carry out the compensation; here it is a stage before the planner).
+//! - Outside corners get an arc of the tool radius around the corner point, so the path stays
+//!   tangent-continuous; inside corners are trimmed at the intersection of the two offsets.
+//! - The move after G41/G42 (the entry move, a line) goes from where the tool stands to the
+//!   offset of its end point, and joins the contour at an ordinary corner; the move after G40
+//!   (the exit move) goes from the offset of the contour's last point to its programmed end,
+//!   as LinuxCNC.
+//! - A concave arc or spline section whose radius is not larger than the tool radius, or an
+//!   inside corner the tool cannot reach, is an error naming the block.
+//!
+//! Look-ahead is bounded: the stage holds back the offset of the last contour element (its end
+//! depends on the next corner) and the moves without motion in the plane that follow it (at
+//! most [`MAX_HELD_MOVES`]).
+
+use crate::path::{AxisDerivs, AxisVec, Blend, CubicSpan, Feed, Geometry, Helix, Line, MAX_AXES, Source};
+use std::collections::VecDeque;
+use std::f64::consts::PI;
+
+/// The offset of a spline span stays this close to the true offset curve, mm: a quarter of
+/// the 1 µm the compensated path is held to, the rest for the planner's sampling.
+pub(crate) const SPLINE_OFFSET_TOL_MM: f64 = 0.25e-3;
+/// Interior points at which each offset piece is checked against the true offset curve.
+const SPLINE_CHECK_POINTS: usize = 9;
+/// Pieces each spline span starts with before bisection.
+const SPLINE_INITIAL_PIECES: usize = 2;
+/// Bisection depth limit for one spline span (2¹⁶ pieces): a span that needs more is
+/// reported, not approximated forever.
+const SPLINE_MAX_DEPTH: usize = 16;
+/// Points per spline span at which its curvature is checked against the tool radius.
+const GOUGE_SCAN_POINTS: usize = 256;
+/// Moves without motion in the plane (a Z plunge, a rotary move) held back at one corner.
+pub(crate) const MAX_HELD_MOVES: usize = 16;
+/// Corners turning less than this are joined straight (the next offset starts where the last
+/// ends, moving its start by r·θ, below 1 nm for tool radii up to 10 mm): the intersection of
+/// two offsets this close to parallel is lost in rounding (CAM programs rounded to 0.1 µm have
+/// such joints between collinear chords).
+const STRAIGHT_JOINT_RAD: f64 = 1e-7;
+/// An intersection this far beyond an element's end (rounding of nearly parallel offsets) is
+/// taken at the end, mm.
+const INTERSECT_SLACK_MM: f64 = 1e-6;
+/// Corners within this of a full reversal (π) are passed as a reversal: the offsets are too
+/// close to parallel to intersect reliably.
+const REVERSAL_RAD: f64 = 1e-9;
+/// Moves shorter than this in the plane count as moves without motion in the plane, mm.
+const MIN_PLANE_MOVE_MM: f64 = 1e-9;
+/// Newton steps for the intersection of two offset elements at an inside corner.
+const INTERSECT_STEPS: usize = 60;
+/// The intersection is accepted when the two points agree to this, mm.
+const INTERSECT_TOL_MM: f64 = 1e-10;
+/// Elements that meet this closely are left as they are, mm.
+const CONNECT_EXACT_MM: f64 = 1e-12;
+/// Only elements that meet in the plane to this (as trimmed ones do, to the intersection's
+/// tolerance) are joined along the other axes, mm.
+const CONNECT_PLANE_MM: f64 = 1e-9;
+/// Offset arcs with a smaller radius are degenerate (the tool radius equals the arc's).
+const MIN_OFFSET_RADIUS_MM: f64 = 1e-6;
+
+/// Left (G41) or right (G42) of the direction of travel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Side {
+    Left,
+    Right,
+}
+
+impl Side {
+    /// +1 for left, −1 for right: the offset is sign·r·(left normal).
+    fn sign(self) -> f64 {
+        match self {
+            Side::Left => 1.0,
+            Side::Right => -1.0,
+        }
+    }
+}
+
+/// Why the contour cannot be compensated.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub(crate) enum CutterErrorKind {
+    #[error(
+        "cutter compensation: the tool radius {radius_mm} mm is not smaller than the radius {arc_mm} mm of this concave arc (gouge)"
+    )]
+    ConcaveArc { radius_mm: String, arc_mm: String },
+    #[error(
+        "cutter compensation: the spline turns on a radius of {curve_mm} mm at u = {u:.3} on the tool's side, smaller than the tool radius {radius_mm} mm (gouge)"
+    )]
+    ConcaveSpline { radius_mm: String, curve_mm: String, u: f64 },
+    #[error(
+        "cutter compensation: the tool (radius {radius_mm} mm) cannot reach the inside corner where this block starts: the previous or this element is shorter than the tool needs (gouge)"
+    )]
+    InsideCorner { radius_mm: String },
+    #[error("cutter compensation: the move after G41/G42 (the entry move) must be a straight line (G0/G1)")]
+    EntryNotLine,
+    #[error(
+        "cutter compensation: the entry move ends where the tool stands: start it at least the tool radius away from the contour"
+    )]
+    EntryTooShort,
+    #[error("cutter compensation: the move after G40 (the exit move) must be a straight line (G0/G1)")]
+    ExitNotLine,
+    #[error("cutter compensation: more than {MAX_HELD_MOVES} moves without motion in the compensation plane in a row")]
+    TooManyHeld,
+    #[error("cutter compensation: a spline span without motion in the compensation plane")]
+    SplineOutOfPlane,
+    #[error("cutter compensation: the offset of this spline span is degenerate (it stops or turns back)")]
+    DegenerateSplineOffset,
+}
+
+/// A compensation error at the block that caused it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{line}:{col}: {kind}")]
+pub(crate) struct CutterError {
+    pub line: u32,
+    pub col: u32,
+    pub kind: CutterErrorKind,
+}
+
+/// One element of the path with its attributes: what the interpreter pushes (the contour) and
+/// what the stage hands back (the tool centre path).
+#[derive(Debug, Clone)]
+pub(crate) struct Piece {
+    pub geometry: Geometry,
+    pub feed: Feed,
+    pub source: Source,
+    /// Column of the block's first word, for messages.
+    pub col: u32,
+    pub dwell_before_s: f64,
+    pub blend: Blend,
+}
+
+impl Piece {
+    fn with(&self, geometry: Geometry) -> Piece {
+        Piece { geometry, dwell_before_s: 0.0, ..self.clone() }
+    }
+
+    fn error(&self, kind: CutterErrorKind) -> CutterError {
+        CutterError { line: self.source.line, col: self.col, kind }
+    }
+}
+
+/// What is held back while compensation is on.
+#[derive(Debug, Clone)]
+struct Held {
+    /// The offset of the last contour element (or the entry move), whose end the next corner
+    /// may trim.
+    tail: Piece,
+    /// The contour point where the tail's contour element ends, and its unit tangent there
+    /// in the plane.
+    corner: AxisVec,
+    tangent: [f64; 2],
+    /// Moves without motion in the plane after the tail, carried out at the corner.
+    moves: Vec<Piece>,
+}
+
+#[derive(Debug, Clone)]
+enum State {
+    Off,
+    /// G40 was programmed: the tool stands `shift` (in the plane) from the programmed point
+    /// until the exit move.
+    Exit {
+        shift: [f64; 2],
+    },
+    /// G41/G42 was programmed and no move in the plane has followed yet; the tool stands
+    /// `shift` from the programmed point (non-zero when G40 had no exit move yet).
+    Entry {
+        shift: [f64; 2],
+    },
+    On(Box<Held>),
+}
+
+/// The compensation stage.
+#[derive(Debug, Clone)]
+pub(crate) struct Cutter {
+    state: State,
+    side: Side,
+    radius_mm: f64,
+    /// Axis indices of the compensation plane (G17: X Y, G18: Z X, G19: Y Z).
+    p: usize,
+    q: usize,
+    linear: [bool; MAX_AXES],
+    n_axes: usize,
+    out: VecDeque<Piece>,
+    /// Where the last compensated element handed on ends.
+    last_end: Option<AxisVec>,
+}
+
+impl Cutter {
+    pub(crate) fn new(linear: &[bool]) -> Self {
+        let mut mask = [false; MAX_AXES];
+        mask[..linear.len()].copy_from_slice(linear);
+        Self {
+            state: State::Off,
+            side: Side::Left,
+            radius_mm: 0.0,
+            p: 0,
+            q: 1,
+            linear: mask,
+            n_axes: linear.len(),
+            out: VecDeque::new(),
+            last_end: None,
+        }
+    }
+
+    /// Compensation is on (G41/G42 programmed and not cancelled).
+    pub(crate) fn is_on(&self) -> bool {
+        matches!(self.state, State::Entry { .. } | State::On(_))
+    }
+
+    /// G41/G42 (or G41.1/G42.1) in the plane of axes (p, q): the next move in the plane is the
+    /// entry move. Compensation must be off.
+    pub(crate) fn start(&mut self, side: Side, radius_mm: f64, p: usize, q: usize) {
+        debug_assert!(!self.is_on());
+        let shift = match self.state {
+            State::Exit { shift } => shift,
+            _ => [0.0; 2],
+        };
+        self.side = side;
+        self.radius_mm = radius_mm;
+        self.p = p;
+        self.q = q;
+        self.state = State::Entry { shift };
+    }
+
+    /// G40: hands on what is held back; the next move in the plane is the exit move.
+    pub(crate) fn stop(&mut self) {
+        let shift = match std::mem::replace(&mut self.state, State::Off) {
+            State::Off => return,
+            State::Exit { shift } | State::Entry { shift } => shift,
+            State::On(held) => self.release(*held),
+        };
+        self.state = State::Exit { shift };
+    }
+
+    /// The end of the program: hands on what is held back (the tool stays at the offset).
+    pub(crate) fn finish(&mut self) {
+        if let State::On(held) = std::mem::replace(&mut self.state, State::Off) {
+            self.release(*held);
+        }
+    }
+
+    /// The next tool path element ready to be handed on.
+    pub(crate) fn pop(&mut self) -> Option<Piece> {
+        self.out.pop_front()
+    }
+
+    /// Takes the next contour element.
+    pub(crate) fn push(&mut self, piece: Piece) -> Result<(), CutterError> {
+        let in_plane = self.plane_length(&piece.geometry) > MIN_PLANE_MOVE_MM;
+        match &mut self.state {
+            State::Off => {
+                self.last_end = None;
+                self.out.push_back(piece);
+                Ok(())
+            }
+            State::Exit { shift } => {
+                let shift = *shift;
+                if !in_plane {
+                    let moved = self.shifted(&piece, shift)?;
+                    self.emit(moved);
+                    return Ok(());
+                }
+                let Geometry::Line(_) = piece.geometry else {
+                    return Err(piece.error(CutterErrorKind::ExitNotLine));
+                };
+                let (a, b) = self.ends(&piece.geometry);
+                let start = self.plus(a, shift);
+                if let Some(g) = self.line(start, b) {
+                    self.emit(Piece { geometry: g, ..piece });
+                }
+                self.state = State::Off;
+                Ok(())
+            }
+            State::Entry { shift } => {
+                let shift = *shift;
+                if !in_plane {
+                    let moved = self.shifted(&piece, shift)?;
+                    self.emit(moved);
+                    return Ok(());
+                }
+                let Geometry::Line(_) = piece.geometry else {
+                    return Err(piece.error(CutterErrorKind::EntryNotLine));
+                };
+                // As LinuxCNC: the entry move starts where the tool stands and ends at the offset
+                // of its end point; the corner to the next element is an ordinary one.
+                let (a, b) = self.ends(&piece.geometry);
+                let tangent = self.end_tangent(&piece.geometry);
+                let start = self.plus(a, shift);
+                let end = self.plus(b, self.normal(tangent));
+                let Some(g) = self.line(start, end) else {
+                    return Err(piece.error(CutterErrorKind::EntryTooShort));
+                };
+                let tail = Piece { geometry: g, ..piece };
+                self.state = State::On(Box::new(Held { tail, corner: b, tangent, moves: Vec::new() }));
+                Ok(())
+            }
+            State::On(held) => {
+                if !in_plane {
+                    if held.moves.len() >= MAX_HELD_MOVES {
+                        return Err(piece.error(CutterErrorKind::TooManyHeld));
+                    }
+                    held.moves.push(piece);
+                    return Ok(());
+                }
+                let State::On(held) = std::mem::replace(&mut self.state, State::Off) else { unreachable!() };
+                let offsets = self.offset(&piece)?;
+                let next = self.join(*held, offsets, &piece)?;
+                self.state = State::On(Box::new(next));
+                Ok(())
+            }
+        }
+    }
+
+    /// Joins the held tail to the offsets of the next contour element `piece` at the corner;
+    /// hands on everything up to the last offset piece, which is held.
+    fn join(&mut self, held: Held, mut offsets: Vec<Piece>, piece: &Piece) -> Result<Held, CutterError> {
+        let Held { tail, corner, tangent: t1, moves } = held;
+        let t2 = self.start_tangent(&piece.geometry);
+        let n1 = self.normal(t1);
+        let n2 = self.normal(t2);
+        let (_, contour_end) = self.ends(&piece.geometry);
+        let end_tangent = self.end_tangent(&piece.geometry);
+        let last = tail;
+        let mut turn = cross(t1, t2).atan2(dot(t1, t2));
+        // A reversal (the path turns back on itself) is passed around its end: the offsets of
+        // the two elements are parallel and never meet, so it is an outside corner whose arc
+        // turns away from the tool's side.
+        if turn.abs() >= PI - REVERSAL_RAD {
+            turn = -self.side.sign() * PI;
+        }
+        let outside = self.side.sign() * turn < 0.0;
+        if turn.abs() <= STRAIGHT_JOINT_RAD {
+            self.emit(last);
+            self.hand_on_moves(moves, n1)?;
+            // The offsets miss each other by at most r·θ: the next starts where this ends.
+            if let Some(end) = self.last_end {
+                if let Some(g) = self.starting_at(&offsets[0].geometry, end) {
+                    offsets[0].geometry = g;
+                }
+            }
+        } else if outside {
+            self.emit(last);
+            let at = self.hand_on_moves(moves, n1)?.unwrap_or(corner);
+            let a = self.plus(at, n1);
+            let b = self.plus(at, n2);
+            let arc = Helix::new(self.p, self.q, [at[self.p], at[self.q]], turn, a, b, &self.linear[..self.n_axes]);
+            if arc.length_mm() > MIN_PLANE_MOVE_MM {
+                // The corner arc comes after arriving at the corner: a dwell programmed
+                // for the next block happens before it.
+                let dwell = std::mem::take(&mut offsets[0].dwell_before_s);
+                self.emit(Piece { geometry: Geometry::Helix(arc), dwell_before_s: dwell, ..piece.clone() });
+            }
+        } else {
+            let first = &offsets[0];
+            let Some((s1, s2)) = intersect(&last.geometry, &first.geometry, self.p, self.q) else {
+                return Err(piece.error(CutterErrorKind::InsideCorner { radius_mm: super::fmt_num(self.radius_mm) }));
+            };
+            let trimmed_last = trim(&last.geometry, 0.0, s1, &self.linear[..self.n_axes]);
+            let trimmed_first = trim(&first.geometry, s2, first.geometry.length_mm(), &self.linear[..self.n_axes]);
+            let (Some(g1), Some(g2)) = (trimmed_last, trimmed_first) else {
+                return Err(piece.error(CutterErrorKind::InsideCorner { radius_mm: super::fmt_num(self.radius_mm) }));
+            };
+            let mut d = AxisDerivs::default();
+            g1.eval(g1.length_mm(), &mut d);
+            let shift = [d.pos[self.p] - corner[self.p], d.pos[self.q] - corner[self.q]];
+            self.emit(Piece { geometry: g1, ..last });
+            self.hand_on_moves(moves, shift)?;
+            offsets[0].geometry = g2;
+        }
+        let last = offsets.pop().expect("an offset has at least one piece");
+        for o in offsets {
+            self.emit(o);
+        }
+        Ok(Held { tail: last, corner: contour_end, tangent: end_tangent, moves: Vec::new() })
+    }
+
+    /// Hands on a tool path element, starting exactly where the one before ends: trimming
+    /// at an inside corner is exact in the plane, but on a contour that moves along the third
+    /// axis the two trimmed elements reach the intersection at slightly different heights, so
+    /// the later one is made to start at the earlier one's end.
+    fn emit(&mut self, mut piece: Piece) {
+        if let Some(end) = self.last_end {
+            let (start, _) = self.ends(&piece.geometry);
+            let gap = (0..self.n_axes).map(|k| (start[k] - end[k]).abs()).fold(0.0, f64::max);
+            let plane_gap = (start[self.p] - end[self.p]).hypot(start[self.q] - end[self.q]);
+            if gap > CONNECT_EXACT_MM && plane_gap <= CONNECT_PLANE_MM {
+                if let Some(g) = self.starting_at(&piece.geometry, end) {
+                    piece.geometry = g;
+                }
+            }
+        }
+        self.last_end = Some(self.ends(&piece.geometry).1);
+        self.out.push_back(piece);
+    }
+
+    /// `g` from `start` instead of its own start point, to the same end.
+    fn starting_at(&self, g: &Geometry, start: AxisVec) -> Option<Geometry> {
+        let (_, end) = self.ends(g);
+        let linear = &self.linear[..self.n_axes];
+        match g {
+            Geometry::Line(_) => self.line(start, end),
+            Geometry::Helix(h) => {
+                let (p, q) = h.plane_axes();
+                Some(Geometry::Helix(Helix::new(p, q, h.center(), h.sweep_rad(), start, end, linear)))
+            }
+            Geometry::Cubic(c) => c.with_start(&start).ok().map(|c| Geometry::Cubic(Box::new(c))),
+            _ => None,
+        }
+    }
+
+    /// Hands on the held moves shifted by `shift` in the plane; returns where the last one
+    /// ends on the contour (None without moves).
+    fn hand_on_moves(&mut self, moves: Vec<Piece>, shift: [f64; 2]) -> Result<Option<AxisVec>, CutterError> {
+        let mut at = None;
+        for m in moves {
+            at = Some(self.ends(&m.geometry).1);
+            let moved = self.shifted(&m, shift)?;
+            self.emit(moved);
+        }
+        Ok(at)
+    }
+
+    /// Hands on the held tail untrimmed; returns the shift of the tool from the contour.
+    fn release(&mut self, held: Held) -> [f64; 2] {
+        let n1 = self.normal(held.tangent);
+        self.emit(held.tail);
+        for m in held.moves {
+            // Held moves are lines (checked when offset), so shifting cannot fail.
+            if let Ok(moved) = self.shifted(&m, n1) {
+                self.emit(moved);
+            }
+        }
+        n1
+    }
+
+    /// The contour element offset by the tool radius: one piece for lines and arcs, several
+    /// cubic spans for a spline span.
+    fn offset(&self, piece: &Piece) -> Result<Vec<Piece>, CutterError> {
+        let sign = self.side.sign();
+        let r = self.radius_mm;
+        let linear = &self.linear[..self.n_axes];
+        match &piece.geometry {
+            Geometry::Line(_) => {
+                let n = self.normal(self.start_tangent(&piece.geometry));
+                Ok(vec![self.shifted(piece, n)?])
+            }
+            Geometry::Helix(h) => {
+                let radius = h.radius_mm();
+                let (p, q) = (self.p, self.q);
+                // The centre lies left of the travel for G3 (positive sweep): the tool on
+                // the left is inside the arc.
+                let new_radius = radius - sign * h.sweep_rad().signum() * r;
+                if new_radius <= MIN_OFFSET_RADIUS_MM {
+                    return Err(piece.error(CutterErrorKind::ConcaveArc {
+                        radius_mm: super::fmt_num(r),
+                        arc_mm: super::fmt_num(radius),
+                    }));
+                }
+                let c = h.center();
+                let (mut a, mut b) = self.ends(&piece.geometry);
+                for x in [&mut a, &mut b] {
+                    let (dp, dq) = (x[p] - c[0], x[q] - c[1]);
+                    let len = dp.hypot(dq);
+                    x[p] = c[0] + dp / len * new_radius;
+                    x[q] = c[1] + dq / len * new_radius;
+                }
+                let arc = Helix::new(p, q, c, h.sweep_rad(), a, b, linear);
+                Ok(vec![Piece { geometry: Geometry::Helix(arc), ..piece.clone() }])
+            }
+            Geometry::Cubic(c) => {
+                let spans = self.offset_spline(c, piece)?;
+                let mut out: Vec<Piece> = spans.into_iter().map(|s| piece.with(Geometry::Cubic(Box::new(s)))).collect();
+                out[0].dwell_before_s = piece.dwell_before_s;
+                Ok(out)
+            }
+            // The interpreter makes lines, arcs and spline spans only.
+            _ => Ok(vec![piece.clone()]),
+        }
+    }
+
+    /// Q(u) = P(u) + sign·r·n(u) and Q′(u) for a spline span: n is the left unit normal in the
+    /// plane, and Q′ = P′·(1 − sign·r·κ) in the plane with κ the signed curvature there.
+    fn offset_point(&self, c: &CubicSpan, u: f64) -> (AxisVec, AxisVec, f64) {
+        let [mut pos, mut d1, d2] = c.raw_at_u(u);
+        let (p, q) = (self.p, self.q);
+        let speed = d1[p].hypot(d1[q]);
+        let kappa = (d1[p] * d2[q] - d1[q] * d2[p]) / speed.powi(3);
+        let f = 1.0 - self.side.sign() * self.radius_mm * kappa;
+        let k = self.side.sign() * self.radius_mm / speed;
+        pos[p] += -d1[q] * k;
+        pos[q] += d1[p] * k;
+        d1[p] *= f;
+        d1[q] *= f;
+        (pos, d1, f)
+    }
+
+    fn offset_spline(&self, c: &CubicSpan, piece: &Piece) -> Result<Vec<CubicSpan>, CutterError> {
+        let (p, q) = (self.p, self.q);
+        // Gouge: the offset turns back where the curvature radius on the tool's side is not
+        // larger than the tool radius (1 − sign·r·κ ≤ 0).
+        let mut worst = (f64::INFINITY, 0.0);
+        for i in 0..=GOUGE_SCAN_POINTS {
+            let u = i as f64 / GOUGE_SCAN_POINTS as f64;
+            let [_, d1, _] = c.raw_at_u(u);
+            if d1[p].hypot(d1[q]) <= 0.0 {
+                return Err(piece.error(CutterErrorKind::SplineOutOfPlane));
+            }
+            let (_, _, f) = self.offset_point(c, u);
+            if f < worst.0 {
+                worst = (f, u);
+            }
+        }
+        if worst.0 <= 0.0 {
+            let [_, d1, d2] = c.raw_at_u(worst.1);
+            let speed = d1[p].hypot(d1[q]);
+            let kappa = (d1[p] * d2[q] - d1[q] * d2[p]).abs() / speed.powi(3);
+            return Err(piece.error(CutterErrorKind::ConcaveSpline {
+                radius_mm: super::fmt_num(self.radius_mm),
+                curve_mm: super::fmt_num(1.0 / kappa),
+                u: worst.1,
+            }));
+        }
+        let mut out = Vec::new();
+        let mut stack: Vec<(f64, f64, usize)> = (0..SPLINE_INITIAL_PIECES)
+            .rev()
+            .map(|i| (i as f64 / SPLINE_INITIAL_PIECES as f64, (i + 1) as f64 / SPLINE_INITIAL_PIECES as f64, 0))
+            .collect();
+        let linear = &self.linear[..self.n_axes];
+        while let Some((u0, u1, depth)) = stack.pop() {
+            let (a, ta, _) = self.offset_point(c, u0);
+            let (b, tb, _) = self.offset_point(c, u1);
+            let h = u1 - u0;
+            let (ta, tb) = (ta.map(|v| v * h), tb.map(|v| v * h));
+            let span = CubicSpan::hermite(&a, &b, &ta, &tb, linear);
+            let ok = span.as_ref().is_ok_and(|s| self.within_tol(c, s, u0, u1));
+            match span {
+                Ok(s) if ok => out.push(s),
+                _ if depth < SPLINE_MAX_DEPTH => {
+                    let m = 0.5 * (u0 + u1);
+                    stack.push((m, u1, depth + 1));
+                    stack.push((u0, m, depth + 1));
+                }
+                _ => return Err(piece.error(CutterErrorKind::DegenerateSplineOffset)),
+            }
+        }
+        Ok(out)
+    }
+
+    /// The piece `s` (Hermite over u ∈ [u0, u1]) agrees with the true offset at interior
+    /// points, compared at equal parameter: a bound on the distance between the curves.
+    fn within_tol(&self, c: &CubicSpan, s: &CubicSpan, u0: f64, u1: f64) -> bool {
+        (1..=SPLINE_CHECK_POINTS).all(|i| {
+            let t = i as f64 / (SPLINE_CHECK_POINTS + 1) as f64;
+            let (want, _, _) = self.offset_point(c, u0 + t * (u1 - u0));
+            let [got, _, _] = s.raw_at_u(t);
+            let err: f64 = (0..self.n_axes).filter(|&k| self.linear[k]).map(|k| (got[k] - want[k]).powi(2)).sum();
+            err.sqrt() <= SPLINE_OFFSET_TOL_MM
+        })
+    }
+
+    /// A move without motion in the plane (or a line) shifted by `shift` in the plane.
+    fn shifted(&self, piece: &Piece, shift: [f64; 2]) -> Result<Piece, CutterError> {
+        match &piece.geometry {
+            Geometry::Line(l) => {
+                let (a, b) = self.ends(&piece.geometry);
+                let g = Line::new(self.plus(a, shift), self.plus(b, shift), l.length_mm());
+                Ok(Piece { geometry: Geometry::Line(g), ..piece.clone() })
+            }
+            _ => Err(piece.error(CutterErrorKind::SplineOutOfPlane)),
+        }
+    }
+
+    /// A line between two points, None if they coincide.
+    fn line(&self, a: AxisVec, b: AxisVec) -> Option<Geometry> {
+        let lin: f64 = (0..self.n_axes).filter(|&k| self.linear[k]).map(|k| (b[k] - a[k]).powi(2)).sum::<f64>().sqrt();
+        let len = if lin > super::gcode::MIN_MOVE_MM {
+            lin
+        } else {
+            (0..self.n_axes).filter(|&k| !self.linear[k]).map(|k| (b[k] - a[k]).powi(2)).sum::<f64>().sqrt()
+        };
+        (len > super::gcode::MIN_MOVE_MM).then(|| Geometry::Line(Line::new(a, b, len)))
+    }
+
+    fn plus(&self, mut a: AxisVec, shift: [f64; 2]) -> AxisVec {
+        a[self.p] += shift[0];
+        a[self.q] += shift[1];
+        a
+    }
+
+    /// sign·r times the left unit normal of the unit tangent `t`.
+    fn normal(&self, t: [f64; 2]) -> [f64; 2] {
+        let k = self.side.sign() * self.radius_mm;
+        [-t[1] * k, t[0] * k]
+    }
+
+    fn ends(&self, g: &Geometry) -> (AxisVec, AxisVec) {
+        let mut d = AxisDerivs::default();
+        g.eval(0.0, &mut d);
+        let a = d.pos;
+        g.eval(g.length_mm(), &mut d);
+        (a, d.pos)
+    }
+
+    fn tangent_at(&self, g: &Geometry, s: f64) -> [f64; 2] {
+        let mut d = AxisDerivs::default();
+        g.eval(s, &mut d);
+        let (tp, tq) = (d.d1[self.p], d.d1[self.q]);
+        let n = tp.hypot(tq);
+        [tp / n, tq / n]
+    }
+
+    fn start_tangent(&self, g: &Geometry) -> [f64; 2] {
+        self.tangent_at(g, 0.0)
+    }
+
+    fn end_tangent(&self, g: &Geometry) -> [f64; 2] {
+        self.tangent_at(g, g.length_mm())
+    }
+
+    /// Length of the element's projection on the plane, from its end points and middle (an
+    /// arc in the plane or a spline always moves its ends or its middle there).
+    fn plane_length(&self, g: &Geometry) -> f64 {
+        let mut d = AxisDerivs::default();
+        let mut pts = [[0.0; 2]; 3];
+        for (i, s) in [0.0, 0.5, 1.0].iter().enumerate() {
+            g.eval(s * g.length_mm(), &mut d);
+            pts[i] = [d.pos[self.p], d.pos[self.q]];
+        }
+        let dist = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
+        dist(pts[0], pts[1]) + dist(pts[1], pts[2])
+    }
+}
+
+fn cross(a: [f64; 2], b: [f64; 2]) -> f64 {
+    a[0] * b[1] - a[1] * b[0]
+}
+
+fn dot(a: [f64; 2], b: [f64; 2]) -> f64 {
+    a[0] * b[0] + a[1] * b[1]
+}
+
+/// The intersection of `g1` (near its end) and `g2` (near its start) in the plane (p, q), as
+/// path positions (s1, s2) inside both: Newton's method from the intersection of the tangent
+/// lines at g1's end and g2's start.
+fn intersect(g1: &Geometry, g2: &Geometry, p: usize, q: usize) -> Option<(f64, f64)> {
+    let (l1, l2) = (g1.length_mm(), g2.length_mm());
+    let (mut a, mut b) = (AxisDerivs::default(), AxisDerivs::default());
+    g1.eval(l1, &mut a);
+    g2.eval(0.0, &mut b);
+    let solve = |a: &AxisDerivs, b: &AxisDerivs| -> Option<(f64, f64)> {
+        // a.pos + a.d1·x = b.pos + b.d1·y
+        let (rp, rq) = (b.pos[p] - a.pos[p], b.pos[q] - a.pos[q]);
+        let det = -a.d1[p] * b.d1[q] + a.d1[q] * b.d1[p];
+        if det.abs() < 1e-15 {
+            return None;
+        }
+        let x = (-rp * b.d1[q] + rq * b.d1[p]) / det;
+        let y = (a.d1[p] * rq - a.d1[q] * rp) / det;
+        Some((x, y))
+    };
+    let (x, y) = solve(&a, &b)?;
+    let (mut s1, mut s2) = (l1 + x, y);
+    for _ in 0..INTERSECT_STEPS {
+        if !(-INTERSECT_SLACK_MM..=l1 + INTERSECT_SLACK_MM).contains(&s1)
+            || !(-INTERSECT_SLACK_MM..=l2 + INTERSECT_SLACK_MM).contains(&s2)
+        {
+            return None;
+        }
+        (s1, s2) = (s1.clamp(0.0, l1), s2.clamp(0.0, l2));
+        g1.eval(s1, &mut a);
+        g2.eval(s2, &mut b);
+        if (a.pos[p] - b.pos[p]).hypot(a.pos[q] - b.pos[q]) <= INTERSECT_TOL_MM {
+            return Some((s1, s2));
+        }
+        let (x, y) = solve(&a, &b)?;
+        s1 += x;
+        s2 += y;
+    }
+    None
+}
+
+/// The part s ∈ [s0, s1] of a line, arc or spline span (None if it is empty).
+fn trim(g: &Geometry, s0: f64, s1: f64, linear: &[bool]) -> Option<Geometry> {
+    let len = g.length_mm();
+    if s1 - s0 <= super::gcode::MIN_MOVE_MM {
+        return None;
+    }
+    if s0 <= 0.0 && s1 >= len {
+        return Some(g.clone());
+    }
+    let (mut a, mut b) = (AxisDerivs::default(), AxisDerivs::default());
+    g.eval(s0, &mut a);
+    g.eval(s1, &mut b);
+    match g {
+        Geometry::Line(_) => Some(Geometry::Line(Line::new(a.pos, b.pos, s1 - s0))),
+        Geometry::Helix(h) => {
+            let (p, q) = h.plane_axes();
+            let sweep = h.sweep_rad() * (s1 - s0) / len;
+            Some(Geometry::Helix(Helix::new(p, q, h.center(), sweep, a.pos, b.pos, linear)))
+        }
+        Geometry::Cubic(c) => {
+            let (u0, u1) = (c.u_at(s0), c.u_at(s1));
+            c.sub_span(u0, u1).ok().map(|c| Geometry::Cubic(Box::new(c)))
+        }
+        _ => None,
+    }
+}

@@ -134,6 +134,13 @@ fn a_million_line_program_loads_and_runs_in_bounded_memory() {
         assert_eq!(w[1].cycle, w[0].cycle + 1, "gap in cycle numbers");
     }
     let underruns = sps.iter().filter(|s| s.flags & flags::UNDERRUN != 0).count();
+    let mut runs = Vec::new();
+    for w in sps.windows(2) {
+        if w[0].flags & flags::UNDERRUN == 0 && w[1].flags & flags::UNDERRUN != 0 {
+            runs.push((w[1].cycle, (w[1].s_mm * 10.0).round() / 10.0));
+        }
+    }
+    eprintln!("underruns begin at (cycle, s_mm): {runs:?}");
     let config = Config::load_or_default(None).expect("default machine");
     let limits: Vec<AxisLimits> = config
         .axes

@@ -25,8 +25,13 @@ use std::time::{Duration, Instant};
 /// Cycles of motion per chunk: the reaction time to a hold or stop is at most this.
 pub const CHUNK_CYCLES: u32 = 8;
 /// Chunks kept queued for the real-time thread: the planner thread may stall this long
-/// (× chunk duration) without an underrun; a feed override acts after it.
-pub const QUEUE_CHUNKS: usize = 6;
+/// (× chunk duration) without an underrun; a feed override acts after it. Reading, smoothing
+/// and planning dense CAM data comes in bursts (a smoothing window, a horizon replan) that a
+/// shallower queue does not bridge.
+pub const QUEUE_CHUNKS: usize = 10;
+/// Chunks of a new epoch (a start or a replan) planned before the first is released: a slow
+/// first plan does not run dry at once, and the first motion follows a start quickly.
+const START_CHUNKS: usize = 2;
 /// Chunks kept queued for a manual motion: a changed jog takes effect after them, and sampling
 /// the OTG is fast enough (tens of µs a chunk) that a shallow queue does not run dry.
 pub const MANUAL_QUEUE_CHUNKS: usize = 3;
@@ -599,7 +604,7 @@ impl Feeder {
                 let complete = chunk.last;
                 // A new epoch starts only once half the queue depth is ready (or the program
                 // is complete), so a slow first plan does not underrun at once.
-                let deep_enough = run.seq as usize >= run.depth() / 2 || complete;
+                let deep_enough = run.seq as usize >= START_CHUNKS.min(run.depth() / 2) || complete;
                 run.staged.push(chunk);
                 if deep_enough {
                     for c in run.staged.drain(..) {

@@ -47,7 +47,7 @@ const PROGRAM: &str =
     "G21 G90 G17\nG1 X20 F6000\nG2 X40 Y0 I10 J0\nG1 X40 Y30\nG3 X20 Y30 I-10 J0\nG1 X0 Y0\nG4 P0.1\nG1 X10 Y10\nM30\n";
 
 fn run(core: &interpd::service::ServiceCore, steps: &[(&str, u64)]) {
-    core.load(ProgramSource::Text { name: "alloc.ngc".into(), text: PROGRAM.into() }).expect("load");
+    core.load(ProgramSource::Text { name: "alloc.ngc".into(), text: PROGRAM.into() }, false).expect("load");
     core.start().expect("start");
     for &(what, after_ms) in steps {
         std::thread::sleep(Duration::from_millis(after_ms));
@@ -91,7 +91,7 @@ fn manual(core: &interpd::service::ServiceCore) {
     core.mdi(&MdiParams { line: "G91 G1 X5 F3000\nY2".into() }).expect("mdi");
     settle();
     done(&[State::Finished]);
-    core.load(ProgramSource::Text { name: "alloc.ngc".into(), text: PROGRAM.into() }).expect("load");
+    core.load(ProgramSource::Text { name: "alloc.ngc".into(), text: PROGRAM.into() }, false).expect("load");
     core.start().expect("start");
     std::thread::sleep(Duration::from_millis(300));
     core.hold().expect("hold");
@@ -175,7 +175,7 @@ fn the_compensation_stage_never_allocates() {
     let service = Service::start(ServiceOptions { config, shm: true }).expect("service");
     let core = service.core();
     let program = "G21 G90 G17\nG1 X5 F600\nG3 X5 Y0 I-5 J0\nG1 X0 Y0\nM30\n";
-    core.load(ProgramSource::Text { name: "comp.ngc".into(), text: program.into() }).expect("load");
+    core.load(ProgramSource::Text { name: "comp.ngc".into(), text: program.into() }, false).expect("load");
     core.start().expect("start");
     let s = core.wait_for(&[State::Finished, State::Error], Duration::from_secs(30));
     assert_eq!(s, State::Finished);

@@ -42,7 +42,7 @@ fn run_appended(pieces: usize, every: Duration, before_start: usize) -> (Vec<Set
     let mut c = daemon.client();
     let mut events = Client::connect(&daemon.socket);
     events.ok("subscribe", Value::Null);
-    let info = c.ok("program.load", json!({ "text": HEAD, "name": "stream" }));
+    let info = c.ok("program.load", json!({ "text": HEAD, "name": "stream", "open": true }));
     assert_eq!(info["program_end"], false, "{info}");
     let st = c.ok("status", Value::Null);
     assert_eq!(st["program_buffer"]["open"], true, "{st}");
@@ -136,8 +136,11 @@ fn a_program_fed_too_slowly_stops_at_the_end_of_what_is_there_and_goes_on() {
 fn bad_blocks_and_a_full_buffer_are_refused_and_the_motion_goes_on() {
     let daemon = Daemon::start(&[]);
     let mut c = daemon.client();
+    // Without "open", a program ends with its text: nothing can be appended.
     c.ok("program.load", json!({ "text": HEAD }));
-    // Nothing to continue: a program with an end.
+    let r = c.call("program.append", json!({ "text": piece(0, 20) }));
+    assert_eq!(r["error"]["code"], -32002, "{r}");
+    c.ok("program.load", json!({ "text": HEAD, "open": true }));
     let collector = Collector::start(&daemon.prefix);
     c.ok("program.append", json!({ "text": piece(0, 20) }));
     c.ok("motion.start", Value::Null);

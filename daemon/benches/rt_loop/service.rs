@@ -45,7 +45,7 @@ pub fn run(
     let service = Service::start(ServiceOptions { config, shm: true }).map_err(|e| e.to_string())?;
     let core = service.core();
     let events = core.subscribe();
-    core.load(ProgramSource::File(program.to_path_buf())).map_err(|e| format!("{}: {e}", program.display()))?;
+    core.load(ProgramSource::File(program.to_path_buf()), false).map_err(|e| format!("{}: {e}", program.display()))?;
     core.start().map_err(|e| e.to_string())?;
     let (mut program_starts, mut underruns, mut errors) = (1u64, 0u64, Vec::new());
     loop {

@@ -126,17 +126,18 @@ impl Context {
                 return to_value(&Subscribed::default());
             }
             Call::ProgramLoad(params) => {
-                let source = match params {
-                    LoadParams::Path { path } => ProgramSource::File(PathBuf::from(path)),
-                    LoadParams::Text { text, name } => {
-                        ProgramSource::Text { name: name.unwrap_or_else(|| api::INLINE_PROGRAM_NAME.to_string()), text }
+                let (source, open) = match params {
+                    LoadParams::Path { path, open } => (ProgramSource::File(PathBuf::from(path)), open),
+                    LoadParams::Text { text, name, open } => {
+                        let name = name.unwrap_or_else(|| api::INLINE_PROGRAM_NAME.to_string());
+                        (ProgramSource::Text { name, text }, open)
                     }
                 };
                 let what = match &source {
                     ProgramSource::File(p) => p.display().to_string(),
                     ProgramSource::Text { name, text } => format!("{name} ({} bytes inline)", text.len()),
                 };
-                let info = motion.load(source)?;
+                let info = motion.load(source, open)?;
                 tracing::info!(conn = session.id, program = %what, elements = info.elements, length_mm = info.length_mm, "program loaded");
                 to_value(&info)
             }
@@ -242,7 +243,7 @@ impl From<LoadError> for ErrorObject {
 impl From<AppendError> for ErrorObject {
     fn from(e: AppendError) -> ErrorObject {
         match e {
-            AppendError::NoProgram => ErrorObject::new(codes::NOT_ALLOWED, e.to_string()),
+            AppendError::NoProgram | AppendError::NotOpen => ErrorObject::new(codes::NOT_ALLOWED, e.to_string()),
             AppendError::Closed(_) | AppendError::Program(_) => ErrorObject::new(codes::BAD_PROGRAM, e.to_string()),
             AppendError::Full { buffered_bytes, limit_bytes, .. } => {
                 ErrorObject::new(codes::BUFFER_FULL, e.to_string())

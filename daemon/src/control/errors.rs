@@ -41,6 +41,9 @@ pub enum AppendError {
     /// No program is loaded (−32002).
     #[error("no program is loaded: load one without M2/M30 with program.load first")]
     NoProgram,
+    /// The loaded program was not loaded with `"open": true` (−32002).
+    #[error("the loaded program is not open for program.append: load it with \"open\": true")]
+    NotOpen,
     /// The loaded program has ended or cannot be continued (−32001).
     #[error("bad program: {0}")]
     Closed(#[from] interpd_motion::program::AppendError),

@@ -34,7 +34,9 @@ pub enum ProgramSource {
 pub trait Motion: Send + Sync + 'static {
     /// Reads, parses and prepares a program, replacing the loaded one. Refused while motion is
     /// in progress; a program that cannot be read, parsed or prepared says where and why.
-    fn load(&self, source: ProgramSource) -> Result<ProgramInfo, LoadError>;
+    /// `open`: the program continues with [`Motion::append`] (without it, a program ends at
+    /// the end of its text).
+    fn load(&self, source: ProgramSource, open: bool) -> Result<ProgramInfo, LoadError>;
 
     /// Continues the loaded program, which has no end yet, with `params.text` (`program.append`):
     /// checked against the program so far, then buffered for the motion to read. Allowed in

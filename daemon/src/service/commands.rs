@@ -164,8 +164,8 @@ impl Motion for ServiceCore {
         self.set_work_offsets(offsets)
     }
 
-    fn load(&self, source: ProgramSource) -> Result<ProgramInfo, LoadError> {
-        self.load_program(source)
+    fn load(&self, source: ProgramSource, open: bool) -> Result<ProgramInfo, LoadError> {
+        self.load_program(source, open)
     }
 
     fn law(&self, statement: &str) -> Result<LawResult, LawError> {
@@ -182,6 +182,7 @@ impl Motion for ServiceCore {
     fn append(&self, params: &AppendParams) -> Result<AppendResult, AppendError> {
         let appends = match &lock(&self.shared.control).program {
             Some((_, Loaded::Program { appends: Some(a), .. })) => a.clone(),
+            Some((info, Loaded::Program { .. })) if !info.program_end => return Err(AppendError::NotOpen),
             Some(_) => return Err(interpd_motion::program::AppendError::Ended.into()),
             None => return Err(AppendError::NoProgram),
         };

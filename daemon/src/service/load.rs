@@ -19,7 +19,7 @@ use std::borrow::Cow;
 use std::sync::Arc;
 
 impl ServiceCore {
-    pub(super) fn load_program(&self, source: ProgramSource) -> Result<ProgramInfo, LoadError> {
+    pub(super) fn load_program(&self, source: ProgramSource, open: bool) -> Result<ProgramInfo, LoadError> {
         let shared = &self.shared;
         lock(&shared.control).check(Method::ProgramLoad)?;
         // The name is the path as given; the file read is the one inside the programs directory.
@@ -41,7 +41,11 @@ impl ServiceCore {
                 // Taken before reading: a file changed while it is read or later is refused at
                 // the start.
                 let stamp = FileStamp::of(&p);
-                let (checked, checker) = program::check_appended(&p, None, &settings)?;
+                let (checked, checker) = if open {
+                    program::check_appended(&p, None, &settings)?
+                } else {
+                    (program::check(&p, &settings)?, None)
+                };
                 let stamp = stamp.map_err(|e| {
                     program::ProgramErrors(vec![program::ProgramError {
                         file: p.display().to_string(),
@@ -53,11 +57,16 @@ impl ServiceCore {
                 (checked, checker, ProgramText::File { path: p, stamp })
             }
             ProgramSource::Text { name, text } => {
-                let (checked, checker) =
-                    program::check_appended(std::path::Path::new(&name), Some(text.clone()), &settings)?;
+                let (checked, checker) = if open {
+                    program::check_appended(std::path::Path::new(&name), Some(text.clone()), &settings)?
+                } else {
+                    (program::check_text(text.clone(), &name, &settings)?, None)
+                };
                 (checked, checker, ProgramText::Text { name, text: Arc::new(text) })
             }
         };
+        // Only a program loaded open (and without an end) takes appended text; any other ends
+        // with its text.
         let appends = checker.map(|c| Appendable {
             checker: Arc::new(std::sync::Mutex::new(c)),
             buffer: Arc::new(AppendBuffer::new(shared.config.programs.append_buffer_bytes())),

@@ -18,12 +18,19 @@ use serde::{Deserialize, Serialize};
 pub enum LoadParams {
     /// A program file, read by the daemon: relative paths are relative to the daemon's working
     /// directory, so clients should send absolute paths.
-    Path { path: String },
+    Path {
+        path: String,
+        /// The program continues with `program.append` (see [`AppendParams`]).
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        open: bool,
+    },
     /// Program text sent inline (up to the line limit, less the envelope).
     Text {
         text: String,
         #[serde(default, skip_serializing_if = "Option::is_none")]
         name: Option<String>,
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        open: bool,
     },
 }
 
@@ -67,7 +74,7 @@ struct Usage {
 const LOAD: Usage = Usage {
     method: Method::ProgramLoad,
     example: r#"{"path": "/abs/part.ngc"} or {"text": "G1 X10 F600\n", "name": "part"}"#,
-    known: r#""path", or "text" with an optional "name""#,
+    known: r#""path", or "text" with an optional "name"; an optional "open" (bool)"#,
     missing: ("path", r#"missing parameter "path" or "text""#),
 };
 
@@ -176,6 +183,8 @@ struct LoadMembers {
     path: Option<String>,
     text: Option<String>,
     name: Option<String>,
+    #[serde(default)]
+    open: bool,
 }
 
 /// A validation refusal: the parameter at fault and why.
@@ -210,8 +219,8 @@ impl LoadMembers {
                 "\"name\" goes with \"text\"; a program loaded from \"path\" is named by its path",
             )),
             (Some(p), None, None) if p.is_empty() => Err(Refusal::new("path", "parameter \"path\" is empty")),
-            (Some(path), None, None) => Ok(LoadParams::Path { path }),
-            (None, Some(text), name) => Ok(LoadParams::Text { text, name }),
+            (Some(path), None, None) => Ok(LoadParams::Path { path, open: self.open }),
+            (None, Some(text), name) => Ok(LoadParams::Text { text, name, open: self.open }),
             (None, None, _) => Err(Refusal::new(LOAD.missing.0, LOAD.missing_text())),
         }
     }

@@ -15,11 +15,11 @@ fn methods_and_params() {
 
     assert_eq!(
         Call::parse("program.load", Some(json!({"path": "/a.ngc"}))),
-        Ok(Call::ProgramLoad(LoadParams::Path { path: "/a.ngc".into() }))
+        Ok(Call::ProgramLoad(LoadParams::Path { path: "/a.ngc".into(), open: false }))
     );
     assert_eq!(
         Call::parse("program.load", Some(json!({"text": "G1 X1", "name": "p"}))),
-        Ok(Call::ProgramLoad(LoadParams::Text { text: "G1 X1".into(), name: Some("p".into()) }))
+        Ok(Call::ProgramLoad(LoadParams::Text { text: "G1 X1".into(), name: Some("p".into()), open: false }))
     );
     for (params, param) in [
         (None, "path"),
@@ -89,7 +89,7 @@ fn refusal_messages() {
         (
             "program.load",
             json!({"file": "/a"}),
-            r#"invalid params for program.load: unknown parameter "file"; expected "path", or "text" with an optional "name""#
+            r#"invalid params for program.load: unknown parameter "file"; expected "path", or "text" with an optional "name"; an optional "open" (bool)"#
                 .to_string(),
             json!({"method": "program.load", "param": "file"}),
         ),
@@ -240,7 +240,10 @@ fn drive_status_on_the_wire() {
 
 #[test]
 fn client_side_params_round_trip() {
-    for p in [LoadParams::Path { path: "/a".into() }, LoadParams::Text { text: "G1".into(), name: None }] {
+    for p in [
+        LoadParams::Path { path: "/a".into(), open: false },
+        LoadParams::Text { text: "G1".into(), name: None, open: false },
+    ] {
         let v = serde_json::to_value(&p).expect("ser");
         assert_eq!(serde_json::from_value::<LoadParams>(v).expect("de"), p);
     }

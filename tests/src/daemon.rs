@@ -245,6 +245,17 @@ pub struct AxisLimits {
     pub jerk: f64,
 }
 
+impl AxisLimits {
+    /// The limits of every axis of a machine configuration, in its order.
+    pub fn of(config: &interpd::config::Config) -> Vec<AxisLimits> {
+        config
+            .axes
+            .iter()
+            .map(|a| AxisLimits { vel: a.max_vel_per_s, acc: a.max_acc_per_s2, jerk: a.max_jerk_per_s3 })
+            .collect()
+    }
+}
+
 /// Largest |value|/limit over all axes of a stream at `cycle_s`: velocity, acceleration and
 /// jerk from finite differences of the positions, and the reported acceleration.
 pub fn limit_ratios(cycle_s: f64, limits: &[AxisLimits], sps: &[Setpoints]) -> [f64; 4] {

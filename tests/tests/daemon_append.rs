@@ -27,14 +27,6 @@ fn piece(k: usize, lines: usize) -> String {
 
 const HEAD: &str = "G21 G90 G64 P0.01\nG1 X0 Y0 F1200\n";
 
-fn limits_of(config: &Config) -> Vec<AxisLimits> {
-    config
-        .axes
-        .iter()
-        .map(|a| AxisLimits { vel: a.max_vel_per_s, acc: a.max_acc_per_s2, jerk: a.max_jerk_per_s3 })
-        .collect()
-}
-
 /// Runs HEAD plus `pieces` pieces of 20 lines, sent every `every` after the start, then M2;
 /// returns the setpoints, the events and the number of the last line.
 fn run_appended(pieces: usize, every: Duration, before_start: usize) -> (Vec<Setpoints>, Vec<Value>, u64) {
@@ -87,7 +79,7 @@ fn check_stream(what: &str, sps: &[Setpoints], pieces: usize) {
         assert_eq!(w[1].cycle, w[0].cycle + 1, "{what}: gap in cycle numbers");
     }
     let config = Config::load_or_default(None).expect("default machine");
-    let r = limit_ratios(config.cycle_s(), &limits_of(&config), sps);
+    let r = limit_ratios(config.cycle_s(), &AxisLimits::of(&config), sps);
     assert!(r[0] <= 1.001 && r[1] <= 1.001 && r[2] <= 1.02 && r[3] <= 1.001, "{what}: limit ratios {r:?}");
     let last = sps.last().expect("setpoints");
     let end_x = pieces as f64 * 10.0;
@@ -171,7 +163,7 @@ fn bad_blocks_and_a_full_buffer_are_refused_and_the_motion_goes_on() {
     assert_eq!(st["state"], "idle", "{st}");
     let sps = collector.finish();
     let config = Config::load_or_default(None).expect("default machine");
-    let r = limit_ratios(config.cycle_s(), &limits_of(&config), &sps);
+    let r = limit_ratios(config.cycle_s(), &AxisLimits::of(&config), &sps);
     assert!(r[0] <= 1.001 && r[1] <= 1.001 && r[2] <= 1.02 && r[3] <= 1.001, "limit ratios {r:?}");
     let (code, stderr) = daemon.terminate();
     assert_eq!(code, Some(0), "interpd run; stderr:\n{stderr}");

@@ -56,11 +56,7 @@ fn sigterm_while_held_ends_the_daemon_in_order() {
     let last = &sps[sps.len() - 1];
     let before = &sps[sps.len() - 20];
     assert_eq!(last.pos[..3], before.pos[..3], "moving at the end");
-    let limits: Vec<AxisLimits> = config
-        .axes
-        .iter()
-        .map(|a| AxisLimits { vel: a.max_vel_per_s, acc: a.max_acc_per_s2, jerk: a.max_jerk_per_s3 })
-        .collect();
+    let limits: Vec<AxisLimits> = AxisLimits::of(&config);
     let [v, a, j, _] = limit_ratios(config.cycle_s(), &limits, &sps);
     assert!(v <= 1.001 && a <= 1.001 && j <= 1.02, "limits: vel {v} acc {a} jerk {j}");
 }

@@ -17,11 +17,7 @@ const RUN_TIMEOUT: Duration = Duration::from_secs(30);
 
 /// Largest |value|/limit of velocity, acceleration and jerk over all axes.
 fn ratios(config: &Config, sps: &[Setpoints]) -> [f64; 3] {
-    let limits: Vec<AxisLimits> = config
-        .axes
-        .iter()
-        .map(|a| AxisLimits { vel: a.max_vel_per_s, acc: a.max_acc_per_s2, jerk: a.max_jerk_per_s3 })
-        .collect();
+    let limits: Vec<AxisLimits> = AxisLimits::of(config);
     let r = limit_ratios(config.cycle_s(), &limits, sps);
     [r[0], r[1].max(r[3]), r[2]]
 }

@@ -142,11 +142,7 @@ fn a_million_line_program_loads_and_runs_in_bounded_memory() {
     }
     eprintln!("underruns begin at (cycle, s_mm): {runs:?}");
     let config = Config::load_or_default(None).expect("default machine");
-    let limits: Vec<AxisLimits> = config
-        .axes
-        .iter()
-        .map(|a| AxisLimits { vel: a.max_vel_per_s, acc: a.max_acc_per_s2, jerk: a.max_jerk_per_s3 })
-        .collect();
+    let limits: Vec<AxisLimits> = AxisLimits::of(&config);
     let r = limit_ratios(config.cycle_s(), &limits, &sps);
     let last = sps.last().expect("setpoints");
     eprintln!(

@@ -15,21 +15,13 @@ use std::time::Duration;
 
 const TIMEOUT: Duration = Duration::from_secs(30);
 
-fn limits(config: &Config) -> Vec<AxisLimits> {
-    config
-        .axes
-        .iter()
-        .map(|a| AxisLimits { vel: a.max_vel_per_s, acc: a.max_acc_per_s2, jerk: a.max_jerk_per_s3 })
-        .collect()
-}
-
 /// No gaps and every axis limit kept (velocity, acceleration ×1.001, jerk ×1.02).
 fn check_limits(name: &str, config: &Config, sps: &[Setpoints]) -> [f64; 4] {
     assert!(sps.len() > 10, "{name}: only {} setpoints", sps.len());
     for w in sps.windows(2) {
         assert_eq!(w[1].cycle, w[0].cycle + 1, "{name}: gap in cycle numbers");
     }
-    let r = limit_ratios(config.cycle_s(), &limits(config), sps);
+    let r = limit_ratios(config.cycle_s(), &AxisLimits::of(config), sps);
     assert!(r[0] <= 1.001 && r[1] <= 1.001 && r[2] <= 1.02 && r[3] <= 1.001, "{name}: limit ratios {r:?}");
     eprintln!("{name}: {} setpoints, limit ratios v/a/j/a_reported {r:.4?}", sps.len());
     r

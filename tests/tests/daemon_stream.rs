@@ -19,11 +19,7 @@ const RUN_TIMEOUT: Duration = Duration::from_secs(60);
 /// Largest |value|/limit of velocity, acceleration, jerk from finite differences of the
 /// positions, and of the reported acceleration.
 fn ratios(config: &Config, sps: &[Setpoints]) -> [f64; 4] {
-    let limits: Vec<AxisLimits> = config
-        .axes
-        .iter()
-        .map(|a| AxisLimits { vel: a.max_vel_per_s, acc: a.max_acc_per_s2, jerk: a.max_jerk_per_s3 })
-        .collect();
+    let limits: Vec<AxisLimits> = AxisLimits::of(config);
     limit_ratios(config.cycle_s(), &limits, sps)
 }
 

@@ -101,11 +101,7 @@ fn the_compensated_ellipse_runs_within_the_limits_outside_the_contour() {
     let sps = collector.finish();
     let (code, stderr) = daemon.terminate();
     assert_eq!(code, Some(0), "stderr:\n{stderr}");
-    let limits: Vec<AxisLimits> = config
-        .axes
-        .iter()
-        .map(|a| AxisLimits { vel: a.max_vel_per_s, acc: a.max_acc_per_s2, jerk: a.max_jerk_per_s3 })
-        .collect();
+    let limits: Vec<AxisLimits> = AxisLimits::of(&config);
     let r = limit_ratios(config.cycle_s(), &limits, &sps);
     assert!(r[0] <= 1.001 && r[1] <= 1.001 && r[2] <= 1.02, "limit ratios {r:?}");
     // Tool 1 (6 mm) right of the counter-clockwise ellipse a = 40, b = 20: the tool centre

@@ -172,11 +172,6 @@ impl PathFeed {
         &self.window
     }
 
-    /// Every element has been read.
-    pub fn done(&self) -> bool {
-        self.done
-    }
-
     /// The program goes on, but no more of it is there yet (`program.append`).
     pub fn waiting(&self) -> bool {
         self.waiting && !self.done

@@ -271,11 +271,6 @@ impl Path {
         self.start = d.pos;
     }
 
-    /// Path position where the first element starts (0 unless trimmed).
-    pub fn s_begin_mm(&self) -> f64 {
-        self.elements.first().map_or(0.0, |e| e.s_start_mm)
-    }
-
     /// Index of the element containing path position `s_mm` (the later one at a joint).
     pub fn element_index_at(&self, s_mm: f64) -> usize {
         let i = self.elements.partition_point(|e| e.s_start_mm <= s_mm);

@@ -10,6 +10,7 @@ use crate::axis::{Axis, AxisOutput};
 use crate::process::actuator::Actuator;
 use crate::process::measurement::Sensors;
 use crate::process::milling::Milling;
+use crate::process::structure::Structure;
 use interpd_config::Config;
 use interpd_config::plant::{PlantConfig, PlantModel, ResolvedAxisPlant};
 use interpd_protocol::MAX_AXES;
@@ -92,6 +93,8 @@ pub struct Plant {
     last_cycle: Option<u64>,
     /// The milling force of `[plant.milling]`.
     milling: Option<Milling>,
+    /// The structure's coupled compliance of `[plant.structure]`.
+    structure: Option<Structure>,
     /// The sensors of `[plant.measurement]`.
     sensors: Option<Sensors>,
     /// The fast actuator of each axis (`[plant.actuator]`).
@@ -132,6 +135,13 @@ impl Plant {
             },
             None => None,
         };
+        let structure = match &options.structure {
+            Some(c) => match (index(c.axes[0]), index(c.axes[1])) {
+                (Some(a), Some(b)) => Some(Structure::new(c, [a, b])),
+                _ => return Err(PlantError::Model("plant.structure.axes: axis not in the machine".into())),
+            },
+            None => None,
+        };
         let sensors = options.measurement.as_ref().map(|m| Sensors::new(m, axes.len()));
         let actuators = axes
             .iter()
@@ -164,6 +174,7 @@ impl Plant {
             stats: InputStats::default(),
             last_cycle: None,
             milling,
+            structure,
             sensors,
             actuators,
             actuator_cmd: [0.0; MAX_AXES],
@@ -233,6 +244,10 @@ impl Plant {
         }
         if let Some(m) = &mut self.milling {
             m.reset();
+        }
+        if let Some(st) = &mut self.structure {
+            let [a, b] = st.axes;
+            st.reset([self.axes[a].load_force(), self.axes[b].load_force()]);
         }
         for a in self.actuators.iter_mut().flatten() {
             a.reset();
@@ -309,13 +324,17 @@ impl Plant {
             for a in self.actuators.iter_mut().flatten() {
                 a.step(self.h_s);
             }
+            if let Some(st) = &mut self.structure {
+                let [a, b] = st.axes;
+                st.step([self.axes[a].load_force(), self.axes[b].load_force()], self.h_s);
+            }
             if let Some(s) = &mut self.sensors {
-                let (axes, acts) = (&self.axes, &self.actuators);
+                let (axes, acts, st) = (&self.axes, &self.actuators, &self.structure);
                 let t_step_ns = self.t_ns + (j + 1) * self.h_ns;
                 s.after_step(t_step_ns, t_s + self.h_s, |i| {
                     let act_mm = acts[i].as_ref().map_or(0.0, |a| a.pos_m() * 1e3);
                     let ax = &axes[i];
-                    [ax.load_pos() + act_mm, ax.load_force(), act_mm]
+                    [ax.load_pos() + structure_offset(st, i) + act_mm, ax.load_force(), act_mm]
                 });
             }
         }
@@ -488,8 +507,19 @@ impl Plant {
                 o.load_error = o.setpoint - o.load_pos;
             }
         }
-        for o in self.outputs.iter_mut() {
-            o.tool_pos = o.load_pos + o.actuator_pos;
+        for (i, o) in self.outputs.iter_mut().enumerate() {
+            o.tool_pos = o.load_pos + structure_offset(&self.structure, i) + o.actuator_pos;
         }
+    }
+}
+
+/// The tool's displacement from the load along axis `i` by the structure's compliance, axis
+/// unit (mm); 0 for an axis outside its plane or without `[plant.structure]`.
+#[inline]
+fn structure_offset(structure: &Option<Structure>, i: usize) -> f64 {
+    match structure {
+        Some(st) if st.axes[0] == i => st.offset_mm()[0],
+        Some(st) if st.axes[1] == i => st.offset_mm()[1],
+        _ => 0.0,
     }
 }

@@ -1,5 +1,6 @@
-//! `[plant.milling]`, `[plant.measurement]`, `[plant.actuator]`: the machining process and the
-//! sensors and fast actuator of Schneider 2016 (robot milling with an F/T sensor at the flange,
+//! `[plant.milling]`, `[plant.measurement]`, `[plant.actuator]`, `[plant.structure]`: the
+//! machining process, the sensors and fast actuator, and the structure's coupled compliance of
+//! Schneider 2016 (robot milling with an F/T sensor at the flange,
 //! an optical tracker on tool and workpiece, a piezo actuator between spindle and robot).
 //!
 //! ```toml
@@ -13,6 +14,10 @@
 //!
 //! [plant.actuator]             # fast auxiliary actuator between load and tool
 //! axes = ["X", "Y"]
+//!
+//! [plant.structure]            # coupled compliance of the arm between the axes and the tool
+//! compliance_um_per_n = [0.8, 0.1]
+//! angle_deg = 30.0
 //! ```
 //!
 //! Every section is optional; absent, the plant has no milling force, publishes no
@@ -50,6 +55,14 @@ pub struct MillingConfig {
     pub drift_n: f64,
     /// Period of the drift, s.
     pub drift_period_s: f64,
+    /// Standard deviation of the random variation of the static part, N: the varying material
+    /// removal of a real cut (Schneider 2016, §2.2.4: "varying material removal" is one of the
+    /// three causes of the dynamic force), band-limited by `variation_hz`.
+    pub variation_n: f64,
+    /// Bandwidth of that variation (corner of its second-order low-pass), Hz.
+    pub variation_hz: f64,
+    /// Seed of the variation's noise generator (runs are reproducible).
+    pub seed: u64,
 }
 
 impl Default for MillingConfig {
@@ -66,6 +79,9 @@ impl Default for MillingConfig {
             tooth_force_n: 20.0,
             drift_n: 10.0,
             drift_period_s: 60.0,
+            variation_n: 0.0,
+            variation_hz: 2.0,
+            seed: 2,
         }
     }
 }
@@ -148,6 +164,53 @@ impl Default for ActuatorConfig {
     }
 }
 
+/// `[plant.structure]`: the compliance of the structure between the axes and the tool in a
+/// plane. A robot arm deforms anisotropically, so its Cartesian compliance has off-diagonal
+/// terms in the machine's axes (Schneider 2016, §2.2.4, §5): the tool moves from the load by
+/// R(θ) diag(c₁, c₂) R(θ)ᵀ · F behind a mode of the structure. The axes' own transmissions
+/// (the preset) come on top.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct StructureConfig {
+    /// The two linear axes of the plane (first: the angle's 0° axis).
+    pub axes: Vec<AxisLetter>,
+    /// Principal compliances c₁, c₂, µm/N.
+    pub compliance_um_per_n: [f64; 2],
+    /// Direction of c₁, degrees from the first axis counter-clockwise.
+    pub angle_deg: f64,
+    /// Mode of the structure, Hz.
+    pub mode_hz: f64,
+    /// Damping ratio of the mode.
+    pub damping: f64,
+}
+
+impl Default for StructureConfig {
+    fn default() -> Self {
+        Self {
+            axes: vec![AxisLetter::X, AxisLetter::Y],
+            compliance_um_per_n: [0.8, 0.1],
+            angle_deg: 30.0,
+            mode_hz: 30.0,
+            damping: 0.05,
+        }
+    }
+}
+
+impl StructureConfig {
+    pub(crate) fn validate(&self, v: &Validator, axes: &[AxisConfig]) -> Result<(), ConfigError> {
+        if self.axes.len() != 2 || self.axes[0] == self.axes[1] {
+            return Err(v.err("plant.structure.axes", "must name two different linear axes, e.g. [\"X\", \"Y\"]"));
+        }
+        linear_axes(v, "plant.structure.axes", &self.axes, axes)?;
+        for c in self.compliance_um_per_n {
+            v.in_range("plant.structure.compliance_um_per_n", c, 0.0, 1e3)?;
+        }
+        v.in_range("plant.structure.angle_deg", self.angle_deg, -360.0, 360.0)?;
+        v.in_range("plant.structure.mode_hz", self.mode_hz, 1.0, 1000.0)?;
+        v.in_range("plant.structure.damping", self.damping, 0.001, 2.0)
+    }
+}
+
 impl MillingConfig {
     pub(crate) fn validate(&self, v: &Validator, axes: &[AxisConfig]) -> Result<(), ConfigError> {
         if self.axes.len() != 2 || self.axes[0] == self.axes[1] {
@@ -164,7 +227,9 @@ impl MillingConfig {
         v.in_range("plant.milling.spindle_rpm", self.spindle_rpm, 0.0, 1e6)?;
         v.in_range("plant.milling.tooth_force_n", self.tooth_force_n, 0.0, 1e5)?;
         v.in_range("plant.milling.drift_n", self.drift_n, 0.0, 1e5)?;
-        v.in_range("plant.milling.drift_period_s", self.drift_period_s, 0.1, 1e6)
+        v.in_range("plant.milling.drift_period_s", self.drift_period_s, 0.1, 1e6)?;
+        v.in_range("plant.milling.variation_n", self.variation_n, 0.0, 1e5)?;
+        v.in_range("plant.milling.variation_hz", self.variation_hz, 0.01, 1000.0)
     }
 
     /// Tooth-passing frequency, Hz.

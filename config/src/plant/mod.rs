@@ -39,7 +39,7 @@ mod three_mass;
 mod two_mass;
 
 pub use drive::{DriveParams, LinearDrive, RotaryDrive};
-pub use milling::{ActuatorConfig, MeasurementConfig, MillingConfig};
+pub use milling::{ActuatorConfig, MeasurementConfig, MillingConfig, StructureConfig};
 pub use overrides::PlantAxisConfig;
 pub use params::{AxisParams, ModelParams, ParamSet, ParamTable};
 pub use preset::{DEFAULT_LINEAR_PRESET, DEFAULT_ROTARY_PRESET, ModelKind, PRESETS, PresetFile, preset, preset_names};
@@ -92,6 +92,9 @@ pub struct PlantConfig {
     pub measurement: Option<MeasurementConfig>,
     /// `[plant.actuator]`: fast auxiliary actuators between load and tool (none without).
     pub actuator: Option<ActuatorConfig>,
+    /// `[plant.structure]`: the structure's coupled compliance between the axes and the tool
+    /// (none without: the tool sits on the load).
+    pub structure: Option<StructureConfig>,
     /// Presets read from files ([`PlantConfig::select`]), by the name `preset` uses for them;
     /// looked up before the embedded ones.
     #[serde(skip)]
@@ -112,6 +115,7 @@ impl Default for PlantConfig {
             milling: None,
             measurement: None,
             actuator: None,
+            structure: None,
             file_presets: Vec::new(),
         }
     }
@@ -151,6 +155,9 @@ impl PlantConfig {
         }
         if let Some(a) = &self.actuator {
             a.validate(v, axes)?;
+        }
+        if let Some(s) = &self.structure {
+            s.validate(v, axes)?;
         }
         self.resolve_with(v, axes).map(|_| ())
     }

@@ -36,8 +36,9 @@ pub struct Identified {
     pub points: [(f64, f64); LOADS_N.len()],
 }
 
-/// Runs the test on every axis in `axes` of `plant` at once (each axis its own load and
-/// measurement), the plant at rest at 0; needs `[plant.measurement]`.
+/// Runs the test on every axis in `axes` of `plant`, one axis at a time (a load along one
+/// axis, as a crane pulls in one direction; what it moves on the other axes is not looked at),
+/// the plant at rest at 0; needs `[plant.measurement]`.
 pub fn static_load_test(plant: &mut Plant, axes: &[usize], dt_s: f64) -> Result<Vec<Identified>, PlantError> {
     if !plant.has_sensors() {
         return Err(PlantError::Input("the static load test needs [plant.measurement]".into()));
@@ -45,37 +46,33 @@ pub fn static_load_test(plant: &mut Plant, axes: &[usize], dt_s: f64) -> Result<
     let n = plant.n_axes();
     let still = [AxisTarget::default(); MAX_AXES];
     plant.step(&still[..n], dt_s)?;
-    let mut points = vec![[(0.0, 0.0); LOADS_N.len()]; axes.len()];
+    let mut out = Vec::with_capacity(axes.len());
     let mut m = Measurement::default();
-    for (li, &load) in LOADS_N.iter().enumerate() {
-        for &i in axes {
+    for &i in axes {
+        let mut points = [(0.0, 0.0); LOADS_N.len()];
+        for (li, &load) in LOADS_N.iter().enumerate() {
             // The process force pushes towards negative positions: a load along +axis is −F.
             plant.set_process_force(i, Some(-load));
-        }
-        let settle = (SETTLE_S / dt_s).round() as usize;
-        let average = (AVERAGE_S / dt_s).round() as usize;
-        let mut sum = vec![(0.0, 0.0, 0usize); axes.len()];
-        for k in 0..settle + average {
-            plant.step(&still[..n], dt_s)?;
-            while plant.pop_measurement(&mut m) {
-                if k >= settle {
-                    for (s, &i) in sum.iter_mut().zip(axes) {
-                        s.0 += m.force_n[i];
-                        s.1 += m.tool_pos[i];
-                        s.2 += 1;
+            let settle = (SETTLE_S / dt_s).round() as usize;
+            let average = (AVERAGE_S / dt_s).round() as usize;
+            let (mut force, mut pos, mut count) = (0.0, 0.0, 0usize);
+            for k in 0..settle + average {
+                plant.step(&still[..n], dt_s)?;
+                while plant.pop_measurement(&mut m) {
+                    if k >= settle {
+                        force += m.force_n[i];
+                        pos += m.tool_pos[i];
+                        count += 1;
                     }
                 }
             }
+            let c = count.max(1) as f64;
+            points[li] = (force / c, pos / c);
         }
-        for (p, s) in points.iter_mut().zip(&sum) {
-            let c = s.2.max(1) as f64;
-            p[li] = (s.0 / c, s.1 / c);
-        }
-    }
-    for &i in axes {
         plant.set_process_force(i, None);
+        out.push(fit(points));
     }
-    Ok(points.into_iter().map(fit).collect())
+    Ok(out)
 }
 
 /// Least-squares line y = a + b x through `pts`.

@@ -192,3 +192,47 @@ fn an_underrun_stops_along_the_path_and_the_program_completes() {
 fn pause_ms(ms: u64) {
     std::thread::sleep(Duration::from_millis(ms));
 }
+
+/// An override of 0 % set while idle holds the next start, of a program and of an MDI block;
+/// raising it starts the motion, which then keeps the limits and ends where it should.
+#[test]
+fn an_override_of_zero_set_while_idle_holds_the_start_until_it_is_raised() {
+    let config = Config::default_machine();
+    let daemon = Daemon::start(&[]);
+    let collector = Collector::start(&daemon.prefix);
+    let mut c = daemon.client();
+    c.ok("subscribe", Value::Null);
+    c.ok("feed.override", json!({ "percent": 0 }));
+    c.ok("program.load", json!({ "text": "G21 G90\nG1 X20 F3000\nM30\n", "name": "line.ngc" }));
+    c.ok("motion.start", Value::Null);
+    let st = c.ok("status", Value::Null);
+    assert_eq!(st["state"], "holding", "{st}");
+    c.wait_event("held", RUN_TIMEOUT);
+    std::thread::sleep(Duration::from_millis(500));
+    let st = c.ok("status", Value::Null);
+    assert_eq!(st["state"], "holding", "{st}");
+    assert_eq!(st["position"][0], 0.0, "moved at an override of 0: {st}");
+    c.ok("feed.override", json!({ "percent": 50 }));
+    let st = c.wait_state(&["finished"], RUN_TIMEOUT);
+    assert!((st["position"][0].as_f64().unwrap_or(f64::NAN) - 20.0).abs() < 1e-9, "{st}");
+    assert!(c.events.iter().any(|e| e["event"] == "resumed"), "{:?}", c.events);
+    // An MDI block at 0 % starts held as well.
+    c.ok("feed.override", json!({ "percent": 0 }));
+    c.ok("mdi", json!({ "line": "G1 X10 F3000" }));
+    std::thread::sleep(Duration::from_millis(300));
+    let st = c.ok("status", Value::Null);
+    assert_eq!(st["state"], "holding", "{st}");
+    assert_eq!(st["position"][0], 20.0, "MDI moved at an override of 0: {st}");
+    c.ok("feed.override", json!({ "percent": 100 }));
+    let st = c.wait_state(&["finished"], RUN_TIMEOUT);
+    assert!((st["position"][0].as_f64().unwrap_or(f64::NAN) - 10.0).abs() < 1e-9, "{st}");
+    std::thread::sleep(Duration::from_millis(100));
+    let sps = collector.finish();
+    let r = ratios(&config, &sps);
+    assert!(r[0] <= 1.0 + 1e-9 && r[1] <= 1.0 + 1e-9 && r[2] <= 1.0 + 1e-9, "limit ratios {r:?}");
+    // At 50 % the line runs at 25 mm/s, not at the programmed 50 (the MDI block after it at 100 %).
+    let line_end = sps.iter().position(|s| s.pos[0] >= 20.0 - 1e-9).expect("the line's end");
+    let fastest =
+        sps[..=line_end].windows(2).map(|w| (w[1].pos[0] - w[0].pos[0]).abs() / config.cycle_s()).fold(0.0, f64::max);
+    assert!(fastest < 25.0 * 1.001 + 1e-6 && fastest > 24.0, "fastest {fastest} mm/s");
+}

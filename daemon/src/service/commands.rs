@@ -260,6 +260,11 @@ impl Motion for ServiceCore {
             (PathSource::Whole(path), Some(laws)) => FeederCommand::StartLaws { path, laws, epoch, feed_override },
             (source, _) => FeederCommand::Start { source, epoch, feed_override, suspend: false },
         };
+        if ctl.held_by_override {
+            ctl.pending_start = Some(command);
+            shared.emit(Event::Held);
+            return Ok(());
+        }
         shared.feeder.send(command).map_err(|_| StartError::PlannerGone)
     }
 
@@ -287,6 +292,7 @@ impl Motion for ServiceCore {
     fn stop(&self) -> Result<(), Infallible> {
         let shared = &self.shared;
         let mut ctl = lock(&shared.control);
+        ctl.pending_start = None;
         match ctl.state {
             State::Running | State::Holding => {
                 shared.stop.store(true, Ordering::SeqCst);
@@ -318,6 +324,21 @@ impl Motion for ServiceCore {
                 ctl.held_by_override = true;
                 self.hold_locked(&mut ctl);
             }
+            return Ok(());
+        }
+        if let Some(mut start) = ctl.pending_start.take() {
+            // A start held at 0 %: planned now, with this factor.
+            if let FeederCommand::Start { feed_override, .. } | FeederCommand::StartLaws { feed_override, .. } =
+                &mut start
+            {
+                *feed_override = factor;
+            }
+            let shared = &self.shared;
+            shared.hold.store(false, Ordering::SeqCst);
+            ctl.state = State::Running;
+            ctl.held_by_override = false;
+            let _ = shared.feeder.send(start);
+            shared.emit(Event::Resumed);
             return Ok(());
         }
         let _ = self.shared.feeder.send(FeederCommand::Override(factor));
@@ -500,14 +521,18 @@ impl Motion for ServiceCore {
         let suspend = ctl.state == State::Holding;
         let excursion = ctl.excursion || suspend;
         let epoch = ctl.begin_run();
-        ctl.state = State::Running;
         ctl.kind = RunKind::Mdi;
         ctl.excursion = excursion;
-        shared.hold.store(false, Ordering::SeqCst);
+        shared.hold.store(ctl.held_by_override, Ordering::SeqCst);
         shared.stop.store(false, Ordering::SeqCst);
         let feed_override = ctl.planned_override();
         let command =
             FeederCommand::Start { source: PathSource::Whole(Arc::new(prepared.path)), epoch, feed_override, suspend };
+        if ctl.held_by_override {
+            ctl.pending_start = Some(command);
+            shared.emit(Event::Held);
+            return Ok(result);
+        }
         shared.feeder.send(command).map_err(|_| ManualError::PlannerGone)?;
         Ok(result)
     }

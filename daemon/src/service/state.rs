@@ -80,6 +80,9 @@ pub(super) struct Control {
     pub feed_override: f64,
     /// The current hold comes from a 0 % override (raising the override resumes it).
     pub held_by_override: bool,
+    /// A program or MDI start made at a 0 % override: nothing is planned until the override is
+    /// raised, so the run is then planned with the factor that raised it.
+    pub pending_start: Option<super::feeder::FeederCommand>,
     pub last_error: Option<String>,
     pub epochs: Epochs,
     /// `started` is emitted at the first motion of a run, not after a restart.
@@ -107,6 +110,7 @@ impl Control {
             program: None,
             feed_override: 1.0,
             held_by_override: false,
+            pending_start: None,
             last_error: None,
             epochs: Epochs::default(),
             start_event_pending: false,
@@ -165,6 +169,8 @@ impl Control {
     /// Returns the run's epoch.
     pub fn begin_run(&mut self) -> crate::interp::Epoch {
         let epoch = self.epochs.start();
+        // The override set last decides, whenever it was set: at 0 % the run starts held.
+        self.held_by_override = self.feed_override < OVERRIDE_HOLD_BELOW;
         self.state = if self.held_by_override { State::Holding } else { State::Running };
         self.start_event_pending = true;
         self.underrun = false;

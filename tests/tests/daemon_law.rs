@@ -72,6 +72,10 @@ fn law_moves_stream_within_the_limits_to_the_exact_stroke() {
     let from = before.len();
     let r = c.ok("motion.law", json!({ "statement": "LAW PRESET=rr7 DURATION=0.4 X=30 Y=-10" }));
     assert_eq!(r["duration_s"], 0.4, "{r}");
+    // While it moves, another move is refused for the state (−32002), before any limit check:
+    // a too-fast one too.
+    let busy = c.call("motion.law", json!({ "statement": "LAW PRESET=rr7 DURATION=0.1 X=30" }));
+    assert_eq!(busy["error"]["code"], -32002, "{busy}");
     let sps = run(&mut c, &collector, from);
     check("motion.law", &config, &sps, [30.0, -10.0, 0.0], 0.4);
 

@@ -174,6 +174,9 @@ impl Motion for ServiceCore {
         let Some(laws) = law_run::LawProgram::statement(statement, NAME) else {
             return Err(LawError::NotAStatement { got: statement.chars().take(80).collect() });
         };
+        // The state first: a move is checked against the limits only from where the machine
+        // stands still.
+        lock(&self.shared.control).check(Method::MotionLaw).map_err(LoadError::from)?;
         let (info, duration_s) = self.load_laws(NAME.to_owned(), laws?)?;
         self.start()?;
         Ok(LawResult { duration_s, length_mm: info.length_mm })

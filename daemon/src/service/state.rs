@@ -149,7 +149,7 @@ impl Control {
     pub fn check(&self, action: Method) -> Result<(), NotAllowed> {
         let at_rest = matches!(self.state, State::Idle | State::Finished);
         let allowed = match action {
-            Method::ProgramLoad => at_rest,
+            Method::ProgramLoad | Method::MotionLaw => at_rest,
             Method::MotionStart => at_rest && self.program.is_some(),
             Method::MotionHold => matches!(self.state, State::Running | State::Jogging),
             Method::MotionResume => self.state == State::Holding,

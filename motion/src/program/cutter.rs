@@ -258,14 +258,9 @@ impl Cutter {
             }
             State::Exit { shift } => {
                 let shift = *shift;
-                if !in_plane {
-                    let moved = self.shifted(&piece, shift)?;
-                    self.emit(moved);
+                if !self.pass_off_plane(&piece, in_plane, shift, CutterErrorKind::ExitNotLine)? {
                     return Ok(());
                 }
-                let Geometry::Line(_) = piece.geometry else {
-                    return Err(piece.error(CutterErrorKind::ExitNotLine));
-                };
                 let (a, b) = self.ends(&piece.geometry);
                 let start = self.plus(a, shift);
                 if let Some(g) = self.line(start, b) {
@@ -276,14 +271,9 @@ impl Cutter {
             }
             State::Entry { shift } => {
                 let shift = *shift;
-                if !in_plane {
-                    let moved = self.shifted(&piece, shift)?;
-                    self.emit(moved);
+                if !self.pass_off_plane(&piece, in_plane, shift, CutterErrorKind::EntryNotLine)? {
                     return Ok(());
                 }
-                let Geometry::Line(_) = piece.geometry else {
-                    return Err(piece.error(CutterErrorKind::EntryNotLine));
-                };
                 // As LinuxCNC: the entry move starts where the tool stands and ends at the offset
                 // of its end point; the corner to the next element is an ordinary one.
                 let (a, b) = self.ends(&piece.geometry);
@@ -311,6 +301,27 @@ impl Cutter {
                 self.state = State::On(Box::new(next));
                 Ok(())
             }
+        }
+    }
+
+    /// Before the entry move and until the exit move: a move without motion in the plane is
+    /// handed on shifted by where the tool stands (`false`: it is done); a move in the plane
+    /// must be a line (else `not_line`), and is the entry or exit move (`true`).
+    fn pass_off_plane(
+        &mut self,
+        piece: &Piece,
+        in_plane: bool,
+        shift: [f64; 2],
+        not_line: CutterErrorKind,
+    ) -> Result<bool, CutterError> {
+        if !in_plane {
+            let moved = self.shifted(piece, shift)?;
+            self.emit(moved);
+            return Ok(false);
+        }
+        match piece.geometry {
+            Geometry::Line(_) => Ok(true),
+            _ => Err(piece.error(not_line)),
         }
     }
 

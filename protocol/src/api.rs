@@ -13,7 +13,8 @@ pub mod tooling;
 
 pub use params::{AppendParams, JogMode, JogParams, LawParams, LoadParams, MdiParams, MoveToParams, OverrideParams};
 pub use status::{
-    CycleStats, DriveStatus, ManualStatus, MdiModal, Percentiles, ProgramBuffer, ProgramInfo, State, Status, ToolLength,
+    CutterMode, CutterStatus, CycleStats, DriveStatus, ManualStatus, MdiModal, Percentiles, ProgramBuffer, ProgramInfo,
+    ProgramModal, SpindleTool, State, Status, ToolLength,
 };
 pub use tooling::{Tool, ToolTable, WorkOffsets};
 

@@ -118,3 +118,98 @@ fn the_compensated_ellipse_runs_within_the_limits_outside_the_contour() {
     assert_eq!(inside, 0, "setpoints inside the contour");
     eprintln!("compensated ellipse: {} setpoints, limit ratios v/a/j {r:.4?}", sps.len());
 }
+
+/// The tool and offset state `status.modal` must report while the machine executes `line` of
+/// [`MODAL_PROGRAM`] (offsets G55 = X10 Y−5; tools 1: 6 mm × 50 mm, 2: 10 mm × 62.5 mm).
+fn expected_modal(line: u64) -> Value {
+    let g54 = json!([0.0, 0.0, 0.0]);
+    let g55 = json!([10.0, -5.0, 0.0]);
+    let off = json!({"mode": "off", "radius_mm": 0.0, "tool": null});
+    let tool1 = json!({"number": 1, "length_mm": 50.0, "radius_mm": 3.0});
+    let tool2 = json!({"number": 2, "length_mm": 62.5, "radius_mm": 5.0});
+    let tlo1 = json!({"tool": 1, "length_mm": 50.0});
+    let tlo2 = json!({"tool": 2, "length_mm": 62.5});
+    let zero = json!([0.0, 0.0, 0.0]);
+    let (system, values, tool, tlo, cutter, g92) = match line {
+        0..=3 => ("G54", &g54, Value::Null, Value::Null, off.clone(), &zero),
+        4..=6 => ("G54", &g54, tool1.clone(), tlo1.clone(), off.clone(), &zero),
+        7..=8 => ("G55", &g55, tool1.clone(), tlo1.clone(), off.clone(), &zero),
+        9 => ("G55", &g55, tool2.clone(), tlo2.clone(), off.clone(), &zero),
+        10..=12 => {
+            ("G55", &g55, tool2.clone(), tlo2.clone(), json!({"mode": "left", "radius_mm": 3.0, "tool": 1}), &zero)
+        }
+        13..=14 => ("G55", &g55, tool2.clone(), tlo2.clone(), off.clone(), &zero),
+        15..=16 => ("G55", &g55, tool2.clone(), tlo2.clone(), off.clone(), &json!([-10.0, 0.0, 0.0])),
+        _ => ("G55", &g55, tool2.clone(), tlo2.clone(), off.clone(), &zero),
+    };
+    json!({"line": line, "work_offset": system, "work_offset_values": values, "g92_offset": g92,
+           "tool": tool, "tool_length": tlo, "cutter": cutter})
+}
+
+/// G54 → G55, T1 → T2 with G43 H, G41 → G40, G92 → G92.1, each with a move after it.
+const MODAL_PROGRAM: &str = "G21 G90 G64 P0.01\n\
+    G0 X0 Y0 Z0\n\
+    T1 M6 G43 H1\n\
+    G1 X20 Y0 F1200\n\
+    G1 X20 Y20\n\
+    G55\n\
+    G1 X0 Y0\n\
+    T2 M6 G43 H2\n\
+    G1 X0 Y20 Z5\n\
+    G41 D1 G1 X20 Y20\n\
+    G1 X20 Y0\n\
+    G1 X0 Y0\n\
+    G40 G1 X-10 Y0\n\
+    G92 X0 Y0\n\
+    G1 X5 Y5\n\
+    G92.1\n\
+    G1 X0 Y0\n\
+    M2\n";
+
+#[test]
+fn status_reports_the_tool_offsets_and_compensation_of_the_executing_element() {
+    let daemon = Daemon::start(&[]);
+    let mut c = daemon.client();
+    c.ok("offsets.set", json!({"offsets": {"G55": {"X": 10.0, "Y": -5.0}}}));
+    c.ok("program.load", json!({"text": MODAL_PROGRAM, "name": "modal"}));
+    let st = c.ok("status", Value::Null);
+    assert_eq!(st["modal"], Value::Null, "nothing runs yet: {st}");
+    c.ok("motion.start", Value::Null);
+    let until = std::time::Instant::now() + TIMEOUT;
+    // The lines seen, in order, each with the state status reported for it.
+    let mut seen: Vec<u64> = Vec::new();
+    let mut samples = 0;
+    loop {
+        let st = c.ok("status", Value::Null);
+        let modal = &st["modal"];
+        let line = st["line"].as_u64().unwrap();
+        if st["state"] == "running" && !modal.is_null() {
+            samples += 1;
+            let m = modal["line"].as_u64().unwrap();
+            assert!(m == line || m + 1 == line || line + 1 == m, "status.modal of line {m} with status.line {line}");
+            assert_eq!(*modal, expected_modal(m), "line {m}: {st}");
+            if seen.last() != Some(&m) {
+                seen.push(m);
+            }
+        }
+        if st["state"] == "finished" || st["state"] == "error" {
+            assert_eq!(st["state"], "finished", "{st}");
+            // The end: G55 origin (G92 cleared) with tool 2's length on Z.
+            let pos: Vec<f64> = st["position"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+            assert!((pos[0] - 10.0).abs() < 1e-9 && (pos[1] + 5.0).abs() < 1e-9, "{st}");
+            assert!((pos[2] - 67.5).abs() < 1e-9, "{st}");
+            assert_eq!(st["modal"], expected_modal(17), "after the end, the last element's state: {st}");
+            break;
+        }
+        assert!(std::time::Instant::now() < until, "not finished after {TIMEOUT:?}: {st}");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    assert!(seen.windows(2).all(|w| w[0] < w[1]), "lines out of order: {seen:?}");
+    // Every move's line, so every change of state, was seen while it ran.
+    for line in [4, 5, 7, 9, 10, 11, 12, 13, 15, 17] {
+        assert!(seen.contains(&line), "line {line} not seen while running: {seen:?}");
+    }
+    eprintln!("status.modal: {samples} samples while running, lines {seen:?}");
+    let (code, stderr) = daemon.terminate();
+    assert_eq!(code, Some(0), "stderr:\n{stderr}");
+}

@@ -388,6 +388,12 @@ impl Motion for ServiceCore {
                 work_offset: m.work_system().to_string(),
                 tool_length: m.tool_length().map(|(tool, length_mm)| ToolLength { tool, length_mm }),
             }),
+            modal: match ctl.kind {
+                RunKind::Program => {
+                    lock(&shared.modal).at(live.line).map(|m| super::modal_track::to_status(m, live.line, n))
+                }
+                RunKind::Mdi | RunKind::Manual => None,
+            },
         }
     }
 

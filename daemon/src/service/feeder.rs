@@ -6,7 +6,9 @@
 //! See [`crate::interp`] for the contract with the real-time thread.
 
 use super::law_run::LawPart;
+use super::lock;
 use super::manual::{ManualGoal, ManualPart, ManualPlanError};
+use super::modal_track::ModalTrack;
 use super::otg_motion::AxisLimits;
 use super::path_feed::{FeedError, PathFeed, PathSource};
 use crate::interp::coarse::{CoarseBuilder, CoarsePoint, split};
@@ -19,7 +21,7 @@ use interpd_motion::path::{AxisVec, Feed, Path};
 use interpd_motion::planner::brake::{brake_along, next_stop_s};
 use interpd_motion::planner::{PlanError, Planner, STANDSTILL_A_MM_S2, STANDSTILL_V_MM_S, Segment};
 use std::collections::VecDeque;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// Cycles of motion per chunk: the reaction time to a hold or stop is at most this.
@@ -227,6 +229,8 @@ pub struct Feeder {
     max_jerk: [f64; interpd_motion::path::MAX_AXES],
     /// Counters for the status and tests.
     pub stats: FeederStats,
+    /// The running program's tool and offset state changes, read by `status`.
+    modal: Arc<Mutex<ModalTrack>>,
 }
 
 /// Totals of the planner thread.
@@ -275,7 +279,13 @@ impl Feeder {
             stall: None,
             max_jerk,
             stats: FeederStats::default(),
+            modal: Arc::default(),
         }
+    }
+
+    /// Where the running program's tool and offset state changes are kept (`status.modal`).
+    pub fn modal_track(&self) -> Arc<Mutex<ModalTrack>> {
+        self.modal.clone()
     }
 
     /// The thread's loop: commands in, chunks out, until `Shutdown` or the channel closes.
@@ -306,7 +316,13 @@ impl Feeder {
         match cmd {
             FeederCommand::Start { source, epoch, feed_override, suspend } => {
                 self.replace_run(suspend);
+                if !suspend {
+                    // The program run before is over; an excursion from a held one keeps it.
+                    lock(&self.modal).clear();
+                }
+                let modal = self.modal.clone();
                 let opened = PathFeed::open(source, &self.settings).and_then(|mut feed| {
+                    feed.track_modal(modal);
                     let line = feed.element(0)?.map_or(0, |e| e.source.line);
                     Ok((feed, line))
                 });
@@ -942,7 +958,9 @@ impl Run {
         self.reclaimed_s.push_back(s_mm);
         if self.reclaimed_s.len() > QUEUE_CAPACITY {
             if let Some(behind) = self.reclaimed_s.pop_front() {
-                self.feed.trim_before(behind.min(self.end.s_mm).min(self.plan_from_s_mm));
+                // The element at `plan_from_s_mm` is needed only until the planner has it.
+                let keep = if self.next_element.is_some() { f64::INFINITY } else { self.plan_from_s_mm };
+                self.feed.trim_before(behind.min(self.end.s_mm).min(keep));
             }
         }
     }

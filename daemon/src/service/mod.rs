@@ -20,6 +20,7 @@ pub mod law_run;
 pub mod live;
 mod load;
 pub mod manual;
+pub mod modal_track;
 pub mod otg_motion;
 pub mod path_feed;
 pub mod programs;
@@ -134,6 +135,9 @@ struct Shared {
     /// The tool table and work offsets programs are read with: the machine file's, until
     /// `tools.set` / `offsets.set` replace them.
     tooling: Mutex<Arc<path_feed::Tooling>>,
+    /// The running program's tool and offset state along its lines (the look-ahead thread
+    /// writes it, `status` reads it).
+    modal: Arc<Mutex<modal_track::ModalTrack>>,
 }
 
 impl Shared {
@@ -221,6 +225,7 @@ impl Service {
         let (feeder_tx, feeder_rx) = channel::unbounded();
         let (report_tx, report_rx) = channel::unbounded();
         let queues = Queues::new();
+        let feeder = Feeder::new(&plan_config, queues.clone(), report_tx);
         let shared = Arc::new(Shared {
             config: opts.config.clone(),
             settings: Settings::from_config(&plan_config),
@@ -244,10 +249,10 @@ impl Service {
                 tools: opts.config.tools.clone(),
                 work_offsets: opts.config.work_offsets.clone(),
             })),
+            modal: feeder.modal_track(),
         });
         let thread_err = |what: &'static str| move |source| StartupError::Thread { what, source };
 
-        let feeder = Feeder::new(&plan_config, queues, report_tx);
         let planner_nice = opts.config.rt.planner_nice;
         let feeder = std::thread::Builder::new()
             .name("interpd-planner".into())

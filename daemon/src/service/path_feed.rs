@@ -7,11 +7,13 @@
 //! moves) are handed out from the same window.
 
 use super::approach::approach_line;
+use super::lock;
+use super::modal_track::ModalTrack;
 use interpd_motion::Settings;
 use interpd_motion::path::{AxisDerivs, AxisVec, Blend, Element, Feed, Path, Source};
 use interpd_motion::prep::Prep;
 use interpd_motion::program::{AppendBuffer, ProgramStream};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::SystemTime;
 
 /// Where a program's text comes from.
@@ -86,6 +88,8 @@ pub struct PathFeed {
     /// The last read found nothing more yet: the program goes on with appended text.
     waiting: bool,
     final_dwell_s: f64,
+    /// Where the program's tool and offset state changes (`status.modal`), when tracked.
+    modal: Option<Arc<Mutex<ModalTrack>>>,
 }
 
 enum Input {
@@ -104,6 +108,7 @@ impl PathFeed {
             done: true,
             waiting: false,
             final_dwell_s,
+            modal: None,
         }
     }
 
@@ -116,6 +121,7 @@ impl PathFeed {
             done: true,
             waiting: false,
             final_dwell_s: 0.0,
+            modal: None,
         }
     }
 
@@ -164,7 +170,18 @@ impl PathFeed {
             done: false,
             waiting: false,
             final_dwell_s: 0.0,
+            modal: None,
         })
+    }
+
+    /// Records the program's tool and offset state changes in `track` (emptied first) as its
+    /// lines are read; a path made whole has none.
+    pub fn track_modal(&mut self, track: Arc<Mutex<ModalTrack>>) {
+        if let Input::Stream { stream, .. } = &mut self.input {
+            stream.track_modal();
+            lock(&track).clear();
+            self.modal = Some(track);
+        }
     }
 
     /// The elements held (absolute path positions; the first ones may have been dropped).
@@ -248,6 +265,9 @@ impl PathFeed {
         let before = self.window.elements.len();
         self.window.trim_before(s_mm);
         self.first_index += before - self.window.elements.len();
+        if let (Some(track), Some(first)) = (&self.modal, self.window.elements.first()) {
+            lock(track).passed(first.source.line);
+        }
     }
 
     /// Reads the next element into the window (through the smoothing stage for a program).
@@ -255,6 +275,9 @@ impl PathFeed {
         match &mut self.input {
             Input::Stream { stream, prep, s_offset_mm, .. } => {
                 let got = stream.next_element().map_err(|e| FeedError::Program(e.to_string()))?;
+                if let Some(track) = &self.modal {
+                    take_modal_changes(stream, track);
+                }
                 if got.is_none() && stream.waiting() {
                     // Nothing more yet; the smoothing stage keeps its open run for what comes.
                     self.waiting = true;
@@ -276,5 +299,18 @@ impl PathFeed {
             Input::Empty => self.done = true,
         }
         Ok(())
+    }
+}
+
+/// Moves the tool and offset state changes `stream` has read into `track`.
+fn take_modal_changes(stream: &mut ProgramStream, track: &Mutex<ModalTrack>) {
+    let mut next = stream.take_modal_change();
+    if next.is_none() {
+        return;
+    }
+    let mut t = lock(track);
+    while let Some((line, state)) = next {
+        t.push(line, state);
+        next = stream.take_modal_change();
     }
 }

@@ -324,3 +324,48 @@ fn law_program_errors_name_the_line() {
         fast.moves(&Settings::from(&config), &[0.0; interpd_motion::path::MAX_AXES], "p.ngc").unwrap_err().to_string();
     assert!(e.starts_with("p.ngc:2: axis X") && e.contains("grow by a factor of"), "{e}");
 }
+
+/// Runs `moves` collinear moves of 0.1 mm with a tool change at each (a change of state per
+/// element), checking at every cycle that the track resolves the executing line to its tool;
+/// returns the most changes the track held.
+fn run_tool_changes(moves: usize) -> usize {
+    use super::path_feed::{ProgramText, Tooling};
+    let mut text = String::from("G21 G90 G61\nF12000\n");
+    for i in 0..moves {
+        text.push_str(&format!("T{} M6 G1 X{:.1}\n", 1 + i % 2, 0.1 * (i + 1) as f64));
+    }
+    let mut sim = Sim::new(Config::default_machine());
+    let track = sim.feeder.modal_track();
+    let source = PathSource::Program {
+        text: ProgramText::Text { name: "tools".into(), text: Arc::new(text) },
+        here: [0.0; interpd_motion::path::MAX_AXES],
+        tooling: Arc::new(Tooling::default()),
+        appends: None,
+    };
+    sim.feeder.command(FeederCommand::Start { source, epoch: Epoch::FIRST, feed_override: 1.0, suspend: false });
+    let (mut max_held, mut checked) = (0, 0);
+    while !sim.finished() && sim.cycle < 50_000 {
+        sim.cycle();
+        let line = sim.out.last().unwrap().line;
+        let t = super::lock(&track);
+        max_held = max_held.max(t.len());
+        let tool = t.at(line).expect("a state").tool.map(|t| t.number);
+        // Line 3 + i holds move i with tool 1 + i % 2.
+        let want = (line >= 3).then(|| 1 + (line - 3) % 2);
+        assert_eq!(tool, want, "line {line}");
+        checked += u32::from(line >= 3);
+    }
+    assert!(sim.finished());
+    assert!(checked > 100, "{checked} cycles checked");
+    max_held
+}
+
+#[test]
+fn the_modal_track_follows_the_machine_in_bounded_memory() {
+    // The track holds the changes of the path window (the queue behind the machine, the
+    // look-ahead before it), whatever the program's length.
+    let (short, long) = (run_tool_changes(5_000), run_tool_changes(10_000));
+    eprintln!("modal track: at most {short} changes held of 5000, {long} of 10000");
+    assert!(long <= short + short / 10, "the track grows with the program: {short} → {long} changes held");
+    assert!(long < 10_000 / 2, "{long} changes held");
+}

@@ -4,6 +4,7 @@
 //! minute), N, M2/M30; spindle, coolant and tool words (M3–M9, S, T) are accepted and counted as
 //! ignored, since interpd interpolates motion only.
 
+use super::active::{ActiveCutter, ActiveModal, ActiveTool, CompSide, ModalLog};
 use super::cutter::{Cutter, Piece, Side};
 use super::error::Diagnostics;
 use super::lexer::{Line, Word, lex_line};
@@ -80,6 +81,15 @@ pub(crate) struct Modal {
     pub(super) work_system: usize,
     /// Active tool length compensation: the tool (None for G43.1) and its length, mm.
     pub(super) tool_length: Option<(Option<u32>, f64)>,
+    /// The G92 offset per axis, added to every work offset, and the values G92 saved last
+    /// (G92.3 restores them; LinuxCNC's parameters 5211–5219).
+    pub(super) g92: AxisVec,
+    g92_saved: AxisVec,
+    /// The tool `T` selected last, and the tool `M6` put in the spindle.
+    prepared_tool: Option<u32>,
+    pub(super) tool: Option<u32>,
+    /// Active cutter compensation as `status` reports it.
+    comp: Option<ActiveCutter>,
 }
 
 /// A span record inside a G06 block.
@@ -125,6 +135,8 @@ pub(crate) struct Interpreter {
     started: bool,
     /// The program began with `%`: the next `%` ends it.
     tape: bool,
+    /// Where the tool and offset state changes, when someone reads it (the running program).
+    modal_log: Option<ModalLog>,
 }
 
 /// Words of one block, by letter. Reading a word consumes it: a word that nothing in its
@@ -195,6 +207,11 @@ impl Interpreter {
             pos,
             work_system: 0,
             tool_length: None,
+            g92: [0.0; MAX_AXES],
+            g92_saved: [0.0; MAX_AXES],
+            prepared_tool: None,
+            tool: None,
+            comp: None,
         }
     }
 
@@ -216,6 +233,37 @@ impl Interpreter {
             ended: false,
             started: false,
             tape: false,
+            modal_log: None,
+        }
+    }
+
+    /// Records where the tool and offset state changes (see [`ModalLog`]). The state the
+    /// program starts with applies from line 0: a move to the program's start comes first.
+    pub(super) fn track_modal(&mut self) {
+        let mut log = ModalLog::default();
+        log.record(0, self.active());
+        log.element();
+        self.modal_log = Some(log);
+    }
+
+    /// The next change of the tool and offset state followed by an element.
+    pub(super) fn take_modal_change(&mut self) -> Option<(u32, ActiveModal)> {
+        self.modal_log.as_mut()?.take()
+    }
+
+    /// The tool and offset state now.
+    pub(super) fn active(&self) -> ActiveModal {
+        let m = &self.modal;
+        ActiveModal {
+            work_system: m.work_system,
+            work_offset: self.settings.work_offsets.vector(m.work_system, &self.settings.axes),
+            g92_offset: m.g92,
+            tool: m.tool.map(|number| {
+                let t = self.settings.tool(number);
+                ActiveTool { number, length_mm: t.map(|t| t.length_mm), radius_mm: t.map(|t| t.diameter_mm / 2.0) }
+            }),
+            tool_length: m.tool_length,
+            cutter: if self.cutter.is_on() { m.comp } else { None },
         }
     }
 
@@ -297,6 +345,12 @@ impl Interpreter {
         }
         self.summary.blocks += 1;
         self.block(&line, line_no, d);
+        if self.modal_log.is_some() {
+            let active = self.active();
+            if let Some(log) = &mut self.modal_log {
+                log.record(line_no, active);
+            }
+        }
     }
 
     /// Ends the program text: closes an open G06 block and attaches a trailing dwell.
@@ -421,6 +475,11 @@ impl Interpreter {
         if matches!(g.tool_length, Some((ToolLengthWord::Dynamic, _))) {
             return; // its Z word is the tool length
         }
+        if let Some((word, col)) = g.axis_offset {
+            if !self.axis_offsets(word, col, &g, block, line, d) || word == AxisOffsetWord::Set {
+                return; // G92's axis words are the coordinates, not a move
+            }
+        }
         if g.spline {
             self.start_g06(block, block_no, d);
             return;
@@ -489,7 +548,10 @@ impl Interpreter {
         let line = block.line;
         if let Some((word, col)) = g.comp {
             match word {
-                CompWord::Off => self.cutter.stop(),
+                CompWord::Off => {
+                    self.cutter.stop();
+                    self.modal.comp = None;
+                }
                 CompWord::Table(side) | CompWord::Diameter(side) => {
                     let name = match word {
                         CompWord::Table(Side::Left) => "G41",
@@ -511,6 +573,7 @@ impl Interpreter {
                         d.error(line, col, format!("{name} needs D ({what})"));
                         return false;
                     };
+                    let mut tool = None;
                     let radius_mm = if let CompWord::Table(_) = word {
                         if dw.value < 0.0 || dw.value.fract() != 0.0 || dw.has_point {
                             d.error(
@@ -521,12 +584,14 @@ impl Interpreter {
                             return false;
                         }
                         let number = dw.value as u32;
-                        let Some(tool) = self.settings.tool(number) else {
+                        let Some(entry) = self.settings.tool(number) else {
                             d.error(line, dw.col, format!("tool {number} is not in the tool table"));
                             return false;
                         };
                         self.summary.tools.insert(number);
-                        tool.diameter_mm / 2.0
+                        let radius_mm = entry.diameter_mm / 2.0;
+                        tool = Some(number);
+                        radius_mm
                     } else {
                         if dw.value < 0.0 || !dw.value.is_finite() {
                             d.error(line, dw.col, format!("tool diameter D must not be negative, got {}", dw.value));
@@ -548,6 +613,11 @@ impl Interpreter {
                     };
                     self.summary.compensation = true;
                     self.cutter.start(side, radius_mm, p, q);
+                    let side = match side {
+                        Side::Left => CompSide::Left,
+                        Side::Right => CompSide::Right,
+                    };
+                    self.modal.comp = Some(ActiveCutter { side, radius_mm, tool });
                 }
             }
         }
@@ -611,15 +681,85 @@ impl Interpreter {
         true
     }
 
-    /// The offset from program to machine coordinates on axis `k`: the work offset, and on Z
-    /// the tool length (G43).
+    /// G92, G92.1, G92.2, G92.3 (after the coordinate system, as RS274NGC orders them). G92
+    /// makes the current point have the coordinates of its axis words (whatever G90/G91) by an
+    /// offset added to every work offset. False after an error.
+    fn axis_offsets(
+        &mut self,
+        word: AxisOffsetWord,
+        col: u32,
+        g: &GWords,
+        block: &Block,
+        line: &Line,
+        d: &mut Diagnostics,
+    ) -> bool {
+        let line_no = block.line;
+        if self.cutter.is_on() {
+            d.error(
+                line_no,
+                col,
+                "cannot change the axis offsets (G92) with cutter compensation on: program G40 first",
+            );
+            return false;
+        }
+        match word {
+            AxisOffsetWord::Clear => {
+                self.modal.g92 = [0.0; MAX_AXES];
+                self.modal.g92_saved = [0.0; MAX_AXES];
+            }
+            AxisOffsetWord::Suspend => self.modal.g92 = [0.0; MAX_AXES],
+            AxisOffsetWord::Restore => self.modal.g92 = self.modal.g92_saved,
+            AxisOffsetWord::Set => {
+                if g.motion.is_some() || g.spline {
+                    d.error(line_no, col, "G92 and a motion G-code in one block: both would use the axis words");
+                    return false;
+                }
+                let axis_words: Vec<&Word> =
+                    line.words.iter().filter(|w| AxisLetter::from_char(w.letter).is_some()).collect();
+                if axis_words.is_empty() {
+                    d.error(line_no, col, "G92 needs at least one axis word (the coordinates of the current point)");
+                    return false;
+                }
+                let mut g92 = self.modal.g92;
+                for w in axis_words {
+                    block.consume(w.letter);
+                    let letter = AxisLetter::from_char(w.letter).expect("axis letter");
+                    let Some(k) = self.settings.axis_index(letter) else {
+                        d.error(
+                            line_no,
+                            w.col,
+                            format!(
+                                "axis {letter} is not on this machine (axes: {})",
+                                self.settings.axis_names().join(" ")
+                            ),
+                        );
+                        return false;
+                    };
+                    let scale = if self.linear[k] { self.modal.unit_mm } else { 1.0 };
+                    let v = w.value * scale;
+                    if !v.is_finite() {
+                        d.error(line_no, w.col, format!("{letter} is not a finite number"));
+                        return false;
+                    }
+                    // pos = program coordinate + work offset + tool length + G92 offset.
+                    g92[k] = self.modal.pos[k] - (self.program_offset(k) - self.modal.g92[k]) - v;
+                }
+                self.modal.g92 = g92;
+                self.modal.g92_saved = g92;
+            }
+        }
+        true
+    }
+
+    /// The offset from program to machine coordinates on axis `k`: the work offset, on Z the
+    /// tool length (G43), and the G92 offset.
     fn program_offset(&self, k: usize) -> f64 {
         let tool = match self.modal.tool_length {
             Some((_, l)) if self.settings.axes[k].name == AxisLetter::Z => l,
             _ => 0.0,
         };
         let work = self.settings.work_offsets.systems()[self.modal.work_system];
-        work.get(&self.settings.axes[k].name.to_string()).copied().unwrap_or(0.0) + tool
+        work.get(&self.settings.axes[k].name.to_string()).copied().unwrap_or(0.0) + tool + self.modal.g92[k]
     }
 
     fn read_g_words(&self, block: &Block, d: &mut Diagnostics) -> Option<GWords> {
@@ -655,6 +795,22 @@ impl Interpreter {
                 40 => (1, {
                     g.dwell = true;
                     "G4"
+                }),
+                920 => (1, {
+                    g.axis_offset = Some((AxisOffsetWord::Set, w.col));
+                    "G92"
+                }),
+                921 => (1, {
+                    g.axis_offset = Some((AxisOffsetWord::Clear, w.col));
+                    "G92.1"
+                }),
+                922 => (1, {
+                    g.axis_offset = Some((AxisOffsetWord::Suspend, w.col));
+                    "G92.2"
+                }),
+                923 => (1, {
+                    g.axis_offset = Some((AxisOffsetWord::Restore, w.col));
+                    "G92.3"
                 }),
                 170 => (2, {
                     g.plane_col = w.col;
@@ -807,7 +963,14 @@ impl Interpreter {
                 d.error(block.line, t.col, format!("tool number T must be a non-negative integer, got {}", t.value));
                 return false;
             }
+            self.modal.prepared_tool = Some(t.value as u32);
             self.summary.ignored_words += 1;
+        }
+        // M6 (after T, as RS274NGC orders them) puts the selected tool in the spindle.
+        if block.words.iter().any(|w| w.letter == 'M' && w.value == 6.0) {
+            if let Some(t) = self.modal.prepared_tool {
+                self.modal.tool = Some(t);
+            }
         }
         true
     }
@@ -875,6 +1038,13 @@ impl Interpreter {
     fn push(&mut self, geometry: Geometry, feed: Feed, source: Source, col: u32, d: &mut Diagnostics) {
         let dwell = std::mem::take(&mut self.pending_dwell_s);
         *self.summary.kinds.entry(geometry.kind_name()).or_insert(0) += 1;
+        if self.modal_log.is_some() {
+            let active = self.active();
+            if let Some(log) = &mut self.modal_log {
+                log.record(source.line, active);
+                log.element();
+            }
+        }
         let piece = Piece { geometry, feed, source, col, dwell_before_s: dwell, blend: self.modal.blend };
         if let Err(e) = self.cutter.push(piece) {
             d.error(e.line, e.col, e.kind.to_string());
@@ -1284,6 +1454,15 @@ enum ToolLengthWord {
     Cancel,
 }
 
+/// G92 (set), G92.1 (clear), G92.2 (zero, keeping the saved values), G92.3 (restore them).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum AxisOffsetWord {
+    Set,
+    Clear,
+    Suspend,
+    Restore,
+}
+
 #[derive(Default)]
 struct GWords {
     motion: Option<Motion>,
@@ -1295,6 +1474,7 @@ struct GWords {
     comp: Option<(CompWord, u32)>,
     tool_length: Option<(ToolLengthWord, u32)>,
     work: Option<usize>,
+    axis_offset: Option<(AxisOffsetWord, u32)>,
     units: Option<f64>,
     absolute: Option<bool>,
     blend: Option<BlendWord>,

@@ -2,6 +2,7 @@
 //! (the data form of the five-axis example in Kopp et al. 2019, §2 and §4), turned into a
 //! [`Path`].
 
+mod active;
 mod append;
 mod cutter;
 mod error;
@@ -10,6 +11,7 @@ mod lexer;
 mod stream;
 mod table;
 
+pub use active::{ActiveCutter, ActiveModal, ActiveTool, CompSide};
 pub use append::{AppendBuffer, AppendChecker, AppendError, Appended};
 pub use error::{ProgramError, ProgramErrors};
 pub(crate) use gcode::fmt_num;

@@ -134,6 +134,24 @@ impl ProgramStream {
         self
     }
 
+    /// Records where the tool and offset state changes (a G-code program), to be taken with
+    /// [`ProgramStream::take_modal_change`].
+    pub fn track_modal(&mut self) {
+        if let Reader::GCode(interp) = &mut self.reader {
+            interp.track_modal();
+        }
+    }
+
+    /// The next change of the tool and offset state: the first source line it applies to and
+    /// the state from there on. A change is there once an element after it has been read;
+    /// the first is the state the program starts with.
+    pub fn take_modal_change(&mut self) -> Option<(u32, super::ActiveModal)> {
+        match &mut self.reader {
+            Reader::GCode(interp) => interp.take_modal_change(),
+            Reader::Table { .. } => None,
+        }
+    }
+
     /// The stream has handed out everything there is but the program goes on: text appended
     /// later continues it.
     pub fn waiting(&self) -> bool {

@@ -194,6 +194,61 @@ pub struct Status {
     /// compensation; `null` before the first `mdi` call. (A program's own appear in
     /// `program`; cutter compensation ends with each `mdi` call.)
     pub mdi: Option<MdiModal>,
+    /// The tool, offsets and cutter compensation of the program element the machine is
+    /// executing now (`null` before the first program start, for path tables and law
+    /// programs, and while MDI or manual motion runs).
+    pub modal: Option<ProgramModal>,
+}
+
+/// The tool and offset state of the executing program element, in `status.modal`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct ProgramModal {
+    /// The program line it applies to (the element's line, as `status.line`).
+    pub line: u32,
+    /// `"G54"` … `"G59"`.
+    pub work_offset: String,
+    /// That system's offset per axis, in the order of `status.axes` (mm or deg).
+    pub work_offset_values: Vec<f64>,
+    /// The G92 offset per axis, in the order of `status.axes`, added to every work offset
+    /// (zeros without G92).
+    pub g92_offset: Vec<f64>,
+    /// The tool in the spindle (`T` … `M6`); `null` before the first tool change.
+    pub tool: Option<SpindleTool>,
+    /// Tool length compensation (G43 H / G43.1); `null` with G49.
+    pub tool_length: Option<ToolLength>,
+    pub cutter: CutterStatus,
+}
+
+/// The tool in the spindle.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct SpindleTool {
+    pub number: u32,
+    /// From the tool table the program was loaded with; `null` if it has no such tool.
+    pub length_mm: Option<f64>,
+    pub radius_mm: Option<f64>,
+}
+
+/// Cutter radius compensation.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct CutterStatus {
+    pub mode: CutterMode,
+    /// The offset, mm (0 when off).
+    pub radius_mm: f64,
+    /// The tool of G41/G42 D; `null` for G41.1/G42.1 and when off.
+    pub tool: Option<u32>,
+}
+
+/// Off (G40), left (G41, G41.1) or right (G42, G42.1) of the direction of travel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CutterMode {
+    #[default]
+    Off,
+    Left,
+    Right,
 }
 
 /// The tool state of `mdi` blocks, in `status.mdi`.
@@ -246,6 +301,7 @@ impl Default for Status {
             can_bus: None,
             manual: None,
             mdi: None,
+            modal: None,
         }
     }
 }

@@ -11,8 +11,9 @@ interpreter `rs274` links, with the canonical calls handed over as doubles inste
 Each move: {"kind": "rapid"|"feed"|"arc", "end": [X Y Z A B C U V W] (mm, deg),
 "feed_mm_min": number or null, "dwell_s": seconds of dwell before it} and for arcs also
 "plane" (17, 18, 19), "centre" (mm, in the plane's axis order: X Y, Z X, Y Z) and "turns"
-(signed: positive counter-clockwise). Moves shorter than 1e-9 mm are dropped, as interpd drops
-them. Usage: /usr/bin/python3 scripts/rs274_canon.py FILE...
+(signed: positive counter-clockwise). Positions and centres are machine coordinates: the
+module's program coordinates plus the work (G54-G59) and G92 offsets it reports, as interpd's
+path is. Moves shorter than 1e-9 mm are dropped, as interpd drops them. Usage: /usr/bin/python3 scripts/rs274_canon.py FILE...
 """
 import json
 import math
@@ -46,6 +47,13 @@ class Recorder:
         self.feed_mm_min = None
         self.plane = 1
         self.dwell_s = 0.0
+        # Work (G54-G59) and G92 offsets, in the module's units, per axis.
+        self.g5x = [0.0] * 9
+        self.g92 = [0.0] * 9
+
+    def _machine(self, values):
+        """Program coordinates (the module's units) to machine coordinates in mm."""
+        return to_mm([v + g + h for v, g, h in zip(values, self.g5x, self.g92)])
 
     def _move(self, kind, end, extra=None):
         lin = math.sqrt(sum((e - p) ** 2 for e, p, l in zip(end, self.pos, LINEAR) if l))
@@ -61,17 +69,20 @@ class Recorder:
         self.pos = end
 
     def straight_traverse(self, *a):
-        self._move("rapid", to_mm(a))
+        self._move("rapid", self._machine(a))
 
     def straight_feed(self, *a):
-        self._move("feed", to_mm(a))
+        self._move("feed", self._machine(a))
 
     def arc_feed(self, first_end, second_end, first_centre, second_centre, rotation, axis_end, a, b, c, u, v, w):
         g, (i, j, k) = PLANES[self.plane]
-        end = list(self.pos[:3]) + [a, b, c, u * MM_PER_INCH, v * MM_PER_INCH, w * MM_PER_INCH]
-        end[i], end[j], end[k] = (first_end * MM_PER_INCH, second_end * MM_PER_INCH, axis_end * MM_PER_INCH)
-        centre = [first_centre * MM_PER_INCH, second_centre * MM_PER_INCH]
-        self._move("arc", end, {"plane": g, "centre": centre, "turns": rotation})
+        prog = [0.0] * 3 + [a, b, c, u, v, w]
+        prog[i], prog[j], prog[k] = first_end, second_end, axis_end
+        end = self._machine(prog)
+        centre_prog = [0.0] * 9
+        centre_prog[i], centre_prog[j] = first_centre, second_centre
+        centre_mm = self._machine(centre_prog)
+        self._move("arc", end, {"plane": g, "centre": [centre_mm[i], centre_mm[j]], "turns": rotation})
 
     def set_feed_rate(self, rate):
         self.feed_mm_min = rate * MM_PER_INCH
@@ -98,11 +109,11 @@ class Recorder:
     def set_xy_rotation(self, *a):
         pass
 
-    def set_g5x_offset(self, *a):
-        pass
+    def set_g5x_offset(self, index, *a):
+        self.g5x = list(a)
 
     def set_g92_offset(self, *a):
-        pass
+        self.g92 = list(a)
 
     def tool_offset(self, *a):
         pass

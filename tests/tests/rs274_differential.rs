@@ -1,7 +1,7 @@
 //! Differential test against LinuxCNC's interpreter (`rs274` of the Debian package
 //! `linuxcnc-uspace`): on the bad-program corpus and on seeded generated programs of the subset
-//! both dialects have (G0 G1 G2 G3 G4 G17–G19 G20 G21 G61 G64 G90 G91, F, N, S, M3–M9,
-//! comments; no G06, no LAW), interpd accepts exactly the programs `rs274 -g` accepts, and for
+//! both dialects have (G0 G1 G2 G3 G4 G17–G19 G20 G21 G61 G64 G90 G91, G92 G92.1 G92.2 G92.3,
+//! F, N, S, M3–M9, comments; no G06, no LAW), interpd accepts exactly the programs `rs274 -g` accepts, and for
 //! accepted programs the canonical motion agrees within 1e-9 mm: end points, arc centres, planes
 //! and directions, feeds, dwells, with units converted. The numbers come from LinuxCNC's `gcode`
 //! Python module (the same interpreter, handing the canonical calls over as doubles) through
@@ -351,11 +351,15 @@ fn generated_programs_agree_with_linuxcnc() {
         cases.push(Case { name, text, file });
     }
     let (failures, accepted, compared) = run_cases(&cases, &[]);
+    let settings = Settings::default_machine();
+    let with_g92 =
+        cases.iter().filter(|c| c.text.contains("G92") && program::parse(&c.text, &c.name, &settings).is_ok()).count();
     eprintln!(
-        "rs274 differential, generated: {} programs (seed {SEED:#x}), {accepted} accepted by both, {compared} compared move by move, {} refused by both",
+        "rs274 differential, generated: {} programs (seed {SEED:#x}), {accepted} accepted by both ({with_g92} with G92 …), {compared} compared move by move, {} refused by both",
         cases.len(),
         cases.len() - accepted - failures.len()
     );
+    assert!(with_g92 >= 20, "only {with_g92} accepted programs with G92, G92.1, G92.2 or G92.3");
     if failures.is_empty() {
         std::fs::remove_dir_all(&dir).ok();
     }
@@ -503,7 +507,11 @@ impl Rng {
 /// Generator state: the modal state and the position as both interpreters will read it back
 /// from the printed numbers.
 struct Gen {
+    /// Program coordinates (the machine's minus the G92 offset).
     pos_mm: [f64; 3],
+    /// The G92 offset and the values G92 saved last (G92.3 restores them), mm.
+    g92_mm: [f64; 3],
+    g92_saved_mm: [f64; 3],
     inch: bool,
     absolute: bool,
     /// 0: G17 (X Y), 1: G18 (Z X), 2: G19 (Y Z).
@@ -536,6 +544,44 @@ impl Gen {
         let (s, back) = self.print(target_mm - base);
         self.pos_mm[axis] = base + back;
         format!("{}{}", AXES[axis], s)
+    }
+
+    /// G92 on some axes (the current point gets new coordinates, the offset kept within
+    /// ±100 mm so targets stay inside the travel), or G92.1, G92.2, G92.3.
+    fn axis_offset(&mut self, rng: &mut Rng) -> String {
+        let machine = |g: &Gen, k: usize| g.pos_mm[k] + g.g92_mm[k];
+        match rng.below(5) {
+            0 | 1 => {
+                let mut words = vec!["G92".to_string()];
+                for (k, axis) in AXES.iter().enumerate() {
+                    if rng.chance(0.5) || (k == 2 && words.len() == 1) {
+                        let m = machine(self, k);
+                        let (s, back) = self.print(m - rng.range(-100.0, 100.0));
+                        self.g92_mm[k] = m - back;
+                        self.pos_mm[k] = back;
+                        words.push(format!("{axis}{s}"));
+                    }
+                }
+                self.g92_saved_mm = self.g92_mm;
+                words.join(" ")
+            }
+            2 => {
+                let m = [0, 1, 2].map(|k| machine(self, k));
+                (self.g92_mm, self.g92_saved_mm, self.pos_mm) = ([0.0; 3], [0.0; 3], m);
+                "G92.1".into()
+            }
+            3 => {
+                let m = [0, 1, 2].map(|k| machine(self, k));
+                (self.g92_mm, self.pos_mm) = ([0.0; 3], m);
+                "G92.2".into()
+            }
+            _ => {
+                let m = [0, 1, 2].map(|k| machine(self, k));
+                self.g92_mm = self.g92_saved_mm;
+                self.pos_mm = [0, 1, 2].map(|k| m[k] - self.g92_mm[k]);
+                "G92.3".into()
+            }
+        }
     }
 
     fn feed_word(&mut self, rng: &mut Rng) -> String {
@@ -609,13 +655,22 @@ impl Gen {
 
 /// A program of the common subset; about a third carry one fault that both dialects refuse.
 fn generate(rng: &mut Rng) -> String {
-    let mut g = Gen { pos_mm: [0.0; 3], inch: false, absolute: true, plane: 0, has_feed: false, lines: Vec::new() };
+    let mut g = Gen {
+        pos_mm: [0.0; 3],
+        g92_mm: [0.0; 3],
+        g92_saved_mm: [0.0; 3],
+        inch: false,
+        absolute: true,
+        plane: 0,
+        has_feed: false,
+        lines: Vec::new(),
+    };
     if rng.chance(0.5) {
         g.lines.push("G21 G90 G17".into());
     }
     let mut moves = Vec::new();
     for _ in 0..3 + rng.below(20) {
-        let line = match rng.below(16) {
+        let line = match rng.below(17) {
             0..=2 => g.linear(rng, true),
             3..=6 => g.linear(rng, false),
             7..=9 => g.arc(rng),
@@ -635,6 +690,7 @@ fn generate(rng: &mut Rng) -> String {
             14 => ["G61".to_string(), "G64".to_string(), format!("G64 P{}", [0.01, 0.05, 0.2][rng.below(3)])]
                 [rng.below(3)]
             .clone(),
+            15 => g.axis_offset(rng),
             _ => ["(a comment)", "; a comment", "M3 S1000", "M5", "M8", "M9", "F600"][rng.below(7)].to_string(),
         };
         if line.starts_with("G0 ") || line.starts_with("G1 ") {
@@ -652,7 +708,7 @@ fn generate(rng: &mut Rng) -> String {
         let fault = faults[rng.below(faults.len())];
         g.lines[at].push_str(fault);
     } else if rng.chance(0.1) {
-        let lines = ["G90 G91 X1", "G0 G1 X1 F100", "M3 M4", "M7 M8", "G17 G18", "G20 G21"];
+        let lines = ["G90 G91 X1", "G0 G1 X1 F100", "M3 M4", "M7 M8", "G17 G18", "G20 G21", "G92", "G92 G1 X1 F100"];
         g.lines.push(lines[rng.below(lines.len())].to_string());
     }
     g.lines.join("\n") + "\n"

@@ -258,3 +258,67 @@ fn gcode_continues_from_a_modal_state() {
     assert_eq!((e.0[0].line, e.0[0].col), (1, 4));
     assert_eq!(modal.position()[1], 2.0);
 }
+
+/// End point of each element, X only.
+fn ends_x(p: &Program) -> Vec<f64> {
+    p.path
+        .elements
+        .iter()
+        .map(|e| {
+            let mut d = AxisDerivs::default();
+            e.geometry.eval(e.geometry.length_mm(), &mut d);
+            d.pos[0]
+        })
+        .collect()
+}
+
+#[test]
+fn g92_offsets_the_coordinates_as_linuxcnc() {
+    // As LinuxCNC's rs274 reads it (machine X): G92 X0 at X5 makes X1 the machine's 6; G92.2
+    // suspends the offset, G92.3 restores it; G92 ignores G91; G92.1 clears it.
+    let p = ok("G0 X5 Y1\nG92 X0\nG1 X1 F100\nG92.2\nG1 X2\nG92.3\nG1 X3\nG91\nG92 X10\nG90 G1 X11\nG92.1\nG1 X0\n");
+    let want = [5.0, 6.0, 2.0, 8.0, 9.0, 0.0];
+    let got = ends_x(&p);
+    assert!(got.iter().zip(want).all(|(g, w)| (g - w).abs() < 1e-12), "{got:?}");
+    // In inches, added to the work offset and the tool length, and carried by G92.1's axis
+    // words to the motion mode (G92.1 itself takes none).
+    let p = ok("G20 G0 X1\nG92 X0 Z0\nG0 X1 Z1\nG92.1 X3\n");
+    assert!(close(end(&p), [76.2, 0.0, 25.4]), "{:?}", end(&p));
+    let got = ends_x(&p);
+    assert!(got.iter().zip([25.4, 50.8, 76.2]).all(|(g, w)| (g - w).abs() < 1e-12), "{got:?}");
+    let mut settings = xyz();
+    settings.tools = vec![interpd_config::ToolConfig { number: 1, diameter_mm: 6.0, length_mm: 50.0, name: None }];
+    let p = parse("G43 H1\nG0 Z0\nG92 Z10\nG0 Z0\n", "t.ngc", &settings).expect("valid");
+    let z: Vec<f64> = p
+        .path
+        .elements
+        .iter()
+        .map(|e| {
+            let mut d = AxisDerivs::default();
+            e.geometry.eval(e.geometry.length_mm(), &mut d);
+            d.pos[2]
+        })
+        .collect();
+    assert_eq!(z, vec![50.0, 40.0]);
+}
+
+#[test]
+fn g92_refusals_name_the_place() {
+    assert_eq!(
+        first_error("G92\n"),
+        "t.ngc:1:1: G92 needs at least one axis word (the coordinates of the current point)"
+    );
+    assert_eq!(
+        first_error("G0 X1\nG92 G1 X0 F100\n"),
+        "t.ngc:2:1: G92 and a motion G-code in one block: both would use the axis words"
+    );
+    assert_eq!(first_error("G92 G4 P1 X0\n"), "t.ngc:1:5: G4 conflicts with G92 in the same block (same modal group)");
+    let mut settings = xyz();
+    settings.tools = vec![interpd_config::ToolConfig { number: 1, diameter_mm: 6.0, length_mm: 0.0, name: None }];
+    let e = parse("G0 X0 Y0\nG41 D1\nG92 X0\n", "t.ngc", &settings).expect_err("comp on").0;
+    assert_eq!(
+        e[0].to_string(),
+        "t.ngc:3:1: cannot change the axis offsets (G92) with cutter compensation on: program G40 first"
+    );
+    assert!(first_error("G92 Q1\n").contains("G92 needs at least one axis word"));
+}

@@ -295,6 +295,12 @@ fn gouges_and_misuse_are_errors_with_line_and_column() {
     let e =
         errors("G0 X0 Y0\nF1000\nG42 D1\nG1 X10 Y0\nG1 X10 Y20\nG1 X14 Y20\nG1 X14 Y0\nG1 X30 Y0\nG40 G1 X30 Y-10\n");
     assert!(e.contains("cannot reach the inside corner"), "{e}");
+    // A short last element that the inside corner swallows with nothing after it to meet.
+    let e = errors("G0 X0 Y0\nF1000\nG41 D1\nG1 X10 Y0\nG1 X10 Y10\nG1 X9.99 Y10\nG40 G1 X0 Y20\n");
+    assert!(e.starts_with("bad.ngc:6:1: cutter compensation: the tool (radius 3 mm) cannot reach"), "{e}");
+    // The same followed by an outside corner.
+    let e = errors("G0 X0 Y0\nF1000\nG41 D1\nG1 X10 Y0\nG1 X10 Y10\nG1 X9.99 Y10\nG1 X9.99 Y0\n");
+    assert!(e.starts_with("bad.ngc:6:1: cutter compensation: the tool (radius 3 mm) cannot reach"), "{e}");
     // A spline whose curvature radius on the tool's side is below the tool radius.
     let e = errors("G0 X2 Y0\nF1000\nG41 D1\nG1 X1 Y0\nG06\nX0 Y1 Z0;\nX-1 Y0 Z0;\nCR\n");
     assert!(e.contains("the spline turns on a radius of"), "{e}");
@@ -411,5 +417,116 @@ fn assert_continuous(path: &Path, what: &str) {
         w[1].geometry.eval(0.0, &mut b);
         let gap = (0..path.n_axes).map(|k| (a.pos[k] - b.pos[k]).abs()).fold(0.0, f64::max);
         assert!(gap <= 1e-9, "{what}: a gap of {gap} mm before line {}", w[1].source.line);
+    }
+}
+
+/// Radius of the circle the short-chord contours follow, mm.
+const CHORD_CIRCLE_MM: f64 = 5.0;
+
+/// Points of the circle of radius 5 mm about the origin from (5, 0) counter-clockwise, one
+/// turn, with chords of the `lengths` in turn (a CAM polyline of short chords).
+fn chord_points(lengths: &[f64]) -> Vec<(f64, f64)> {
+    let (mut a, mut i, mut out) = (0.0f64, 0, Vec::new());
+    while a < 2.0 * PI - 1e-9 {
+        a = (a + lengths[i % lengths.len()] / CHORD_CIRCLE_MM).min(2.0 * PI);
+        out.push((CHORD_CIRCLE_MM * a.cos(), CHORD_CIRCLE_MM * a.sin()));
+        i += 1;
+    }
+    out
+}
+
+/// Distance from (x, y) to the closed polygon through `points` (starting at (5, 0)).
+fn polygon_distance(points: &[(f64, f64)], x: f64, y: f64) -> f64 {
+    let mut prev = (CHORD_CIRCLE_MM, 0.0);
+    let mut best = f64::INFINITY;
+    for &p in points {
+        let (dx, dy) = (p.0 - prev.0, p.1 - prev.1);
+        let t = (((x - prev.0) * dx + (y - prev.1) * dy) / (dx * dx + dy * dy)).clamp(0.0, 1.0);
+        best = best.min((prev.0 + t * dx - x).hypot(prev.1 + t * dy - y));
+        prev = p;
+    }
+    best
+}
+
+/// The circle of short chords (or short arcs) from its centre, compensated by `comp`; every
+/// 0.25 ms sample off the entry and exit moves lies at the tool radius `r` from the contour
+/// within 1 µm (inside it for G41, outside for G42), within the axis limits.
+fn check_chords(name: &str, lengths: &[f64], arcs: bool, comp: &str, r: f64) {
+    let points = chord_points(lengths);
+    // Inside, the entry comes from the centre (and swallows the first elements); outside, it
+    // runs along the first tangent (a corner arc around the start point would touch the
+    // contour's last elements).
+    let (ax, ay) = if comp.starts_with("G41") { (0.0, 0.0) } else { (CHORD_CIRCLE_MM, -10.0) };
+    let mut lines = vec!["G21 G90 G17 G61".to_string(), format!("G0 X{ax} Y{ay} Z0"), "F3000".into(), comp.into()];
+    lines.push(format!("G1 X{CHORD_CIRCLE_MM} Y0"));
+    let entry = lines.len() as u32;
+    let mut from = (CHORD_CIRCLE_MM, 0.0);
+    for &(x, y) in &points {
+        if arcs {
+            lines.push(format!("G3 X{x:.9} Y{y:.9} I{:.9} J{:.9}", -from.0, -from.1));
+            from = (x, y);
+        } else {
+            lines.push(format!("G1 X{x:.9} Y{y:.9}"));
+        }
+    }
+    lines.push(format!("G40 G1 X{ax} Y{ay}"));
+    let exit = lines.len() as u32;
+    let text = lines.join("\n") + "\n";
+    let settings = machine();
+    let prog = program::parse(&text, "chords.ngc", &settings).unwrap_or_else(|e| panic!("{name} {comp}: {e}"));
+    let path = prog.path;
+    assert_continuous(&path, name);
+    let (segs, _) = Planner::plan_path(&settings, &path).expect("plan");
+    let ratios = limit_ratios(&path, &segs, &settings, DT_S);
+    let (mut cursor, mut d) = (Cursor::default(), AxisDerivs::default());
+    let (mut worst, mut samples) = (0.0f64, 0);
+    let n = (duration_s(&segs) / DT_S) as usize + 1;
+    for k in 0..=n {
+        let Some(sample) = cursor.sample(&segs, k as f64 * DT_S) else { break };
+        let s = sample.state.s_mm;
+        let line = path.elements[path.element_index_at(s)].source.line;
+        if line <= entry || line >= exit {
+            continue;
+        }
+        path.eval(s, &mut d);
+        let (x, y) = (d.pos[0], d.pos[1]);
+        let dist = if arcs { (x.hypot(y) - CHORD_CIRCLE_MM).abs() } else { polygon_distance(&points, x, y) };
+        let inside = x.hypot(y) < CHORD_CIRCLE_MM;
+        assert_eq!(inside, comp.starts_with("G41"), "{name} {comp}: ({x}, {y}) on the wrong side (line {line})");
+        let err = (dist - r).abs();
+        assert!(err <= OFFSET_TOL_MM, "{name} {comp}: ({x:.6}, {y:.6}) at {dist:.7} mm from the contour (line {line})");
+        worst = worst.max(err);
+        samples += 1;
+    }
+    assert!(samples > 1000, "{name} {comp}: {samples} samples on the contour");
+    assert!(
+        ratios[0] <= 1.001 && ratios[1] <= 1.001 && ratios[2] <= 1.02,
+        "{name} {comp}: limit ratios v/a/j {ratios:?} beyond 1.001/1.001/1.02"
+    );
+    eprintln!(
+        "{name} {comp}: {} elements, {samples} samples, worst |distance − r| {worst:.3e} mm, limit ratios v {:.4} a {:.4} j {:.4}",
+        path.elements.len(),
+        ratios[0],
+        ratios[1],
+        ratios[2]
+    );
+}
+
+#[test]
+fn short_chords_swallowed_by_inside_corners_are_dropped_on_both_sides() {
+    // Chords of 0.05 mm, and CAM-like chords alternating 0.05 and 0.005 mm (an inside corner
+    // between two long ones swallows the short one), offset inwards by 2 mm and by 4.9 mm
+    // (and outwards). The entry from the centre swallows the first chords.
+    for (name, lengths) in [("chords 0.05", &[0.05][..]), ("chords 0.05/0.005", &[0.05, 0.005][..])] {
+        for (d, r) in [(4.0, 2.0), (9.8, 4.9)] {
+            for side in ["G41.1", "G42.1"] {
+                check_chords(name, lengths, false, &format!("{side} D{d}"), r);
+            }
+        }
+    }
+    // Short arcs on the circle: the entry line swallows the first ones; the joints between
+    // arcs rounded to 9 decimals turn by about 1e-7 rad.
+    for side in ["G41.1", "G42.1"] {
+        check_chords("arcs 0.05/0.005", &[0.05, 0.005], true, &format!("{side} D4"), 2.0);
     }
 }

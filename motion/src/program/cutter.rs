@@ -12,12 +12,17 @@
 //!   offset of its end point, and joins the contour at an ordinary corner; the move after G40
 //!   (the exit move) goes from the offset of the contour's last point to its programmed end,
 //!   as LinuxCNC.
+//! - Short elements at inside corners (CAM chords) are swallowed as by the true offset curve:
+//!   where two offsets do not meet, either the new offset meets a piece kept back before the
+//!   tail (the pieces between are dropped), or the new element lies inside the corner (it is
+//!   dropped and the next one is joined to the tail).
 //! - A concave arc or spline section whose radius is not larger than the tool radius, or an
 //!   inside corner the tool cannot reach, is an error naming the block.
 //!
 //! Look-ahead is bounded: the stage holds back the offset of the last contour element (its end
-//! depends on the next corner) and the moves without motion in the plane that follow it (at
-//! most [`MAX_HELD_MOVES`]).
+//! depends on the next corner), the moves without motion in the plane that follow it (at most
+//! [`MAX_HELD_MOVES`]), and the tool path pieces before it that a later inside corner may
+//! still trim back into (at most [`MAX_STAGED`]).
 
 use crate::path::{AxisDerivs, AxisVec, Blend, CubicSpan, Feed, Geometry, Helix, Line, MAX_AXES, Source};
 use std::collections::VecDeque;
@@ -37,11 +42,23 @@ const SPLINE_MAX_DEPTH: usize = 16;
 const GOUGE_SCAN_POINTS: usize = 256;
 /// Moves without motion in the plane (a Z plunge, a rotary move) held back at one corner.
 pub(crate) const MAX_HELD_MOVES: usize = 16;
+/// Tool path pieces kept back after the tail, so that an inside corner can trim back across
+/// the short chords it swallows: a 2 mm tool entering a circle of 5 mm radius of chords of
+/// 0.05 and 0.005 mm from its centre swallows the chords of 22° of it (70).
+const MAX_STAGED: usize = 256;
+/// Contour elements in a row that an inside corner may swallow whole (their offsets lie
+/// entirely inside the corner's trim), as many as pieces are kept back.
+const MAX_SWALLOWED: usize = MAX_STAGED;
 /// Corners turning less than this are joined straight (the next offset starts where the last
 /// ends, moving its start by r·θ, below 1 nm for tool radii up to 10 mm): the intersection of
 /// two offsets this close to parallel is lost in rounding (CAM programs rounded to 0.1 µm have
 /// such joints between collinear chords).
 const STRAIGHT_JOINT_RAD: f64 = 1e-7;
+/// An inside corner whose offsets do not intersect (nearly tangent elements: arcs rounded to
+/// the program's decimals meet at turns of 1e-7 rad, where the offsets meet far away or not at
+/// all) is joined where the tail ends when the offsets' ends are this close, mm: the tool path
+/// then errs by less than this.
+const NEAR_TANGENT_GAP_MM: f64 = 1e-6;
 /// An intersection this far beyond an element's end (rounding of nearly parallel offsets) is
 /// taken at the end, mm.
 const INTERSECT_SLACK_MM: f64 = 1e-6;
@@ -154,6 +171,20 @@ struct Held {
     tangent: [f64; 2],
     /// Moves without motion in the plane after the tail, carried out at the corner.
     moves: Vec<Piece>,
+    /// Contour elements after the tail swallowed whole by the corner (the next element's
+    /// offset meets the tail), and the error to report if the corner does not resolve.
+    swallowed: usize,
+    gouge: Option<CutterError>,
+}
+
+/// A tool path piece kept back: a later inside corner may still trim its end (`full`: the
+/// piece before its end was trimmed; `None` for pieces that must stay as they are).
+#[derive(Debug, Clone)]
+struct Staged {
+    piece: Piece,
+    full: Option<Geometry>,
+    /// Where the tool path ended before this piece.
+    prev_end: Option<AxisVec>,
 }
 
 #[derive(Debug, Clone)]
@@ -184,6 +215,8 @@ pub(crate) struct Cutter {
     linear: [bool; MAX_AXES],
     n_axes: usize,
     out: VecDeque<Piece>,
+    /// Tool path pieces kept back (at most [`MAX_STAGED`]).
+    staged: VecDeque<Staged>,
     /// Where the last compensated element handed on ends.
     last_end: Option<AxisVec>,
 }
@@ -201,6 +234,7 @@ impl Cutter {
             linear: mask,
             n_axes: linear.len(),
             out: VecDeque::new(),
+            staged: VecDeque::new(),
             last_end: None,
         }
     }
@@ -226,19 +260,29 @@ impl Cutter {
     }
 
     /// G40: hands on what is held back; the next move in the plane is the exit move.
-    pub(crate) fn stop(&mut self) {
+    pub(crate) fn stop(&mut self) -> Result<(), CutterError> {
         let shift = match std::mem::replace(&mut self.state, State::Off) {
-            State::Off => return,
+            State::Off => return Ok(()),
             State::Exit { shift } | State::Entry { shift } => shift,
-            State::On(held) => self.release(*held),
+            State::On(held) => self.release(*held)?,
         };
         self.state = State::Exit { shift };
+        Ok(())
     }
 
     /// The end of the program: hands on what is held back (the tool stays at the offset).
-    pub(crate) fn finish(&mut self) {
+    pub(crate) fn finish(&mut self) -> Result<(), CutterError> {
         if let State::On(held) = std::mem::replace(&mut self.state, State::Off) {
-            self.release(*held);
+            self.release(*held)?;
+        }
+        self.flush();
+        Ok(())
+    }
+
+    /// Hands on every piece kept back.
+    fn flush(&mut self) {
+        while let Some(s) = self.staged.pop_front() {
+            self.out.push_back(s.piece);
         }
     }
 
@@ -252,6 +296,7 @@ impl Cutter {
         let in_plane = self.plane_length(&piece.geometry) > MIN_PLANE_MOVE_MM;
         match &mut self.state {
             State::Off => {
+                self.flush();
                 self.last_end = None;
                 self.out.push_back(piece);
                 Ok(())
@@ -266,6 +311,7 @@ impl Cutter {
                 if let Some(g) = self.line(start, b) {
                     self.emit(Piece { geometry: g, ..piece });
                 }
+                self.flush();
                 self.state = State::Off;
                 Ok(())
             }
@@ -284,7 +330,14 @@ impl Cutter {
                     return Err(piece.error(CutterErrorKind::EntryTooShort));
                 };
                 let tail = Piece { geometry: g, ..piece };
-                self.state = State::On(Box::new(Held { tail, corner: b, tangent, moves: Vec::new() }));
+                self.state = State::On(Box::new(Held {
+                    tail,
+                    corner: b,
+                    tangent,
+                    moves: Vec::new(),
+                    swallowed: 0,
+                    gouge: None,
+                }));
                 Ok(())
             }
             State::On(held) => {
@@ -328,7 +381,7 @@ impl Cutter {
     /// Joins the held tail to the offsets of the next contour element `piece` at the corner;
     /// hands on everything up to the last offset piece, which is held.
     fn join(&mut self, held: Held, mut offsets: Vec<Piece>, piece: &Piece) -> Result<Held, CutterError> {
-        let Held { tail, corner, tangent: t1, moves } = held;
+        let Held { tail, corner, tangent: t1, moves, swallowed, gouge } = held;
         let t2 = self.start_tangent(&piece.geometry);
         let n1 = self.normal(t1);
         let n2 = self.normal(t2);
@@ -343,8 +396,14 @@ impl Cutter {
             turn = -self.side.sign() * PI;
         }
         let outside = self.side.sign() * turn < 0.0;
+        if swallowed > 0 && (outside || turn.abs() <= STRAIGHT_JOINT_RAD) {
+            // Past elements the corner swallowed, the contour turns away: no inside corner
+            // to resolve them.
+            return Err(gouge.unwrap_or_else(|| self.inside_corner_error(piece)));
+        }
         if turn.abs() <= STRAIGHT_JOINT_RAD {
-            self.emit(last);
+            let full = last.geometry.clone();
+            self.stage(last, Some(full));
             self.hand_on_moves(moves, n1)?;
             // The offsets miss each other by at most r·θ: the next starts where this ends.
             if let Some(end) = self.last_end {
@@ -353,7 +412,8 @@ impl Cutter {
                 }
             }
         } else if outside {
-            self.emit(last);
+            let full = last.geometry.clone();
+            self.stage(last, Some(full));
             let at = self.hand_on_moves(moves, n1)?.unwrap_or(corner);
             let a = self.plus(at, n1);
             let b = self.plus(at, n2);
@@ -362,37 +422,124 @@ impl Cutter {
                 // The corner arc comes after arriving at the corner: a dwell programmed
                 // for the next block happens before it.
                 let dwell = std::mem::take(&mut offsets[0].dwell_before_s);
-                self.emit(Piece { geometry: Geometry::Helix(arc), dwell_before_s: dwell, ..piece.clone() });
+                let arc = Geometry::Helix(arc);
+                self.stage(Piece { geometry: arc.clone(), dwell_before_s: dwell, ..piece.clone() }, Some(arc));
             }
-        } else {
-            let first = &offsets[0];
-            let Some((s1, s2)) = intersect(&last.geometry, &first.geometry, self.p, self.q) else {
-                return Err(piece.error(CutterErrorKind::InsideCorner { radius_mm: super::fmt_num(self.radius_mm) }));
-            };
-            let trimmed_last = trim(&last.geometry, 0.0, s1, &self.linear[..self.n_axes]);
-            let trimmed_first = trim(&first.geometry, s2, first.geometry.length_mm(), &self.linear[..self.n_axes]);
-            let (Some(g1), Some(g2)) = (trimmed_last, trimmed_first) else {
-                return Err(piece.error(CutterErrorKind::InsideCorner { radius_mm: super::fmt_num(self.radius_mm) }));
-            };
+        } else if let Some((g1, g2)) = self.trim_corner(&last.geometry, &offsets[0].geometry) {
             let mut d = AxisDerivs::default();
             g1.eval(g1.length_mm(), &mut d);
             let shift = [d.pos[self.p] - corner[self.p], d.pos[self.q] - corner[self.q]];
-            self.emit(Piece { geometry: g1, ..last });
+            let full = last.geometry.clone();
+            self.stage(Piece { geometry: g1, ..last }, Some(full));
             self.hand_on_moves(moves, shift)?;
             offsets[0].geometry = g2;
+        } else {
+            // The offsets do not meet: either the tail is swallowed (the new offset meets a
+            // piece before it), or this element is (the next one's offset meets the tail),
+            // or the tool cannot reach the corner (a gouge).
+            let error = self.inside_corner_error(piece);
+            let (_, a) = self.ends(&last.geometry);
+            let (b, _) = self.ends(&offsets[0].geometry);
+            if swallowed == 0
+                && moves.is_empty()
+                && (a[self.p] - b[self.p]).hypot(a[self.q] - b[self.q]) <= NEAR_TANGENT_GAP_MM
+            {
+                // Nearly tangent elements (rounded arc data): the offsets meet only far away or
+                // not at all; they are joined where the tail ends.
+                let full = last.geometry.clone();
+                self.stage(last, Some(full));
+                if let Some(g) = self.last_end.and_then(|end| self.starting_at(&offsets[0].geometry, end)) {
+                    offsets[0].geometry = g;
+                }
+                let last = offsets.pop().expect("an offset has at least one piece");
+                for o in offsets {
+                    let full = o.geometry.clone();
+                    self.stage(o, Some(full));
+                }
+                return Ok(Held {
+                    tail: last,
+                    corner: contour_end,
+                    tangent: end_tangent,
+                    moves: Vec::new(),
+                    swallowed: 0,
+                    gouge: None,
+                });
+            }
+            if !moves.is_empty() {
+                return Err(error);
+            }
+            match self.trim_back(&offsets[0].geometry, corner) {
+                Some(g2) => offsets[0].geometry = g2,
+                None if swallowed < MAX_SWALLOWED && offsets.len() == 1 => {
+                    return Ok(Held {
+                        tail: last,
+                        corner,
+                        tangent: t1,
+                        moves,
+                        swallowed: swallowed + 1,
+                        gouge: Some(gouge.unwrap_or(error)),
+                    });
+                }
+                None => return Err(gouge.unwrap_or(error)),
+            }
         }
         let last = offsets.pop().expect("an offset has at least one piece");
         for o in offsets {
-            self.emit(o);
+            let full = o.geometry.clone();
+            self.stage(o, Some(full));
         }
-        Ok(Held { tail: last, corner: contour_end, tangent: end_tangent, moves: Vec::new() })
+        Ok(Held { tail: last, corner: contour_end, tangent: end_tangent, moves: Vec::new(), swallowed: 0, gouge: None })
+    }
+
+    fn inside_corner_error(&self, piece: &Piece) -> CutterError {
+        piece.error(CutterErrorKind::InsideCorner { radius_mm: super::fmt_num(self.radius_mm) })
+    }
+
+    /// `g1` up to and `g2` from their intersection in the plane, both non-empty.
+    fn trim_corner(&self, g1: &Geometry, g2: &Geometry) -> Option<(Geometry, Geometry)> {
+        let (s1, s2) = intersect(g1, g2, self.p, self.q)?;
+        let linear = &self.linear[..self.n_axes];
+        Some((trim(g1, 0.0, s1, linear)?, trim(g2, s2, g2.length_mm(), linear)?))
+    }
+
+    /// An inside corner that swallows the tail: the latest piece kept back that the new
+    /// offset `g2` meets is trimmed there and the pieces after it are dropped; returns `g2`
+    /// from the intersection on. Only pieces within the tool's reach of the contour corner
+    /// (2·r) are dropped: what lies further away is not swallowed by this corner.
+    fn trim_back(&mut self, g2: &Geometry, corner: AxisVec) -> Option<Geometry> {
+        let reach = 2.0 * self.radius_mm + INTERSECT_SLACK_MM;
+        let near = |c: &Cutter, g: &Geometry| {
+            let (a, b) = c.ends(g);
+            [a, b].iter().all(|x| (x[c.p] - corner[c.p]).hypot(x[c.q] - corner[c.q]) <= reach)
+        };
+        for k in (0..self.staged.len()).rev() {
+            let full = self.staged[k].full.as_ref()?;
+            if let Some((g1, rest)) = self.trim_corner(full, g2) {
+                let full = full.clone();
+                let prev_end = self.staged[k].prev_end;
+                let kept = self.staged.drain(k..).next().expect("k is in range");
+                self.last_end = prev_end;
+                self.stage(Piece { geometry: g1, ..kept.piece }, Some(full));
+                return Some(rest);
+            }
+            if !near(self, full) {
+                return None;
+            }
+        }
+        None
     }
 
     /// Hands on a tool path element, starting exactly where the one before ends: trimming
     /// at an inside corner is exact in the plane, but on a contour that moves along the third
     /// axis the two trimmed elements reach the intersection at slightly different heights, so
     /// the later one is made to start at the earlier one's end.
-    fn emit(&mut self, mut piece: Piece) {
+    fn emit(&mut self, piece: Piece) {
+        self.stage(piece, None);
+    }
+
+    /// [`Cutter::emit`], keeping `full` (the piece before its end was trimmed) for a later
+    /// inside corner that may trim back into it.
+    fn stage(&mut self, mut piece: Piece, full: Option<Geometry>) {
         if let Some(end) = self.last_end {
             let (start, _) = self.ends(&piece.geometry);
             let gap = (0..self.n_axes).map(|k| (start[k] - end[k]).abs()).fold(0.0, f64::max);
@@ -403,8 +550,13 @@ impl Cutter {
                 }
             }
         }
-        self.last_end = Some(self.ends(&piece.geometry).1);
-        self.out.push_back(piece);
+        let end = self.ends(&piece.geometry).1;
+        let prev_end = self.last_end.replace(end);
+        self.staged.push_back(Staged { piece, full, prev_end });
+        while self.staged.len() > MAX_STAGED {
+            let s = self.staged.pop_front().expect("not empty");
+            self.out.push_back(s.piece);
+        }
     }
 
     /// `g` from `start` instead of its own start point, to the same end.
@@ -414,8 +566,24 @@ impl Cutter {
         match g {
             Geometry::Line(_) => self.line(start, end),
             Geometry::Helix(h) => {
+                // The centre moves onto the bisector of the new start and the end, so the arc
+                // still ends where it ended.
                 let (p, q) = h.plane_axes();
-                Some(Geometry::Helix(Helix::new(p, q, h.center(), h.sweep_rad(), start, end, linear)))
+                let (a, b) = ([start[p], start[q]], [end[p], end[q]]);
+                let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+                let chord = dx.hypot(dy);
+                if chord <= super::gcode::MIN_MOVE_MM {
+                    return Some(Geometry::Helix(Helix::new(p, q, h.center(), h.sweep_rad(), start, end, linear)));
+                }
+                let (n, m, c) = ([-dy / chord, dx / chord], [(a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0], h.center());
+                let t = (c[0] - m[0]) * n[0] + (c[1] - m[1]) * n[1];
+                let c = [m[0] + t * n[0], m[1] + t * n[1]];
+                let turned = (b[1] - c[1]).atan2(b[0] - c[0]) - (a[1] - c[1]).atan2(a[0] - c[0]);
+                let mut sweep = h.sweep_rad() + (turned - h.sweep_rad()).rem_euclid(2.0 * PI);
+                if sweep - h.sweep_rad() > PI {
+                    sweep -= 2.0 * PI;
+                }
+                Some(Geometry::Helix(Helix::new(p, q, c, sweep, start, end, linear)))
             }
             Geometry::Cubic(c) => c.with_start(&start).ok().map(|c| Geometry::Cubic(Box::new(c))),
             _ => None,
@@ -435,7 +603,11 @@ impl Cutter {
     }
 
     /// Hands on the held tail untrimmed; returns the shift of the tool from the contour.
-    fn release(&mut self, held: Held) -> [f64; 2] {
+    /// Elements swallowed by a corner that never resolves are an error.
+    fn release(&mut self, held: Held) -> Result<[f64; 2], CutterError> {
+        if held.swallowed > 0 {
+            return Err(held.gouge.expect("a swallowed element names its error"));
+        }
         let n1 = self.normal(held.tangent);
         self.emit(held.tail);
         for m in held.moves {
@@ -444,7 +616,7 @@ impl Cutter {
                 self.emit(moved);
             }
         }
-        n1
+        Ok(n1)
     }
 
     /// The contour element offset by the tool radius: one piece for lines and arcs, several

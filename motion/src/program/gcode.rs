@@ -358,7 +358,9 @@ impl Interpreter {
         if self.g06.is_some() {
             self.finish_g06(d);
         }
-        self.cutter.finish();
+        if let Err(e) = self.cutter.finish() {
+            d.error(e.line, e.col, e.kind.to_string());
+        }
         self.drain(d);
         self.path.final_dwell_s += self.pending_dwell_s;
         self.pending_dwell_s = 0.0;
@@ -549,7 +551,10 @@ impl Interpreter {
         if let Some((word, col)) = g.comp {
             match word {
                 CompWord::Off => {
-                    self.cutter.stop();
+                    if let Err(e) = self.cutter.stop() {
+                        d.error(e.line, e.col, e.kind.to_string());
+                        return false;
+                    }
                     self.modal.comp = None;
                 }
                 CompWord::Table(side) | CompWord::Diameter(side) => {

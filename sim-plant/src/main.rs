@@ -55,7 +55,8 @@ struct Args {
     /// Run with SCHED_FIFO at this priority (1–99), or fail if the system refuses. For the
     /// drives on CAN: a real drive is hardware of its own whose SYNC watchdog never waits for
     /// the master's host; give the simulated drives a priority above the daemon's real-time
-    /// thread ([rt] priority, default 80) so the same holds on one computer.
+    /// thread ([rt] priority, default 80) so the same holds on one computer. Also locks the
+    /// process's memory (as root or with an unlimited memory-lock limit).
     #[arg(long, value_name = "PRIORITY", value_parser = clap::value_parser!(i32).range(1..=99))]
     rt_priority: Option<i32>,
     /// More log output on stderr (-v debug, -vv trace). RUST_LOG overrides.
@@ -114,8 +115,10 @@ fn run(args: &Args) -> Result<(), Failure> {
     if let Some(p) = &args.plot {
         check_plot_path(p)?;
     }
-    if let Some(priority) = args.rt_priority {
-        set_fifo(priority)?;
+    // Memory is locked (and then populated as it is allocated) at normal priority; the loop
+    // switches to SCHED_FIFO only once everything it uses is allocated.
+    if args.rt_priority.is_some() {
+        lock_memory();
     }
     let mut config = Config::load_or_default(args.config.as_deref()).map_err(PlantError::from)?;
     if let Some(iface) = can_iface {
@@ -143,6 +146,9 @@ fn run(args: &Args) -> Result<(), Failure> {
         exit_on_finish: args.exit_on_finish,
         settle_s: args.settle_s,
     };
+    if let Some(priority) = args.rt_priority {
+        set_fifo(priority)?;
+    }
     let report = node.run(&mut plant, Some(&mut metrics), &options)?;
     print_summary(&report, &metrics);
     print_actuators(&plant);
@@ -184,6 +190,31 @@ fn set_fifo(priority: i32) -> Result<(), Failure> {
     Ok(())
 }
 
+/// With `--rt-priority`: locks the process's memory, present and future (mlockall), so no page
+/// fault lands in the loop (its buffers are allocated, and so populated, before it starts). A fault that zeroes a page, or a transparent huge page, at a
+/// priority above the daemon's delays the daemon's cycle by as long. Where the memory-lock limit
+/// is finite and the process is not root, later allocations beyond it would fail, so the memory
+/// stays unlocked there, with a warning.
+fn lock_memory() {
+    let mut limit = libc::rlimit { rlim_cur: 0, rlim_max: 0 };
+    // SAFETY: plain syscalls with valid arguments.
+    let unlimited =
+        unsafe { libc::getrlimit(libc::RLIMIT_MEMLOCK, &mut limit) } == 0 && limit.rlim_cur == libc::RLIM_INFINITY;
+    // SAFETY: as above.
+    let root = unsafe { libc::geteuid() } == 0;
+    if !(unlimited || root) {
+        tracing::warn!("--rt-priority: memory not locked (RLIMIT_MEMLOCK is finite): page faults may delay the loop");
+        return;
+    }
+    // SAFETY: as above.
+    if unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) } != 0 {
+        tracing::warn!(
+            "--rt-priority: mlockall failed: {}: page faults may delay the loop",
+            std::io::Error::last_os_error()
+        );
+    }
+}
+
 /// `--source can:IFACE`: the drives on the bus until SIGINT/SIGTERM.
 fn run_can(args: &Args, config: &mut Config, iface: &str) -> Result<(), Failure> {
     if args.exit_on_finish {
@@ -213,6 +244,9 @@ fn run_can(args: &Args, config: &mut Config, iface: &str) -> Result<(), Failure>
         config.machine.cycle_ms,
         1.0 / plant.servo_period_s()
     );
+    if let Some(priority) = args.rt_priority {
+        set_fifo(priority)?;
+    }
     let report = sim_plant::can::run(config, &mut plant, Some(&mut metrics), iface, stop)?;
     let b = &report.bus;
     eprintln!(

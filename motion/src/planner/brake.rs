@@ -66,7 +66,7 @@ pub fn brake_along(
     for (_, phases) in candidates {
         let segments = segments_of(s_mm, v, a, &phases, line);
         let end = segments.last().map_or(s_mm, Segment::s1_mm);
-        if end <= s_limit_mm && keeps_limits(path, &segments, lim) {
+        if end <= s_limit_mm && keeps_limits(path, &segments, lim) && passes_curvature_jumps(path, &segments, lim) {
             return Some(segments);
         }
     }
@@ -127,6 +127,44 @@ fn keeps_limits(path: &Path, segments: &[Segment], lim: &Limits) -> bool {
     true
 }
 
+/// Every curvature jump (G¹ but not G² joint) the stop passes after its start is passed slowly
+/// enough: the axis acceleration steps by ΔA″_k·v² there, invisible to the check on either
+/// side, so the speed must keep the step within what the jerk limit moves in
+/// `lim.curvature_jump_s`, as the planner caps its nodes (`node.rs` `curvature_jump_cap`).
+fn passes_curvature_jumps(path: &Path, segments: &[Segment], lim: &Limits) -> bool {
+    let (Some(first), Some(last)) = (segments.first(), segments.last()) else { return true };
+    let (s_from, s_to) = (first.s0_mm, last.s1_mm());
+    let (mut left, mut right) = (AxisDerivs::default(), AxisDerivs::default());
+    let from = path.element_index_at(s_from);
+    for e in path.elements[from..].iter().take_while(|e| e.s_start_mm <= s_to) {
+        if e.joint != JointKind::CurvatureJump || e.s_start_mm <= s_from {
+            continue;
+        }
+        let s = e.s_start_mm;
+        let k = segments.partition_point(|seg| seg.s1_mm() < s).min(segments.len() - 1);
+        let seg = &segments[k];
+        // Time in the segment at which it reaches the joint (s(τ) is monotone while v ≥ 0).
+        let (mut lo, mut hi) = (0.0, seg.dt_s);
+        for _ in 0..JOINT_BISECTIONS {
+            let mid = 0.5 * (lo + hi);
+            if seg.at(mid).s_mm < s { lo = mid } else { hi = mid }
+        }
+        let v = seg.at(hi).v.max(0.0);
+        path.eval_left(s, &mut left);
+        path.eval(s, &mut right);
+        let step_ok = (0..lim.n_axes).all(|k| {
+            v * v * (left.d2[k] - right.d2[k]).abs() <= lim.jerk[k] * lim.curvature_jump_s * (1.0 + CHECK_REL_TOL)
+        });
+        if !step_ok {
+            return false;
+        }
+    }
+    true
+}
+
+/// Bisection steps locating a joint inside a stop's segment.
+const JOINT_BISECTIONS: usize = 60;
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -180,6 +218,44 @@ mod tests {
         let (st, _) = cur.at(&segs, at_s).unwrap();
         let lim = Limits::from_settings(&Settings::from(&cfg));
         brake_along(&p.path, st.s_mm, st.v, st.a, &lim, next_stop_s(&p.path, st.s_mm), 1).map(|s| (s, st.v))
+    }
+
+    #[test]
+    fn stops_pass_a_curvature_jump_no_faster_than_the_planner_does() {
+        // demo.ngc's quarter arc into a line (G¹, not G²) at (80, 50), s = 190.708 mm, met at
+        // the speeds and decelerations a lowered feed override brakes with.
+        let text = "G1 X90 Y0 F6000\nG1 X90 Y40\nG3 X80 Y50 I-10 J0\nG1 X10 Y50";
+        let cfg = Config::default_machine();
+        let settings = Settings::from(&cfg);
+        let p = program::parse(text, "t.ngc", &settings).unwrap();
+        let lim = Limits::from_settings(&settings);
+        let joint = p.path.elements[3].s_start_mm;
+        assert_eq!(p.path.elements[3].joint, JointKind::CurvatureJump);
+        let (mut left, mut right) = (AxisDerivs::default(), AxisDerivs::default());
+        p.path.eval_left(joint, &mut left);
+        p.path.eval(joint, &mut right);
+        let cap = (0..lim.n_axes)
+            .filter(|&k| left.d2[k] != right.d2[k])
+            .map(|k| (lim.jerk[k] * lim.curvature_jump_s / (left.d2[k] - right.d2[k]).abs()).sqrt())
+            .fold(f64::INFINITY, f64::min);
+        let mut crossing = 0;
+        for &(before_mm, v, a) in
+            &[(5.0, 111.0, -530.0), (2.0, 70.0, -1500.0), (1.0, 60.0, -1670.0), (0.5, 20.0, 0.0), (0.001, 0.8, 0.0)]
+        {
+            let s0 = joint - before_mm;
+            let Some(stop) = brake_along(&p.path, s0, v, a, &lim, next_stop_s(&p.path, s0), 7) else { continue };
+            let Some(seg) = stop.iter().find(|seg| seg.s1_mm() >= joint) else { continue };
+            crossing += 1;
+            let (mut lo, mut hi) = (0.0, seg.dt_s);
+            for _ in 0..60 {
+                let mid = 0.5 * (lo + hi);
+                if seg.at(mid).s_mm < joint { lo = mid } else { hi = mid }
+            }
+            let at = seg.at(hi).v;
+            assert!(at <= cap * (1.0 + 1e-6), "from {before_mm} mm before at {v} mm/s: passes at {at} mm/s > {cap}");
+        }
+        // The slow one passes it (below the cap); the fast ones stop before it or are refused.
+        assert!(crossing >= 1, "no stop passes the joint (cap {cap:.3} mm/s)");
     }
 
     #[test]

@@ -491,6 +491,7 @@ mod tests {
             configured_vel: [1.0; MAX_AXES],
             configured_acc: [1.0; MAX_AXES],
             configured_jerk: [1.0; MAX_AXES],
+            curvature_jump_s: 2e-6,
         };
         for k in 0..2 {
             l.vel[k] = 100.0;

@@ -21,6 +21,9 @@ pub struct Limits {
     pub configured_vel: [f64; MAX_AXES],
     pub configured_acc: [f64; MAX_AXES],
     pub configured_jerk: [f64; MAX_AXES],
+    /// Time in which the jerk limit must move the acceleration step at a curvature jump, s
+    /// (`[planner] curvature_jump_ms`; see `node.rs` `curvature_jump_cap`).
+    pub curvature_jump_s: f64,
 }
 
 impl Limits {
@@ -39,6 +42,7 @@ impl Limits {
             configured_vel: [f64::INFINITY; MAX_AXES],
             configured_acc: [f64::INFINITY; MAX_AXES],
             configured_jerk: [f64::INFINITY; MAX_AXES],
+            curvature_jump_s: settings.planner.curvature_jump_ms * 1e-3,
         };
         for (k, a) in settings.axes.iter().enumerate() {
             l.vel[k] = a.max_vel_per_s * f;

@@ -249,6 +249,7 @@ mod tests {
             configured_vel: [1.0; MAX_AXES],
             configured_acc: [1.0; MAX_AXES],
             configured_jerk: [1.0; MAX_AXES],
+            curvature_jump_s: 2e-6,
         };
         l.vel[0] = 100.0;
         l.acc_max[0] = 1000.0;

@@ -31,6 +31,12 @@ fn unique(tag: &str) -> String {
 impl Daemon {
     /// Starts `interpd run` with `extra` arguments and waits for its socket.
     pub fn start(extra: &[&str]) -> Daemon {
+        Daemon::start_with(extra, |_| {})
+    }
+
+    /// [`Daemon::start`], with `configure` applied to the command before it is spawned (an
+    /// environment variable, a resource limit set in `pre_exec`).
+    pub fn start_with(extra: &[&str], configure: impl FnOnce(&mut Command)) -> Daemon {
         let name = unique("t");
         let dir = std::env::temp_dir().join(format!("interpd-e2e-{name}"));
         std::fs::create_dir_all(&dir).expect("temp dir");
@@ -46,6 +52,7 @@ impl Daemon {
         }
         cmd.arg("run").arg("--socket").arg(&socket).arg("--service-prefix").arg(&prefix).args(extra);
         cmd.stdout(Stdio::null()).stderr(Stdio::from(std::fs::File::create(dir.join("stderr.log")).expect("log file")));
+        configure(&mut cmd);
         let child = cmd.spawn().expect("start interpd run");
         let d = Daemon { child: Some(child), socket, prefix, dir };
         let until = Instant::now() + Duration::from_secs(20);

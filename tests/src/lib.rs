@@ -17,8 +17,12 @@ pub fn binary(name: &str) -> PathBuf {
         return PathBuf::from(dir).join(name);
     }
     let exe = std::env::current_exe().expect("test executable path");
-    // target/<profile>/deps/<test> -> target/<profile>/<name>
-    let dir = exe.parent().and_then(|d| d.parent()).expect("target/<profile> directory");
+    // target/<profile>/deps/<test> (a test) or target/<profile>/<tool> (a tool of this crate)
+    // -> target/<profile>/<name>
+    let mut dir = exe.parent().expect("the executable's directory");
+    if dir.file_name().is_some_and(|n| n == "deps") {
+        dir = dir.parent().expect("target/<profile> directory");
+    }
     let path = dir.join(name);
     assert!(
         path.exists(),
@@ -34,4 +38,9 @@ pub fn example(name: &str) -> PathBuf {
 }
 
 pub mod daemon;
+pub mod fuzz;
+pub mod process;
+pub mod rng;
+pub mod soak;
+pub mod stream;
 pub mod vcan;

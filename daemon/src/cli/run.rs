@@ -6,7 +6,7 @@ use super::signals::TerminationSignals;
 use interpd::config::Config;
 use interpd::control::{ControlServer, Motion};
 use interpd::record::{RecordFile, RecordOptions, Recorder};
-use interpd::service::{CycleStall, Service, ServiceExtras, ServiceOptions, StartupError};
+use interpd::service::{CycleStall, Service, ServiceCore, ServiceExtras, ServiceOptions, StartupError};
 use interpd::sinks::can::CanMaster;
 use interpd_protocol::api::State;
 use std::path::PathBuf;
@@ -120,6 +120,9 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         );
     }
     let core = service.core();
+    if let Some(recorder) = &recorder {
+        forward_recording_failures(recorder, core.clone())?;
+    }
     if let Some((after_s, for_s)) = stall {
         eprintln!("interpd: debug: the planner thread will stall for {for_s} s after {after_s} s of motion");
         core.debug_stall_planner(after_s, for_s);
@@ -207,6 +210,21 @@ fn check_can_args(args: &RunArgs, config: &mut Config) -> Result<(), CliError> {
         }
     }
     Ok(())
+}
+
+/// Tells the clients (an `error` event) when the recording stops early, a write having failed:
+/// a thread that waits for the recorder's failure and ends with the recorder.
+fn forward_recording_failures(recorder: &Recorder, core: ServiceCore) -> Result<(), CliError> {
+    let failures = recorder.failures();
+    std::thread::Builder::new()
+        .name("interpd-rec-watch".into())
+        .spawn(move || {
+            for e in failures.iter() {
+                core.report_recording_failure(&e);
+            }
+        })
+        .map(drop)
+        .map_err(|e| CliError::Failure(format!("--record: cannot start the thread that watches the recording: {e}")))
 }
 
 /// Starts recording `<prefix>/setpoints` and `<prefix>/feedback`, with the machine in the

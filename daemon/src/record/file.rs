@@ -95,7 +95,7 @@ impl RecordFile {
         let (writer, data) = (&mut self.writer, &self.scratch);
         writer
             .write_to_known_channel(&header, data)
-            .map_err(|e| RecordError::Write { path: self.path.clone(), message: e.to_string() })
+            .map_err(|e| RecordError::Write { path: self.path.clone(), message: with_causes(&e) })
     }
 
     /// Writes the summary and footer and flushes; returns the file size in bytes.
@@ -110,8 +110,24 @@ impl RecordFile {
 
     fn write_err(&self) -> impl Fn(mcap::McapError) -> RecordError + use<> {
         let path = self.path.clone();
-        move |e| RecordError::Write { path: path.clone(), message: e.to_string() }
+        move |e| RecordError::Write { path: path.clone(), message: with_causes(&e) }
     }
+}
+
+/// An error with its causes, so that the system's reason ("File too large", "No space left on
+/// device") reaches the message and not only the MCAP writer's summary of it.
+fn with_causes(e: &dyn std::error::Error) -> String {
+    let mut message = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        let text = c.to_string();
+        if !message.contains(&text) {
+            message.push_str(": ");
+            message.push_str(&text);
+        }
+        cause = c.source();
+    }
+    message
 }
 
 /// One validated message of a recording.

@@ -21,7 +21,7 @@ pub use recorder::{RecordOptions, RecordReport, Recorder};
 use std::path::PathBuf;
 
 /// Why recording or replay failed.
-#[derive(Debug, thiserror::Error)]
+#[derive(Debug, Clone, thiserror::Error)]
 pub enum RecordError {
     /// The file cannot be created or opened (bad input: exit 2).
     #[error("{}: {message}", path.display())]

@@ -2,13 +2,16 @@
 //! `<prefix>/setpoints` and `<prefix>/feedback` over iceoryx2 like any other client and writes
 //! every sample to an MCAP file. It never touches the real-time cycle: the publisher's
 //! iceoryx2 service overwrites the oldest queued sample when a subscriber falls behind, so a
-//! slow disk costs recorded samples (counted as missing cycles), never a late cycle.
+//! slow disk costs recorded samples (counted as missing cycles), never a late cycle. A write
+//! that fails (a full disk) ends the recording at once, with the file finished as far as it
+//! goes, and is reported through [`Recorder::failures`] while the daemon runs on.
 
 use super::RecordError;
 use super::file::RecordFile;
 use super::gaps::StreamCount;
 use super::interleave::Interleave;
 use super::schema::{self, Payload, Stream};
+use crossbeam::channel::{Receiver, Sender};
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use interpd_protocol::shm::{Feedback, NodeOptions, Setpoints, open_service, qos};
@@ -86,6 +89,7 @@ impl fmt::Display for RecordReport {
 pub struct Recorder {
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<Result<RecordReport, RecordError>>>,
+    failures: Receiver<RecordError>,
 }
 
 struct Subscribers {
@@ -106,6 +110,8 @@ impl Recorder {
         file.begin(&options.prefix, &options.metadata)?;
         let stop = Arc::new(AtomicBool::new(false));
         let (ready_tx, ready_rx) = std::sync::mpsc::channel();
+        // One failure ends the recording, so one slot suffices; the sender goes with the thread.
+        let (failed_tx, failures) = crossbeam::channel::bounded(1);
         let thread_stop = stop.clone();
         let thread = std::thread::Builder::new()
             .name("interpd-recorder".into())
@@ -118,17 +124,24 @@ impl Recorder {
                     }
                 };
                 let _ = ready_tx.send(Ok(()));
-                record(file, &subs, &thread_stop, options.poll)
+                record(file, &subs, &thread_stop, options.poll, &failed_tx)
             })
             .map_err(|e| RecordError::Setup(format!("cannot start the recorder thread: {e}")))?;
         match ready_rx.recv() {
-            Ok(Ok(())) => Ok(Recorder { stop, thread: Some(thread) }),
+            Ok(Ok(())) => Ok(Recorder { stop, thread: Some(thread), failures }),
             Ok(Err(e)) => {
                 let _ = thread.join();
                 Err(e)
             }
             Err(_) => Err(RecordError::Setup("the recorder thread ended during start-up".into())),
         }
+    }
+
+    /// The error that ended the recording early, when it happens (a write that failed); the
+    /// channel closes when the recorder thread ends. The caller tells the clients (the daemon
+    /// sends an `error` event) while the motion goes on.
+    pub fn failures(&self) -> Receiver<RecordError> {
+        self.failures.clone()
     }
 
     /// Drains what is queued, finishes the file, and reports.
@@ -187,6 +200,7 @@ fn record(
     subs: &Subscribers,
     stop: &AtomicBool,
     poll: Duration,
+    failed: &Sender<RecordError>,
 ) -> Result<RecordReport, RecordError> {
     let started = Instant::now();
     let mut tally = Tally::default();
@@ -210,6 +224,7 @@ fn record(
             });
         if let Err(e) = step {
             tracing::error!("recording to {} stopped: {e}", file.path().display());
+            let _ = failed.try_send(e.clone());
             break Err(e);
         }
         if last {
@@ -218,8 +233,11 @@ fn record(
         std::thread::sleep(poll);
     };
     let path = file.path().to_path_buf();
-    let bytes = file.finish()?;
+    // After a failed write the file ends with what was written before it; the error that
+    // stopped the recording is the one to report, not the finish that fails after it.
+    let finished = file.finish();
     outcome?;
+    let bytes = finished?;
     Ok(RecordReport {
         path,
         setpoints: tally.setpoints,

@@ -129,6 +129,13 @@ impl ServiceCore {
         shared.feeder.send(command).map_err(|_| ManualError::PlannerGone)
     }
 
+    /// The recording stopped early (a write failed, e.g. a full disk): every subscriber gets
+    /// an `error` event naming the file. The motion and the state are not touched: the
+    /// recording only watches them.
+    pub fn report_recording_failure(&self, error: &crate::record::RecordError) {
+        self.shared.emit(Event::Error { message: format!("recording stopped: {error}; the motion goes on") });
+    }
+
     /// Lets the planner thread stall once (underrun tests and demonstrations).
     pub fn debug_stall_planner(&self, after_s: f64, for_s: f64) {
         let _ = self.shared.feeder.send(FeederCommand::DebugStall { after_s, for_s });

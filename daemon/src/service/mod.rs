@@ -13,6 +13,7 @@
 //! The contract between the planner thread and the real-time thread is in [`crate::interp`];
 //! docs/architecture.md draws the threads and queues.
 
+mod allocator;
 pub mod approach;
 mod commands;
 pub mod feeder;
@@ -215,6 +216,7 @@ impl Service {
     pub fn start_with(opts: ServiceOptions, extras: ServiceExtras) -> Result<Service, StartupError> {
         let ServiceExtras { sinks: extra_sinks, drives, start_position, debug_stall_cycle } = extras;
         let programs = programs::ProgramsDir::from_config(&opts.config.programs)?;
+        allocator::keep_memory_returnable();
         // Before any thread starts: they all inherit it; the real-time thread pins itself.
         match rt::sched::keep_off_rt_cpu(&opts.config.rt) {
             Ok(cpu) => tracing::info!(cpu, "non-real-time threads kept off the real-time CPU"),

@@ -24,22 +24,55 @@ pub fn fd_count(pid: u32) -> usize {
     std::fs::read_dir(format!("/proc/{pid}/fd")).map_or(0, |d| d.count())
 }
 
+/// What the file descriptors of process `pid` refer to (for messages).
+pub fn fd_targets(pid: u32) -> Vec<String> {
+    let Ok(dir) = std::fs::read_dir(format!("/proc/{pid}/fd")) else { return Vec::new() };
+    let mut out: Vec<String> = dir
+        .flatten()
+        .map(|e| {
+            format!(
+                "{}: {}",
+                e.file_name().to_string_lossy(),
+                std::fs::read_link(e.path()).unwrap_or_default().display()
+            )
+        })
+        .collect();
+    out.sort();
+    out
+}
+
 /// Threads of process `pid`.
 pub fn thread_count(pid: u32) -> usize {
     std::fs::read_dir(format!("/proc/{pid}/task")).map_or(0, |d| d.count())
+}
+
+/// Open sockets of process `pid` (the control connections and the listener; iceoryx2 uses
+/// files, which come and go with its subscribers).
+pub fn socket_count(pid: u32) -> usize {
+    std::fs::read_dir(format!("/proc/{pid}/fd")).map_or(0, |d| {
+        d.flatten()
+            .filter(|e| std::fs::read_link(e.path()).is_ok_and(|t| t.to_string_lossy().starts_with("socket:")))
+            .count()
+    })
 }
 
 /// The resources of a process at one moment.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Resources {
     pub fds: usize,
+    pub sockets: usize,
     pub threads: usize,
     pub rss_kib: u64,
 }
 
 impl Resources {
     pub fn of(pid: u32) -> Resources {
-        Resources { fds: fd_count(pid), threads: thread_count(pid), rss_kib: rss_kib(pid).unwrap_or(0) }
+        Resources {
+            fds: fd_count(pid),
+            sockets: socket_count(pid),
+            threads: thread_count(pid),
+            rss_kib: rss_kib(pid).unwrap_or(0),
+        }
     }
 }
 

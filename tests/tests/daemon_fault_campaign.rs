@@ -17,7 +17,7 @@
 use interpd::config::Config;
 use interpd_e2e::daemon::{AxisLimits, Collector, Daemon};
 use interpd_e2e::fuzz::{FuzzLine, mutated, well_formed};
-use interpd_e2e::process::Plant;
+use interpd_e2e::process::{Plant, Resources, fd_targets};
 use interpd_e2e::rng::{Rng, seed_from_env, seeded};
 use interpd_e2e::stream::{StreamCheck, check_recording};
 use interpd_protocol::shm::Setpoints;
@@ -338,6 +338,177 @@ fn a_recording_whose_disk_fills_up_stops_with_an_error_event_and_the_motion_goes
          {FILE_SIZE_LIMIT_BYTES}); readable: {} setpoints to cycle {readable_to} (stopped at about cycle \
          {failed_at_cycle}), {} feedback, ending with {:?}; the motion went on to cycle {}; event: {}",
         rec.setpoints.count, rec.feedback, rec.error, stream.last_cycle, message
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Clients that disconnect, stall, do not read or flood
+// ---------------------------------------------------------------------------------------------
+
+/// Connections the daemon serves at a time (docs/control-api.md).
+const MAX_CLIENTS: usize = 16;
+/// A slow client is disconnected after 5 s of blocked writes; a little more for the check.
+const SLOW_CLIENT_TIMEOUT: Duration = Duration::from_secs(7);
+/// Resident memory a second round of the same client faults may add to the first: the
+/// allocator's ups and downs; connection stacks are reused from the first round.
+const SECOND_ROUND_RSS_SLACK_KIB: u64 = 1024;
+
+fn raw(socket: &Path) -> UnixStream {
+    let s = UnixStream::connect(socket).expect("connect");
+    s.set_read_timeout(Some(TIMEOUT)).expect("timeout");
+    s.set_write_timeout(Some(Duration::from_secs(1))).expect("timeout");
+    s
+}
+
+/// One round of misbehaving clients while the motion runs; returns the clients still held
+/// open (stalled in the middle of a line) for the caller to close.
+fn misbehave(socket: &Path, pid: u32, base: Resources) -> Vec<UnixStream> {
+    let request = br#"{"jsonrpc":"2.0","id":1,"method":"status"}"#;
+    // Disconnect in the middle of a request, and right after a whole one without reading.
+    for _ in 0..20 {
+        let mut s = raw(socket);
+        s.write_all(&request[..request.len() / 2]).expect("half a request");
+        drop(s);
+        let mut s = raw(socket);
+        s.write_all(&[request.as_slice(), b"\n"].concat()).expect("a request");
+        drop(s);
+    }
+    // Their connections end (else the next clients may find all 16 taken, and be refused).
+    let released = settle(pid, base);
+    assert_eq!(
+        (released.threads, released.sockets),
+        (base.threads, base.sockets),
+        "disconnected clients not released: {:?}",
+        fd_targets(pid)
+    );
+    // Half a line, then silence: kept open.
+    let stalled: Vec<UnixStream> = (0..8)
+        .map(|_| {
+            let mut s = raw(socket);
+            s.write_all(b"{\"jsonrpc\":\"2.0\",\"id\":7,\"meth").expect("half a line");
+            s
+        })
+        .collect();
+    // Subscribers that never read, flooded with answers as well: disconnected by the daemon.
+    let flooders: Vec<std::thread::JoinHandle<()>> = (0..4)
+        .map(|_| {
+            let mut s = raw(socket);
+            std::thread::spawn(move || {
+                let _ = s.write_all(b"{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"subscribe\"}\n");
+                let burst = [request.as_slice(), b"\n"].concat().repeat(3000);
+                let _ = s.write_all(&burst);
+                std::thread::sleep(SLOW_CLIENT_TIMEOUT);
+            })
+        })
+        .collect();
+    // One connection subscribing 10 000 times, reading everything.
+    let mut s = raw(socket);
+    let subscribe = b"{\"jsonrpc\":\"2.0\",\"id\":2,\"method\":\"subscribe\"}\n".repeat(10_000);
+    let reader = {
+        let s = s.try_clone().expect("clone");
+        std::thread::spawn(move || {
+            let mut answers = 0;
+            for line in BufReader::new(s).lines() {
+                let Ok(line) = line else { break };
+                assert!(!line.contains("\"error\":{"), "{line}");
+                if line.contains("\"subscribed\"") {
+                    answers += 1;
+                    if answers == 10_000 {
+                        break;
+                    }
+                }
+            }
+            answers
+        })
+    };
+    s.set_write_timeout(None).expect("timeout");
+    let sent = s.write_all(&subscribe);
+    assert_eq!(reader.join().expect("reader"), 10_000, "every subscribe answered");
+    sent.expect("subscribe 10 000 times");
+    drop(s);
+    // At the limit the next client is told so.
+    let mut extra: Vec<UnixStream> = Vec::new();
+    let refused = loop {
+        let s = raw(socket);
+        let mut probe = s.try_clone().expect("clone");
+        let _ = probe.write_all(b"{\"jsonrpc\":\"2.0\",\"id\":3,\"method\":\"status\"}\n");
+        let mut line = String::new();
+        let _ = BufReader::new(s.try_clone().expect("clone")).read_line(&mut line);
+        if line.contains("-32004") {
+            break line;
+        }
+        extra.push(s);
+        assert!(extra.len() <= MAX_CLIENTS, "more than {MAX_CLIENTS} connections served");
+    };
+    assert!(refused.contains("too many clients"), "{refused}");
+    for f in flooders {
+        f.join().expect("flooder");
+    }
+    let mut held = stalled;
+    held.extend(extra);
+    held
+}
+
+/// Polls until the daemon's threads and sockets are back to `base`; returns what they are.
+fn settle(pid: u32, base: Resources) -> Resources {
+    let until = Instant::now() + TIMEOUT;
+    loop {
+        let now = Resources::of(pid);
+        if (now.threads <= base.threads && now.sockets <= base.sockets) || Instant::now() > until {
+            return now;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+#[test]
+fn clients_that_disconnect_stall_or_flood_leave_the_motion_undisturbed() {
+    let dir = temp_dir("clients");
+    let daemon = Daemon::start(&[]);
+    let pid = daemon.pid().expect("pid");
+    let mut plant = Plant::start(&daemon.prefix, &[], &dir.join("plant.log"));
+    let collector = Collector::start(&daemon.prefix);
+    let mut c = daemon.client();
+    c.ok("program.load", json!({ "text": zigzag(800, 6000), "name": "zigzag.ngc" }));
+    c.ok("motion.start", Value::Null);
+    c.wait_state(&["running"], TIMEOUT);
+    let base = Resources::of(pid);
+    eprintln!("base descriptors: {:?}", fd_targets(pid));
+    let mut rounds = Vec::new();
+    for _ in 0..2 {
+        let held = misbehave(&daemon.socket, pid, base);
+        let during = Resources::of(pid);
+        drop(held);
+        let after = settle(pid, base);
+        rounds.push((during, after));
+        let st = c.ok("status", Value::Null);
+        assert_eq!(st["state"], "running", "the motion ended during the faults: {st}");
+    }
+    // The program would go on; the test ends it along the path.
+    c.ok("motion.stop", Value::Null);
+    c.wait_state(&["idle"], TIMEOUT);
+    std::thread::sleep(Duration::from_millis(100));
+    let sps = collector.finish();
+    assert!(plant.running(), "{}", plant.stderr());
+    drop(c);
+    let (code, stderr) = daemon.terminate();
+    assert_eq!(code, Some(0), "{stderr}");
+    let check = assert_stream("client faults", &sps);
+    assert_eq!(check.underruns, 0, "the motion was disturbed: underruns");
+    eprintln!(
+        "client faults: base {base:?}; per round (during, after): {rounds:?}; {} setpoints, 0 missing, 0 underruns, \
+         limit ratios {:.4?}",
+        check.count, check.ratios
+    );
+    for (during, after) in &rounds {
+        assert!(during.threads > base.threads, "the faults held no threads: {during:?}");
+        assert_eq!((after.threads, after.sockets), (base.threads, base.sockets), "threads and sockets not released");
+    }
+    let (first, second) = (rounds[0].1.rss_kib, rounds[1].1.rss_kib);
+    assert!(
+        second <= first + SECOND_ROUND_RSS_SLACK_KIB,
+        "resident memory grew from {first} to {second} KiB over a second round of the same faults"
     );
     let _ = std::fs::remove_dir_all(&dir);
 }

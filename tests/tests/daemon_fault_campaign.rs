@@ -15,7 +15,7 @@
 //!   planner thread stalled (an underrun, braked along the path, then continued).
 
 use interpd::config::Config;
-use interpd_e2e::daemon::{AxisLimits, Collector, Daemon};
+use interpd_e2e::daemon::{AxisLimits, Collector, Daemon, FeedbackCollector};
 use interpd_e2e::fuzz::{FuzzLine, mutated, well_formed};
 use interpd_e2e::process::{Plant, Resources, fd_targets};
 use interpd_e2e::rng::{Rng, seed_from_env, seeded};
@@ -509,6 +509,143 @@ fn clients_that_disconnect_stall_or_flood_leave_the_motion_undisturbed() {
     assert!(
         second <= first + SECOND_ROUND_RSS_SLACK_KIB,
         "resident memory grew from {first} to {second} KiB over a second round of the same faults"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The plant and shared-memory subscribers killed; the planner stalled
+// ---------------------------------------------------------------------------------------------
+
+/// Subscribers killed and started again in turn: more than the services' subscriber slots
+/// (`qos::MAX_SUBSCRIBERS` = 8), so a slot a killed process held must come back.
+const SUBSCRIBER_RESTARTS: usize = 10;
+
+/// `interpd record` on `prefix` as a shared-memory subscriber process of its own.
+fn recorder(prefix: &str, out: &Path, log: &Path) -> std::process::Child {
+    std::process::Command::new(interpd_e2e::binary("interpd"))
+        .arg("record")
+        .arg("--out")
+        .arg(out)
+        .args(["--service-prefix", prefix])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::from(std::fs::File::create(log).expect("log")))
+        .spawn()
+        .expect("start interpd record")
+}
+
+#[test]
+fn the_plant_and_subscribers_killed_and_started_again_mid_motion() {
+    let config = Config::default_machine();
+    let dir = temp_dir("kill");
+    let daemon = Daemon::start(&[]);
+    let collector = Collector::start(&daemon.prefix);
+    let feedback = FeedbackCollector::start(&daemon.prefix);
+    let plant = Plant::start(&daemon.prefix, &[], &dir.join("plant1.log"));
+    let mut c = daemon.client();
+    c.ok("program.load", json!({ "text": zigzag(800, 6000), "name": "zigzag.ngc" }));
+    c.ok("motion.start", Value::Null);
+    c.wait_state(&["running"], TIMEOUT);
+    std::thread::sleep(Duration::from_millis(1500));
+    // The plant crashes (SIGKILL) and is started again.
+    plant.kill();
+    let killed_at = collector.snapshot().last().map_or(0, |s| s.cycle);
+    std::thread::sleep(Duration::from_millis(500));
+    let mut plant = Plant::start(&daemon.prefix, &[], &dir.join("plant2.log"));
+    std::thread::sleep(Duration::from_millis(1500));
+    // Shared-memory subscribers crash one after the other; each new one subscribes and records.
+    for k in 0..SUBSCRIBER_RESTARTS {
+        let mut r = recorder(&daemon.prefix, &dir.join(format!("sub{k}.mcap")), &dir.join(format!("sub{k}.log")));
+        std::thread::sleep(Duration::from_millis(400));
+        assert!(
+            r.try_wait().expect("status").is_none(),
+            "subscriber {k} ended: {:?}",
+            std::fs::read_to_string(dir.join(format!("sub{k}.log")))
+        );
+        let _ = r.kill();
+        let _ = r.wait();
+    }
+    let last = dir.join("last.mcap");
+    let r = recorder(&daemon.prefix, &last, &dir.join("last.log"));
+    std::thread::sleep(Duration::from_millis(1000));
+    // SAFETY: kill(2) on our own child's pid; SIGTERM finishes the file.
+    unsafe { libc::kill(r.id() as i32, libc::SIGTERM) };
+    let out = r.wait_with_output().expect("wait");
+    assert_eq!(out.status.code(), Some(0), "{:?}", std::fs::read_to_string(dir.join("last.log")));
+    let st = c.ok("status", Value::Null);
+    assert_eq!(st["state"], "running", "{st}");
+    c.ok("motion.stop", Value::Null);
+    c.wait_state(&["idle"], TIMEOUT);
+    std::thread::sleep(Duration::from_millis(100));
+    let sps = collector.finish();
+    let fb = feedback.finish();
+    assert!(plant.running(), "{}", plant.stderr());
+    drop(c);
+    let (code, stderr) = daemon.terminate();
+    assert_eq!(code, Some(0), "{stderr}");
+    let check = assert_stream("plant and subscribers killed", &sps);
+    assert_eq!(check.underruns, 0, "the motion was disturbed");
+    // The second plant took over: feedback for cycles after the first one died.
+    let after = fb.iter().filter(|f| f.cycle > killed_at + 250).count();
+    assert!(after > 250, "{after} feedback samples from the restarted plant");
+    let rec = check_recording(&last, AxisLimits::of(&config), config.cycle_s()).expect("last recording");
+    assert!(rec.error.is_none() && rec.setpoints.missing == 0, "{:?} {:?}", rec.error, rec.setpoints.violations());
+    assert!(rec.setpoints.count > 150, "{} setpoints recorded by the last subscriber", rec.setpoints.count);
+    eprintln!(
+        "killed: plant at cycle {killed_at}, {after} feedback samples from its successor; {SUBSCRIBER_RESTARTS} \
+         subscribers killed, the next recorded {} setpoints; the daemon's stream: {} setpoints, 0 missing, 0 \
+         underruns, limit ratios {:.4?}",
+        rec.setpoints.count, check.count, check.ratios
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_stalled_planner_brakes_along_the_path_and_the_program_goes_on() {
+    let config = Config::default_machine();
+    let dir = temp_dir("stall");
+    let recording = dir.join("run.mcap");
+    let daemon = Daemon::start(&["--debug-stall-planner", "1.0:0.6", "--record", recording.to_str().expect("UTF-8")]);
+    let _plant = Plant::start(&daemon.prefix, &[], &dir.join("plant.log"));
+    let collector = Collector::start(&daemon.prefix);
+    let mut c = daemon.client();
+    c.ok("subscribe", Value::Null);
+    let text = "G21 G90\nG1 X0 Y0 F6000\nG1 X150\nG1 Y60\nG1 X0\nM30\n";
+    c.ok("program.load", json!({ "text": text, "name": "square.ngc" }));
+    c.ok("motion.start", Value::Null);
+    let st = c.wait_state(&["finished", "error"], TIMEOUT);
+    assert_eq!(st["state"], "finished", "{st}");
+    c.wait_event("finished", TIMEOUT);
+    let names: Vec<String> = c.events.iter().filter_map(|e| e["event"].as_str().map(String::from)).collect();
+    let (under, cleared) = (
+        names.iter().position(|n| *n == "underrun").expect("an underrun event"),
+        names.iter().position(|n| *n == "underrun_cleared").expect("an underrun_cleared event"),
+    );
+    assert!(under < cleared, "{names:?}");
+    std::thread::sleep(Duration::from_millis(100));
+    let sps = collector.finish();
+    drop(c);
+    let (code, stderr) = daemon.terminate();
+    assert_eq!(code, Some(0), "{stderr}");
+    let check = assert_stream("planner stalled", &sps);
+    assert!(check.underruns >= 1, "no underrun in the stream");
+    let rest =
+        sps.iter().filter(|s| s.flags & interpd_protocol::shm::flags::UNDERRUN != 0).any(|s| s.v_mm_s.abs() < 1e-9);
+    assert!(rest, "the underrun did not brake to rest");
+    let last = sps.last().expect("setpoints");
+    assert!(last.pos[0].abs() < 1e-9 && (last.pos[1] - 60.0).abs() < 1e-9, "ended at {:?}", &last.pos[..3]);
+    let rec = check_recording(&recording, AxisLimits::of(&config), config.cycle_s()).expect("recording");
+    assert!(
+        rec.error.is_none() && rec.setpoints.violations().is_empty(),
+        "{:?} {:?}",
+        rec.error,
+        rec.setpoints.violations()
+    );
+    assert_eq!(rec.setpoints.underruns, check.underruns, "the recording and the live stream differ");
+    eprintln!(
+        "planner stalled: events {names:?}; {} underrun cycles in {} setpoints, 0 missing, limit ratios {:.4?}; \
+         recorded {} setpoints",
+        check.underrun_cycles, check.count, check.ratios, rec.setpoints.count
     );
     let _ = std::fs::remove_dir_all(&dir);
 }

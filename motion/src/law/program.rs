@@ -55,8 +55,8 @@ pub enum LawBlockError {
 /// True when the line (after leading blanks) is a `LAW` statement.
 pub fn is_law_statement(line: &str) -> bool {
     let t = line.trim_start();
-    t.len() >= KEYWORD.len()
-        && t[..KEYWORD.len()].eq_ignore_ascii_case(KEYWORD)
+    // `get`, not indexing: the keyword's length in bytes may end inside a character ("Lé…").
+    t.get(..KEYWORD.len()).is_some_and(|w| w.eq_ignore_ascii_case(KEYWORD))
         && t[KEYWORD.len()..].chars().next().is_none_or(|c| c.is_whitespace() || c == ';')
 }
 
@@ -184,6 +184,8 @@ mod tests {
         assert_eq!(b.conditions.len(), 9);
         assert!(b.stretch);
         assert!(is_law_statement("  LAW X=1") && !is_law_statement("LAWN") && !is_law_statement("G1 X1"));
+        // A character across the keyword's length is no keyword (and no panic).
+        assert!(!is_law_statement("L\u{fffd}AW X=1") && !is_law_statement("LA\u{e9}") && !is_law_statement("\u{e9}"));
     }
 
     #[test]

@@ -144,14 +144,17 @@ impl Executor {
         }
     }
 
-    /// At rest: starts the next chunk if one of the current (or a newer) epoch is there and
-    /// no hold or stop is requested.
+    /// At rest: starts the next chunk if it is the first of the current (or a newer) epoch and
+    /// no hold or stop is requested. Motion from rest always begins with the first chunk of an
+    /// epoch, where the machine stands; a later one found at rest belongs to a start whose
+    /// beginning was dropped (a stop completed while the planner thread was still queueing),
+    /// and starting it would jump to where that beginning ended.
     fn try_start(&mut self, cycle: u64, io: &Io) {
         if io.hold || io.stop {
             return;
         }
         while let Some(chunk) = io.chunks.pop() {
-            if chunk.epoch < self.epoch || chunk.points.len() < 2 {
+            if chunk.epoch < self.epoch || chunk.seq != 0 || chunk.points.len() < 2 {
                 self.faults.stale_chunks += 1;
                 self.recycle(io, chunk);
                 continue;

@@ -369,3 +369,28 @@ fn the_modal_track_follows_the_machine_in_bounded_memory() {
     assert!(long <= short + short / 10, "the track grows with the program: {short} → {long} changes held");
     assert!(long < 10_000 / 2, "{long} changes held");
 }
+
+/// A stop that completes at rest empties the queue while the planner thread may still push
+/// later chunks of the stopped start (it learns of the stop asynchronously); at rest the
+/// executor must start none of them: their motion begins where the dropped first chunk ended,
+/// so starting one is a jump (the fault campaign's fuzzing found it, 21.7 mm in one cycle).
+#[test]
+fn at_rest_only_the_first_chunk_of_an_epoch_starts() {
+    let config = Config::default_machine();
+    let mut sim = Sim::new(config.clone());
+    let path = Arc::new(program::parse("G1 X50 F6000\n", "line.ngc", &Settings::from(&config)).unwrap().path);
+    sim.start(path);
+    sim.stop = true;
+    for _ in 0..3 {
+        sim.cycle();
+    }
+    let first = sim.queues.chunks.pop().expect("chunks queued while the stop holds the executor");
+    assert_eq!(first.seq, 0);
+    assert!(!sim.queues.chunks.is_empty(), "later chunks queued");
+    sim.stop = false;
+    for _ in 0..10 {
+        sim.step_executor();
+    }
+    assert!(sim.out.iter().all(|s| s.pos[0] == 0.0), "moved: X = {}", sim.out.last().unwrap().pos[0]);
+    assert!(!sim.seen.iter().any(|n| matches!(n, Notice::Started { .. })), "{:?}", sim.seen);
+}

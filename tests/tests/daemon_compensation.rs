@@ -4,10 +4,9 @@
 //! `measurement_lost` event is raised, and the stream sent to the drives keeps every axis limit.
 
 use interpd::config::Config;
-use interpd_e2e::binary;
 use interpd_e2e::daemon::{AxisLimits, Collector, Daemon, limit_ratios};
+use interpd_e2e::process::Plant;
 use serde_json::{Value, json};
-use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 const MACHINE: &str = include_str!("../../examples/milling_circle.toml");
@@ -31,16 +30,10 @@ fn a_lost_measurement_fades_the_correction_out_and_raises_the_event() {
     let config = Config::load(&path).expect("machine");
     let cfg = path.display().to_string();
     let daemon = Daemon::start(&["--config", &cfg]);
-    let log = std::fs::File::create(dir.join("plant.log")).unwrap();
-    let mut plant = Command::new(binary("sim-plant"))
-        .args(["--config", &cfg, "--service-prefix", &daemon.prefix])
-        .stdout(Stdio::null())
-        .stderr(log)
-        .spawn()
-        .expect("sim-plant");
+    let plant = Plant::start(&daemon.prefix, &["--config", &cfg], &dir.join("plant.log"));
     let until = Instant::now() + TIMEOUT;
-    while !std::fs::read_to_string(dir.join("plant.log")).unwrap_or_default().contains("ready") {
-        assert!(Instant::now() < until, "sim-plant not ready");
+    while !plant.stderr().contains("ready") {
+        assert!(Instant::now() < until, "sim-plant not ready: {}", plant.stderr());
         std::thread::sleep(Duration::from_millis(20));
     }
     let collector = Collector::start(&daemon.prefix);
@@ -53,8 +46,7 @@ fn a_lost_measurement_fades_the_correction_out_and_raises_the_event() {
     let before = collector.snapshot();
     let corrected_y = before.last().expect("setpoints").pos[1];
     // The plant goes away as a crash would: no more measurements.
-    let _ = plant.kill();
-    let _ = plant.wait();
+    plant.kill();
     let killed = Instant::now();
     c.wait_event("measurement_lost", Duration::from_secs(2));
     let noticed = killed.elapsed();

@@ -53,10 +53,10 @@ struct Args {
     #[arg(long)]
     trace: Option<PathBuf>,
     /// Run with SCHED_FIFO at this priority (1–99), or fail if the system refuses. For the
-    /// drives on CAN: a real drive is hardware of its own whose SYNC watchdog never waits for
-    /// the master's host; give the simulated drives a priority above the daemon's real-time
-    /// thread ([rt] priority, default 80) so the same holds on one computer. Also locks the
-    /// process's memory (as root or with an unlimited memory-lock limit).
+    /// drives on CAN sharing a computer with the daemon: just below the daemon's real-time
+    /// thread ([rt] priority, default 80), so neither waits for anything else and the master's
+    /// cycle is not held up by the drives' work. Also locks the process's memory (as root or
+    /// with an unlimited memory-lock limit).
     #[arg(long, value_name = "PRIORITY", value_parser = clap::value_parser!(i32).range(1..=99))]
     rt_priority: Option<i32>,
     /// More log output on stderr (-v debug, -vv trace). RUST_LOG overrides.
@@ -191,10 +191,10 @@ fn set_fifo(priority: i32) -> Result<(), Failure> {
 }
 
 /// With `--rt-priority`: locks the process's memory, present and future (mlockall), so no page
-/// fault lands in the loop (its buffers are allocated, and so populated, before it starts). A fault that zeroes a page, or a transparent huge page, at a
-/// priority above the daemon's delays the daemon's cycle by as long. Where the memory-lock limit
-/// is finite and the process is not root, later allocations beyond it would fail, so the memory
-/// stays unlocked there, with a warning.
+/// fault (a page being zeroed, a transparent huge page) lands in the loop; its buffers are
+/// allocated, and so populated, before it starts. Where the memory-lock limit is finite and the
+/// process is not root, later allocations beyond it would fail, so the memory stays unlocked
+/// there, with a warning.
 fn lock_memory() {
     let mut limit = libc::rlimit { rlim_cur: 0, rlim_max: 0 };
     // SAFETY: plain syscalls with valid arguments.

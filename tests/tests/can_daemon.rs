@@ -65,9 +65,11 @@ const REPLAY_TOLERANCE_VIRTUAL_MS: f64 = 0.2;
 /// How far a SYNC may be off the 4 ms grid in virtual time, ms (the real-time thread's wake-up
 /// path between its deadline and the frame on the bus).
 const SYNC_JITTER_VIRTUAL_MS: f64 = 0.05;
-/// SCHED_FIFO priority of the simulated drives in virtual time: above the daemon's real-time
-/// thread ([rt] priority 80).
-const DRIVES_RT_PRIORITY: &str = "90";
+/// SCHED_FIFO priority of the simulated drives in virtual time: below the daemon's real-time
+/// thread ([rt] priority 80), so on the guest's one CPU the master's cycle is never held up by
+/// the drives' work (page faults, a burst of frames); the drives still preempt everything else,
+/// and the master's cycle work (tens of µs) is far below their three-cycle watchdog.
+const DRIVES_RT_PRIORITY: &str = "70";
 /// The drives' positions against the in-process plant fed with the same targets, mm.
 const MODEL_MATCH_MM: f64 = 1e-3;
 
@@ -110,9 +112,9 @@ fn start_drives(iface: &str, cfg: &std::path::Path, dir: &std::path::Path) -> Pr
     let source = format!("can:{iface}");
     let cfg = cfg.display().to_string();
     let mut args = vec!["--config", cfg.as_str(), "--source", source.as_str()];
-    // In virtual time the drives run above the daemon's real-time thread, as independent
-    // hardware would: the VM's one CPU must not make them wait for the master (its start,
-    // exit or page faults). On a host's vcan they run as an ordinary process.
+    // In virtual time the drives run with SCHED_FIFO just below the daemon's real-time thread:
+    // on the VM's one CPU only the master's short cycle work can delay them, and their own work
+    // never delays the master. On a host's vcan they run as an ordinary process.
     if virtual_time() {
         args.extend(["--rt-priority", DRIVES_RT_PRIORITY]);
     }

@@ -17,23 +17,7 @@ const R_MM: f64 = 35.0;
 const DT: f64 = 0.004;
 
 fn config(machine: &str, strategy: &str) -> Config {
-    let mut text = machine.to_string();
-    if strategy != "none" {
-        text.push_str(
-            "\n[compensation]\n[compensation.measurement]\nforce_axes = [\"X\", \"Y\"]\nposition_axes = [\"X\", \
-             \"Y\"]\nactuator_axes = [\"X\", \"Y\"]\n",
-        );
-        for (axis, m) in ["X", "Y"].iter().zip(identified()) {
-            text.push_str(&format!(
-                "[[compensation.axis]]\nname = \"{axis}\"\nstrategy = \"{strategy}\"\nstiffness_pos_n_per_mm = {}\n\
-                 stiffness_neg_n_per_mm = {}\ngap_mm = {}\nzero_load_n = {}\n",
-                m.k_pos_n_per_mm,
-                m.k_neg_n_per_mm,
-                m.gap_mm.max(0.0),
-                m.zero_load_n
-            ));
-        }
-    }
+    let text = interpd::comp::scenario::machine_with_strategy(machine, strategy, identified());
     Config::from_toml_str(&text, "milling").unwrap_or_else(|e| panic!("{e}"))
 }
 

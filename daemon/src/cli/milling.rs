@@ -116,7 +116,7 @@ fn mill(
     let dir = dir.join(&file_name);
     std::fs::create_dir_all(&dir).map_err(|e| CliError::Failure(format!("{}: {e}", dir.display())))?;
     let machine = dir.join("machine.toml");
-    std::fs::write(&machine, machine_text(name, id))
+    std::fs::write(&machine, interpd::comp::scenario::machine_with_strategy(MACHINE, name, id))
         .map_err(|e| CliError::Failure(format!("{}: {e}", machine.display())))?;
     let trace = dir.join("trace.csv");
     let pair = Pair { dir: dir.clone(), machine: Some(machine), plot: None, trace: Some(trace.clone()) };
@@ -153,30 +153,6 @@ fn plant_truth(config: &Config) -> Result<Truth, CliError> {
         }
         PlantModel::ThreeMass(_) => Err(CliError::Failure("the milling machine is a two-mass axis".into())),
     }
-}
-
-/// The machine file for `strategy`: the milling machine plus its `[compensation]` with the
-/// identified deflection model.
-fn machine_text(strategy: &str, id: &[sim_plant::process::identify::Identified]) -> String {
-    let mut s = MACHINE.to_string();
-    if strategy == "none" {
-        return s;
-    }
-    s.push_str(
-        "\n[compensation]\n[compensation.measurement]\nforce_axes = [\"X\", \"Y\"]\nposition_axes = [\"X\", \
-         \"Y\"]\nactuator_axes = [\"X\", \"Y\"]\n",
-    );
-    for (axis, m) in ["X", "Y"].iter().zip(id) {
-        s.push_str(&format!(
-            "\n[[compensation.axis]]\nname = \"{axis}\"\nstrategy = \"{strategy}\"\nstiffness_pos_n_per_mm = {:.6}\n\
-             stiffness_neg_n_per_mm = {:.6}\ngap_mm = {:.6}\nzero_load_n = {:.6}\n",
-            m.k_pos_n_per_mm,
-            m.k_neg_n_per_mm,
-            m.gap_mm.max(0.0),
-            m.zero_load_n
-        ));
-    }
-    s
 }
 
 /// The figures from the plant's trace: the tool's radial error where it cut.

@@ -23,22 +23,9 @@ pub(super) struct RunElem {
     /// path (its own s range when it was not conditioned).
     pub prog_s0_mm: f64,
     pub prog_s1_mm: f64,
-    /// Start and unit direction of a straight element (the common case, measured fast).
-    line: Option<(AxisVec, AxisVec)>,
 }
 
 impl RunElem {
-    /// Distance from `p` to the element over the first `n` axes.
-    pub(super) fn distance(&self, p: &AxisVec, n: usize) -> f64 {
-        match &self.line {
-            Some((a, dir)) => {
-                let along = (0..n).map(|k| (p[k] - a[k]) * dir[k]).sum::<f64>().clamp(0.0, self.len_mm);
-                (0..n).map(|k| (p[k] - a[k] - along * dir[k]).powi(2)).sum::<f64>().sqrt()
-            }
-            None => distance_to(&self.element.geometry, p, n),
-        }
-    }
-
     /// Whether the element is a chord over several programmed moves (or shifted in s by one).
     pub(super) fn conditioned(&self) -> bool {
         self.prog_s0_mm != self.s0_mm || self.prog_s1_mm != self.s1_mm()
@@ -89,12 +76,6 @@ impl RunElems {
         Self { items: VecDeque::new(), base: 0, n_axes }
     }
 
-    /// Appends an element; its turn is measured against the previous one of the run.
-    pub(super) fn push(&mut self, element: Element, tol_mm: f64) {
-        let (s0, s1) = (element.s_start_mm, element.s_end_mm());
-        self.push_conditioned(element, tol_mm, tol_mm, (s0, s1));
-    }
-
     /// Appends a conditioned element with the band left to it, the programmed tolerance and
     /// the programmed s range it stands for.
     pub(super) fn push_conditioned(&mut self, element: Element, tol_mm: f64, prog_tol_mm: f64, prog_s_mm: (f64, f64)) {
@@ -106,13 +87,6 @@ impl RunElems {
         let t_end = d.d1;
         let turn_in_rad = self.items.back().map_or(0.0, |p| angle_between(&p.t_end, &t_start, self.n_axes));
         let s0_mm = element.s_start_mm;
-        let line = match element.geometry {
-            Geometry::Line(_) => {
-                element.geometry.eval(0.0, &mut d);
-                Some((d.pos, d.d1))
-            }
-            _ => None,
-        };
         self.items.push_back(RunElem {
             element,
             s0_mm,
@@ -124,7 +98,6 @@ impl RunElems {
             prog_tol_mm,
             prog_s0_mm: prog_s_mm.0,
             prog_s1_mm: prog_s_mm.1,
-            line,
         });
     }
 
@@ -163,18 +136,6 @@ impl RunElems {
             i -= 1;
         }
         i
-    }
-
-    /// Index of the element containing global s (the later one at a vertex), by bisection.
-    pub(super) fn index_at_bisect(&self, s_mm: f64) -> usize {
-        let i = self.items.partition_point(|e| e.s0_mm <= s_mm);
-        self.base + i.saturating_sub(1).min(self.items.len().saturating_sub(1))
-    }
-
-    /// Distance from `p` to the elements `from..=to` (clamped to those held), over `n` axes.
-    pub(super) fn distance(&self, p: &AxisVec, from: usize, to: usize) -> f64 {
-        let (from, to) = (from.max(self.base), to.min(self.end() - 1));
-        (from..=to).map(|i| self.get(i).distance(p, self.n_axes)).fold(f64::INFINITY, f64::min)
     }
 
     /// The point of elements `from..=to` nearest to `p`: (global s, position).

@@ -18,6 +18,7 @@ mod condition;
 mod elements;
 mod pieces;
 mod points;
+mod programmed;
 mod qp;
 mod run;
 mod settings;

@@ -40,6 +40,8 @@ pub(super) struct Placer {
     last_corner_s_mm: f64,
     seg_start_s_mm: f64,
     started: bool,
+    /// The next point, found final but waiting for more of the run behind it (see `place`).
+    waiting_s_mm: Option<f64>,
 }
 
 /// Steps shorter than this fraction of the nominal step are merged into the previous one.
@@ -60,6 +62,7 @@ impl Placer {
             last_corner_s_mm: f64::NEG_INFINITY,
             seg_start_s_mm: 0.0,
             started: false,
+            waiting_s_mm: None,
         }
     }
 
@@ -80,9 +83,21 @@ impl Placer {
         // Without the run's end, stay far enough back that a corner at the end of the last
         // element would still be approached with shrinking steps.
         let limit = if closed { run_end } else { run_end - 2.0 * st.spacing_mm };
+        // A CAM run brings an element every few micrometres and a point every few hundred
+        // of them: the next point, once no element to come can change it, only waits for the
+        // run to reach far enough behind it, and is not searched again for every element.
+        if let Some(s_next) = self.waiting_s_mm {
+            if !closed && s_next > limit {
+                return;
+            }
+            self.waiting_s_mm = None;
+        }
         while self.s_mm < limit {
-            let (s_next, elem, vertex) = self.next(elems, st, closed, run_end);
+            let (s_next, elem, vertex, settled) = self.next(elems, st, closed, run_end);
             if !closed && s_next > limit && s_next < run_end {
+                if settled {
+                    self.waiting_s_mm = Some(s_next);
+                }
                 break;
             }
             let end = closed && s_next >= run_end;
@@ -108,8 +123,10 @@ impl Placer {
         }
     }
 
-    /// The next point: (s, element, on a vertex).
-    fn next(&self, elems: &RunElems, st: &StageSettings, closed: bool, run_end: f64) -> (f64, usize, bool) {
+    /// The next point: (s, element, on a vertex, settled). Settled: the elements it depends on
+    /// are all known (the search ahead ended before the last known element), so elements
+    /// appended later cannot move it.
+    fn next(&self, elems: &RunElems, st: &StageSettings, closed: bool, run_end: f64) -> (f64, usize, bool, bool) {
         let n = st.n_axes;
         let here = elems.get(self.elem);
         let tol = here.tol_mm;
@@ -136,16 +153,17 @@ impl Placer {
             if e.turn_in_rad > st.corner_rad {
                 // Halve the steps towards the corner until one tolerance-sized step is left.
                 if dist <= CORNER_LAND_FACTOR * first_step {
-                    return (e.s0_mm, i, true);
+                    return (e.s0_mm, i, true, true);
                 }
                 h = h.min(0.5 * dist);
                 break;
             }
             if dist <= h && cos_between(&self.tangent, &e.t_start, n) < st.max_turn_rad.cos() {
-                return (e.s0_mm, i, true);
+                return (e.s0_mm, i, true, true);
             }
             i += 1;
         }
+        let settled = i < elems.end();
         let mut s = self.s_mm + h;
         if closed && run_end - s < SLIVER_FRACTION * h {
             s = run_end;
@@ -153,7 +171,7 @@ impl Placer {
         let s = s.min(run_end);
         let elem = elems.index_at(s, self.elem);
         let vertex = elem > self.elem && (elems.get(elem).s0_mm - s).abs() <= f64::EPSILON * s.abs().max(1.0);
-        (s, elem, vertex)
+        (s, elem, vertex, settled)
     }
 
     /// Whether `s_mm` lies within `CALM_SPACINGS` point spacings of a corner.

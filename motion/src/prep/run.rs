@@ -4,6 +4,7 @@
 use super::condition::Conditioned;
 use super::elements::RunElems;
 use super::points::{Placer, Point};
+use super::programmed::ProgrammedMoves;
 use super::settings::StageSettings;
 use super::window::State;
 use crate::path::JointKind;
@@ -26,7 +27,7 @@ pub(super) struct Run {
     /// The conditioned elements: what the points, bands and the exact-stop fallback follow.
     pub elems: RunElems,
     /// The programmed elements they stand for: what the check measures against.
-    pub programmed: RunElems,
+    pub programmed: ProgrammedMoves,
     pub placer: Placer,
     /// Points from the committed node on: `points[0]` is the committed node.
     pub points: Vec<Point>,
@@ -45,7 +46,7 @@ impl Run {
     pub(super) fn new(dwell_s: f64, state: State, left_levels: usize, joint: JointKind, n_axes: usize) -> Self {
         Self {
             elems: RunElems::new(n_axes),
-            programmed: RunElems::new(n_axes),
+            programmed: ProgrammedMoves::new(n_axes),
             placer: Placer::new(),
             points: Vec::new(),
             state,
@@ -62,7 +63,7 @@ impl Run {
         let prog = (c.programmed[0].s_start_mm, c.programmed[c.programmed.len() - 1].s_end_mm());
         self.elems.push_conditioned(c.element, tol_mm - c.deviation_mm, tol_mm, prog);
         for m in c.programmed {
-            self.programmed.push(m, tol_mm);
+            self.programmed.push(m);
         }
     }
 

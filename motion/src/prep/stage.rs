@@ -173,11 +173,20 @@ impl Prep {
         if matches!(e.geometry, Geometry::Septic(_)) {
             return false;
         }
-        let (mut a, mut b) = (AxisDerivs::default(), AxisDerivs::default());
+        let mut a = AxisDerivs::default();
         e.geometry.eval(0.0, &mut a);
-        e.geometry.eval(e.geometry.length_mm(), &mut b);
         let unit = (0..self.st.n_axes).filter(|&k| self.st.linear[k]).map(|k| a.d1[k] * a.d1[k]).sum::<f64>();
-        let rotary_moves = (0..self.st.n_axes).any(|k| !self.st.linear[k] && (a.pos[k] != b.pos[k] || a.d1[k] != 0.0));
+        let rotary_turns = |k: usize| a.d1[k] != 0.0;
+        // A line moves an axis exactly where its direction does; other shapes are asked at
+        // their end too.
+        let rotary_moves = match &e.geometry {
+            Geometry::Line(_) => (0..self.st.n_axes).any(|k| !self.st.linear[k] && rotary_turns(k)),
+            g => {
+                let mut b = AxisDerivs::default();
+                g.eval(g.length_mm(), &mut b);
+                (0..self.st.n_axes).any(|k| !self.st.linear[k] && (a.pos[k] != b.pos[k] || rotary_turns(k)))
+            }
+        };
         !rotary_moves && (unit - 1.0).abs() < 1e-6
     }
 

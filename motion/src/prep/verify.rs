@@ -4,6 +4,7 @@
 
 use super::elements::RunElems;
 use super::points::Point;
+use super::programmed::ProgrammedMoves;
 use crate::path::QuinticSpan;
 
 /// Samples per piece (uniform in the piece parameter).
@@ -17,7 +18,7 @@ pub(super) fn piece_excess(
     a: &Point,
     b: &Point,
     elems: &RunElems,
-    programmed: &RunElems,
+    programmed: &ProgrammedMoves,
     spacing_mm: f64,
 ) -> (f64, f64) {
     // The piece stays near the programmed path between its ends, shifted along it by at most
@@ -43,7 +44,7 @@ pub(super) fn piece_excess(
     // Many programmed moves (micro-segments): each sample is measured against those within a
     // few sample spacings and `reach` of where it lies proportionally along them. A subset can
     // only make a distance larger, so the check stays on the safe side.
-    let (ps0, ps1) = (programmed.get(from).s0_mm, programmed.get(to).s1_mm());
+    let (ps0, ps1) = (programmed.s0_mm(from), programmed.s1_mm(to));
     let window = reach + LOCAL_SEARCH_SAMPLES * (ps1 - ps0) / SAMPLES_PER_PIECE as f64;
     for i in 1..SAMPLES_PER_PIECE {
         let f = i as f64 / SAMPLES_PER_PIECE as f64;

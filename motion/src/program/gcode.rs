@@ -121,6 +121,9 @@ struct G06Block {
 #[derive(Clone)]
 pub(crate) struct Interpreter {
     settings: Settings,
+    /// The origin of each work system G54 … G59 per machine axis, read once from the settings
+    /// (an axis lookup by name per coordinate would dominate the reading of micro-segments).
+    work_origins: [AxisVec; interpd_config::WORK_SYSTEMS.len()],
     linear: [bool; MAX_AXES],
     modal: Modal,
     /// Cutter radius compensation: contour elements go through it on their way to the path.
@@ -222,6 +225,7 @@ impl Interpreter {
         }
         Self {
             settings: settings.clone(),
+            work_origins: std::array::from_fn(|sys| settings.work_offsets.vector(sys, &settings.axes)),
             linear,
             modal: Self::initial_modal(settings, [0.0; MAX_AXES]),
             cutter: Cutter::new(&linear[..settings.axes.len()]),
@@ -256,7 +260,7 @@ impl Interpreter {
         let m = &self.modal;
         ActiveModal {
             work_system: m.work_system,
-            work_offset: self.settings.work_offsets.vector(m.work_system, &self.settings.axes),
+            work_offset: self.work_origins[m.work_system],
             g92_offset: m.g92,
             tool: m.tool.map(|number| {
                 let t = self.settings.tool(number);
@@ -763,8 +767,7 @@ impl Interpreter {
             Some((_, l)) if self.settings.axes[k].name == AxisLetter::Z => l,
             _ => 0.0,
         };
-        let work = self.settings.work_offsets.systems()[self.modal.work_system];
-        work.get(&self.settings.axes[k].name.to_string()).copied().unwrap_or(0.0) + tool + self.modal.g92[k]
+        self.work_origins[self.modal.work_system][k] + tool + self.modal.g92[k]
     }
 
     fn read_g_words(&self, block: &Block, d: &mut Diagnostics) -> Option<GWords> {

@@ -161,8 +161,8 @@ impl AppendChecker {
     }
 
     /// Checks `text` as the continuation of the program: every error with the program's line
-    /// and column, the program unchanged on error. A piece must not end inside a G06 block
-    /// unless it is the last (`end`: the program's end closes the block).
+    /// and column, the program unchanged on error. A piece must not end inside a G06 block,
+    /// and the last one (`end`) must not leave the program inside one either.
     pub fn append(&mut self, text: &str, end: bool) -> Result<Appended, ProgramErrors> {
         let mut interp = self.interp.clone();
         let mut d = Diagnostics::new(&self.origin);
@@ -183,6 +183,9 @@ impl AppendChecker {
         }
         if d.errors.is_empty() && interp.in_g06() && !end {
             d.error(line_no, 1, "the text ends inside a G06 block: append a spline block whole, with its end");
+        }
+        if let Some((line, col)) = interp.open_g06_with_spans().filter(|_| end && d.errors.is_empty()) {
+            d.error(line, col, super::gcode::ends_inside_g06_message());
         }
         if !d.errors.is_empty() {
             return Err(ProgramErrors(d.errors));

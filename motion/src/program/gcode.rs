@@ -357,11 +357,19 @@ impl Interpreter {
         }
     }
 
-    /// Ends the program text: closes an open G06 block and attaches a trailing dwell.
+    /// Ends the program text: refuses one that stops inside G06 spline data (cut short, most
+    /// likely) and attaches a trailing dwell.
     pub(super) fn finish(&mut self, d: &mut Diagnostics) {
-        if self.g06.is_some() {
-            self.finish_g06(d);
+        if let Some(block) = self.g06.as_ref().filter(|b| !b.spans.is_empty()) {
+            // A file that stops inside spline data was most likely cut short: its last span
+            // may be missing or truncated, so nothing of it runs.
+            if !block.unterminated {
+                d.error(block.line, block.col, ends_inside_g06_message());
+            }
+            self.g06 = None;
         }
+        // A G06 line with no spans at all is reported as such.
+        self.finish_g06(d);
         if let Err(e) = self.cutter.finish() {
             d.error(e.line, e.col, e.kind.to_string());
         }
@@ -1369,6 +1377,11 @@ impl Interpreter {
         block.point = target;
     }
 
+    /// Where the open G06 block starts (line, column), if one is open and has spans.
+    pub(super) fn open_g06_with_spans(&self) -> Option<(u32, u32)> {
+        self.g06.as_ref().filter(|b| !b.spans.is_empty() && !b.unterminated).map(|b| (b.line, b.col))
+    }
+
     fn finish_g06(&mut self, d: &mut Diagnostics) {
         let Some(block) = self.g06.take() else { return };
         if block.unterminated {
@@ -1539,4 +1552,12 @@ pub(crate) fn fmt_num(v: f64) -> String {
     let s = format!("{v:.4}");
     let s = s.trim_end_matches('0').trim_end_matches('.');
     if s == "-0" { "0".to_string() } else { s.to_string() }
+}
+
+/// The error for a program whose text ends inside G06 spline data.
+pub(super) fn ends_inside_g06_message() -> String {
+    format!(
+        "the program ends inside this G06 block: end its spline data with an empty line, a line '{G06_END_MARKER}' or \
+         the next block"
+    )
 }

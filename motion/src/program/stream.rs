@@ -509,6 +509,12 @@ mod tests {
         // A bad piece is refused with the program's line and column and changes nothing.
         let e = checker.append("G1 X3 H1\n", false).expect_err("H").0;
         assert_eq!((e[0].line, e[0].col), (3, 7));
+        // Spline data must come whole, and the last piece must not end inside it either.
+        let e = checker.append("G06\nX3 Y1 Z0;\n", false).expect_err("open G06").0;
+        assert_eq!((e[0].line, e[0].col), (4, 1), "{}", e[0].message);
+        let e = checker.append("G06\nX3 Y1 Z0;\n", true).expect_err("program ends in G06").0;
+        assert_eq!((e[0].line, e[0].col), (3, 1));
+        assert!(e[0].message.starts_with("the program ends inside this G06 block"), "{}", e[0].message);
         let a = checker.append("G1 X3\nG1 Y1\n", false).expect("valid");
         assert_eq!((a.lines, a.elements, a.length_mm, a.program_end), ((3, 4), 2, 2.0, false));
         buffer.push("G1 X3\nG1 Y1", false).expect("fits");

@@ -107,8 +107,13 @@ fn g06_explicit_tangents_absolute_and_incremental() {
 
 #[test]
 fn g06_natural_spline_through_points() {
-    let p = ok("G1 X0 F600\nG06\nX10 Y5 Z0;\nX20 Y0 Z0;\nX30 Y5 Z0;\n");
+    let p = ok("G1 X0 F600\nG06\nX10 Y5 Z0;\nX20 Y0 Z0;\nX30 Y5 Z0;\nCR\n");
     assert_eq!(p.path.elements.len(), 3);
+    // An empty line or the next block end the spline data as well.
+    for end in ["\n", "M30\n"] {
+        let q = ok(&format!("G1 X0 F600\nG06\nX10 Y5 Z0;\nX20 Y0 Z0;\nX30 Y5 Z0;\n{end}"));
+        assert_eq!(q.path.elements.len(), 3, "ended by {end:?}");
+    }
     for e in &p.path.elements[1..] {
         assert_eq!(e.joint, JointKind::Smooth, "natural spline is C² at its support points");
     }
@@ -137,6 +142,11 @@ fn error_positions() {
         ("G0 G1 X1\n", "t.ngc:1:4: G1 conflicts with G0 in the same block (same modal group)"),
         ("F100\nG06 I1 J0 K0\nX1 Y0 Z0 P1 Q0 R0\n", "t.ngc:3:18: G06 span must end with ';'"),
         ("F100\nG06 I1\n", "t.ngc:2:1: unterminated G06 block: no spline spans ('X.. Y.. Z.. P.. Q.. R..;') follow"),
+        (
+            "F100\nG06\nX10 Y5 Z0;\nX20 Y0 Z0;\n",
+            "t.ngc:2:1: the program ends inside this G06 block: end its spline data with an empty line, a line 'CR' \
+             or the next block",
+        ),
     ];
     for (text, expect) in cases {
         assert_eq!(first_error(text), expect, "program:\n{text}");

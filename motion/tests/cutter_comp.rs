@@ -116,10 +116,50 @@ fn program(comp: &str, approach: (f64, f64), start: (f64, f64), contour: &[Strin
 /// Nearest point of the contour to (x, y): (distance, side) with side > 0 when the point lies
 /// left of the direction of travel there, 0 when the nearest point is a corner (an element's
 /// end, where the tool turns around it and the side is that of the distance alone).
-fn nearest(contour: &Path, x: f64, y: f64) -> (f64, f64) {
+/// A circle in the plane that holds an element: its centre and radius, mm.
+type Bound = ((f64, f64), f64);
+
+/// The bounding circle of each element of `contour` (from its samples and the largest gap
+/// between them, so no point of the element lies outside).
+fn bounds(contour: &Path) -> Vec<Bound> {
+    let mut d = AxisDerivs::default();
+    contour
+        .elements
+        .iter()
+        .map(|e| {
+            let len = e.geometry.length_mm();
+            let n = 16;
+            let pts: Vec<(f64, f64)> = (0..=n)
+                .map(|i| {
+                    e.geometry.eval(len * i as f64 / n as f64, &mut d);
+                    (d.pos[0], d.pos[1])
+                })
+                .collect();
+            let c = (
+                pts.iter().map(|p| p.0).sum::<f64>() / pts.len() as f64,
+                pts.iter().map(|p| p.1).sum::<f64>() / pts.len() as f64,
+            );
+            // A point between two samples lies within half the arc length between them of one of them.
+            let r = pts.iter().map(|p| (p.0 - c.0).hypot(p.1 - c.1)).fold(0.0, f64::max) + 0.5 * len / n as f64;
+            (c, r)
+        })
+        .collect()
+}
+
+/// Distance from (x, y) to the contour and on which side of it (positive: left of the
+/// direction of travel; 0 at an element's end).
+fn nearest(contour: &Path, bounds: &[Bound], x: f64, y: f64) -> (f64, f64) {
     let mut best = (f64::INFINITY, 0.0);
     let mut d = AxisDerivs::default();
-    for e in &contour.elements {
+    // Nearest bounding circles first, and none whose circle lies farther than the best found.
+    let mut order: Vec<(f64, usize)> =
+        bounds.iter().enumerate().map(|(i, ((cx, cy), r))| (((x - cx).hypot(y - cy) - r).max(0.0), i)).collect();
+    order.sort_by(|a, b| a.0.total_cmp(&b.0));
+    for (lower_bound, i) in order {
+        if lower_bound > best.0 {
+            break;
+        }
+        let e = &contour.elements[i];
         let len = e.geometry.length_mm();
         let n = ((len / 0.2) as usize).max(8);
         let mut s_best = (f64::INFINITY, 0.0);
@@ -169,6 +209,7 @@ fn check(text: &str, contour_text: &str, entry: u32, exit: u32, left: bool, band
     let contour = program::parse(contour_text, "contour.ngc", &settings).unwrap_or_else(|e| panic!("{e}"));
     let mut contour_path = contour.path.clone();
     contour_path.elements.retain(|e| e.source.line > entry && e.source.line < exit);
+    let contour_bounds = bounds(&contour_path);
     let path = if band_mm > 0.0 { prepare_path(&settings, &prog.path).expect("prepare").path } else { prog.path };
     let (segs, _) = Planner::plan_path(&settings, &path).expect("plan");
     assert_continuous(&path, text);
@@ -188,7 +229,7 @@ fn check(text: &str, contour_text: &str, entry: u32, exit: u32, left: bool, band
             continue;
         }
         path.eval(s, &mut d);
-        let (dist, side) = nearest(&contour_path, d.pos[0], d.pos[1]);
+        let (dist, side) = nearest(&contour_path, &contour_bounds, d.pos[0], d.pos[1]);
         let err = (dist - r).abs();
         assert!(
             err <= OFFSET_TOL_MM + band_mm,
@@ -438,14 +479,16 @@ fn chord_points(lengths: &[f64]) -> Vec<(f64, f64)> {
 /// Distance from (x, y) to the closed polygon through `points` (starting at (5, 0)).
 fn polygon_distance(points: &[(f64, f64)], x: f64, y: f64) -> f64 {
     let mut prev = (CHORD_CIRCLE_MM, 0.0);
+    // Squared distances: one square root per sample, not per chord.
     let mut best = f64::INFINITY;
     for &p in points {
         let (dx, dy) = (p.0 - prev.0, p.1 - prev.1);
         let t = (((x - prev.0) * dx + (y - prev.1) * dy) / (dx * dx + dy * dy)).clamp(0.0, 1.0);
-        best = best.min((prev.0 + t * dx - x).hypot(prev.1 + t * dy - y));
+        let (ex, ey) = (prev.0 + t * dx - x, prev.1 + t * dy - y);
+        best = best.min(ex * ex + ey * ey);
         prev = p;
     }
-    best
+    best.sqrt()
 }
 
 /// The circle of short chords (or short arcs) from its centre, compensated by `comp`; every

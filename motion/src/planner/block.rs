@@ -22,10 +22,22 @@ use super::forward::{Failed, Progress, forward_branch};
 use super::interval::Interval;
 use super::limits::Limits;
 use super::node::Node;
-use super::step::Work;
+use super::step::{Budget, Work};
 
 /// Repairs per block before the block is reported as infeasible.
 pub(super) const MAX_REPAIRS: usize = 64;
+/// Work (`Work::units`) a block's search may take per node, repairs and cap searches included,
+/// before it gives up at the node it is stuck at (the planner stops there,
+/// `Planner::force_stop`). One pass of the branches over a block takes some 20 to 100 per node
+/// (the ramps simulate up to 96 nodes per step), the examples' blocks up to about 100 in all;
+/// so this allows a few passes, and only a search that does not converge reaches it.
+const WORK_UNITS_PER_NODE: u64 = 1_000;
+/// ... and at least this much on a short block, where a few repairs and cap searches cost more
+/// per node.
+const WORK_UNITS_MIN: u64 = 400_000;
+/// Share of the budget the plan under the relaxed ceiling may take where both are planned
+/// (`plan_both`): the plan under the flat ceiling, the fallback, keeps the rest.
+const RELAXED_BUDGET_SHARE: u64 = 2;
 /// A ceiling the acceleration-only passes lower by less than this share stays as it is.
 const PASS_NEGLIGIBLE: f64 = 1e-3;
 /// The relaxed ceiling is tried when the acceleration-only profile under it is at least this
@@ -40,8 +52,7 @@ const CREEP_SLACK_NODES: usize = 2;
 /// Factors applied to the stuck node's velocity, in order, when repairing there again.
 const REPAIR_FACTORS: [f64; 5] = [0.9, 0.7, 0.4, 0.1, 0.0];
 
-/// The profile of a block, the first node whose state depends on where the block ends, and
-/// the work it took.
+/// The profile of a block and the first node whose state depends on where the block ends.
 #[derive(Debug, Clone)]
 pub(super) struct BlockPlan {
     pub intervals: Vec<Interval>,
@@ -49,23 +60,24 @@ pub(super) struct BlockPlan {
     /// profile from the first node to the last (a closed-form straight move).
     pub node_aligned: bool,
     pub final_before: usize,
-    pub work: Work,
 }
 
 /// Plans `nodes` (first node: given state `start`; last node: rest). `end_is_stop` tells
-/// whether the last node is a real stop (and not just where the horizon ends).
+/// whether the last node is a real stop (and not just where the horizon ends). Adds the work
+/// it took to `work`, also where it finds no profile.
 pub(super) fn plan_block(
     nodes: &mut [Node],
     start: (f64, f64),
     end_is_stop: bool,
     lim: &Limits,
+    work: &mut Work,
 ) -> Result<BlockPlan, Stuck> {
-    let mut work = Work::default();
     if end_is_stop && start == (0.0, 0.0) {
         if let Some(intervals) = straight_move(nodes, lim) {
-            return Ok(BlockPlan { intervals, node_aligned: false, final_before: nodes.len() - 1, work });
+            return Ok(BlockPlan { intervals, node_aligned: false, final_before: nodes.len() - 1 });
         }
     }
+    let budget = Budget::after(work, block_budget_units(nodes.len()));
     let raw: Vec<f64> = nodes.iter().map(|nd| nd.vbar_mm_s).collect();
     // The flat ceiling: v̄ with a = j = 0 (Kopp et al. 2019, eq. 6), every state (v̄, 0, 0)
     // keeping the limits.
@@ -74,8 +86,8 @@ pub(super) fn plan_block(
         dip: vec![false; nodes.len()],
     };
     let chosen = match relaxed_worth_trying(nodes, &raw, &flat.v, start.0, lim) {
-        None => plan_under(nodes, &flat, start, lim, &mut work),
-        Some(relaxed) => plan_both(nodes, &flat, &relaxed, start, lim, &mut work),
+        None => plan_under(nodes, &flat, start, lim, work, &budget),
+        Some(relaxed) => plan_both(nodes, &flat, &relaxed, start, lim, work, &budget),
     };
     // The nodes keep the repairs of the plan that was chosen, for the next horizon.
     for (nd, &r) in nodes.iter_mut().zip(&raw) {
@@ -86,11 +98,12 @@ pub(super) fn plan_block(
             nodes[i].vbar_mm_s = nodes[i].vbar_mm_s.min(v);
         }
     }
-    chosen.map(|c| BlockPlan { intervals: c.intervals, node_aligned: true, final_before: c.final_before, work })
+    chosen.map(|c| BlockPlan { intervals: c.intervals, node_aligned: true, final_before: c.final_before })
 }
 
 /// Plans a block under the relaxed ceiling and, unless that plan is clearly faster than a plan
-/// under the flat ceiling can be, under that one too; keeps the faster.
+/// under the flat ceiling can be, under that one too; keeps the faster. The relaxed plan may
+/// take `1 / RELAXED_BUDGET_SHARE` of `budget`.
 fn plan_both(
     nodes: &mut [Node],
     flat: &Ceiling,
@@ -98,15 +111,17 @@ fn plan_both(
     start: (f64, f64),
     lim: &Limits,
     work: &mut Work,
+    budget: &Budget,
 ) -> Result<Planned, Stuck> {
     work.relaxed_tried += 1;
-    let free = plan_under(nodes, &relaxed.ceiling, start, lim, work);
+    let relaxed_budget = Budget::after(work, block_budget_units(nodes.len()) / RELAXED_BUDGET_SHARE);
+    let free = plan_under(nodes, &relaxed.ceiling, start, lim, work, &relaxed_budget);
     // A plan under the flat ceiling takes about at least the acceleration-only time under it:
     // not strictly (the passes take the acceleration range at the nodes only, and a
     // constant-jerk interval's mean speed is not that of its ends), hence the margin. A
     // relaxed plan clearly below that bound wins anyway.
     let flat_cannot_win = free.as_ref().is_ok_and(|f| f.time_s < (1.0 - FLAT_SKIP_MARGIN) * relaxed.flat_bound_s);
-    let under_flat = (!flat_cannot_win).then(|| plan_under(nodes, flat, start, lim, work));
+    let under_flat = (!flat_cannot_win).then(|| plan_under(nodes, flat, start, lim, work, budget));
     tracing::debug!(
         s_from_mm = nodes[0].s_mm,
         nodes = nodes.len(),
@@ -156,12 +171,13 @@ fn plan_under(
     start: (f64, f64),
     lim: &Limits,
     work: &mut Work,
+    budget: &Budget,
 ) -> Result<Planned, Stuck> {
     for ((nd, &v), &dip) in nodes.iter_mut().zip(&ceiling.v).zip(&ceiling.dip) {
         nd.vbar_mm_s = v;
         nd.reach_bound = dip;
     }
-    let result = plan_repaired(nodes, start, lim, work);
+    let result = plan_repaired(nodes, start, lim, work, budget);
     for nd in nodes.iter_mut() {
         nd.reach_bound = false;
     }
@@ -234,29 +250,43 @@ fn acc_only_time_s(nodes: &[Node], ceiling: &[f64], v_start: f64, lim: &Limits) 
 /// The envelope and the forward branch, with repairs where the forward branch gets stuck. After
 /// a repair the envelope takes over its branches before the lowered nodes, and the forward
 /// branch resumes from its last section end before the first node where the block or the
-/// envelope changed (`branch::build_envelope`, `forward::forward_branch`).
+/// envelope changed (`branch::build_envelope`, `forward::forward_branch`). The search ends,
+/// stuck where the forward branch last got stuck, after `MAX_REPAIRS` or once `work` has
+/// reached `budget`.
 fn plan_repaired(
     nodes: &mut [Node],
     start: (f64, f64),
     lim: &Limits,
     work: &mut Work,
+    budget: &Budget,
 ) -> Result<(Vec<Interval>, usize), Stuck> {
     let mut repairs_at: Vec<(usize, usize)> = Vec::new();
     // The last repair's node and how many nodes before it it lowered.
     let mut last: Option<(usize, usize)> = None;
     // The last envelope, how far the forward branch got on it, and the first node lowered since.
     let mut before: Option<(Envelope, Progress, usize)> = None;
+    let mut stuck_last = nodes.len() - 1;
     for _ in 0..=MAX_REPAIRS {
         let previous = before.as_ref().map(|(env, _, from)| Previous { env, from: *from });
-        let env = build_envelope(nodes, previous, lim, work)?;
+        let env = build_envelope(nodes, previous, lim, work, budget).map_err(|s| out_of_work(s, work, budget))?;
         let resume = before.as_ref().map(|(old, progress, from)| (progress, env.first_difference(old).min(*from)));
-        let (stuck, progress) = match forward_branch(nodes, &env, start, resume, lim, work) {
+        let (stuck, progress) = match forward_branch(nodes, &env, start, resume, lim, work, budget) {
             Ok(f) => return Ok((f.intervals, f.final_before)),
             Err(Failed { stuck, progress }) => (stuck, progress),
         };
         work.repairs += 1;
+        stuck_last = stuck.node;
         if gives_up_for_test() {
             break;
+        }
+        if budget.exhausted(work) {
+            tracing::debug!(
+                node = stuck.node,
+                s_mm = nodes[stuck.node].s_mm,
+                units = work.units(),
+                "planner: block out of work"
+            );
+            return Err(out_of_work(stuck, work, budget));
         }
         // Never the block end itself (a stop): lowering there changes nothing, and its zero
         // would spread to the node before it.
@@ -289,7 +319,28 @@ fn plan_repaired(
         let lowered = lower_before(nodes, k, span, factor);
         before = Some((env, progress, lowered));
     }
-    Err(Stuck { node: nodes.len() - 1, reason: Infeasibility::TooManyRepairs })
+    Err(Stuck { node: stuck_last, reason: Infeasibility::TooManyRepairs })
+}
+
+/// The work budget of a block of `n` nodes.
+fn block_budget_units(n: usize) -> u64 {
+    (n as u64).saturating_mul(WORK_UNITS_PER_NODE).max(WORK_UNITS_MIN)
+}
+
+/// Work of one round of a block's search per node (a forward pass, a capped run or a backward
+/// branch: a step's evaluations, its term evaluations and its ramps' nodes), about the most
+/// seen, for the bound below.
+const ROUND_UNITS_PER_NODE: u64 = 250;
+
+/// About the most work one plan of a block of `n` nodes takes, found or not: its budget, which
+/// a search overshoots by at most one round (the budget is checked between rounds).
+pub(super) fn work_bound_units(n: usize) -> u64 {
+    block_budget_units(n).saturating_add((n as u64).saturating_mul(ROUND_UNITS_PER_NODE))
+}
+
+/// `stuck`, or where the budget ran out, that as the reason.
+fn out_of_work(stuck: Stuck, work: &Work, budget: &Budget) -> Stuck {
+    if budget.exhausted(work) { Stuck { node: stuck.node, reason: Infeasibility::OutOfWork } } else { stuck }
 }
 
 /// Whether a block gives up at its next repair as if the repairs did not converge: never,

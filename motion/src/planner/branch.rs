@@ -14,7 +14,7 @@ use super::interval::Interval;
 use super::limits::Limits;
 use super::node::Node;
 use super::ramp::{CEILING_REL_TOL, Check, FlattenUnder, RampTrace, Wanted, ramp_interval, ramp_margin};
-use super::step::{Work, feasible, max_feasible};
+use super::step::{Budget, Work, feasible, max_feasible};
 use super::view::View;
 
 /// Bisection steps when the greedy choice is not viable.
@@ -444,6 +444,7 @@ pub(super) fn build_envelope(
     previous: Option<Previous>,
     lim: &Limits,
     work: &mut Work,
+    budget: &Budget,
 ) -> Result<Envelope, Stuck> {
     let n = nodes.len();
     let mut env = Envelope::from_vbar(nodes.iter().map(|nd| nd.vbar_mm_s));
@@ -475,6 +476,10 @@ pub(super) fn build_envelope(
         let mut built = None;
         let lower = |i: usize, v: f64| env.on_curve(i) && v >= env.v[i] * (1.0 - 1e-12);
         for factor in BACKWARD_START_FACTORS {
+            // Each start velocity costs a branch that may run back over the whole block.
+            if budget.exhausted(work) {
+                break;
+            }
             let v_start = if m == n - 1 { 0.0 } else { factor * nodes[m].vbar_mm_s };
             if m != n - 1 && !leaves_forward(nodes, m, v_start, lim, work) {
                 continue;
@@ -487,7 +492,7 @@ pub(super) fn build_envelope(
                 break;
             }
         }
-        if built.is_none() && m == n - 1 {
+        if built.is_none() && m == n - 1 && !budget.exhausted(work) {
             built = capped_from_block_end(nodes, lower, lim, work).map(|b| (0.0, b));
         }
         let Some((v_start, branch)) = built else {

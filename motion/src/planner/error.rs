@@ -29,6 +29,8 @@ pub enum Infeasibility {
     NotAtRest,
     /// The block still had no profile after the most repairs of its velocity bound allowed.
     TooManyRepairs,
+    /// The block's search for a profile took the most work allowed for its length.
+    OutOfWork,
 }
 
 impl Infeasibility {
@@ -40,6 +42,7 @@ impl Infeasibility {
             Infeasibility::CannotJoin => "the forward branch cannot join the backward branch",
             Infeasibility::NotAtRest => "the forward branch did not come to rest at the block end",
             Infeasibility::TooManyRepairs => "too many repairs",
+            Infeasibility::OutOfWork => "the search took the most work allowed for the block",
         }
     }
 }

@@ -18,7 +18,7 @@ use super::join::{join_three, join_two};
 use super::limits::Limits;
 use super::node::Node;
 use super::ramp::{Check, FlattenUnder, ramp_interval};
-use super::step::Work;
+use super::step::{Budget, Work};
 use super::view::View;
 
 /// The cap search first steps down from the highest bound towards the lowest possible cap
@@ -119,6 +119,7 @@ pub(super) fn forward_branch(
     resume: Option<(&Progress, usize)>,
     lim: &Limits,
     work: &mut Work,
+    budget: &Budget,
 ) -> Result<ForwardPlan, Failed> {
     let mut run = Run::new(0, start);
     let mut anchors = vec![Anchor { node: 0, final_before: nodes.len() - 1, backoffs: 0 }];
@@ -129,7 +130,7 @@ pub(super) fn forward_branch(
             run.push(*iv);
         }
     }
-    match run_forward(nodes, env, &mut run, &mut anchors, lim, work) {
+    match run_forward(nodes, env, &mut run, &mut anchors, lim, work, budget) {
         Ok(final_before) => Ok(ForwardPlan { intervals: run.intervals, final_before }),
         Err(stuck) => Err(Failed { stuck, progress: Progress { intervals: run.intervals, anchors } }),
     }
@@ -143,6 +144,7 @@ fn run_forward(
     anchors: &mut Vec<Anchor>,
     lim: &Limits,
     work: &mut Work,
+    budget: &Budget,
 ) -> Result<usize, Stuck> {
     let n = nodes.len();
     let view = View::forward(nodes);
@@ -222,7 +224,7 @@ fn run_forward(
                 }
             })
             .or_else(|| {
-                let capped = capped_section(nodes, run, section_start, env, c, lim, work)?;
+                let capped = capped_section(nodes, run, section_start, env, c, lim, work, budget)?;
                 if c == END_CURVE {
                     final_before = final_before.min(section_start);
                 }
@@ -430,7 +432,9 @@ fn ramp_to_branch(
 
 /// Forward and backward branch capped at the highest common velocity v_c for which they meet
 /// flat, between the anchor and the section end of branch `c`: the intervals from the anchor
-/// to the section end.
+/// to the section end. Each cap tried costs a run over the whole section: the search stops
+/// where `budget` is spent (with the best cap found so far, if any).
+#[allow(clippy::too_many_arguments)]
 fn capped_section(
     nodes: &[Node],
     run: &Run,
@@ -439,6 +443,7 @@ fn capped_section(
     c: u32,
     lim: &Limits,
     work: &mut Work,
+    budget: &Budget,
 ) -> Option<Vec<Interval>> {
     let start = env.starts[c as usize];
     let (va, _) = run.state(anchor);
@@ -461,7 +466,7 @@ fn capped_section(
         // branch and the ramps' ceiling change with the cap), but the descent would creep
         // towards `lo` in ever smaller steps, each a capped run of the section, where a short
         // look-ahead fails whatever the cap.
-        if gap <= CAP_SEARCH_REL_TOL * lo {
+        if gap <= CAP_SEARCH_REL_TOL * lo || budget.exhausted(work) {
             break;
         }
         match try_cap(cap, work) {
@@ -491,7 +496,7 @@ fn capped_section(
     }
     let (mut lo_ok, mut profile) = best?;
     for _ in 0..CAP_SEARCH_ITERS {
-        if hi_bad - lo_ok <= CAP_SEARCH_REL_TOL * hi_bad {
+        if hi_bad - lo_ok <= CAP_SEARCH_REL_TOL * hi_bad || budget.exhausted(work) {
             break;
         }
         let cap = 0.5 * (lo_ok + hi_bad);

@@ -70,6 +70,16 @@ pub struct PlanStats {
     /// Nodes where no profile keeping the limits passed (the branches and the repairs of the
     /// block found none), so the motion stops there (`Planner::force_stop`).
     pub forced_stops: u64,
+    /// The most work (`Work::units`) one block plan took, a failed one included: what bounds
+    /// the time of one planning call, as a count that does not depend on the host's load.
+    pub block_work_max: u64,
+}
+
+/// About the most work (`Work::units`) one block plan of `nodes` nodes takes, found or not (its
+/// work budget, past which the planner stops at the node it is stuck at, and one round of the
+/// search): `PlanStats::block_work_max` stays below it for the largest block's node count.
+pub fn block_work_bound_units(nodes: usize) -> u64 {
+    block::work_bound_units(nodes)
 }
 
 /// A retained stop at most this long is taken whole when the next horizon cannot continue
@@ -217,7 +227,7 @@ impl Planner {
         if let Some(last) = nodes.last_mut() {
             last.vbar_mm_s = 0.0;
         }
-        block::plan_block(&mut nodes, self.start, false, &self.lim).is_ok()
+        block::plan_block(&mut nodes, self.start, false, &self.lim, &mut Work::default()).is_ok()
     }
 
     /// Whether `retained_stop` is a stop from the hand-over state within the held nodes.
@@ -395,7 +405,11 @@ impl Planner {
             if virtual_end {
                 self.nodes[idx].vbar_mm_s = 0.0;
             }
-            let result = block::plan_block(&mut self.nodes[block_start..=idx], state, !virtual_end, &self.lim);
+            let mut work = Work::default();
+            let result =
+                block::plan_block(&mut self.nodes[block_start..=idx], state, !virtual_end, &self.lim, &mut work);
+            self.stats.work.add(&work);
+            self.stats.block_work_max = self.stats.block_work_max.max(work.units());
             if virtual_end {
                 self.nodes[idx].vbar_mm_s = saved_vbar;
             }
@@ -430,16 +444,15 @@ impl Planner {
                 self.retained_stop.clear();
             }
             self.stats.blocks += 1;
-            self.stats.work.add(&plan.work);
             tracing::debug!(
                 s_from_mm = self.nodes[block_start].s_mm,
                 s_to_mm = self.nodes[idx].s_mm,
                 nodes = idx - block_start + 1,
-                evals = plan.work.evals,
-                evals_per_node = plan.work.evals as f64 / (idx - block_start) as f64,
-                ramps = plan.work.ramps,
-                joins = plan.work.joins,
-                repairs = plan.work.repairs,
+                evals = work.evals,
+                evals_per_node = work.evals as f64 / (idx - block_start) as f64,
+                ramps = work.ramps,
+                joins = work.joins,
+                repairs = work.repairs,
                 "planned section block"
             );
             if !plan.node_aligned {

@@ -56,6 +56,13 @@ pub struct Work {
 }
 
 impl Work {
+    /// Evaluations of intervals of any kind (all terms, one term, a ramp's next node): the
+    /// planner's unit of work, which a block's budget bounds (`Budget`). A count, so a bound on
+    /// it holds on a loaded host as on an idle one.
+    pub fn units(&self) -> u64 {
+        self.evals + self.term_evals + self.ramp_nodes
+    }
+
     pub(crate) fn add(&mut self, o: &Work) {
         self.evals += o.evals;
         self.steps += o.steps;
@@ -70,6 +77,32 @@ impl Work {
         self.relaxed_tried += o.relaxed_tried;
         self.relaxed_kept += o.relaxed_kept;
         self.flat_skipped += o.flat_skipped;
+    }
+}
+
+/// The work a search may still take: the units (`Work::units`) at which it stops and reports
+/// the node it is stuck at, so the planner stops there (`Planner::force_stop`) instead of
+/// searching on. Checked between the searches' rounds (repairs, caps, start velocities), so a
+/// search overshoots it by at most one round.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Budget {
+    until_units: u64,
+}
+
+impl Budget {
+    /// `units` more than `work` has taken.
+    pub(super) fn after(work: &Work, units: u64) -> Self {
+        Self { until_units: work.units().saturating_add(units) }
+    }
+
+    /// No bound (for searches outside a block plan).
+    #[cfg(test)]
+    pub(super) fn unlimited() -> Self {
+        Self { until_units: u64::MAX }
+    }
+
+    pub(super) fn exhausted(&self, work: &Work) -> bool {
+        work.units() >= self.until_units
     }
 }
 

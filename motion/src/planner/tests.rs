@@ -1,6 +1,7 @@
 use super::*;
 use crate::Settings;
 use crate::program;
+use step::Budget;
 
 fn plan_text(text: &str, cfg: &Settings) -> (Vec<Segment>, PlanStats, Path) {
     let p = program::parse(text, "t.ngc", cfg).expect("program parses");
@@ -114,7 +115,7 @@ fn debug_dump() {
     let lim = Limits::from_settings(&cfg);
     let nodes = Planner::sample_path(&cfg, &p.path);
     let mut work = Work::default();
-    let env = branch::build_envelope(&nodes, None, &lim, &mut work);
+    let env = branch::build_envelope(&nodes, None, &lim, &mut work, &Budget::unlimited());
     eprintln!("after envelope: {work:?}");
     match &env {
         Ok(env) => {
@@ -124,7 +125,7 @@ fn debug_dump() {
                     node.s_mm, node.vbar_mm_s, env.v[i], env.a[i], env.curve[i]
                 );
             }
-            let fw = forward::forward_branch(&nodes, env, (0.0, 0.0), None, &lim, &mut work);
+            let fw = forward::forward_branch(&nodes, env, (0.0, 0.0), None, &lim, &mut work, &Budget::unlimited());
             match fw {
                 Ok(f) => {
                     for (i, iv) in f.intervals.iter().enumerate() {
@@ -356,8 +357,9 @@ fn a_repair_rebuilds_only_from_the_lowered_node_on() {
         nd.vbar_mm_s = nd.vbar_mm_s.min(nd.vbar_flat_mm_s);
     }
     let mut work = Work::default();
-    let env = branch::build_envelope(&block, None, &lim, &mut work).unwrap();
-    let Err(failed) = forward::forward_branch(&block, &env, (0.0, 0.0), None, &lim, &mut work) else {
+    let env = branch::build_envelope(&block, None, &lim, &mut work, &Budget::unlimited()).unwrap();
+    let Err(failed) = forward::forward_branch(&block, &env, (0.0, 0.0), None, &lim, &mut work, &Budget::unlimited())
+    else {
         panic!("the case no longer needs a repair");
     };
     let k = failed.stuck.node;
@@ -365,18 +367,25 @@ fn a_repair_rebuilds_only_from_the_lowered_node_on() {
     let from = block::lower_before(&mut block, k, 1, 0.9);
 
     let (mut anew_work, mut kept_work) = (Work::default(), Work::default());
-    let anew = branch::build_envelope(&block, None, &lim, &mut anew_work).unwrap();
+    let anew = branch::build_envelope(&block, None, &lim, &mut anew_work, &Budget::unlimited()).unwrap();
     let previous = branch::Previous { env: &env, from };
-    let kept = branch::build_envelope(&block, Some(previous), &lim, &mut kept_work).unwrap();
+    let kept = branch::build_envelope(&block, Some(previous), &lim, &mut kept_work, &Budget::unlimited()).unwrap();
     assert_eq!((anew.v.clone(), anew.a.clone()), (kept.v.clone(), kept.a.clone()));
     assert_eq!(kept.first_difference(&anew), block.len());
     assert!(kept_work.evals * 4 < anew_work.evals * 3, "rebuilt {kept_work:?}, anew {anew_work:?}");
 
     let (mut anew_work, mut kept_work) = (Work::default(), Work::default());
     let resume_at = kept.first_difference(&env).min(from);
-    let anew = forward::forward_branch(&block, &anew, (0.0, 0.0), None, &lim, &mut anew_work);
-    let resumed =
-        forward::forward_branch(&block, &kept, (0.0, 0.0), Some((&failed.progress, resume_at)), &lim, &mut kept_work);
+    let anew = forward::forward_branch(&block, &anew, (0.0, 0.0), None, &lim, &mut anew_work, &Budget::unlimited());
+    let resumed = forward::forward_branch(
+        &block,
+        &kept,
+        (0.0, 0.0),
+        Some((&failed.progress, resume_at)),
+        &lim,
+        &mut kept_work,
+        &Budget::unlimited(),
+    );
     match (anew, resumed) {
         (Ok(a), Ok(b)) => assert!(a.intervals == b.intervals && a.final_before == b.final_before),
         (Err(a), Err(b)) => assert_eq!(a.stuck, b.stuck),
@@ -547,12 +556,15 @@ fn noisy_trochoid(moves: usize) -> String {
 }
 
 /// Where a block's repairs do not converge (here: the first block that needs a repair gives up
-/// at once, as one does after `MAX_REPAIRS`; the noisy trochoid's smoothed loops need them), the planner stops at the node it got stuck at and
-/// plans on from rest instead of refusing the program. The motion covers the path, is
-/// continuous and keeps every limit; each forced stop is a rest in the motion.
+/// at once, as one does after `MAX_REPAIRS` or its work budget; the noisy trochoid's smoothed
+/// loops need repairs), the planner stops at the node it got stuck at and plans on from rest
+/// instead of refusing the program. The motion covers the path, is continuous and keeps every
+/// limit; each forced stop is a rest in the motion. The smoothing has no wall-time limit here,
+/// so a loaded host smooths the same path (its fallback for a slow window is an exact stop).
 #[test]
 fn a_block_whose_repairs_do_not_converge_stops_at_the_bad_node() {
-    let cfg = Settings::default_machine();
+    let mut cfg = Settings::default_machine();
+    cfg.prep.max_solve_ms = 1e5;
     let prog = program::parse(&noisy_trochoid(800), "t.ngc", &cfg).unwrap();
     let path = crate::prep::prepare_path(&cfg, &prog.path).unwrap().path;
     let (_, _, unlimited) = plan_online_stats(&cfg, &path, cfg.planner.lookahead_mm);

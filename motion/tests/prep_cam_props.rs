@@ -190,8 +190,9 @@ fn max_deviation(programmed: &Path, smoothed: &Path, step_mm: f64) -> f64 {
     worst
 }
 
-/// Smooths and plans one generated case; describes the first failure.
-fn smooth_and_plan(cfg: &Settings, text: &str, tol_mm: f64, case: &str) -> Result<(), TestCaseError> {
+/// Smooths and plans one generated case; describes the first failure. Returns the planner's
+/// figures.
+fn smooth_and_plan(cfg: &Settings, text: &str, tol_mm: f64, case: &str) -> Result<planner::PlanStats, TestCaseError> {
     let prog = program::parse(text, "cam.ngc", cfg)
         .map_err(|e| TestCaseError::fail(format!("the program does not parse: {e:?}\n{case}")))?;
     let prepared =
@@ -219,7 +220,7 @@ fn smooth_and_plan(cfg: &Settings, text: &str, tol_mm: f64, case: &str) -> Resul
     prop_assert!((total - len).abs() <= 1e-6 * len.max(1.0), "{total} of {len} mm");
     let [v, a, j] = interpd_motion::planner::profile::limit_ratios(&prepared.path, &segs, cfg, 2.5e-4);
     prop_assert!(v <= 1.001 && a <= 1.001 && j <= 1.02, "vel {v:.5} acc {a:.5} jerk {j:.5} ({stats:?})\n{case}");
-    Ok(())
+    Ok(stats)
 }
 
 /// The machine the cases run on: the default one, without a wall-time limit on a window's
@@ -231,11 +232,21 @@ fn machine() -> Settings {
     cfg
 }
 
+/// Smooths and plans one case found to crawl, within the work bounds of `smooth_and_plan` and
+/// a generous time bound (a loaded 2-core host; a crawl takes minutes).
+fn plan_found_case(pieces: &[(Piece, f64)], tol_mm: f64, noise_share: f64, dup_every: usize, feed: f64, name: &str) {
+    let text = program_text(pieces, tol_mm, noise_share * tol_mm, dup_every, feed);
+    let t0 = std::time::Instant::now();
+    let stats = smooth_and_plan(&machine(), &text, tol_mm, name).unwrap_or_else(|e| panic!("{e}"));
+    let took_s = t0.elapsed().as_secs_f64();
+    eprintln!("{name}: {took_s:.1} s, {stats:?}");
+    assert!(took_s < 240.0, "{name}: smoothing and planning took {took_s:.1} s");
+}
+
 /// Dense nodes (38 509 on 26 mm: the smoothed micro-arc's spans need 0.25 µm steps for the
 /// checks' interpolation) on which the branches and their repairs do not converge: the search
 /// of each block stops at its work budget and the motion stops where it was stuck, instead of
-/// repairing for minutes. The work bounds are checked in `smooth_and_plan`; the time bound is
-/// generous (a loaded 2-core host), but a crawl takes minutes.
+/// repairing for minutes.
 #[test]
 fn dense_noisy_micro_segments_plan_within_the_work_bound() {
     let pieces = [
@@ -252,12 +263,34 @@ fn dense_noisy_micro_segments_plan_within_the_work_bound() {
         (Piece::Line { length_mm: 9.211904542319152 }, -2.8611632359590944),
         (Piece::MicroLine { length_mm: 3.937063629623291, step_mm: 0.01803650705421785 }, 18.967322592431003),
     ];
-    let (tol_mm, noise_share, dup_every, feed) = (0.009308994030328428, 0.13447317761606176, 311, 11184.895407095708);
-    let text = program_text(&pieces, tol_mm, noise_share * tol_mm, dup_every, feed);
-    let t0 = std::time::Instant::now();
-    smooth_and_plan(&machine(), &text, tol_mm, "crawl case").unwrap_or_else(|e| panic!("{e}"));
-    let took_s = t0.elapsed().as_secs_f64();
-    assert!(took_s < 240.0, "smoothing and planning took {took_s:.1} s");
+    plan_found_case(&pieces, 0.009308994030328428, 0.13447317761606176, 311, 11184.895407095708, "crawl case");
+}
+
+/// A tight radius of 2.5 µm micro-segments at a tolerance of 5 µm (73 365 nodes on 13 mm): a
+/// block of some 70 000 nodes whose repairs creep, with thousands of repairs in all; the budget
+/// of a long block (some two passes beyond its first 2000 nodes) stops each such search.
+#[test]
+fn a_tight_noisy_micro_arc_plans_within_the_work_bound() {
+    let pieces = [
+        (Piece::Line { length_mm: 1.3592868378831706 }, 12.657249046489948),
+        (
+            Piece::MicroArc {
+                radius_mm: 17.15659968696343,
+                sweep_deg: -64.71542891677693,
+                step_mm: 0.01236156567479715,
+            },
+            -23.558076997031915,
+        ),
+        (
+            Piece::MicroArc {
+                radius_mm: 2.4749407908307464,
+                sweep_deg: 87.37685829179964,
+                step_mm: 0.0025154944762035836,
+            },
+            22.120862990416484,
+        ),
+    ];
+    plan_found_case(&pieces, 0.0050702637803851655, 0.12722381764357438, 125, 9744.440974671928, "tight micro-arc");
 }
 
 proptest! {

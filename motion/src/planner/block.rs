@@ -29,9 +29,15 @@ pub(super) const MAX_REPAIRS: usize = 64;
 /// Work (`Work::units`) a block's search may take per node, repairs and cap searches included,
 /// before it gives up at the node it is stuck at (the planner stops there,
 /// `Planner::force_stop`). One pass of the branches over a block takes some 20 to 100 per node
-/// (the ramps simulate up to 96 nodes per step), the examples' blocks up to about 100 in all;
-/// so this allows a few passes, and only a search that does not converge reaches it.
+/// (the ramps simulate up to 96 nodes per step), the examples' blocks up to about 100 in all
+/// and a converging search with a hundred repairs (smoothed noisy CAM data) up to about 800;
+/// so this allows some ten passes, and only a search that does not converge reaches it...
 const WORK_UNITS_PER_NODE: u64 = 1_000;
+/// ... on the first this many nodes of a block; beyond them, on a long block of dense nodes
+/// where each pass takes long, `WORK_UNITS_PER_FURTHER_NODE`, some two passes: a search that
+/// has not converged by then stops, which keeps a planning call short.
+const LONG_BLOCK_NODES: u64 = 2_000;
+const WORK_UNITS_PER_FURTHER_NODE: u64 = 200;
 /// ... and at least this much on a short block, where a few repairs and cap searches cost more
 /// per node.
 const WORK_UNITS_MIN: u64 = 400_000;
@@ -324,7 +330,10 @@ fn plan_repaired(
 
 /// The work budget of a block of `n` nodes.
 fn block_budget_units(n: usize) -> u64 {
-    (n as u64).saturating_mul(WORK_UNITS_PER_NODE).max(WORK_UNITS_MIN)
+    let n = n as u64;
+    let first = n.min(LONG_BLOCK_NODES) * WORK_UNITS_PER_NODE;
+    let further = n.saturating_sub(LONG_BLOCK_NODES).saturating_mul(WORK_UNITS_PER_FURTHER_NODE);
+    first.saturating_add(further).max(WORK_UNITS_MIN)
 }
 
 /// Work of one round of a block's search per node (a forward pass, a capped run or a backward

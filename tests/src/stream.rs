@@ -16,6 +16,10 @@ pub const VEL_ACC_TOLERANCE: f64 = 1.001;
 /// planned jerk by up to 0.5 % (the coarse tolerance), and a third difference at 4 ms samples
 /// it with a little more.
 pub const JERK_TOLERANCE: f64 = 1.02;
+/// Share of the limit by which a reported velocity or acceleration may differ from the central
+/// difference of the positions beyond what the difference itself misses (j·dt²/6 and j·dt/3
+/// at a jerk reversal): rounding and the quintic's jerk tolerance.
+pub const AGREEMENT_MARGIN: f64 = 0.02;
 /// Gaps kept by place for the report; more are only counted.
 const GAPS_KEPT: usize = 10;
 
@@ -37,12 +41,19 @@ pub struct StreamCheck {
     /// Cycles flagged UNDERRUN, and how many underruns began (a cycle flagged after one not).
     pub underrun_cycles: u64,
     pub underruns: u64,
+    /// The first cycle of each underrun, the first [`GAPS_KEPT`].
+    pub underrun_starts: Vec<u64>,
     /// Cycles flagged LATE.
     pub late_cycles: u64,
     /// Largest |value|/limit: velocity, acceleration, jerk by finite differences, and the
     /// reported acceleration; with the cycle where each occurred.
     pub ratios: [f64; 4],
     pub worst_cycle: [u64; 4],
+    /// Largest disagreement of the reported velocity and acceleration with the central
+    /// differences of the positions, as a share of what is allowed (≤ 1 passes; see
+    /// [`AGREEMENT_MARGIN`]), with the cycle: a drive may use them as feed-forward.
+    pub agreement: [f64; 2],
+    pub agreement_cycle: [u64; 2],
     last_flags: u32,
 }
 
@@ -59,9 +70,12 @@ impl StreamCheck {
             missing: 0,
             underrun_cycles: 0,
             underruns: 0,
+            underrun_starts: Vec::new(),
             late_cycles: 0,
             ratios: [0.0; 4],
             worst_cycle: [0; 4],
+            agreement: [0.0; 2],
+            agreement_cycle: [0; 2],
             last_flags: 0,
         }
     }
@@ -83,6 +97,9 @@ impl StreamCheck {
             self.underrun_cycles += 1;
             if self.last_flags & flags::UNDERRUN == 0 {
                 self.underruns += 1;
+                if self.underrun_starts.len() < GAPS_KEPT {
+                    self.underrun_starts.push(sp.cycle);
+                }
             }
         }
         if sp.flags & flags::LATE != 0 {
@@ -96,6 +113,26 @@ impl StreamCheck {
         for k in 0..self.limits.len() {
             let ratio = sp.acc[k].abs() / self.limits[k].acc;
             self.note(3, ratio, sp.cycle);
+        }
+        if self.window.len() >= 3 {
+            let dt = self.dt_s;
+            let n = self.window.len();
+            let (before, mid, after) = (&self.window[n - 3], &self.window[n - 2], &self.window[n - 1]);
+            for k in 0..self.limits.len() {
+                let lim = self.limits[k];
+                let v = (after.pos[k] - before.pos[k]) / (2.0 * dt);
+                let a = (after.pos[k] - 2.0 * mid.pos[k] + before.pos[k]) / (dt * dt);
+                let v_allowed = lim.jerk * dt * dt / 6.0 + AGREEMENT_MARGIN * lim.vel;
+                let a_allowed = lim.jerk * dt / 3.0 + AGREEMENT_MARGIN * lim.acc;
+                for (i, r) in
+                    [(mid.vel[k] - v).abs() / v_allowed, (mid.acc[k] - a).abs() / a_allowed].into_iter().enumerate()
+                {
+                    if r > self.agreement[i] || r.is_nan() {
+                        self.agreement[i] = r;
+                        self.agreement_cycle[i] = mid.cycle;
+                    }
+                }
+            }
         }
         if self.window.len() == 4 {
             let dt = self.dt_s;
@@ -133,6 +170,13 @@ impl StreamCheck {
             out.push(format!(
                 "limit ratios vel {:.4} acc {:.4} jerk {:.4} reported acc {:.4} (at cycles {:?})",
                 self.ratios[0], self.ratios[1], self.ratios[2], self.ratios[3], self.worst_cycle
+            ));
+        }
+        if !(self.agreement[0] <= 1.0 && self.agreement[1] <= 1.0) {
+            out.push(format!(
+                "reported velocity and acceleration disagree with the positions: {:.3} and {:.3} of the allowed (at \
+                 cycles {:?})",
+                self.agreement[0], self.agreement[1], self.agreement_cycle
             ));
         }
         if self.missing > 0 {

@@ -11,7 +11,10 @@
 //!   `e.replan().replan()`, … one per divert;
 //! - the control side never hands out an epoch a running motion may still move to: every
 //!   notice of an epoch reserves its successor ([`Epochs::saw`]), and a start reserves its own
-//!   first successor at once.
+//!   first successor at once;
+//! - a stop publishes a floor ([`Epochs::floor`]): every epoch handed out or reserved before it
+//!   lies below, so chunks the planner thread queued for the stopped motion, even after the
+//!   stop completed, never start; the next start's epoch is at or above it.
 
 /// A motion generation (see the module documentation).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -30,9 +33,14 @@ impl Epoch {
         Epoch(self.0 + 1)
     }
 
-    /// The number, for logs.
+    /// The number, for logs and for passing the epoch through an atomic.
     pub const fn get(self) -> u64 {
         self.0
+    }
+
+    /// The epoch numbered `n` (see [`Epoch::get`]).
+    pub const fn from_number(n: u64) -> Epoch {
+        Epoch(n)
     }
 }
 
@@ -69,6 +77,12 @@ impl Epochs {
     pub fn saw(&mut self, epoch: Epoch) {
         self.next = self.next.max(epoch.replan().replan());
     }
+
+    /// Above every epoch handed out or reserved so far, and at or below the next start: the
+    /// floor a stop publishes (chunks below it are dropped).
+    pub fn floor(&self) -> Epoch {
+        self.next
+    }
 }
 
 #[cfg(test)]
@@ -88,5 +102,15 @@ mod tests {
         assert!(second > held_twice.replan(), "{second} collides with {}", held_twice.replan());
         // A start with no notice yet still leaves room for its first divert.
         assert!(epochs.start() > second.replan());
+    }
+
+    #[test]
+    fn a_stop_floor_lies_above_the_stopped_motion_and_at_or_below_the_next_start() {
+        let mut epochs = Epochs::default();
+        let run = epochs.start();
+        // Stopped before any notice of the run: its first replan is below the floor too.
+        let floor = epochs.floor();
+        assert!(run < floor && run.replan() < floor);
+        assert!(epochs.start() >= floor);
     }
 }

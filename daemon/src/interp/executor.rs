@@ -62,6 +62,9 @@ pub struct Io<'a> {
     pub hold: bool,
     /// A stop is requested.
     pub stop: bool,
+    /// Chunks of epochs below this belong to stopped motion and are dropped
+    /// ([`super::epoch::Epochs::floor`]).
+    pub epoch_floor: Epoch,
 }
 
 /// Counters of things that should not happen, for the status.
@@ -144,17 +147,19 @@ impl Executor {
         }
     }
 
-    /// At rest: starts the next chunk if it is the first of the current (or a newer) epoch and
-    /// no hold or stop is requested. Motion from rest always begins with the first chunk of an
-    /// epoch, where the machine stands; a later one found at rest belongs to a start whose
-    /// beginning was dropped (a stop completed while the planner thread was still queueing),
-    /// and starting it would jump to where that beginning ended.
+    /// At rest: starts the next chunk if it is the first of the current (or a newer) epoch, not
+    /// below the stop floor, and no hold or stop is requested. Chunks below the floor belong to
+    /// stopped motion, whenever the planner thread queued them (it may still be queueing the
+    /// restart of a resume when the stop completes). Motion from rest always begins with the
+    /// first chunk of an epoch, where the machine stands; a later one would jump to where the
+    /// chunks before it ended.
     fn try_start(&mut self, cycle: u64, io: &Io) {
         if io.hold || io.stop {
             return;
         }
+        let oldest = self.epoch.max(io.epoch_floor);
         while let Some(chunk) = io.chunks.pop() {
-            if chunk.epoch < self.epoch || chunk.seq != 0 || chunk.points.len() < 2 {
+            if chunk.epoch < oldest || chunk.seq != 0 || chunk.points.len() < 2 {
                 self.faults.stale_chunks += 1;
                 self.recycle(io, chunk);
                 continue;

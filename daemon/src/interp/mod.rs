@@ -24,8 +24,9 @@
 //! 3. After running a tail the executor expects the next epoch ([`Epoch::replan`]). The
 //!    planner thread learns of the divert from a [`executor::Notice`] and replans from the
 //!    tail's end, at rest, as that epoch (at once after an underrun, after the hold is
-//!    released after a hold, not at all after a stop). Chunks of an old epoch are discarded;
-//!    [`epoch`] states the rule, including how starts get fresh epochs.
+//!    released after a hold, not at all after a stop). Chunks of an old epoch are discarded,
+//!    and so are chunks below the floor a stop publishes, whenever they arrive; [`epoch`]
+//!    states the rule, including how starts get fresh epochs.
 //! 4. A feed override change does not divert: the planner thread replans from the end of the
 //!    last chunk it queued, at the new feed, and the queued chunks run out first (latency =
 //!    queue depth).

@@ -304,21 +304,10 @@ impl Motion for ServiceCore {
         let mut ctl = lock(&shared.control);
         ctl.pending_start = None;
         match ctl.state {
-            State::Running | State::Holding => {
-                shared.stop.store(true, Ordering::SeqCst);
-                ctl.state = State::Stopping;
-                let _ = shared.feeder.send(FeederCommand::Abort);
-            }
+            State::Running | State::Holding | State::Jogging => shared.request_stop(&mut ctl),
             State::Error => {
-                shared.stop.store(true, Ordering::SeqCst);
-                ctl.state = State::Stopping;
+                shared.request_stop(&mut ctl);
                 ctl.last_error = None;
-                let _ = shared.feeder.send(FeederCommand::Abort);
-            }
-            State::Jogging => {
-                shared.stop.store(true, Ordering::SeqCst);
-                ctl.state = State::Stopping;
-                let _ = shared.feeder.send(FeederCommand::Abort);
             }
             State::Idle | State::Finished | State::Stopping => {}
         }

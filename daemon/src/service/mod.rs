@@ -116,6 +116,9 @@ struct Shared {
     /// Requests the real-time thread reads every cycle.
     hold: AtomicBool,
     stop: AtomicBool,
+    /// The stop floor ([`crate::interp::Epochs::floor`]) as its number: chunks of older epochs
+    /// never start.
+    epoch_floor: AtomicU64,
     quit: AtomicBool,
     live: LiveSetpoint,
     control: Mutex<Control>,
@@ -151,6 +154,15 @@ impl Shared {
     /// The tool table and work offsets in effect now.
     fn tooling_now(&self) -> Arc<path_feed::Tooling> {
         lock(&self.tooling).clone()
+    }
+
+    /// Requests a stop (the control lock held): the real-time thread diverts into the stop tail
+    /// at the next chunk end, and chunks queued for the motion so far never start.
+    fn request_stop(&self, ctl: &mut Control) {
+        self.stop.store(true, Ordering::SeqCst);
+        self.epoch_floor.fetch_max(ctl.epochs.floor().get(), Ordering::SeqCst);
+        ctl.state = interpd_protocol::api::State::Stopping;
+        let _ = self.feeder.send(FeederCommand::Abort);
     }
 
     /// Sends `event` to every subscriber without waiting: a full subscriber misses it, a gone
@@ -232,6 +244,7 @@ impl Service {
             config: opts.config.clone(),
             settings: Settings::from_config(&plan_config),
             hold: AtomicBool::new(false),
+            epoch_floor: AtomicU64::new(0),
             stop: AtomicBool::new(false),
             quit: AtomicBool::new(false),
             live: LiveSetpoint::default(),

@@ -9,7 +9,7 @@ use super::Shared;
 use crate::comp::Compensation;
 use crate::comp::io::CompIo;
 use crate::interp::executor::ExecutorFaults;
-use crate::interp::{Executor, Io};
+use crate::interp::{Epoch, Executor, Io};
 use crate::rt::{self, LoopTotals, sched::SchedReport};
 use crate::sinks::SetpointSink;
 use crossbeam::channel::Sender;
@@ -65,6 +65,7 @@ pub(super) fn run(
             notices: &shared.notices,
             hold: shared.hold.load(Ordering::Relaxed),
             stop: shared.stop.load(Ordering::Relaxed),
+            epoch_floor: Epoch::from_number(shared.epoch_floor.load(Ordering::SeqCst)),
         };
         executor.step(cycle, dt_s, &io, &mut sp);
         sp.cycle = cycle;

@@ -177,10 +177,8 @@ fn check_drives(shared: &Shared) {
         if !matches!(ctl.state, State::Running | State::Holding | State::Jogging) {
             continue;
         }
-        shared.stop.store(true, Ordering::SeqCst);
-        ctl.state = State::Stopping;
+        shared.request_stop(&mut ctl);
         ctl.last_error = Some(message.clone());
-        let _ = shared.feeder.send(FeederCommand::Abort);
         drop(ctl);
         tracing::error!("drive fault during motion: {message}; stopping");
         shared.emit(Event::Error { message });

@@ -15,6 +15,7 @@ use interpd::config::Config;
 use serde_json::{Value, json};
 use std::collections::BTreeMap;
 use std::fmt;
+use std::io::Write;
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -45,6 +46,9 @@ const WARMUP_MAX: Duration = Duration::from_secs(60);
 /// Resident memory is sampled this often.
 const RSS_EVERY: Duration = Duration::from_secs(5);
 const STATE_TIMEOUT: Duration = Duration::from_secs(30);
+/// The client's actions, one line each with the daemon's cycle before it (in the soak's
+/// directory).
+pub const ACTIONS_LOG: &str = "actions.log";
 
 /// What a soak run does.
 #[derive(Debug, Clone)]
@@ -108,6 +112,9 @@ pub struct SoakReport {
     pub wakeup_us: Value,
     pub daemon_exit: Option<i32>,
     pub daemon_summary: String,
+    /// What `interpd record` reports it lost: setpoint cycles missing and samples dropped from
+    /// its write queue (`None` when its report is not found).
+    pub recorder_lost: Option<(u64, u64)>,
     pub plant_alive: bool,
 }
 
@@ -123,9 +130,10 @@ impl SoakReport {
         let underruns = self.recording.setpoints.underruns + self.actions.events.get("underrun").copied().unwrap_or(0);
         if underruns > 0 {
             out.push(format!(
-                "{} underruns in the recording ({} cycles), {} underrun events",
+                "{} underruns in the recording ({} cycles, the first from cycles {:?}), {} underrun events",
                 self.recording.setpoints.underruns,
                 self.recording.setpoints.underrun_cycles,
+                self.recording.setpoints.underrun_starts,
                 self.actions.events.get("underrun").copied().unwrap_or(0)
             ));
         }
@@ -138,6 +146,13 @@ impl SoakReport {
         }
         if !self.actions.unexpected.is_empty() {
             out.push(format!("unexpected answers: {:?}", self.actions.unexpected));
+        }
+        match self.recorder_lost {
+            Some((0, 0)) => {}
+            Some((missing, dropped)) => out.push(format!(
+                "interpd record lost {missing} setpoint cycles ({dropped} samples dropped from its write queue)"
+            )),
+            None => out.push("no report from interpd record".into()),
         }
         if self.daemon_exit != Some(0) {
             out.push(format!("interpd run exited with {:?}", self.daemon_exit));
@@ -174,8 +189,9 @@ impl fmt::Display for SoakReport {
         )?;
         writeln!(
             f,
-            "  limit ratios (finite differences at the cycle): vel {:.4} acc {:.4} jerk {:.4}, reported acc {:.4}",
-            s.ratios[0], s.ratios[1], s.ratios[2], s.ratios[3]
+            "  limit ratios (finite differences at the cycle): vel {:.4} acc {:.4} jerk {:.4}, reported acc {:.4}; \
+             reported v/a against the positions {:.3} {:.3} of the allowed",
+            s.ratios[0], s.ratios[1], s.ratios[2], s.ratios[3], s.agreement[0], s.agreement[1]
         )?;
         writeln!(
             f,
@@ -229,6 +245,7 @@ pub fn run(options: &SoakOptions) -> SoakReport {
     let mut c = daemon.client();
     c.ok("subscribe", Value::Null);
     fill_connection_slots(&daemon);
+    let mut log = std::io::BufWriter::new(std::fs::File::create(options.dir.join(ACTIONS_LOG)).expect("actions log"));
 
     let started = Instant::now();
     let warmup = options.duration.mul_f64(WARMUP_SHARE).min(WARMUP_MAX);
@@ -238,7 +255,7 @@ pub fn run(options: &SoakOptions) -> SoakReport {
     let mut next_rss = started;
     let mut next_progress = started + options.progress.unwrap_or(Duration::MAX / 4);
     while started.elapsed() < options.duration {
-        step(&mut c, &daemon, &mut rng, &mut actions, rss_warm_kib.is_none());
+        step(&mut c, &daemon, &mut rng, &mut actions, rss_warm_kib.is_none(), &mut log);
         for e in c.events.drain(..) {
             *actions.events.entry(e["event"].as_str().unwrap_or("?").to_string()).or_default() += 1;
         }
@@ -288,6 +305,8 @@ pub fn run(options: &SoakOptions) -> SoakReport {
     }
     let duration_s = started.elapsed().as_secs_f64();
     drop(c);
+    let _ = log.flush();
+    drop(log);
     let plant_alive = plant.running();
     let (daemon_exit, stderr) = daemon.terminate();
     drop(plant);
@@ -305,6 +324,7 @@ pub fn run(options: &SoakOptions) -> SoakReport {
         actions.unexpected.push(format!("interpd record exited with {:?}: {recorder_log}", recorder_out.status.code()));
     }
     let recording_bytes = std::fs::metadata(&recording).map_or(0, |m| m.len());
+    let recorder_lost = recorder_losses(&recorder_log);
     let check = check_recording(&recording, AxisLimits::of(&config), config.cycle_s()).unwrap_or_else(|e| {
         let mut c = RecordingCheck {
             setpoints: crate::stream::StreamCheck::new(AxisLimits::of(&config), config.cycle_s()),
@@ -338,8 +358,22 @@ pub fn run(options: &SoakOptions) -> SoakReport {
         wakeup_us: st["cycles"]["wakeup_us"].clone(),
         daemon_exit,
         daemon_summary,
+        recorder_lost,
         plant_alive,
     }
+}
+
+/// The setpoint cycles missing and the samples dropped that `interpd record` reports in its
+/// last line (`recorded setpoints: N (cycles A–B, M missing); …; largest write queue Q of C,
+/// D dropped; …`).
+fn recorder_losses(log: &str) -> Option<(u64, u64)> {
+    let line = log.lines().rev().find(|l| l.contains("recorded setpoints:"))?;
+    let number_before = |text: &str, word: &str| -> Option<u64> {
+        let end = text.find(word)?;
+        text[..end].trim_end().rsplit([' ', '(', ',']).next()?.parse().ok()
+    };
+    let setpoints = line.split("; feedback:").next()?;
+    Some((number_before(setpoints, " missing")?, number_before(line, " dropped")?))
 }
 
 /// Least-squares slope of (x, y) points; 0 for fewer than two.
@@ -370,11 +404,20 @@ fn fill_connection_slots(daemon: &Daemon) {
     std::thread::sleep(Duration::from_millis(300));
 }
 
-/// One random action fitting the state the daemon reports.
+/// One random action fitting the state the daemon reports, written to `log` with the cycle
+/// the daemon was at before it (to find the action before a finding in the recording).
 /// During the warm-up every finished or stopped run loads the next program not yet run.
-fn step(c: &mut Client, daemon: &Daemon, rng: &mut impl Rng, actions: &mut Actions, warming_up: bool) {
+fn step(
+    c: &mut Client,
+    daemon: &Daemon,
+    rng: &mut impl Rng,
+    actions: &mut Actions,
+    warming_up: bool,
+    log: &mut impl Write,
+) {
     let st = c.ok("status", Value::Null);
     let state = st["state"].as_str().unwrap_or("").to_string();
+    let cycle = st["cycle"].as_u64().unwrap_or(0);
     let roll: f64 = rng.random();
     let (what, method, params): (&'static str, &str, Value) = match state.as_str() {
         "idle" | "finished"
@@ -387,6 +430,7 @@ fn step(c: &mut Client, daemon: &Daemon, rng: &mut impl Rng, actions: &mut Actio
             // Reload on a connection of its own, as a second client would.
             let mut other = daemon.client();
             let r = other.call("program.load", json!({ "path": PROGRAMS[index] }));
+            let _ = writeln!(log, "cycle {cycle} {state}: reload {} -> {}", PROGRAMS[index], outcome(&r));
             if r.get("error").is_none() {
                 actions.loaded.insert(index);
             }
@@ -415,8 +459,14 @@ fn step(c: &mut Client, daemon: &Daemon, rng: &mut impl Rng, actions: &mut Actio
         // stopping, jogging: wait.
         _ => return,
     };
-    let r = c.call(method, params);
+    let r = c.call(method, params.clone());
+    let _ = writeln!(log, "cycle {cycle} {state}: {method} {params} -> {}", outcome(&r));
     answer(actions, what, &r);
+}
+
+/// An answer for the actions log: `ok` or the error object.
+fn outcome(r: &Value) -> String {
+    r.get("error").map_or_else(|| "ok".to_string(), Value::to_string)
 }
 
 fn answer(actions: &mut Actions, what: &'static str, r: &Value) {
@@ -424,5 +474,17 @@ fn answer(actions: &mut Actions, what: &'static str, r: &Value) {
         None => actions.count(what),
         Some(-32002) => actions.raced += 1,
         Some(_) => actions.unexpected.push(format!("{what}: {}", r["error"])),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_recorders_losses_are_read_from_its_report() {
+        let line = "interpd: recorded setpoints: 988 (cycles 0–987, 3 missing); feedback: 494 (cycles 0–493, 7 \
+                    missing); 4.0 s to run.mcap (72524 bytes; largest subscriber backlog 5 of 64; largest write queue \
+                    12 of 8192, 2 dropped; 0 out of log-time order)";
+        assert_eq!(super::recorder_losses(line), Some((3, 2)));
+        assert_eq!(super::recorder_losses("nothing"), None);
     }
 }

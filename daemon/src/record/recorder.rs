@@ -1,10 +1,14 @@
-//! The recorder: a thread of its own (normal scheduling) that subscribes to
-//! `<prefix>/setpoints` and `<prefix>/feedback` over iceoryx2 like any other client and writes
-//! every sample to an MCAP file. It never touches the real-time cycle: the publisher's
-//! iceoryx2 service overwrites the oldest queued sample when a subscriber falls behind, so a
-//! slow disk costs recorded samples (counted as missing cycles), never a late cycle. A write
-//! that fails (a full disk) ends the recording at once, with the file finished as far as it
-//! goes, and is reported through [`Recorder::failures`] while the daemon runs on.
+//! The recorder: two threads of their own (normal scheduling). One subscribes to
+//! `<prefix>/setpoints` and `<prefix>/feedback` over iceoryx2 like any other client and only
+//! moves every sample into an in-process queue of [`WRITE_QUEUE_SAMPLES`]; the other writes
+//! them to an MCAP file. It never touches the real-time cycle: the publisher's iceoryx2 service
+//! overwrites the oldest queued sample when a subscriber falls behind (safe overflow), so the
+//! subscriber queues ([`qos::SUBSCRIBER_BUFFER_SIZE`], 256 ms at 4 ms) bound how long the
+//! receiving thread may go unscheduled, and the write queue (16 s of both streams at 4 ms)
+//! how long a write may stall (compression, a disk busy with writeback) before samples are
+//! lost; lost samples are counted as missing cycles, never a late cycle. A write that fails (a
+//! full disk) ends the recording at once, with the file finished as far as it goes, and is
+//! reported through [`Recorder::failures`] while the daemon runs on.
 
 use super::RecordError;
 use super::file::RecordFile;
@@ -31,6 +35,11 @@ pub const DEFAULT_POLL: Duration = Duration::from_millis(10);
 pub const MAX_POLL: Duration = Duration::from_millis(50);
 /// Invalid samples logged one by one; later ones are only counted.
 const LOGGED_INVALID: u64 = 5;
+/// Samples (of both streams) queued between the receiving and the writing thread: 16 s of
+/// setpoints and feedback at 4 ms, so a write (MCAP chunk compression, a disk busy with
+/// writeback) may stall that long before a sample is lost; about 420 bytes a slot (3.4 MB,
+/// allocated with the queue).
+pub const WRITE_QUEUE_SAMPLES: usize = 8192;
 
 /// How a recording is made.
 #[derive(Debug, Clone)]
@@ -41,11 +50,14 @@ pub struct RecordOptions {
     pub poll: Duration,
     /// Extra entries for the file's metadata record (machine, axes, ...).
     pub metadata: BTreeMap<String, String>,
+    /// The writing thread stalls this long before its first write, as on a disk busy with
+    /// writeback (tests: the write queue bridges it).
+    pub write_stall: Option<Duration>,
 }
 
 impl RecordOptions {
     pub fn new(prefix: &str) -> Self {
-        Self { prefix: prefix.into(), poll: DEFAULT_POLL, metadata: BTreeMap::new() }
+        Self { prefix: prefix.into(), poll: DEFAULT_POLL, metadata: BTreeMap::new(), write_stall: None }
     }
 }
 
@@ -62,6 +74,10 @@ pub struct RecordReport {
     /// Most samples found queued in one subscriber at one drain (of
     /// [`qos::SUBSCRIBER_BUFFER_SIZE`]): the headroom left before samples are lost.
     pub max_backlog: usize,
+    /// Most samples waiting for the writing thread (of [`WRITE_QUEUE_SAMPLES`]).
+    pub max_write_queue: usize,
+    /// Samples dropped because the write queue was full (each also a missing cycle).
+    pub write_queue_dropped: u64,
     /// Messages written before one with an earlier log time (see [`Interleave`]); 0 unless a
     /// stream lagged the other by more than the reorder window.
     pub out_of_order: u64,
@@ -71,8 +87,8 @@ impl fmt::Display for RecordReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "recorded setpoints: {}; feedback: {}; {:.1} s to {} ({} bytes; largest subscriber backlog {} of {}; {} \
-             out of log-time order)",
+            "recorded setpoints: {}; feedback: {}; {:.1} s to {} ({} bytes; largest subscriber backlog {} of {}; \
+             largest write queue {} of {}, {} dropped; {} out of log-time order)",
             self.setpoints,
             self.feedback,
             self.duration_s,
@@ -80,6 +96,9 @@ impl fmt::Display for RecordReport {
             self.bytes,
             self.max_backlog,
             qos::SUBSCRIBER_BUFFER_SIZE,
+            self.max_write_queue,
+            WRITE_QUEUE_SAMPLES,
+            self.write_queue_dropped,
             self.out_of_order
         )
     }
@@ -88,8 +107,26 @@ impl fmt::Display for RecordReport {
 /// A running recorder; [`Recorder::stop`] finishes the file.
 pub struct Recorder {
     stop: Arc<AtomicBool>,
-    thread: Option<JoinHandle<Result<RecordReport, RecordError>>>,
+    receiver: Option<JoinHandle<Received>>,
+    writer: Option<JoinHandle<Result<RecordReport, RecordError>>>,
     failures: Receiver<RecordError>,
+}
+
+/// What goes from the receiving to the writing thread. Samples travel by value: they are
+/// nearly every message, and the queue's slots hold them without an allocation each.
+#[allow(clippy::large_enum_variant)]
+enum Message {
+    Sample(Payload),
+    /// Receiving failed: the recording ends.
+    Failed(RecordError),
+}
+
+/// The receiving thread's counters, reported when it ends.
+#[derive(Debug, Default, Clone, Copy)]
+struct Received {
+    max_backlog: usize,
+    max_write_queue: usize,
+    dropped: u64,
 }
 
 struct Subscribers {
@@ -112,29 +149,41 @@ impl Recorder {
         let (ready_tx, ready_rx) = std::sync::mpsc::channel();
         // One failure ends the recording, so one slot suffices; the sender goes with the thread.
         let (failed_tx, failures) = crossbeam::channel::bounded(1);
+        let (queue_tx, queue_rx) = crossbeam::channel::bounded(WRITE_QUEUE_SAMPLES);
         let thread_stop = stop.clone();
-        let thread = std::thread::Builder::new()
-            .name("interpd-recorder".into())
+        let (poll, write_stall) = (options.poll, options.write_stall);
+        let receiver = std::thread::Builder::new()
+            .name("interpd-rec-recv".into())
             .spawn(move || {
                 let subs = match subscribe(&options.prefix) {
                     Ok(s) => s,
                     Err(e) => {
                         let _ = ready_tx.send(Err(e));
-                        return Err(RecordError::Setup("subscription failed".into()));
+                        return Received::default();
                     }
                 };
                 let _ = ready_tx.send(Ok(()));
-                record(file, &subs, &thread_stop, options.poll, &failed_tx)
+                receive(&subs, &thread_stop, poll, &queue_tx)
             })
             .map_err(|e| RecordError::Setup(format!("cannot start the recorder thread: {e}")))?;
         match ready_rx.recv() {
-            Ok(Ok(())) => Ok(Recorder { stop, thread: Some(thread), failures }),
+            Ok(Ok(())) => {}
             Ok(Err(e)) => {
-                let _ = thread.join();
-                Err(e)
+                let _ = receiver.join();
+                return Err(e);
             }
-            Err(_) => Err(RecordError::Setup("the recorder thread ended during start-up".into())),
+            Err(_) => return Err(RecordError::Setup("the recorder thread ended during start-up".into())),
         }
+        let writer = std::thread::Builder::new()
+            .name("interpd-recorder".into())
+            .spawn(move || {
+                if let Some(stall) = write_stall {
+                    std::thread::sleep(stall);
+                }
+                record(file, &queue_rx, &failed_tx)
+            })
+            .map_err(|e| RecordError::Setup(format!("cannot start the recorder thread: {e}")))?;
+        Ok(Recorder { stop, receiver: Some(receiver), writer: Some(writer), failures })
     }
 
     /// The error that ended the recording early, when it happens (a write that failed); the
@@ -147,15 +196,24 @@ impl Recorder {
     /// Drains what is queued, finishes the file, and reports.
     pub fn stop(mut self) -> Result<RecordReport, RecordError> {
         self.stop.store(true, Ordering::Release);
-        let thread = self.thread.take().expect("a recorder is stopped once");
-        thread.join().unwrap_or_else(|_| Err(RecordError::Setup("the recorder thread panicked".into())))
+        let received = self.receiver.take().expect("a recorder is stopped once").join().unwrap_or_default();
+        let writer = self.writer.take().expect("a recorder is stopped once");
+        let mut report =
+            writer.join().unwrap_or_else(|_| Err(RecordError::Setup("the recorder thread panicked".into())))?;
+        report.max_backlog = received.max_backlog;
+        report.max_write_queue = received.max_write_queue;
+        report.write_queue_dropped = received.dropped;
+        Ok(report)
     }
 }
 
 impl Drop for Recorder {
     fn drop(&mut self) {
         self.stop.store(true, Ordering::Release);
-        if let Some(t) = self.thread.take() {
+        if let Some(t) = self.receiver.take() {
+            let _ = t.join();
+        }
+        if let Some(t) = self.writer.take() {
             let _ = t.join();
         }
     }
@@ -180,7 +238,6 @@ fn subscribe(prefix: &str) -> Result<Subscribers, RecordError> {
 struct Tally {
     setpoints: StreamCount,
     feedback: StreamCount,
-    max_backlog: usize,
 }
 
 impl Tally {
@@ -192,36 +249,79 @@ impl Tally {
     }
 }
 
-/// The loop: drain both queues into the merge, write what the merge releases; until `stop`,
-/// then one last drain and everything held. On a write or receive error the file is still
-/// finished, so what was recorded stays readable.
+/// The receiving loop: every `poll`, everything queued in both subscribers into the write
+/// queue; until `stop` (then one last drain) or the writer is gone. A full write queue drops
+/// the sample (counted; the writer sees the missing cycle).
+fn receive(subs: &Subscribers, stop: &AtomicBool, poll: Duration, queue: &Sender<Message>) -> Received {
+    let mut counts = Received::default();
+    let mut batch = Vec::new();
+    loop {
+        let last = stop.load(Ordering::Acquire);
+        let drained = drain(&subs.setpoints, &mut batch, &mut counts)
+            .and_then(|()| drain(&subs.feedback, &mut batch, &mut counts));
+        for p in batch.drain(..) {
+            match queue.try_send(Message::Sample(p)) {
+                Ok(()) => {}
+                Err(crossbeam::channel::TrySendError::Full(_)) => counts.dropped += 1,
+                Err(crossbeam::channel::TrySendError::Disconnected(_)) => return counts,
+            }
+        }
+        counts.max_write_queue = counts.max_write_queue.max(queue.len());
+        if let Err(e) = drained {
+            let _ = queue.send(Message::Failed(e));
+            return counts;
+        }
+        if last {
+            return counts;
+        }
+        std::thread::sleep(poll);
+    }
+}
+
+/// The writing loop: samples from the write queue into the merge, what the merge releases
+/// into the file; when the receiving thread ends, everything held. On a write or receive
+/// error the file is still finished, so what was recorded stays readable.
 fn record(
     mut file: RecordFile,
-    subs: &Subscribers,
-    stop: &AtomicBool,
-    poll: Duration,
+    queue: &Receiver<Message>,
     failed: &Sender<RecordError>,
 ) -> Result<RecordReport, RecordError> {
     let started = Instant::now();
     let mut tally = Tally::default();
     let mut merge = Interleave::default();
-    let (mut received, mut ready) = (Vec::new(), Vec::new());
+    let mut ready = Vec::new();
     let outcome = loop {
-        let last = stop.load(Ordering::Acquire);
-        let step = drain(&subs.setpoints, &mut received, &mut tally)
-            .and_then(|()| drain(&subs.feedback, &mut received, &mut tally))
-            .and_then(|()| {
-                received.drain(..).for_each(|p| merge.push(p));
-                if last {
-                    merge.pop_all(&mut ready)
-                } else {
-                    merge.pop_ready(&mut ready)
+        let (step, last) = match queue.recv() {
+            Ok(Message::Sample(p)) => {
+                match schema::check(&p) {
+                    Ok(()) => merge.push(p),
+                    Err(e) => {
+                        let count = tally.count(p.stream());
+                        count.invalid += 1;
+                        if count.invalid <= LOGGED_INVALID {
+                            tracing::warn!(
+                                "{} sample of cycle {} not recorded: {e}",
+                                p.stream().schema().name,
+                                p.cycle()
+                            );
+                        }
+                    }
                 }
-                ready.drain(..).try_for_each(|p: Payload| {
-                    tally.count(p.stream()).record(p.cycle());
-                    file.write(&p)
-                })
-            });
+                merge.pop_ready(&mut ready);
+                (Ok(()), false)
+            }
+            Ok(Message::Failed(e)) => (Err(e), false),
+            Err(_) => {
+                merge.pop_all(&mut ready);
+                (Ok(()), true)
+            }
+        };
+        let step = step.and_then(|()| {
+            ready.drain(..).try_for_each(|p: Payload| {
+                tally.count(p.stream()).record(p.cycle());
+                file.write(&p)
+            })
+        });
         if let Err(e) = step {
             tracing::error!("recording to {} stopped: {e}", file.path().display());
             let _ = failed.try_send(e.clone());
@@ -230,7 +330,6 @@ fn record(
         if last {
             break Ok(());
         }
-        std::thread::sleep(poll);
     };
     let path = file.path().to_path_buf();
     // After a failed write the file ends with what was written before it; the error that
@@ -244,7 +343,9 @@ fn record(
         feedback: tally.feedback,
         bytes,
         duration_s: started.elapsed().as_secs_f64(),
-        max_backlog: tally.max_backlog,
+        max_backlog: 0,
+        max_write_queue: 0,
+        write_queue_dropped: 0,
         out_of_order: merge.out_of_order,
     })
 }
@@ -269,11 +370,11 @@ impl Recordable for Feedback {
     }
 }
 
-/// Receives every queued sample of `sub` into `out`, valid ones only (invalid are counted).
+/// Receives every queued sample of `sub` into `out` (checked by the writer).
 fn drain<T: Recordable>(
     sub: &Subscriber<ipc::Service, T, ()>,
     out: &mut Vec<Payload>,
-    tally: &mut Tally,
+    counts: &mut Received,
 ) -> Result<(), RecordError> {
     let before = out.len();
     loop {
@@ -281,18 +382,49 @@ fn drain<T: Recordable>(
             .receive()
             .map_err(|e| RecordError::Transport(format!("receive on {}: {e:?}", T::STREAM.schema().service)))?;
         let Some(sample) = sample else { break };
-        let payload = (*sample).wrap();
-        match schema::check(&payload) {
-            Ok(()) => out.push(payload),
-            Err(e) => {
-                let count = tally.count(T::STREAM);
-                count.invalid += 1;
-                if count.invalid <= LOGGED_INVALID {
-                    tracing::warn!("{} sample of cycle {} not recorded: {e}", T::STREAM.schema().name, payload.cycle());
-                }
-            }
-        }
+        out.push((*sample).wrap());
     }
-    tally.max_backlog = tally.max_backlog.max(out.len() - before);
+    counts.max_backlog = counts.max_backlog.max(out.len() - before);
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use interpd_protocol::shm::Feedback;
+
+    /// A writer stalled for 1.5 s, six times what the subscriber queues hold at 4 ms, while
+    /// both streams are published every 4 ms: nothing is lost, the write queue bridges it.
+    #[test]
+    fn a_stalled_writer_loses_no_sample() {
+        let prefix = format!("interpd-test/recorder-stall-{}", std::process::id());
+        let path = std::env::temp_dir().join(format!("interpd-recorder-stall-{}.mcap", std::process::id()));
+        let node = NodeOptions::new().name("interpd-recorder-test").create().expect("node");
+        let sp = open_service::<Setpoints>(&node, &prefix).expect("setpoints");
+        let fb = open_service::<Feedback>(&node, &prefix).expect("feedback");
+        let (sp_pub, fb_pub) =
+            (sp.publisher_builder().create().expect("publisher"), fb.publisher_builder().create().expect("publisher"));
+        let mut options = RecordOptions::new(&prefix);
+        let stall = Duration::from_millis(1500);
+        options.write_stall = Some(stall);
+        let recorder = Recorder::start(RecordFile::create(&path).expect("file"), options).expect("recorder");
+        const CYCLES: u64 = 500;
+        let started = Instant::now();
+        for cycle in 1..=CYCLES {
+            let t = 1_000_000_000 + cycle * 4_000_000;
+            let setpoint = Setpoints { n_axes: 3, cycle, time_ns: t, publish_ns: t, ..Setpoints::default() };
+            let feedback = Feedback { n_axes: 3, cycle, time_ns: t, setpoint_publish_ns: t, ..Feedback::default() };
+            sp_pub.loan_uninit().expect("loan").write_payload(setpoint).send().expect("send");
+            fb_pub.loan_uninit().expect("loan").write_payload(feedback).send().expect("send");
+            std::thread::sleep(Duration::from_millis(4));
+        }
+        assert!(started.elapsed() > stall, "the stall outlasts the publishing");
+        let report = recorder.stop().expect("report");
+        let _ = std::fs::remove_file(&path);
+        assert!(report.max_write_queue > 2 * qos::SUBSCRIBER_BUFFER_SIZE, "{report}");
+        for count in [report.setpoints, report.feedback] {
+            assert_eq!((count.samples, count.missing, count.first_cycle), (CYCLES, 0, Some(1)), "{report}");
+        }
+        assert_eq!(report.write_queue_dropped, 0, "{report}");
+    }
 }

@@ -633,3 +633,54 @@ fn notice_cycle(n: &Notice) -> u64 {
         | Notice::Line { cycle, .. } => cycle,
     }
 }
+
+/// A stop while the planner thread is still queueing the restart of a resume: those chunks
+/// (the first of their epoch, from where the machine stands) arrive after the stop completed
+/// and the queue was emptied. Below the floor the stop published, they never start.
+#[test]
+fn a_restart_queued_after_a_stop_never_runs() {
+    let config = Config::default_machine();
+    let mut sim = Sim::new(config.clone());
+    let mut epochs = crate::interp::Epochs::default();
+    let path = Arc::new(program::parse("G1 X50 F6000\n", "line.ngc", &Settings::from(&config)).unwrap().path);
+    let first = epochs.start();
+    sim.feeder.command(FeederCommand::Start {
+        source: PathSource::Whole(path),
+        epoch: first,
+        feed_override: 1.0,
+        suspend: false,
+    });
+    for _ in 0..40 {
+        sim.cycle();
+    }
+    sim.hold = true;
+    while !sim.seen.iter().any(|n| matches!(n, Notice::Stood { .. })) {
+        sim.cycle();
+    }
+    for n in &sim.seen {
+        if let Notice::Started { epoch, .. } | Notice::Diverted { epoch, .. } = n {
+            epochs.saw(*epoch);
+        }
+    }
+    let held = sim.out.last().unwrap().pos;
+    // Resume, then a stop before the restart is queued; the stop completes (queue emptied).
+    sim.hold = false;
+    sim.feeder.command(FeederCommand::Resume);
+    sim.stop = true;
+    sim.epoch_floor = epochs.floor();
+    sim.step_executor();
+    while sim.queues.chunks.pop().is_some() {}
+    // The planner thread, still on the resume, queues the restart; then the abort arrives.
+    while sim.feeder.wants_to_produce() {
+        sim.feeder.produce();
+    }
+    assert!(!sim.queues.chunks.is_empty(), "the restart is queued");
+    sim.feeder.command(FeederCommand::Abort);
+    sim.stop = false;
+    for _ in 0..20 {
+        sim.step_executor();
+    }
+    let moved = sim.out.iter().rev().take(20).map(|s| (s.pos[0] - held[0]).abs()).fold(0.0, f64::max);
+    assert!(moved == 0.0, "the stopped program moved on by {moved} mm");
+    assert_eq!(sim.seen.iter().filter(|n| matches!(n, Notice::Started { .. })).count(), 1, "{:?}", sim.seen);
+}

@@ -112,6 +112,9 @@ pub struct SoakReport {
     pub wakeup_us: Value,
     pub daemon_exit: Option<i32>,
     pub daemon_summary: String,
+    /// The first cycle of each underrun (the first ten) with the client's last actions before
+    /// it (from the actions log).
+    pub underrun_context: Vec<(u64, Vec<String>)>,
     /// What `interpd record` reports it lost: setpoint cycles missing and samples dropped from
     /// its write queue (`None` when its report is not found).
     pub recorder_lost: Option<(u64, u64)>,
@@ -216,6 +219,9 @@ impl fmt::Display for SoakReport {
             self.recorder_rss_kib.0,
             self.recorder_rss_kib.1
         )?;
+        for (cycle, actions) in &self.underrun_context {
+            writeln!(f, "  underrun from cycle {cycle}, after: {}", actions.join(" | "))?;
+        }
         let failures = self.failures();
         if failures.is_empty() { write!(f, "  PASS") } else { write!(f, "  FAIL: {}", failures.join("; ")) }
     }
@@ -337,6 +343,9 @@ pub fn run(options: &SoakOptions) -> SoakReport {
     if !options.keep {
         let _ = std::fs::remove_file(&recording);
     }
+    let actions_log = std::fs::read_to_string(options.dir.join(ACTIONS_LOG)).unwrap_or_default();
+    let underrun_context =
+        check.setpoints.underrun_starts.iter().map(|&at| (at, actions_before(&actions_log, at, 3))).collect();
     let hours = duration_s / 3600.0;
     SoakReport {
         seed: options.seed,
@@ -359,8 +368,16 @@ pub fn run(options: &SoakOptions) -> SoakReport {
         daemon_exit,
         daemon_summary,
         recorder_lost,
+        underrun_context,
         plant_alive,
     }
+}
+
+/// The last `n` lines of the actions log whose cycle is before `cycle`.
+fn actions_before(log: &str, cycle: u64, n: usize) -> Vec<String> {
+    let at = |l: &str| l.strip_prefix("cycle ")?.split(' ').next()?.parse::<u64>().ok();
+    let before: Vec<&str> = log.lines().filter(|l| at(l).is_some_and(|c| c < cycle)).collect();
+    before[before.len().saturating_sub(n)..].iter().map(|l| l.to_string()).collect()
 }
 
 /// The setpoint cycles missing and the samples dropped that `interpd record` reports in its
@@ -486,5 +503,15 @@ mod tests {
                     12 of 8192, 2 dropped; 0 out of log-time order)";
         assert_eq!(super::recorder_losses(line), Some((3, 2)));
         assert_eq!(super::recorder_losses("nothing"), None);
+    }
+
+    #[test]
+    fn the_actions_before_an_underrun_are_found_by_cycle() {
+        let log = "cycle 10 idle: motion.start null -> ok\ncycle 250 running: motion.hold null -> ok\n\
+                   cycle 400 holding: motion.resume null -> ok\ncycle 900 running: motion.stop null -> ok\n";
+        assert_eq!(
+            super::actions_before(log, 500, 2),
+            ["cycle 250 running: motion.hold null -> ok", "cycle 400 holding: motion.resume null -> ok"]
+        );
     }
 }

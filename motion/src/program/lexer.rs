@@ -254,12 +254,11 @@ mod tests {
 
     #[test]
     fn decimals_parse_as_the_standard_parser_does() {
-        let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
+        use proptest::prelude::RngCore;
+        let mut rng = proptest::test_runner::TestRng::deterministic_rng(proptest::test_runner::RngAlgorithm::ChaCha);
         for _ in 0..200_000 {
-            // xorshift: numbers of 0-20 digits with a point anywhere, both signs.
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
+            // Numbers of 0-20 digits with a point anywhere, both signs.
+            let x = rng.next_u64();
             let digits = (x % 21) as usize;
             let mut text = String::from(["", "-", "+"][(x >> 8) as usize % 3]);
             let point = (x >> 16) as usize % (digits + 1);

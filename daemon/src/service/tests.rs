@@ -399,21 +399,10 @@ fn at_rest_only_the_first_chunk_of_an_epoch_starts() {
     assert!(!sim.seen.iter().any(|n| matches!(n, Notice::Started { .. })), "{:?}", sim.seen);
 }
 
-/// A small deterministic generator for the command sequences below (xorshift64*).
-struct Xorshift(u64);
-
-impl Xorshift {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
-    }
-
-    /// Uniform in [0, 1).
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
+/// Uniform in [0, 1) from proptest's deterministic generator (the command sequences below).
+fn unit(rng: &mut proptest::test_runner::TestRng) -> f64 {
+    use proptest::prelude::RngCore;
+    (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64
 }
 
 /// Largest disagreement between the setpoints' reported velocity and acceleration and their
@@ -518,7 +507,10 @@ fn random_requests_keep_the_reported_state_the_motion() {
     let only: Option<u64> = std::env::var("SIM_REQUEST_SEED").ok().and_then(|s| s.parse().ok());
     for seed in (1..=seeds).filter(|s| only.is_none_or(|o| o == *s)) {
         let trace = only.is_some();
-        let mut rng = Xorshift(0x9e37_79b9_7f4a_7c15 ^ seed.wrapping_mul(0xd1b5_4a32_d192_ed03));
+        let mut seed_bytes = [0u8; 32];
+        seed_bytes[..8].copy_from_slice(&seed.to_le_bytes());
+        let mut rng =
+            proptest::test_runner::TestRng::from_seed(proptest::test_runner::RngAlgorithm::ChaCha, &seed_bytes);
         let mut sim = Sim::new(config.clone());
         let mut epochs = crate::interp::Epochs::default();
         let first = epochs.start();
@@ -532,12 +524,12 @@ fn random_requests_keep_the_reported_state_the_motion() {
         let mut worst_piece = (0.0, String::new());
         let mut checked = std::collections::HashSet::new();
         while sim.cycle < 6000 {
-            let roll = rng.unit();
+            let roll = unit(&mut rng);
             if trace && roll < 0.024 {
                 eprintln!("cycle {} roll {roll:.4} hold {} phase {:?}", sim.cycle, sim.hold, sim.executor.phase());
             }
             if roll < 0.01 {
-                sim.feeder.command(FeederCommand::Override(0.1 + 1.9 * rng.unit()));
+                sim.feeder.command(FeederCommand::Override(0.1 + 1.9 * unit(&mut rng)));
             } else if roll < 0.014 {
                 sim.hold = true;
             } else if roll < 0.02 && sim.hold {
@@ -545,7 +537,7 @@ fn random_requests_keep_the_reported_state_the_motion() {
                 sim.feeder.command(FeederCommand::Resume);
             } else if roll < 0.022 {
                 // The planner thread falls behind for a while.
-                lag = (rng.unit() * 60.0) as u32;
+                lag = (unit(&mut rng) * 60.0) as u32;
             } else if roll < 0.023 && !sim.hold && sim.executor.phase() == crate::interp::Phase::Standing {
                 sim.stop = false;
                 let epoch = epochs.start();
@@ -556,7 +548,7 @@ fn random_requests_keep_the_reported_state_the_motion() {
                 sim.feeder.command(FeederCommand::Start {
                     source: source(here),
                     epoch,
-                    feed_override: 0.1 + 1.9 * rng.unit(),
+                    feed_override: 0.1 + 1.9 * unit(&mut rng),
                     suspend: false,
                 });
             } else if roll < 0.024 {

@@ -360,15 +360,13 @@ impl Interpreter {
     /// Ends the program text: refuses one that stops inside G06 spline data (cut short, most
     /// likely) and attaches a trailing dwell.
     pub(super) fn finish(&mut self, d: &mut Diagnostics) {
-        if let Some(block) = self.g06.as_ref().filter(|b| !b.spans.is_empty()) {
-            // A file that stops inside spline data was most likely cut short: its last span
-            // may be missing or truncated, so nothing of it runs.
-            if !block.unterminated {
-                d.error(block.line, block.col, ends_inside_g06_message());
-            }
+        // A file that stops inside spline data was most likely cut short: its last span may
+        // be missing or truncated, so nothing of it runs.
+        if let Some((line, col)) = self.open_g06_with_spans() {
+            d.error(line, col, ends_inside_g06_message());
             self.g06 = None;
         }
-        // A G06 line with no spans at all is reported as such.
+        // A G06 line with no spans is reported as such; a span already reported, not again.
         self.finish_g06(d);
         if let Err(e) = self.cutter.finish() {
             d.error(e.line, e.col, e.kind.to_string());

@@ -269,15 +269,15 @@ fn gcode_continues_from_a_modal_state() {
     assert_eq!(modal.position()[1], 2.0);
 }
 
-/// End point of each element, X only.
-fn ends_x(p: &Program) -> Vec<f64> {
+/// End point of each element on axis `k`.
+fn ends_on(p: &Program, k: usize) -> Vec<f64> {
     p.path
         .elements
         .iter()
         .map(|e| {
             let mut d = AxisDerivs::default();
             e.geometry.eval(e.geometry.length_mm(), &mut d);
-            d.pos[0]
+            d.pos[k]
         })
         .collect()
 }
@@ -288,28 +288,18 @@ fn g92_offsets_the_coordinates_as_linuxcnc() {
     // suspends the offset, G92.3 restores it; G92 ignores G91; G92.1 clears it.
     let p = ok("G0 X5 Y1\nG92 X0\nG1 X1 F100\nG92.2\nG1 X2\nG92.3\nG1 X3\nG91\nG92 X10\nG90 G1 X11\nG92.1\nG1 X0\n");
     let want = [5.0, 6.0, 2.0, 8.0, 9.0, 0.0];
-    let got = ends_x(&p);
+    let got = ends_on(&p, 0);
     assert!(got.iter().zip(want).all(|(g, w)| (g - w).abs() < 1e-12), "{got:?}");
     // In inches, added to the work offset and the tool length, and carried by G92.1's axis
     // words to the motion mode (G92.1 itself takes none).
     let p = ok("G20 G0 X1\nG92 X0 Z0\nG0 X1 Z1\nG92.1 X3\n");
     assert!(close(end(&p), [76.2, 0.0, 25.4]), "{:?}", end(&p));
-    let got = ends_x(&p);
+    let got = ends_on(&p, 0);
     assert!(got.iter().zip([25.4, 50.8, 76.2]).all(|(g, w)| (g - w).abs() < 1e-12), "{got:?}");
     let mut settings = xyz();
     settings.tools = vec![interpd_config::ToolConfig { number: 1, diameter_mm: 6.0, length_mm: 50.0, name: None }];
     let p = parse("G43 H1\nG0 Z0\nG92 Z10\nG0 Z0\n", "t.ngc", &settings).expect("valid");
-    let z: Vec<f64> = p
-        .path
-        .elements
-        .iter()
-        .map(|e| {
-            let mut d = AxisDerivs::default();
-            e.geometry.eval(e.geometry.length_mm(), &mut d);
-            d.pos[2]
-        })
-        .collect();
-    assert_eq!(z, vec![50.0, 40.0]);
+    assert_eq!(ends_on(&p, 2), vec![50.0, 40.0]);
 }
 
 #[test]

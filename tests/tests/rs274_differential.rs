@@ -51,8 +51,9 @@ const DELIBERATE: &[(&str, &str)] = &[
     ("73_arc_turns_p.ngc", "P with G2/G3"),
 ];
 
-fn require_linuxcnc() {
-    match Command::new("rs274").arg("-g").arg("/dev/null").output() {
+/// Fails with the install hint unless rs274 and the `gcode` module run; `dir` is the test's own.
+fn require_linuxcnc(dir: &Path) {
+    match rs274_g(Path::new("/dev/null"), dir) {
         Ok(_) => {}
         Err(e) => panic!("cannot run rs274 ({e}): {INSTALL_HINT}"),
     }
@@ -75,14 +76,18 @@ fn with_end(text: &str) -> String {
 
 static RS274_LOCK: Mutex<()> = Mutex::new(());
 
+/// `rs274 -g file`, run in `dir`. rs274 keeps its parameter file in the working directory and
+/// maps its tool data from `$HOME/.tool.mmap`, truncating it at start: a second rs274 on the same
+/// file crashes the first (SIGBUS). So each test gives rs274 its own directory as working
+/// directory and home, and one rs274 runs at a time.
+fn rs274_g(file: &Path, dir: &Path) -> std::io::Result<std::process::Output> {
+    let _one = RS274_LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    Command::new("rs274").arg("-g").arg(file).current_dir(dir).env("HOME", dir).output()
+}
+
 /// `rs274 -g`'s verdict and, on refusal, its message.
 fn rs274_verdict(file: &Path) -> Result<(), String> {
-    // rs274 keeps its parameter file in the working directory: one directory per test, so
-    // tests running at once do not share it.
-    let dir = file.parent().expect("file in a directory");
-    // Two rs274 at once share its tool-data memory and crash (SIGBUS): one at a time.
-    let _one = RS274_LOCK.lock().unwrap_or_else(|e| e.into_inner());
-    let out = Command::new("rs274").arg("-g").arg(file).current_dir(dir).output().expect("run rs274");
+    let out = rs274_g(file, file.parent().expect("file in a directory")).expect("run rs274");
     if out.status.success() {
         return Ok(());
     }
@@ -266,7 +271,10 @@ fn run_cases(cases: &[Case], deliberate: &[(&str, &str)]) -> (Vec<String>, usize
                     "{}: listed as a deliberate difference ({why}) but interpd {} and rs274 {}",
                     case.name,
                     if ours.is_ok() { "accepts" } else { "refuses" },
-                    if theirs.is_ok() { "accepts" } else { "refuses" }
+                    match &theirs {
+                        Ok(()) => "accepts".to_string(),
+                        Err(msg) => format!("refuses: {msg}"),
+                    }
                 ));
                 continue;
             }
@@ -306,8 +314,8 @@ fn scratch_dir(name: &str) -> PathBuf {
 
 #[test]
 fn corpus_verdicts_agree_with_linuxcnc() {
-    require_linuxcnc();
     let dir = scratch_dir("corpus");
+    require_linuxcnc(&dir);
     let mut cases = Vec::new();
     let corpus = repo_root().join("tests/programs/bad");
     let mut names: Vec<String> = std::fs::read_dir(&corpus)
@@ -339,8 +347,8 @@ fn corpus_verdicts_agree_with_linuxcnc() {
 
 #[test]
 fn generated_programs_agree_with_linuxcnc() {
-    require_linuxcnc();
     let dir = scratch_dir("generated");
+    require_linuxcnc(&dir);
     let mut rng = Rng(SEED);
     let mut cases = Vec::new();
     for i in 0..GENERATED {
@@ -380,9 +388,7 @@ type PrintedMove = (&'static str, [f64; 3], Option<([f64; 2], i64)>);
 /// Canonical moves from `rs274 -g`'s printed calls (XY plane): kind, end X Y Z, and for arcs
 /// the centre and direction. Used where the `gcode` module cannot go (tool look-ups for D).
 fn rs274_printed_moves(file: &Path) -> Vec<PrintedMove> {
-    let dir = file.parent().expect("file in a directory");
-    let _one = RS274_LOCK.lock().unwrap_or_else(|e| e.into_inner());
-    let out = Command::new("rs274").arg("-g").arg(file).current_dir(dir).output().expect("run rs274");
+    let out = rs274_g(file, file.parent().expect("file in a directory")).expect("run rs274");
     let text = String::from_utf8_lossy(&out.stdout);
     let args = |line: &str, call: &str| -> Option<Vec<f64>> {
         let rest = &line[line.find(call)? + call.len()..];
@@ -406,8 +412,8 @@ fn rs274_printed_moves(file: &Path) -> Vec<PrintedMove> {
 
 #[test]
 fn cutter_compensation_agrees_with_linuxcnc() {
-    require_linuxcnc();
     let dir = scratch_dir("comp");
+    require_linuxcnc(&dir);
     let mut settings = Settings::default_machine();
     settings.tools = vec![interpd_motion::config::ToolConfig {
         number: 1,

@@ -13,8 +13,8 @@ pub mod tooling;
 
 pub use params::{AppendParams, JogMode, JogParams, LawParams, LoadParams, MdiParams, MoveToParams, OverrideParams};
 pub use status::{
-    CutterMode, CutterStatus, CycleStats, DriveStatus, ManualStatus, MdiModal, Percentiles, ProgramBuffer, ProgramInfo,
-    ProgramModal, SpindleTool, State, Status, ToolLength,
+    CutterMode, CutterStatus, CycleStats, DriveStatus, LookaheadStatus, ManualStatus, MdiModal, Percentiles,
+    ProgramBuffer, ProgramInfo, ProgramModal, SpindleTool, State, Status, ToolLength,
 };
 pub use tooling::{Tool, ToolTable, WorkOffsets};
 

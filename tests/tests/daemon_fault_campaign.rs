@@ -648,6 +648,11 @@ fn a_stalled_planner_brakes_along_the_path_and_the_program_goes_on() {
         names.iter().position(|n| *n == "underrun_cleared").expect("an underrun_cleared event"),
     );
     assert!(under < cleared, "{names:?}");
+    // The status shows why: a look-ahead step longer than the queue that bridged it.
+    let lookahead = c.ok("status", Value::Null)["lookahead"].clone();
+    let step_ms = lookahead["step_max_ms"].as_f64().expect("lookahead.step_max_ms");
+    let queue_min_s = lookahead["queue_min_s"].as_f64().expect("lookahead.queue_min_s");
+    assert!(step_ms >= 600.0 && step_ms > queue_min_s * 1e3, "{lookahead}");
     std::thread::sleep(Duration::from_millis(100));
     let sps = collector.finish();
     drop(c);
@@ -670,7 +675,7 @@ fn a_stalled_planner_brakes_along_the_path_and_the_program_goes_on() {
     assert_eq!(rec.setpoints.underruns, check.underruns, "the recording and the live stream differ");
     eprintln!(
         "planner stalled: events {names:?}; {} underrun cycles in {} setpoints, 0 missing, limit ratios {:.4?}; \
-         recorded {} setpoints",
+         recorded {} setpoints; lookahead {lookahead}",
         check.underrun_cycles, check.count, check.ratios, rec.setpoints.count
     );
     let _ = std::fs::remove_dir_all(&dir);

@@ -121,6 +121,7 @@ fn a_million_line_program_loads_and_runs_in_bounded_memory() {
     let st = c.wait_state(&["finished", "error"], RUN_TIMEOUT);
     let (peak, rss_end) = memory_mb(pid);
     assert_eq!(st["state"], "finished", "{st}\n{}", daemon.stderr());
+    let lookahead = c.ok("status", Value::Null)["lookahead"].clone();
     std::thread::sleep(Duration::from_millis(100));
     let sps = collector.finish();
     drop(plant);
@@ -141,6 +142,13 @@ fn a_million_line_program_loads_and_runs_in_bounded_memory() {
         }
     }
     eprintln!("underruns begin at (cycle, s_mm): {runs:?}");
+    // What the look-ahead did when the queue ran low: its longest step, and its warnings.
+    eprintln!("lookahead {lookahead}");
+    let warnings: Vec<&str> = stderr.lines().filter(|l| l.contains("WARN") || l.contains("ERROR")).collect();
+    eprintln!("daemon warnings: {}", warnings.len());
+    for w in warnings.iter().take(20) {
+        eprintln!("  {w}");
+    }
     let config = Config::load_or_default(None).expect("default machine");
     let limits: Vec<AxisLimits> = AxisLimits::of(&config);
     let r = limit_ratios(config.cycle_s(), &limits, &sps);

@@ -390,6 +390,7 @@ impl Motion for ServiceCore {
                 }
                 RunKind::Mdi | RunKind::Manual => None,
             },
+            lookahead: shared.lookahead.status(chunk_s),
         }
     }
 

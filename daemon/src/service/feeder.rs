@@ -20,7 +20,9 @@ use interpd_motion::Settings;
 use interpd_motion::path::{AxisVec, Feed, Path};
 use interpd_motion::planner::brake::{brake_along, next_stop_s};
 use interpd_motion::planner::{PlanError, Planner, STANDSTILL_A_MM_S2, STANDSTILL_V_MM_S, Segment};
+use interpd_protocol::api::LookaheadStatus;
 use std::collections::VecDeque;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -42,6 +44,9 @@ pub const QUEUE_CAPACITY: usize = 16;
 /// A segment this much longer than the room left in a chunk is split rather than taken whole
 /// (fraction of a chunk).
 const SPLIT_OVERHANG: f64 = 0.25;
+/// The longest the thread reads ahead before it looks again for commands and chunks due (one
+/// read, with its smoothing window, may take longer).
+const READ_AHEAD_SLICE: Duration = Duration::from_millis(2);
 /// How long the thread waits for a command when it has nothing to do.
 const IDLE_WAIT: Duration = Duration::from_millis(2);
 /// A program waiting for appended text stops at the end of what is there once no more than
@@ -167,6 +172,8 @@ struct Run {
     /// Where the planner's path starts (the run's start, or the queue end after an override
     /// change): the element containing it is cut there.
     plan_from_s_mm: f64,
+    /// Path position where the last element given to the planner ends.
+    pushed_end_mm: f64,
     /// Index (in the whole path) of the next element for the planner; `None` until the
     /// element at `plan_from_s_mm` is found.
     next_element: Option<usize>,
@@ -195,6 +202,9 @@ struct Run {
     /// moves between threads as one pointer.
     #[allow(clippy::vec_box)]
     staged: Vec<Box<Chunk>>,
+    /// The queue has reached this run's depth once: from then on its low point is a measure
+    /// of how the look-ahead keeps up (`status.lookahead`).
+    reached_depth: bool,
     wait: Wait,
     /// Seconds of motion queued in this run (for the debug stall).
     queued_s: f64,
@@ -231,6 +241,47 @@ pub struct Feeder {
     pub stats: FeederStats,
     /// The running program's tool and offset state changes, read by `status`.
     modal: Arc<Mutex<ModalTrack>>,
+    /// How the thread kept up, read by `status`.
+    health: Arc<LookaheadHealth>,
+}
+
+/// How the planner thread kept up in the current motion (`status.lookahead`): it writes, the
+/// control thread reads.
+#[derive(Debug)]
+pub struct LookaheadHealth {
+    step_max_ns: AtomicU64,
+    /// Least chunks queued when a step began; `u64::MAX` before the queue first reached its depth.
+    queue_min_chunks: AtomicU64,
+}
+
+impl Default for LookaheadHealth {
+    fn default() -> Self {
+        Self { step_max_ns: AtomicU64::new(0), queue_min_chunks: AtomicU64::new(u64::MAX) }
+    }
+}
+
+impl LookaheadHealth {
+    fn reset(&self) {
+        self.step_max_ns.store(0, Ordering::Relaxed);
+        self.queue_min_chunks.store(u64::MAX, Ordering::Relaxed);
+    }
+
+    fn step(&self, took: Duration) {
+        self.step_max_ns.fetch_max(u64::try_from(took.as_nanos()).unwrap_or(u64::MAX), Ordering::Relaxed);
+    }
+
+    fn queued(&self, chunks: usize) {
+        self.queue_min_chunks.fetch_min(chunks as u64, Ordering::Relaxed);
+    }
+
+    /// The figures for `status`, with chunks of `chunk_s` seconds.
+    pub fn status(&self, chunk_s: f64) -> LookaheadStatus {
+        let min = self.queue_min_chunks.load(Ordering::Relaxed);
+        LookaheadStatus {
+            step_max_ms: self.step_max_ns.load(Ordering::Relaxed) as f64 * 1e-6,
+            queue_min_s: (min != u64::MAX).then_some(min as f64 * chunk_s),
+        }
+    }
 }
 
 /// Totals of the planner thread.
@@ -280,6 +331,7 @@ impl Feeder {
             max_jerk,
             stats: FeederStats::default(),
             modal: Arc::default(),
+            health: Arc::default(),
         }
     }
 
@@ -288,10 +340,15 @@ impl Feeder {
         self.modal.clone()
     }
 
+    /// How this thread keeps up with the motion (`status.lookahead`).
+    pub fn health(&self) -> Arc<LookaheadHealth> {
+        self.health.clone()
+    }
+
     /// The thread's loop: commands in, chunks out, until `Shutdown` or the channel closes.
     pub fn run(mut self, commands: Receiver<FeederCommand>) -> FeederStats {
         loop {
-            let busy = self.wants_to_produce();
+            let busy = self.wants_to_produce() || self.wants_to_read_ahead();
             let cmd = if busy { commands.try_recv().ok() } else { commands.recv_timeout(IDLE_WAIT).ok() };
             if let Some(cmd) = cmd {
                 if matches!(cmd, FeederCommand::Shutdown) {
@@ -307,6 +364,8 @@ impl Feeder {
             self.reclaim();
             if self.wants_to_produce() {
                 self.produce();
+            } else if self.wants_to_read_ahead() {
+                self.read_ahead();
             }
         }
     }
@@ -315,6 +374,7 @@ impl Feeder {
     pub fn command(&mut self, cmd: FeederCommand) {
         match cmd {
             FeederCommand::Start { source, epoch, feed_override, suspend } => {
+                self.health.reset();
                 self.replace_run(suspend);
                 if !suspend {
                     // The program run before is over; an excursion from a held one keeps it.
@@ -335,6 +395,7 @@ impl Feeder {
                 }
             }
             FeederCommand::StartManual { goal, here, epoch, feed_override, suspend } => {
+                self.health.reset();
                 self.replace_run(suspend);
                 match ManualPart::new(goal, here, &self.axis_limits, feed_override, None) {
                     Ok(part) => {
@@ -359,6 +420,7 @@ impl Feeder {
             }
             FeederCommand::ResumeSuspended { epoch, here } => self.resume_suspended(epoch, here),
             FeederCommand::StartLaws { path, laws, epoch, feed_override } => {
+                self.health.reset();
                 self.abort();
                 let start =
                     CoarsePoint::at_rest(0.0, 0.0, path.elements.first().map_or(0, |e| e.source.line), path.start);
@@ -598,8 +660,35 @@ impl Feeder {
         }
     }
 
+    /// The queue is full and the run's program is not yet read as far ahead as its planner's
+    /// next replan may need.
+    fn wants_to_read_ahead(&self) -> bool {
+        self.run
+            .as_ref()
+            .is_some_and(|run| run.producing() && run.feed.can_read_ahead(run.read_ahead_to_mm(&self.settings)))
+    }
+
+    /// Reads and smooths the program ahead of the planner for one slice: the reading and
+    /// smoothing a horizon replan needs are then done while the queue is full, and the step
+    /// that replans does the planning alone.
+    fn read_ahead(&mut self) {
+        let Some(run) = self.run.as_mut() else { return };
+        let started = Instant::now();
+        let until_mm = run.read_ahead_to_mm(&self.settings);
+        run.feed.read_ahead(until_mm, started + READ_AHEAD_SLICE);
+        if run.reached_depth {
+            self.health.step(started.elapsed());
+        }
+    }
+
     /// Plans and queues one chunk.
     pub fn produce(&mut self) {
+        // Once the queue has been full, what is queued when a step begins is all that bridges it.
+        let steady = self.run.as_ref().is_some_and(|r| r.reached_depth);
+        if steady {
+            self.health.queued(self.queues.chunks.len());
+        }
+        let started = Instant::now();
         if let Some((after_s, for_s)) = self.stall {
             if self.run.as_ref().is_some_and(|r| r.queued_s >= after_s) {
                 tracing::warn!(for_s, "debug: planner thread stalls");
@@ -608,9 +697,12 @@ impl Feeder {
             }
         }
         let mut chunk = self.pool.pop().unwrap_or_default();
-        let started = Instant::now();
         let result = self.fill_chunk(&mut chunk);
-        self.stats.plan_time_s += started.elapsed().as_secs_f64();
+        let took = started.elapsed();
+        self.stats.plan_time_s += took.as_secs_f64();
+        if steady {
+            self.health.step(took);
+        }
         let Some(run) = self.run.as_mut() else { return };
         match result {
             Ok(true) => {
@@ -631,6 +723,7 @@ impl Feeder {
                         }
                     }
                 }
+                run.reached_depth |= self.queues.chunks.len() >= run.depth();
                 if complete {
                     run.complete = true;
                     let _ = self.reports.send(FeederReport::Complete { epoch: run.epoch });
@@ -829,6 +922,18 @@ impl Run {
         !self.feed.has_input() && (self.idle_for_input || queued > STARVED_STOP_CHUNKS)
     }
 
+    /// A program or path run that plans and queues chunks now (not held, not complete, not a
+    /// manual or law motion).
+    fn producing(&self) -> bool {
+        self.wait == Wait::No && !self.complete && self.manual.is_none() && self.law.is_none()
+    }
+
+    /// How far ahead the program is read: a look-ahead length beyond what the planner has,
+    /// which covers the elements its next replan takes.
+    fn read_ahead_to_mm(&self, settings: &Settings) -> f64 {
+        self.pushed_end_mm.max(self.plan_from_s_mm) + settings.planner.lookahead_mm
+    }
+
     /// Chunks kept queued for this run.
     fn depth(&self) -> usize {
         if self.manual.is_some() { MANUAL_QUEUE_CHUNKS } else { QUEUE_CHUNKS }
@@ -859,6 +964,7 @@ impl Run {
             seq: 0,
             planner,
             plan_from_s_mm: s_mm,
+            pushed_end_mm: s_mm,
             next_element: None,
             finished_input: false,
             cut_first: false,
@@ -871,6 +977,7 @@ impl Run {
             end,
             complete: false,
             staged: Vec::new(),
+            reached_depth: false,
             wait: Wait::No,
             queued_s: 0.0,
             law: None,
@@ -902,6 +1009,7 @@ impl Run {
                     if let Feed::Programmed { mm_per_s } = &mut e.feed {
                         *mm_per_s *= self.feed_override;
                     }
+                    self.pushed_end_mm = e.s_end_mm();
                     self.planner.push(e);
                     self.pushed += 1;
                     self.cut_first = false;

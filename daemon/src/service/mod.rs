@@ -142,6 +142,8 @@ struct Shared {
     /// The running program's tool and offset state along its lines (the look-ahead thread
     /// writes it, `status` reads it).
     modal: Arc<Mutex<modal_track::ModalTrack>>,
+    /// How the look-ahead thread keeps up (it writes, `status` reads).
+    lookahead: Arc<feeder::LookaheadHealth>,
 }
 
 impl Shared {
@@ -265,6 +267,7 @@ impl Service {
                 work_offsets: opts.config.work_offsets.clone(),
             })),
             modal: feeder.modal_track(),
+            lookahead: feeder.health(),
         });
         let thread_err = |what: &'static str| move |source| StartupError::Thread { what, source };
 

@@ -14,7 +14,7 @@ use interpd_motion::path::{AxisDerivs, AxisVec, Blend, Element, Feed, Path, Sour
 use interpd_motion::prep::Prep;
 use interpd_motion::program::{AppendBuffer, ProgramStream};
 use std::sync::{Arc, Mutex};
-use std::time::SystemTime;
+use std::time::{Instant, SystemTime};
 
 /// Where a program's text comes from.
 #[derive(Debug, Clone)]
@@ -87,6 +87,8 @@ pub struct PathFeed {
     done: bool,
     /// The last read found nothing more yet: the program goes on with appended text.
     waiting: bool,
+    /// A read ahead of the planner failed: returned where the planner reaches it.
+    deferred: Option<FeedError>,
     final_dwell_s: f64,
     /// Where the program's tool and offset state changes (`status.modal`), when tracked.
     modal: Option<Arc<Mutex<ModalTrack>>>,
@@ -107,6 +109,7 @@ impl PathFeed {
             first_index: 0,
             done: true,
             waiting: false,
+            deferred: None,
             final_dwell_s,
             modal: None,
         }
@@ -120,6 +123,7 @@ impl PathFeed {
             first_index: 0,
             done: true,
             waiting: false,
+            deferred: None,
             final_dwell_s: 0.0,
             modal: None,
         }
@@ -169,6 +173,7 @@ impl PathFeed {
             first_index: 0,
             done: false,
             waiting: false,
+            deferred: None,
             final_dwell_s: 0.0,
             modal: None,
         })
@@ -270,8 +275,34 @@ impl PathFeed {
         }
     }
 
+    /// Reads on while the window ends before `until_mm` and `deadline` has not passed; `true`
+    /// if it read. The planner thread does this while the queue is full, so the reading and
+    /// smoothing a replan needs are done before the replan instead of in one step with it. A
+    /// read error is kept and returned where the planner reaches that element. Not for a
+    /// program continued by `program.append`: there the reads decide whether the program
+    /// waits for text, which only the planner's need may decide.
+    pub fn read_ahead(&mut self, until_mm: f64, deadline: Instant) -> bool {
+        let mut read = false;
+        while self.can_read_ahead(until_mm) && Instant::now() < deadline {
+            if let Err(e) = self.read() {
+                self.deferred = Some(e);
+            }
+            read = true;
+        }
+        read
+    }
+
+    /// [`PathFeed::read_ahead`] has something to do.
+    pub fn can_read_ahead(&self, until_mm: f64) -> bool {
+        let appendable = matches!(self.input, Input::Stream { appends: Some(_), .. });
+        !appendable && !self.done && self.deferred.is_none() && self.window.length_mm() < until_mm
+    }
+
     /// Reads the next element into the window (through the smoothing stage for a program).
     fn read(&mut self) -> Result<(), FeedError> {
+        if let Some(e) = self.deferred.take() {
+            return Err(e);
+        }
         match &mut self.input {
             Input::Stream { stream, prep, s_offset_mm, .. } => {
                 let got = stream.next_element().map_err(|e| FeedError::Program(e.to_string()))?;
@@ -312,5 +343,71 @@ fn take_modal_changes(stream: &mut ProgramStream, track: &Mutex<ModalTrack>) {
     while let Some((line, state)) = next {
         t.push(line, state);
         next = stream.take_modal_change();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use interpd_config::Config;
+    use std::time::Duration;
+
+    fn program_feed(text: &str) -> PathFeed {
+        let config = Config::default_machine();
+        let tooling = Arc::new(Tooling { tools: config.tools.clone(), work_offsets: config.work_offsets.clone() });
+        let text = ProgramText::Text { name: "t.ngc".into(), text: Arc::new(text.to_string()) };
+        let source = PathSource::Program { text, here: [0.0; interpd_motion::path::MAX_AXES], tooling, appends: None };
+        PathFeed::open(source, &Settings::from_config(&config)).expect("open")
+    }
+
+    #[test]
+    fn reading_ahead_stops_at_its_bound_and_keeps_an_error_for_the_planner() {
+        // 1 mm moves at an exact stop each, then a bad line (23).
+        let mut text = String::from("G21 G90 G61\nG1 F600\n");
+        for i in 1..=20 {
+            text.push_str(&format!("X{i}\n"));
+        }
+        text.push_str("G1 X30 Q5\n");
+        let mut feed = program_feed(&text);
+        let later = Instant::now() + Duration::from_secs(10);
+        assert!(feed.can_read_ahead(5.0));
+        assert!(feed.read_ahead(5.0, later));
+        let read_mm = feed.window.length_mm();
+        assert!((5.0..6.5).contains(&read_mm), "read to {read_mm} mm: {:?}", feed.deferred);
+        assert!(!feed.can_read_ahead(5.0) && !feed.read_ahead(5.0, later));
+        // A deadline already passed reads nothing.
+        assert!(!feed.read_ahead(100.0, Instant::now()));
+        // Past the bad line: the error is kept, and reading ahead stops there.
+        assert!(feed.read_ahead(100.0, later));
+        assert!(!feed.can_read_ahead(100.0));
+        // The planner gets what it gets without reading ahead: the same elements, then the error.
+        let (ahead, error) = elements_until_error(&mut feed);
+        let (plain, plain_error) = elements_until_error(&mut program_feed(&text));
+        assert!(ahead.len() >= 19 && ahead == plain, "{} elements, without reading ahead {}", ahead.len(), plain.len());
+        assert_eq!(error, plain_error);
+        assert!(error.to_string().contains("t.ngc:23:"), "{error}");
+    }
+
+    fn elements_until_error(feed: &mut PathFeed) -> (Vec<Element>, FeedError) {
+        let mut got = Vec::new();
+        loop {
+            match feed.element(got.len()) {
+                Ok(Some(e)) => got.push(e.clone()),
+                Ok(None) => panic!("the error of line 23 was lost after {} elements", got.len()),
+                Err(e) => return (got, e),
+            }
+        }
+    }
+
+    #[test]
+    fn a_program_continued_by_appends_is_not_read_ahead() {
+        let config = Config::default_machine();
+        let tooling = Arc::new(Tooling { tools: config.tools.clone(), work_offsets: config.work_offsets.clone() });
+        let text = ProgramText::Text { name: "t.ngc".into(), text: Arc::new("G21 G90\nG1 F600 X1\nX2\n".to_string()) };
+        let appends = Some(Arc::new(AppendBuffer::new(1 << 20)));
+        let source = PathSource::Program { text, here: [0.0; interpd_motion::path::MAX_AXES], tooling, appends };
+        let mut feed = PathFeed::open(source, &Settings::from_config(&config)).expect("open");
+        assert!(!feed.can_read_ahead(100.0));
+        assert!(!feed.read_ahead(100.0, Instant::now() + Duration::from_secs(10)));
     }
 }

@@ -198,6 +198,23 @@ pub struct Status {
     /// executing now (`null` before the first program start, for path tables and law
     /// programs, and while MDI or manual motion runs).
     pub modal: Option<ProgramModal>,
+    /// How far ahead of the machine the look-ahead stayed in the current or last motion.
+    pub lookahead: LookaheadStatus,
+}
+
+/// How the look-ahead (the planner thread) kept up in the current or last motion, in
+/// `status.lookahead`; reset when a motion starts.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct LookaheadStatus {
+    /// The longest single step of the planner thread (reading, smoothing and planning the
+    /// motion of one chunk), ms, counted from when the queue first reached its depth until
+    /// the motion's last chunk is queued (the start, before, is `first motion` latency).
+    pub step_max_ms: f64,
+    /// The least motion that was queued ahead of the real-time thread when the planner thread
+    /// began a step, s, over the same steps (`null` before the queue first reached its depth).
+    /// A step longer than this runs the queue dry.
+    pub queue_min_s: Option<f64>,
 }
 
 /// The tool and offset state of the executing program element, in `status.modal`.
@@ -302,6 +319,7 @@ impl Default for Status {
             manual: None,
             mdi: None,
             modal: None,
+            lookahead: LookaheadStatus::default(),
         }
     }
 }

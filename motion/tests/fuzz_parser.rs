@@ -272,6 +272,8 @@ fn fuzz_program_parsers() {
     let mut rng = Rng(seed);
     let mut runs = 0u64;
     let mut stray = 0u64;
+    // The slowest input: (seconds, its number in the run, its name).
+    let mut slowest = (0.0, 0u64, String::new());
     // A short or slowed-down run (FUZZ_SECONDS defaults to 2 s; tests run side by side) goes on
     // past its time until enough accepted programs have had a stray word put in.
     let enough = |runs: u64, stray: u64| runs >= MIN_INPUTS && stray > MIN_STRAY;
@@ -281,7 +283,13 @@ fn fuzz_program_parsers() {
         let text = if mutated { mutate(&mut rng, base) } else { generated(&mut rng) };
         // Alternate the format so tables and G-code both get mutated inputs.
         let fname = if rng.below(2) == 0 { name.clone() } else { format!("{name}.ngc") };
-        if let Err(what) = check_input(&fname, &text, &cfgs) {
+        let t_input = Instant::now();
+        let checked = check_input(&fname, &text, &cfgs);
+        let took_s = t_input.elapsed().as_secs_f64();
+        if took_s > slowest.0 {
+            slowest = (took_s, runs, fname.clone());
+        }
+        if let Err(what) = checked {
             panic!("{}", report(seed, &fname, if mutated { base } else { "" }, &text, &what));
         }
         let gcode = fname.ends_with(".ngc") && !text.to_ascii_uppercase().contains("LAW");
@@ -294,8 +302,12 @@ fn fuzz_program_parsers() {
         runs += 1;
     }
     eprintln!(
-        "fuzz_program_parsers: {runs} inputs in {:.1} s, no panic; {stray} accepted programs with a stray word refused",
-        started.elapsed().as_secs_f64()
+        "fuzz_program_parsers: {runs} inputs in {:.1} s, no panic; {stray} accepted programs with a stray word refused; \
+         slowest input {:.3} s (number {}, {})",
+        started.elapsed().as_secs_f64(),
+        slowest.0,
+        slowest.1,
+        slowest.2
     );
     assert!(enough(runs, stray), "too few accepted programs to put a stray word into: {stray} of {runs} inputs");
 }

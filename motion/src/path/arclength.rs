@@ -13,6 +13,11 @@ pub(super) const QUADRATURE_REL_TOL: f64 = 1e-14;
 pub(super) const INVERSION_REL_TOL: f64 = 1e-12;
 /// Deepest bisection of a piece when building the table.
 const MAX_DEPTH: u32 = 24;
+/// Most pieces of one table. A span whose speed carries rounding noise above
+/// `QUADRATURE_REL_TOL` (a huge or nearly degenerate curve) never meets the tolerance and would
+/// be bisected to `MAX_DEPTH` everywhere: 2^24 pieces, 256 MB and a second of work for one span
+/// of a program line. Past this many, pieces are taken as they are (at most `MAX_DEPTH` more).
+const MAX_PIECES: usize = 4096;
 /// Newton steps before falling back to bisection alone.
 const MAX_NEWTON: usize = 50;
 
@@ -158,7 +163,8 @@ fn refine(speed: &impl Fn(f64) -> f64, a: f64, b: f64, whole: f64, depth: u32, u
     let m = 0.5 * (a + b);
     let left = gauss_legendre_8(speed, a, m);
     let right = gauss_legendre_8(speed, m, b);
-    if depth >= MAX_DEPTH || (left + right - whole).abs() <= QUADRATURE_REL_TOL * (left + right).abs().max(1e-300) {
+    let converged = (left + right - whole).abs() <= QUADRATURE_REL_TOL * (left + right).abs().max(1e-300);
+    if converged || depth >= MAX_DEPTH || u.len() >= MAX_PIECES {
         let base = *s.last().expect("non-empty");
         u.push(b);
         s.push(base + left + right);
@@ -171,6 +177,20 @@ fn refine(speed: &impl Fn(f64) -> f64, a: f64, b: f64, whole: f64, depth: u32, u
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_speed_with_rounding_noise_gets_a_bounded_table() {
+        // Noise of 1e-9 relative never meets QUADRATURE_REL_TOL: without the cap every piece
+        // would be bisected to MAX_DEPTH (2^24 pieces).
+        let noisy =
+            |u: f64| 1.0 + 1e-9 * ((u.to_bits().wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 40) as f64 / 16_777_216.0);
+        let table = ArcLengthTable::build(&noisy);
+        assert!(table.u.len() <= 5000, "{} pieces", table.u.len());
+        assert!((table.length() - 1.0).abs() < 2e-9, "{}", table.length());
+        // A smooth speed stays far below the cap and exact.
+        let smooth = ArcLengthTable::build(&|u: f64| 1.0 + u * u);
+        assert!(smooth.u.len() < 100 && (smooth.length() - 4.0 / 3.0).abs() < 1e-14, "{}", smooth.u.len());
+    }
 
     #[test]
     fn parabola_length_matches_closed_form() {

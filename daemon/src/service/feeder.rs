@@ -525,6 +525,8 @@ impl Feeder {
     /// was held at, then the rest of the program from rest there.
     fn resume_suspended(&mut self, epoch: Epoch, here: AxisVec) {
         let Some(held) = self.suspended.take() else { return };
+        // The figures of the excursion (jog, MDI) are not the program's.
+        self.health.reset();
         let Wait::Resume { s_mm, .. } = held.wait else {
             tracing::error!("resume: the held program never came to rest");
             return;
@@ -662,7 +664,7 @@ impl Feeder {
 
     /// The queue is full and the run's program is not yet read as far ahead as its planner's
     /// next replan may need.
-    fn wants_to_read_ahead(&self) -> bool {
+    pub(super) fn wants_to_read_ahead(&self) -> bool {
         self.run
             .as_ref()
             .is_some_and(|run| run.producing() && run.feed.can_read_ahead(run.read_ahead_to_mm(&self.settings)))
@@ -671,7 +673,7 @@ impl Feeder {
     /// Reads and smooths the program ahead of the planner for one slice: the reading and
     /// smoothing a horizon replan needs are then done while the queue is full, and the step
     /// that replans does the planning alone.
-    fn read_ahead(&mut self) {
+    pub(super) fn read_ahead(&mut self) {
         let Some(run) = self.run.as_mut() else { return };
         let started = Instant::now();
         let until_mm = run.read_ahead_to_mm(&self.settings);
@@ -793,8 +795,11 @@ impl Feeder {
             if run.buffer.is_empty() && run.planner.done() {
                 break Vec::new();
             }
-            // The window reaches past the planner's horizon, so a stop within it exists.
-            let limit = next_stop_s(run.feed.path(), end.s_mm);
+            // The planner's horizon holds a stop, so one exists before the end of what it was
+            // given. The window may reach further, as far as reading ahead got: that depends on
+            // timing, so it does not bound the stop.
+            let held_mm = if run.feed.reads_ahead() { run.pushed_end_mm } else { f64::INFINITY };
+            let limit = next_stop_s(run.feed.path(), end.s_mm).min(held_mm);
             if let Some(stop) = brake_along(run.feed.path(), end.s_mm, end.v, end.a, &lim, limit, last.line) {
                 break stop;
             }
@@ -884,8 +889,10 @@ impl Feeder {
         let returning = part.is_return();
         let mut end = *chunk.points.last().expect("points");
         if returning && last {
-            // Back on the path: the program continues from rest exactly at the held point.
+            // Back on the path: the program continues from rest exactly at the held point, and
+            // its queue fills to the program's depth from here.
             run.manual = None;
+            run.reached_depth = false;
             let at = match run.feed.eval(run.s_start_mm) {
                 Ok((at, _)) => at,
                 Err(e) => {

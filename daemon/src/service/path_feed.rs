@@ -1,8 +1,9 @@
 //! The path a run plans along, as a window that moves with the motion.
 //!
 //! A loaded program is read from its file, parsed and smoothed (G64) element by element as the
-//! planner asks for more ([`interpd_motion::program::ProgramStream`] → [`Prep`]); the elements
-//! behind the machine are dropped. So the planner thread holds the look-ahead and what the
+//! planner asks for more, and up to a look-ahead length beyond while the queue is full
+//! ([`PathFeed::read_ahead`]; [`interpd_motion::program::ProgramStream`] → [`Prep`]); the
+//! elements behind the machine are dropped. So the planner thread holds the look-ahead and what the
 //! queue still runs, never the whole program. Paths made whole in memory (MDI blocks, law
 //! moves) are handed out from the same window.
 
@@ -294,8 +295,13 @@ impl PathFeed {
 
     /// [`PathFeed::read_ahead`] has something to do.
     pub fn can_read_ahead(&self, until_mm: f64) -> bool {
-        let appendable = matches!(self.input, Input::Stream { appends: Some(_), .. });
-        !appendable && !self.done && self.deferred.is_none() && self.window.length_mm() < until_mm
+        self.reads_ahead() && !self.done && self.deferred.is_none() && self.window.length_mm() < until_mm
+    }
+
+    /// The window may reach beyond what the planner asked for: a program read from its file or
+    /// its text, not one continued by `program.append`, nor a path held whole.
+    pub fn reads_ahead(&self) -> bool {
+        matches!(self.input, Input::Stream { appends: None, .. })
     }
 
     /// Reads the next element into the window (through the smoothing stage for a program).

@@ -16,7 +16,8 @@ const MAX_DEPTH: u32 = 24;
 /// Most pieces of one table. A span whose speed carries rounding noise above
 /// `QUADRATURE_REL_TOL` (a huge or nearly degenerate curve) never meets the tolerance and would
 /// be bisected to `MAX_DEPTH` everywhere: 2^24 pieces, 256 MB and a second of work for one span
-/// of a program line. Past this many, pieces are taken as they are (at most `MAX_DEPTH` more).
+/// of a program line. Each starting piece gets an equal share; past its share, a piece's parts
+/// are taken as they are (at most `MAX_DEPTH` more per starting piece).
 const MAX_PIECES: usize = 4096;
 /// Newton steps before falling back to bisection alone.
 const MAX_NEWTON: usize = 50;
@@ -99,13 +100,16 @@ impl ArcLengthTable {
         let mut s = vec![0.0];
         let per_piece = per_piece.max(1);
         let ends = breaks.iter().copied().filter(|&b| b > 0.0 && b < 1.0).chain(std::iter::once(1.0));
+        let starting = per_piece * (breaks.iter().filter(|&&b| b > 0.0 && b < 1.0).count() + 1);
+        let share = (MAX_PIECES / starting).max(1);
         let mut from = 0.0;
         for to in ends {
             for i in 0..per_piece {
                 let a = from + (to - from) * i as f64 / per_piece as f64;
                 let b = if i + 1 == per_piece { to } else { from + (to - from) * (i + 1) as f64 / per_piece as f64 };
                 let whole = gauss_legendre_8(speed, a, b);
-                refine(speed, a, b, whole, 0, &mut u, &mut s);
+                let most = u.len() + share;
+                refine(speed, (a, b), whole, 0, most, &mut u, &mut s);
             }
             from = to;
         }
@@ -159,19 +163,29 @@ impl ArcLengthTable {
     }
 }
 
-fn refine(speed: &impl Fn(f64) -> f64, a: f64, b: f64, whole: f64, depth: u32, u: &mut Vec<f64>, s: &mut Vec<f64>) {
+/// Bisects [a, b] until the quadrature converges, `MAX_DEPTH` is reached or the table holds
+/// `most` boundaries, appending the piece ends to `u` and their arc lengths to `s`.
+fn refine(
+    speed: &impl Fn(f64) -> f64,
+    (a, b): (f64, f64),
+    whole: f64,
+    depth: u32,
+    most: usize,
+    u: &mut Vec<f64>,
+    s: &mut Vec<f64>,
+) {
     let m = 0.5 * (a + b);
     let left = gauss_legendre_8(speed, a, m);
     let right = gauss_legendre_8(speed, m, b);
     let converged = (left + right - whole).abs() <= QUADRATURE_REL_TOL * (left + right).abs().max(1e-300);
-    if converged || depth >= MAX_DEPTH || u.len() >= MAX_PIECES {
+    if converged || depth >= MAX_DEPTH || u.len() >= most {
         let base = *s.last().expect("non-empty");
         u.push(b);
         s.push(base + left + right);
         return;
     }
-    refine(speed, a, m, left, depth + 1, u, s);
-    refine(speed, m, b, right, depth + 1, u, s);
+    refine(speed, (a, m), left, depth + 1, most, u, s);
+    refine(speed, (m, b), right, depth + 1, most, u, s);
 }
 
 #[cfg(test)]
@@ -186,6 +200,9 @@ mod tests {
             |u: f64| 1.0 + 1e-9 * ((u.to_bits().wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 40) as f64 / 16_777_216.0);
         let table = ArcLengthTable::build(&noisy);
         assert!(table.u.len() <= 5000, "{} pieces", table.u.len());
+        // Every part of the span gets its share: about as many pieces right of the middle as left.
+        let right = table.u.iter().filter(|&&u| u > 0.5).count();
+        assert!(right * 5 >= table.u.len() * 2, "{right} of {} pieces right of u = 0.5", table.u.len());
         assert!((table.length() - 1.0).abs() < 2e-9, "{}", table.length());
         // A smooth speed stays far below the cap and exact.
         let smooth = ArcLengthTable::build(&|u: f64| 1.0 + u * u);

@@ -203,17 +203,18 @@ pub struct Status {
 }
 
 /// How the look-ahead (the planner thread) kept up in the current or last motion, in
-/// `status.lookahead`; reset when a motion starts.
+/// `status.lookahead`; reset when a motion starts or a held program resumes after an excursion.
+/// Steps count from when the queue reaches its depth after each start from rest until the last
+/// chunk is queued.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[serde(default)]
 pub struct LookaheadStatus {
     /// The longest single step of the planner thread (reading, smoothing and planning the
-    /// motion of one chunk), ms, counted from when the queue first reached its depth until
-    /// the motion's last chunk is queued (the start, before, is `first motion` latency).
+    /// motion of one chunk, or one slice of reading ahead), ms.
     pub step_max_ms: f64,
     /// The least motion that was queued ahead of the real-time thread when the planner thread
-    /// began a step, s, over the same steps (`null` before the queue first reached its depth).
-    /// A step longer than this runs the queue dry.
+    /// began a step, s, as chunks × their nominal duration (`null` before the queue first
+    /// reached its depth). A step longer than this runs the queue dry.
     pub queue_min_s: Option<f64>,
 }
 

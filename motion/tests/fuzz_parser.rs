@@ -206,13 +206,7 @@ const STRAY_WORDS: &[&str] = &["H1", "E2", "D3", "L4", "h0", "e 5"];
 /// failure.
 fn check_stray_word(rng: &mut Rng, name: &str, text: &str, cfg: &Settings) -> Result<(), String> {
     let lines: Vec<&str> = text.lines().collect();
-    let end = lines
-        .iter()
-        .position(|l| {
-            let k: String = l.chars().filter(|c| !c.is_whitespace()).collect::<String>().to_ascii_uppercase();
-            k.contains("M2") || k.contains("M30") || k.contains('%')
-        })
-        .unwrap_or(lines.len());
+    let end = lines.iter().position(|l| ends_program(l)).unwrap_or(lines.len());
     if end == 0 {
         return Ok(());
     }
@@ -226,6 +220,19 @@ fn check_stray_word(rng: &mut Rng, name: &str, text: &str, cfg: &Settings) -> Re
         Err(e) if e.0.iter().any(|e| e.line == at as u32 + 1) => Ok(()),
         Err(e) => Err(format!("the stray word {word} at line {} gave errors elsewhere: {e}", at + 1)),
     }
+}
+
+/// The line may end the program: it holds a `%`, or an M word whose number is 2 or 30 as the
+/// parser reads numbers (`M030` and `M2.0` too). Text after the end is not read, so a stray word
+/// there is no error. A comment naming M2 counts too, which only narrows where words go.
+fn ends_program(line: &str) -> bool {
+    let k: Vec<u8> = line.bytes().filter(|c| !c.is_ascii_whitespace()).map(|c| c.to_ascii_uppercase()).collect();
+    k.contains(&b'%')
+        || k.iter().enumerate().any(|(i, &c)| {
+            let number: String =
+                k[i + 1..].iter().take_while(|d| d.is_ascii_digit() || **d == b'.').map(|&d| d as char).collect();
+            c == b'M' && matches!(number.parse::<f64>(), Ok(v) if v == 2.0 || v == 30.0)
+        })
 }
 
 /// A failure report a reader can act on: the lines where the input differs from its base,

@@ -656,7 +656,7 @@ impl Feeder {
         match &self.run {
             Some(run) => {
                 let queued = self.queues.chunks.len();
-                run.wait == Wait::No && !run.complete && queued < run.depth() && !run.waits_for_input(queued)
+                run.active() && queued < run.depth() && !run.waits_for_input(queued)
             }
             None => false,
         }
@@ -665,9 +665,10 @@ impl Feeder {
     /// The queue is full and the run's program is not yet read as far ahead as its planner's
     /// next replan may need.
     pub(super) fn wants_to_read_ahead(&self) -> bool {
-        self.run
-            .as_ref()
-            .is_some_and(|run| run.producing() && run.feed.can_read_ahead(run.read_ahead_to_mm(&self.settings)))
+        self.run.as_ref().is_some_and(|run| {
+            // A return move reads nothing; a law or manual path is held whole and cannot.
+            run.active() && run.manual.is_none() && run.feed.can_read_ahead(run.read_ahead_to_mm(&self.settings))
+        })
     }
 
     /// Reads and smooths the program ahead of the planner for one slice: the reading and
@@ -929,10 +930,9 @@ impl Run {
         !self.feed.has_input() && (self.idle_for_input || queued > STARVED_STOP_CHUNKS)
     }
 
-    /// A program or path run that plans and queues chunks now (not held, not complete, not a
-    /// manual or law motion).
-    fn producing(&self) -> bool {
-        self.wait == Wait::No && !self.complete && self.manual.is_none() && self.law.is_none()
+    /// The run queues chunks: neither held nor waiting to resume, and not complete.
+    fn active(&self) -> bool {
+        self.wait == Wait::No && !self.complete
     }
 
     /// How far ahead the program is read: a look-ahead length beyond what the planner has,

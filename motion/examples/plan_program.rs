@@ -1,5 +1,5 @@
-//! Parse a part program, smooth it, plan it and print the figures: the motion library's whole
-//! path from text to a feedrate profile, without the daemon.
+//! Read a part program, smooth it, plan it and print the figures: the motion library's whole
+//! path from text to a feedrate profile through its front door, [`Feed`], without the daemon.
 //!
 //! ```sh
 //! cargo run --release -p interpd-motion --example plan_program -- examples/circle_r10.ngc
@@ -12,14 +12,12 @@
 
 #![allow(clippy::print_stdout)] // printing the figures is what the example is for
 
-use interpd_motion::Settings;
-use interpd_motion::path::{AxisDerivs, Path};
-use interpd_motion::planner::profile::{Cursor, duration_s};
-use interpd_motion::planner::{Planner, Segment};
-use interpd_motion::{prep, program};
+use interpd_motion::path::AxisDerivs;
+use interpd_motion::{Feed, Settings};
 use std::process::ExitCode;
-use std::time::Instant;
 
+/// Motion planned ahead of what is sampled, s: the look-ahead a machine would run behind.
+const AHEAD_S: f64 = 0.5;
 /// Sampling period of the limit check, s (a quarter of the default 4 ms cycle).
 const CHECK_PERIOD_S: f64 = 0.25e-3;
 
@@ -45,82 +43,78 @@ fn run(program_file: &std::path::Path, machine: Option<&std::path::Path>) -> Res
         None => Settings::default_machine(),
     };
 
-    // 2. The program: parse errors carry file, line and column.
-    let program = program::load(program_file, &settings).map_err(|e| e.to_string())?;
+    // 2. The feed reads the program as the motion needs it; its errors carry file, line and
+    //    column.
+    let mut feed = Feed::builder(&settings).open_file(program_file).map_err(|e| e.to_string())?;
+
+    // 3. Plan ahead, take the planned segments in time order and check every axis against its
+    //    limits along them (chain rule of the path); drop the path the samples have passed.
+    let mut peaks = vec![Peak::default(); settings.axes.len()];
+    let (mut t_s, mut motion_s, mut segments) = (0.0, 0.0, 0u64);
+    let mut d = AxisDerivs::default();
+    while !feed.finished() {
+        feed.plan(AHEAD_S).map_err(|e| e.to_string())?;
+        while let Some(segment) = feed.pop_segment() {
+            while t_s <= segment.t1_s() {
+                let sample = segment.sample(t_s);
+                let st = sample.state;
+                if sample.at_start {
+                    feed.path().eval(st.s_mm, &mut d);
+                } else {
+                    feed.path().eval_left(st.s_mm, &mut d);
+                }
+                for (k, peak) in peaks.iter_mut().enumerate() {
+                    peak.vel = peak.vel.max((d.d1[k] * st.v).abs());
+                    peak.acc = peak.acc.max((d.d2[k] * st.v * st.v + d.d1[k] * st.a).abs());
+                }
+                t_s += CHECK_PERIOD_S;
+            }
+            motion_s = segment.t1_s();
+            segments += 1;
+            feed.trim_before(segment.s0_mm);
+        }
+    }
+
+    // 4. What was read, smoothed and planned.
+    let summary = feed.summary().cloned().unwrap_or_default();
+    let stats = feed.stats();
+    let length_mm = feed.path().length_mm();
     println!(
-        "{}: {} lines, {} blocks, {} elements, {:.3} mm of path, axes {}",
+        "{}: {} lines, {} blocks, {:.3} mm of path, axes {}",
         program_file.display(),
-        program.summary.lines,
-        program.summary.blocks,
-        program.path.elements.len(),
-        program.path.length_mm(),
+        summary.lines,
+        summary.blocks,
+        length_mm,
         settings.axis_names().join(" ")
     );
-
-    // 3. Tolerance smoothing of G64 runs (a program without G64 comes back unchanged).
-    let prepared = prep::prepare_path(&settings, &program.path).map_err(|e| e.to_string())?;
-    if prepared.stats.windows > 0 {
+    if stats.prep.windows > 0 {
         println!(
             "smoothing: {} windows, {:.3} mm smoothed, in {:.1} ms",
-            prepared.stats.windows,
-            prepared.stats.smoothed_mm,
-            prepared.wall_s * 1e3
+            stats.prep.windows,
+            stats.prep.smoothed_mm,
+            stats.prep_s * 1e3
         );
     }
-
-    // 4. The look-ahead planner, fed element by element as the daemon's look-ahead thread does.
-    let t0 = Instant::now();
-    let mut planner = Planner::new(&settings);
-    let mut segments: Vec<Segment> = Vec::new();
-    for element in &prepared.path.elements {
-        planner.push(element.clone());
-        segments.extend(planner.plan().map_err(|e| e.to_string())?);
-    }
-    planner.finish(prepared.path.final_dwell_s);
-    while !planner.done() {
-        segments.extend(planner.plan().map_err(|e| e.to_string())?);
-    }
-    let plan_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let motion_s = duration_s(&segments);
     println!(
-        "plan: {motion_s:.4} s of motion ({:.1} mm/s mean), {} profile pieces, {} nodes, planned in {plan_ms:.1} ms",
-        prepared.path.length_mm() / motion_s.max(f64::MIN_POSITIVE),
-        segments.len(),
-        planner.stats.nodes
+        "plan: {motion_s:.4} s of motion ({:.1} mm/s mean), {segments} profile pieces, {} nodes, planned in {:.1} ms",
+        length_mm / motion_s.max(f64::MIN_POSITIVE),
+        stats.plan.nodes,
+        stats.plan_s * 1e3
     );
-
-    // 5. Every axis against its limits, sampled along the profile (chain rule of the path).
-    let peaks = axis_peaks(&prepared.path, &segments);
     for (k, name) in settings.axis_names().iter().enumerate() {
         let axis = &settings.axes[k];
         println!(
             "  {name}: velocity {:.3}, acceleration {:.3} of the limit",
-            peaks[k].0 / axis.max_vel_per_s,
-            peaks[k].1 / axis.max_acc_per_s2
+            peaks[k].vel / axis.max_vel_per_s,
+            peaks[k].acc / axis.max_acc_per_s2
         );
     }
     Ok(())
 }
 
-/// Peak |velocity| and |acceleration| per axis: Ȧ = A′v and Ä = A″v² + A′a at every
-/// `CHECK_PERIOD_S`.
-fn axis_peaks(path: &Path, segments: &[Segment]) -> Vec<(f64, f64)> {
-    let mut peaks = vec![(0.0_f64, 0.0_f64); path.n_axes];
-    let mut cursor = Cursor::default();
-    let mut d = AxisDerivs::default();
-    let steps = (duration_s(segments) / CHECK_PERIOD_S).ceil() as usize;
-    for i in 0..=steps {
-        let Some(sample) = cursor.sample(segments, i as f64 * CHECK_PERIOD_S) else { break };
-        let st = sample.state;
-        if sample.at_start {
-            path.eval(st.s_mm, &mut d);
-        } else {
-            path.eval_left(st.s_mm, &mut d);
-        }
-        for (k, peak) in peaks.iter_mut().enumerate() {
-            peak.0 = peak.0.max((d.d1[k] * st.v).abs());
-            peak.1 = peak.1.max((d.d2[k] * st.v * st.v + d.d1[k] * st.a).abs());
-        }
-    }
-    peaks
+/// Largest |velocity| and |acceleration| of one axis.
+#[derive(Debug, Clone, Copy, Default)]
+struct Peak {
+    vel: f64,
+    acc: f64,
 }

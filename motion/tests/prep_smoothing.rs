@@ -6,10 +6,10 @@
 //! The figures (largest excess over the tolerance, C² residuals) are printed with
 //! `cargo test --release -p interpd-motion --test prep_smoothing -- --nocapture`.
 
-use interpd_motion::Settings;
 use interpd_motion::path::{AxisDerivs, Geometry, JointKind, Path};
-use interpd_motion::prep::{Prep, prepare_path};
+use interpd_motion::prep::prepare_path;
 use interpd_motion::program;
+use interpd_motion::{Feed, Settings};
 
 fn repo_file(name: &str) -> String {
     let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(name);
@@ -187,37 +187,38 @@ fn dense_cam_slice_stays_in_the_band_and_runs_ahead_online() {
     let segments = std::env::var("PREP_TEST_SEGMENTS").ok().and_then(|v| v.parse().ok()).unwrap_or(5000);
     let text = with_mode(&repo_file("examples/dense_freeform.ngc"), "G64 P0.01", segments);
     let programmed = parse(&text, &config);
-    // Online: elements go in one by one and smoothed pieces come out long before the end.
-    let mut prep = Prep::new(&config);
-    let mut out = Path::new(programmed.axis_names.clone(), programmed.start);
+    // Online: the program is read line by line as far as the path is asked for, and smoothed
+    // pieces come out long before its end.
+    let mut feed = Feed::builder(&config).open_text("dense.ngc", text.clone());
+    let quintic = |p: &Path| p.elements.iter().any(|e| matches!(e.geometry, Geometry::Quintic(_)));
     let mut first_piece_at = None;
-    for (i, e) in programmed.elements.iter().enumerate() {
-        prep.push(e.clone()).expect("push");
-        while let Some(x) = prep.pop() {
-            if matches!(x.geometry, Geometry::Quintic(_)) {
-                first_piece_at.get_or_insert(i);
-            }
-            out.elements.push(x);
+    let mut s_mm = 0.0;
+    while first_piece_at.is_none() && s_mm < programmed.length_mm() {
+        feed.eval(s_mm).expect("reads");
+        if quintic(feed.path()) {
+            first_piece_at = Some(feed.progress().lines_read as usize);
         }
+        s_mm += 0.05;
     }
-    prep.finish().expect("finish");
-    while let Some(x) = prep.pop() {
-        out.elements.push(x);
+    while !feed.finished() {
+        feed.plan(1.0).expect("plans");
+        while feed.pop_segment().is_some() {}
     }
+    let out = feed.path().clone();
     // The first window needs five 10 mm segments of input (~2500 of these 0.02 mm moves).
     let first = first_piece_at.expect("smoothed pieces before the end of the input");
-    eprintln!("dense slice: first smoothed piece out after {first} of {} elements in", programmed.elements.len());
-    assert!(first <= 3000, "the stage must run ahead, not wait for the end: {first}");
+    eprintln!("dense slice: first smoothed piece out after line {first} of {} elements", programmed.elements.len());
+    assert!(first <= 3000, "the stage must run ahead, not wait for the end: line {first}");
     let dev = max_deviation(&programmed, &out, 2e-3);
     let ([dp, d1, d2], smooth) = joint_residuals(&out);
     eprintln!(
         "dense slice P0.01: max deviation {dev:.6} mm; {smooth} smooth joints, max jump A {dp:.1e}, A′ {d1:.1e}, \
          A″ {d2:.1e}; stats {:?}",
-        prep.stats
+        feed.stats().prep
     );
     assert!(dev <= 0.01 + SLACK_MM, "{dev}");
     assert!(dp < 1e-9 && d1 < 1e-9 && d2 < 1e-7);
-    assert_eq!(prep.stats.fallback_exact, 0);
+    assert_eq!(feed.stats().prep.fallback_exact, 0);
 }
 
 #[test]

@@ -16,12 +16,11 @@
 //!   written with the log's timestamps is the identical file.
 
 use interpd::config::Config;
-use interpd::service::approach::with_approach;
 use interpd_config::plant::FineInterpolation;
 use interpd_e2e::daemon::{Client, Daemon};
 use interpd_e2e::vcan::{self, Capture, Proc};
-use interpd_motion::Settings;
 use interpd_motion::path::{AxisDerivs, Path};
+use interpd_motion::{Feed, Settings};
 use interpd_protocol::api::codes;
 use interpd_protocol::candump::{self, Iface, Record, Timestamp};
 use interpd_protocol::cia301::{self, CanId, Emcy, Frame, Message, NmtState, NodeId, emcy_code};
@@ -411,7 +410,11 @@ fn daemon_streams_a_program_to_three_simulated_drives() {
     // … and those setpoints lie on the program's path (1 µm, plus half an increment per axis).
     let program =
         interpd_motion::program::parse(&program(), "can_tour.ngc", &Settings::from(&config)).expect("program");
-    let path = with_approach(&program.path, &[0.0; interpd_motion::path::MAX_AXES], &config);
+    // The daemon starts at the origin: its motion runs the rapid move to the program's start
+    // first, as a feed started there does.
+    let settings = Settings::from(&config);
+    let path =
+        Feed::builder(&settings).start_from([0.0; interpd_motion::path::MAX_AXES]).whole(program.path).path().clone();
     let points: Vec<[f64; 3]> = log_bus.cycles[m0..=m1]
         .iter()
         .map(|c| {

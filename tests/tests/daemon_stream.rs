@@ -4,12 +4,11 @@
 //! ending exactly at the program's end point; feed override, hold, resume, stop; underrun.
 
 use interpd::config::Config;
-use interpd::service::approach::with_approach;
 use interpd_e2e::daemon::{AxisLimits, Client, Collector, Daemon, limit_ratios};
 use interpd_e2e::{example, repo_root};
-use interpd_motion::Settings;
 use interpd_motion::path::{AxisDerivs, Path};
 use interpd_motion::program;
+use interpd_motion::{Feed, Settings};
 use interpd_protocol::shm::{Setpoints, flags};
 use serde_json::{Value, json};
 use std::time::Duration;
@@ -85,7 +84,10 @@ fn run_example(name: &str, machine: Option<&str>) -> (Config, Path, Vec<Setpoint
     assert_eq!(code, Some(0), "{name}: interpd run exit status; stderr:\n{stderr}");
     let text = std::fs::read_to_string(example(name)).unwrap();
     let parsed = program::parse(&text, name, &Settings::from(&config)).unwrap().path;
-    let path = with_approach(&parsed, &[0.0; interpd_motion::path::MAX_AXES], &config);
+    // The daemon starts at the origin: its motion runs the rapid move to the program's start
+    // first, as a feed started there does.
+    let settings = Settings::from(&config);
+    let path = Feed::builder(&settings).start_from([0.0; interpd_motion::path::MAX_AXES]).whole(parsed).path().clone();
     (config, path, sps)
 }
 

@@ -4,16 +4,12 @@
 
 use super::CliError;
 use interpd::config::Config;
-use interpd_motion::Settings;
 use interpd_motion::path::{AxisDerivs, Path};
 use interpd_motion::planner::export::{NodeExport, NodeGeom};
 use interpd_motion::planner::profile::{Cursor, Sample, duration_s};
-use interpd_motion::planner::{Planner, Segment};
-use interpd_motion::prep::Prep;
-use interpd_motion::program::{self, ProgramStream};
+use interpd_motion::{Feed, FeedError, Segment, Settings, program};
 use std::io::{BufWriter, Write};
 use std::path::PathBuf;
-use std::time::Instant;
 
 /// Options of `interpd plan`.
 #[derive(Debug, clap::Args)]
@@ -80,7 +76,8 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
     if checked.elements == 0 {
         return Err(CliError::BadInput(format!("{}: the program has no motion", args.program.display())));
     }
-    let mut pipe = Pipeline::open(&args.program, &settings, args.export_nodes.is_some())?;
+    let feed = Feed::builder(&settings).open_file(&args.program).map_err(feed_error)?;
+    let mut pipe = Sampled::new(feed, args.export_nodes.is_some());
 
     let mut out: Option<BufWriter<std::fs::File>> = match &args.out {
         Some(p) => Some(BufWriter::new(
@@ -99,7 +96,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             writeln!(w).map_err(write_err)?;
         }
     }
-    let lim = pipe.planner.limits().clone();
+    let lim = pipe.feed.limits().clone();
     let n = settings.axes.len();
     let mut ratios = Ratios::default();
     let mut d = AxisDerivs::default();
@@ -137,9 +134,9 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
         let st = sample.state;
         // The geometry on the segment's side of a joint (they differ only at corners).
         if sample.at_start {
-            pipe.path.eval(st.s_mm, &mut d)
+            pipe.feed.path().eval(st.s_mm, &mut d)
         } else {
-            pipe.path.eval_left(st.s_mm, &mut d)
+            pipe.feed.path().eval_left(st.s_mm, &mut d)
         }
         for i in 0..n {
             let vel = d.d1[i] * st.v;
@@ -175,15 +172,16 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
     }
     let duration = pipe.planned_until_s();
     if let Some(p) = &args.export_nodes {
-        export_nodes(p, &settings, &pipe.path, &pipe.kept)?;
+        export_nodes(p, &settings, pipe.feed.path(), &pipe.kept)?;
     }
     if !ratios.vel.is_finite() || !ratios.acc.is_finite() || !ratios.jerk.is_finite() || !duration.is_finite() {
         return Err(CliError::Failure("internal error: the planned motion is not finite".into()));
     }
-    let stats = pipe.planner.stats;
-    let plan_s = pipe.plan_s;
-    let length_mm = pipe.path.length_mm();
-    let mut prep_stats = pipe.prep.stats;
+    let feed_stats = pipe.feed.stats();
+    let stats = feed_stats.plan;
+    let plan_s = feed_stats.plan_s;
+    let length_mm = pipe.feed.path().length_mm();
+    let mut prep_stats = feed_stats.prep;
     if prep_stats.pieces == 0 {
         // Nothing was smoothed, so no sample was checked against the tolerance.
         prep_stats.max_excess_mm = 0.0;
@@ -196,16 +194,16 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
             "program": args.program.display().to_string(),
             "duration_s": duration,
             "plan_ms": plan_s * 1e3,
-            "plan_call_max_ms": pipe.plan_call_max_s * 1e3,
-            "read_ms": pipe.read_s * 1e3,
-            "step_max_ms": pipe.step_max_s * 1e3,
+            "plan_call_max_ms": feed_stats.plan_call_max_s * 1e3,
+            "read_ms": feed_stats.read_s * 1e3,
+            "step_max_ms": feed_stats.step_max_s * 1e3,
             "samples": samples,
             "period_ms": period_s * 1e3,
             "axes": axis_names,
             "max_ratio": { "vel": ratios.vel, "acc": ratios.acc, "jerk": ratios.jerk },
             "length_mm": length_mm,
             "nodes": stats.nodes,
-            "segments": pipe.segments,
+            "segments": feed_stats.segments,
             "nodes_per_s": stats.nodes as f64 / plan_s.max(1e-12),
             "evals_per_node": evals_per_node,
             "joins": stats.work.joins,
@@ -229,7 +227,7 @@ pub fn run(args: &PlanArgs) -> Result<(), CliError> {
                 "block_max_units": stats.block_work_max,
             },
             "lookahead_mm": config.planner.lookahead_mm,
-            "prep": { "wall_ms": pipe.prep_s * 1e3, "stats": prep_stats },
+            "prep": { "wall_ms": feed_stats.prep_s * 1e3, "stats": prep_stats },
             "programmed": { "lines": checked.summary.lines, "elements": checked.elements, "length_mm": checked.length_mm },
         });
         // The plant figures only when a plant ran (no null members in the output).
@@ -343,64 +341,30 @@ impl PlantRun {
     }
 }
 
-/// The look-ahead thread's work, done in line: the program read as a stream, smoothed (G64)
-/// and planned element by element. The planned segments and the path they run on are kept only
-/// until the samples have passed them (all of them for `--export-nodes`).
-struct Pipeline {
-    stream: ProgramStream,
-    prep: Prep,
-    planner: Planner,
-    /// The smoothed path from the segment being sampled to the newest element planned.
-    path: Path,
+/// The planned motion being sampled: the program planned through its [`Feed`] just ahead of
+/// the samples, the segments and the path they run on kept only until the samples have passed
+/// them (all of them for `--export-nodes`).
+struct Sampled {
+    feed: Feed,
     /// Planned segments from the one being sampled on.
     kept: Vec<Segment>,
     keep_all: bool,
     cursor: Cursor,
-    input_done: bool,
     planned_until_s: f64,
-    /// Segments planned in all.
-    segments: u64,
-    /// Wall time reading the program, in the smoothing stage and in the planner, s.
-    read_s: f64,
-    prep_s: f64,
-    plan_s: f64,
-    /// The longest single `Planner::plan` call, s.
-    plan_call_max_s: f64,
-    /// The longest step of one element read, smoothed and planned, s: what the motion already
-    /// buffered must outlast in the daemon's look-ahead thread.
-    step_max_s: f64,
 }
 
 /// Segments sampled past are dropped in batches of at least this many (each drop moves the
 /// rest of the kept list).
 const RELEASE_BATCH: usize = 64;
 
-impl Pipeline {
-    fn open(program: &std::path::Path, settings: &Settings, keep_all: bool) -> Result<Self, CliError> {
-        let stream = ProgramStream::open(program, settings)?;
-        let path = Path::new(stream.axis_names().to_vec(), stream.start());
-        Ok(Self {
-            stream,
-            prep: Prep::new(settings),
-            planner: Planner::new(settings),
-            path,
-            kept: Vec::new(),
-            keep_all,
-            cursor: Cursor::default(),
-            input_done: false,
-            planned_until_s: 0.0,
-            segments: 0,
-            read_s: 0.0,
-            prep_s: 0.0,
-            plan_s: 0.0,
-            plan_call_max_s: 0.0,
-            step_max_s: 0.0,
-        })
+impl Sampled {
+    fn new(feed: Feed, keep_all: bool) -> Self {
+        Self { feed, kept: Vec::new(), keep_all, cursor: Cursor::default(), planned_until_s: 0.0 }
     }
 
     /// The whole program is planned.
     fn finished(&self) -> bool {
-        self.input_done && self.planner.done()
+        self.feed.finished()
     }
 
     /// End time of the planned motion so far, s.
@@ -408,46 +372,13 @@ impl Pipeline {
         self.planned_until_s
     }
 
-    /// One step of the look-ahead: the next element through the smoothing stage and the
-    /// planner (or, at the end of the program, the last plan).
+    /// Plans on until at least one more segment is planned (or the program is planned to its
+    /// end).
     fn advance(&mut self) -> Result<(), CliError> {
-        let t0 = Instant::now();
-        if !self.input_done {
-            let prep_err = |e: interpd_motion::prep::PrepError| CliError::Failure(e.to_string());
-            let next = self.stream.next_element()?;
-            let t_read = Instant::now();
-            self.read_s += (t_read - t0).as_secs_f64();
-            match next {
-                Some(e) => self.prep.push(e).map_err(prep_err)?,
-                None => {
-                    self.prep.finish().map_err(prep_err)?;
-                    self.input_done = true;
-                }
-            }
-            self.prep_s += t_read.elapsed().as_secs_f64();
-            while let Some(e) = self.prep.pop() {
-                self.path.push_element(e.clone());
-                self.planner.push(e);
-            }
-            if self.input_done {
-                let dwell_s = self.stream.final_dwell_s().unwrap_or(0.0);
-                self.path.final_dwell_s = dwell_s;
-                self.planner.finish(dwell_s);
-            }
-        }
-        let t1 = Instant::now();
-        let new = self.planner.plan().map_err(|e| CliError::BadInput(e.to_string()))?;
-        let call_s = t1.elapsed().as_secs_f64();
-        self.plan_s += call_s;
-        self.plan_call_max_s = self.plan_call_max_s.max(call_s);
-        self.step_max_s = self.step_max_s.max(t0.elapsed().as_secs_f64());
-        if let Some(last) = new.last() {
-            self.planned_until_s = last.t1_s();
-        }
-        self.segments += new.len() as u64;
-        self.kept.extend(new);
-        if self.input_done && !self.planner.done() {
-            return Err(CliError::Failure("internal error: the planner did not finish the program".into()));
+        self.feed.plan(f64::MIN_POSITIVE).map_err(feed_error)?;
+        while let Some(seg) = self.feed.pop_segment() {
+            self.planned_until_s = seg.t1_s();
+            self.kept.push(seg);
         }
         Ok(())
     }
@@ -468,7 +399,17 @@ impl Pipeline {
         }
         self.kept.drain(..k);
         self.cursor = Cursor::default();
-        self.path.trim_before(self.kept[0].s0_mm);
+        self.feed.trim_before(self.kept[0].s0_mm);
+    }
+}
+
+/// A feed's error as `interpd plan` reports it: a bad program or a motion that cannot be
+/// planned is bad input (exit 2), a failure of the smoothing stage is not.
+fn feed_error(e: FeedError) -> CliError {
+    match e {
+        FeedError::Program(e) => e.into(),
+        FeedError::Plan(e) => CliError::BadInput(e.to_string()),
+        FeedError::Prep(e) => CliError::Failure(e.to_string()),
     }
 }
 

@@ -3,10 +3,9 @@
 //! (hold, stop) and commands to the planner thread. None waits for the motion: its effect shows
 //! in `status` and the events.
 
-use super::feeder::{self, FeederCommand, QUEUE_CHUNKS};
+use super::feeder::{self, FeederCommand, PathSource, QUEUE_CHUNKS};
 use super::law_run;
 use super::manual::{ManualGoal, ManualPart, ManualPlanError};
-use super::path_feed::PathSource;
 use super::state::{Control, Loaded, OVERRIDE_HOLD_BELOW, RunKind};
 use super::{SUBSCRIBER_CAPACITY, ServiceCore, lock};
 use crate::control::{
@@ -14,7 +13,7 @@ use crate::control::{
 };
 use crossbeam::channel::{self, Receiver};
 use interpd_motion::path::MAX_AXES;
-use interpd_motion::program::{self, ModalState};
+use interpd_motion::program::{self, AppendError as MotionAppendError, ModalState};
 use interpd_protocol::api::{
     AppendParams, AppendResult, Event, JogMode, JogParams, LawResult, ManualStatus, MdiModal, MdiParams, MdiResult,
     Method, MoveToParams, MoveToResult, ProgramBuffer, ProgramInfo, State, Status, ToolLength, ToolTable, WorkOffsets,
@@ -193,33 +192,17 @@ impl Motion for ServiceCore {
         let appends = match &lock(&self.shared.control).program {
             Some((_, Loaded::Program { appends: Some(a), .. })) => a.clone(),
             Some((info, Loaded::Program { .. })) if !info.program_end => return Err(AppendError::NotOpen),
-            Some(_) => return Err(interpd_motion::program::AppendError::Ended.into()),
+            Some(_) => return Err(AppendError::Closed(MotionAppendError::Ended)),
             None => return Err(AppendError::NoProgram),
         };
-        // One append at a time: the checker holds the program so far.
-        let mut checker = appends.checker.lock().unwrap_or_else(|p| p.into_inner());
-        if checker.ended() {
-            return Err(interpd_motion::program::AppendError::Ended.into());
-        }
-        // Refused before it is checked when it cannot fit, so the checker stays as it is.
-        let (buffered, limit) = (appends.buffer.buffered_bytes(), appends.buffer.limit_bytes());
-        if buffered + params.text.len() + 1 > limit {
-            return Err(AppendError::Full {
-                buffered_bytes: buffered,
-                limit_bytes: limit,
-                wanted_bytes: params.text.len() + 1,
-            });
-        }
-        let mut trial = checker.clone();
-        let appended = trial.append(&params.text, params.end)?;
-        let end = params.end || appended.program_end;
-        match appends.buffer.push(&params.text, end) {
-            Ok(()) => *checker = trial,
-            Err(interpd_motion::program::AppendError::Full { buffered_bytes, limit_bytes, wanted_bytes }) => {
-                return Err(AppendError::Full { buffered_bytes, limit_bytes, wanted_bytes });
+        let appended = appends.append(&params.text, params.end).map_err(|e| match e {
+            MotionAppendError::Full { buffered_bytes, limit_bytes, wanted_bytes } => {
+                AppendError::Full { buffered_bytes, limit_bytes, wanted_bytes }
             }
-            Err(e) => return Err(e.into()),
-        }
+            MotionAppendError::Program(e) => AppendError::Program(e),
+            e @ MotionAppendError::Ended => AppendError::Closed(e),
+        })?;
+        let end = appended.program_end;
         if let Some((info, _)) = lock(&self.shared.control).program.as_mut() {
             info.lines = appended.lines.1.max(info.lines);
             info.elements += appended.elements;
@@ -231,8 +214,8 @@ impl Motion for ServiceCore {
             elements: appended.elements,
             length_mm: appended.length_mm,
             program_end: end,
-            buffered_bytes: appends.buffer.buffered_bytes() as u64,
-            limit_bytes: limit as u64,
+            buffered_bytes: appends.buffered_bytes() as u64,
+            limit_bytes: appends.limit_bytes() as u64,
         })
     }
 
@@ -250,8 +233,8 @@ impl Motion for ServiceCore {
         // Law moves are made (and checked against the limits) from where the machine stands.
         let motion = match &loaded {
             Loaded::Program { text, tooling, appends } => {
-                let appends = appends.as_ref().map(|a| a.buffer.clone());
-                if appends.as_ref().is_some_and(|b| b.taken_bytes() > 0) {
+                let appends = appends.clone();
+                if appends.as_ref().is_some_and(|a| a.taken_bytes() > 0) {
                     return Err(StartError::AppendedOnce);
                 }
                 (PathSource::Program { text: text.clone(), here, tooling: tooling.clone(), appends }, None)
@@ -369,9 +352,9 @@ impl Motion for ServiceCore {
             program: ctl.program.as_ref().map(|(i, _)| i.clone()),
             program_buffer: ctl.program.as_ref().and_then(|(_, loaded)| match loaded {
                 Loaded::Program { appends: Some(a), .. } => Some(ProgramBuffer {
-                    buffered_bytes: a.buffer.buffered_bytes() as u64,
-                    limit_bytes: a.buffer.limit_bytes() as u64,
-                    open: !a.buffer.is_closed(),
+                    buffered_bytes: a.buffered_bytes() as u64,
+                    limit_bytes: a.limit_bytes() as u64,
+                    open: !a.is_closed(),
                 }),
                 _ => None,
             }),

@@ -2,18 +2,18 @@
 //! (never near the real-time thread), then installing it if the state still allows.
 //!
 //! A program is either G-code or a path table, checked here in one streaming pass and read
-//! again as the motion runs (smoothed and planned as it goes, see `PathFeed`), or a program of
+//! again as the motion runs (smoothed and planned as it goes through an `interpd_motion::Feed`),
+//! or a program of
 //! `LAW` statements, whose moves are made and checked from where the machine stands (again at
 //! every start).
 
+use super::feeder::{FileStamp, ProgramText};
 use super::law_run::{self, LawProgram};
-use super::path_feed::{FileStamp, ProgramText};
-use super::state::{Appendable, Loaded};
+use super::state::Loaded;
 use super::{ServiceCore, lock};
 use crate::control::{LoadError, ProgramSource};
 use interpd_motion::law::LawMove;
 use interpd_motion::program;
-use interpd_motion::program::AppendBuffer;
 use interpd_protocol::api::{Method, ProgramInfo};
 use std::borrow::Cow;
 use std::sync::Arc;
@@ -35,14 +35,16 @@ impl ServiceCore {
         let tooling = shared.tooling_now();
         let settings = tooling.apply(&shared.settings);
         // One streaming pass checks the whole program and keeps no geometry; the motion reads
-        // it again, smoothing and planning as it goes (`PathFeed`).
-        let (checked, checker, text) = match source {
+        // it again, smoothing and planning as it goes (`interpd_motion::Feed`). Only a program
+        // loaded open (and without an end) takes appended text; any other ends with its text.
+        let buffer_bytes = shared.config.programs.append_buffer_bytes();
+        let (checked, appends, text) = match source {
             ProgramSource::File(p) => {
                 // Taken before reading: a file changed while it is read or later is refused at
                 // the start.
                 let stamp = FileStamp::of(&p);
-                let (checked, checker) = if open {
-                    program::check_appended(&p, None, &settings)?
+                let (checked, appends) = if open {
+                    program::check_open(&p, None, &settings, buffer_bytes)?
                 } else {
                     (program::check(&p, &settings)?, None)
                 };
@@ -54,23 +56,17 @@ impl ServiceCore {
                         message: format!("cannot read: {e}"),
                     }])
                 })?;
-                (checked, checker, ProgramText::File { path: p, stamp })
+                (checked, appends, ProgramText::File { path: p, stamp })
             }
             ProgramSource::Text { name, text } => {
-                let (checked, checker) = if open {
-                    program::check_appended(std::path::Path::new(&name), Some(text.clone()), &settings)?
+                let (checked, appends) = if open {
+                    program::check_open(std::path::Path::new(&name), Some(text.clone()), &settings, buffer_bytes)?
                 } else {
                     (program::check_text(text.clone(), &name, &settings)?, None)
                 };
-                (checked, checker, ProgramText::Text { name, text: Arc::new(text) })
+                (checked, appends, ProgramText::Text { name, text: Arc::new(text) })
             }
         };
-        // Only a program loaded open (and without an end) takes appended text; any other ends
-        // with its text.
-        let appends = checker.map(|c| Appendable {
-            checker: Arc::new(std::sync::Mutex::new(c)),
-            buffer: Arc::new(AppendBuffer::new(shared.config.programs.append_buffer_bytes())),
-        });
         let info = ProgramInfo {
             name,
             elements: checked.elements,

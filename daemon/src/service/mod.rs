@@ -14,7 +14,6 @@
 //! docs/architecture.md draws the threads and queues.
 
 mod allocator;
-pub mod approach;
 mod commands;
 pub mod feeder;
 pub mod law_run;
@@ -23,12 +22,11 @@ mod load;
 pub mod manual;
 pub mod modal_track;
 pub mod otg_motion;
-pub mod path_feed;
 pub mod programs;
 mod rt_loop;
 mod state;
 mod supervisor;
-mod tooling;
+pub mod tooling;
 
 pub use rt_loop::CycleStall;
 
@@ -138,7 +136,7 @@ struct Shared {
     programs: programs::ProgramsDir,
     /// The tool table and work offsets programs are read with: the machine file's, until
     /// `tools.set` / `offsets.set` replace them.
-    tooling: Mutex<Arc<path_feed::Tooling>>,
+    tooling: Mutex<Arc<tooling::Tooling>>,
     /// The running program's tool and offset state along its lines (the look-ahead thread
     /// writes it, `status` reads it).
     modal: Arc<Mutex<modal_track::ModalTrack>>,
@@ -154,7 +152,7 @@ impl Shared {
     }
 
     /// The tool table and work offsets in effect now.
-    fn tooling_now(&self) -> Arc<path_feed::Tooling> {
+    fn tooling_now(&self) -> Arc<tooling::Tooling> {
         lock(&self.tooling).clone()
     }
 
@@ -262,7 +260,7 @@ impl Service {
             comp_stats: Mutex::new(None),
             drives,
             programs,
-            tooling: Mutex::new(Arc::new(path_feed::Tooling {
+            tooling: Mutex::new(Arc::new(tooling::Tooling {
                 tools: opts.config.tools.clone(),
                 work_offsets: opts.config.work_offsets.clone(),
             })),

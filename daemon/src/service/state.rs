@@ -28,11 +28,12 @@
 //! in [`super::commands`] (the control server's) and [`super::supervisor`] (the executor's
 //! notices).
 
+use super::feeder::ProgramText;
 use super::law_run::LawProgram;
-use super::path_feed::{ProgramText, Tooling};
+use super::tooling::Tooling;
 use crate::control::{ManualError, NotAllowed};
 use crate::interp::Epochs;
-use interpd_motion::program::{AppendBuffer, AppendChecker, ModalState};
+use interpd_motion::program::{Appends, ModalState};
 use interpd_protocol::api::{ManualStatus, Method, ProgramInfo, State};
 use std::sync::Arc;
 
@@ -48,17 +49,9 @@ pub(super) enum Loaded {
     Program {
         text: ProgramText,
         tooling: Arc<Tooling>,
-        appends: Option<Appendable>,
+        appends: Option<Appends>,
     },
     Laws(Arc<LawProgram>),
-}
-
-/// The continuation of a loaded program without an end: the checker of appended text (the
-/// program so far) and the buffer the motion reads it from.
-#[derive(Clone)]
-pub(super) struct Appendable {
-    pub checker: Arc<std::sync::Mutex<AppendChecker>>,
-    pub buffer: Arc<AppendBuffer>,
 }
 
 /// What the current (or last) motion is.

@@ -6,9 +6,25 @@
 use super::{ServiceCore, lock};
 use crate::config::{ToolConfig, WORK_SYSTEMS};
 use crate::control::errors::ManualError;
+use interpd_motion::Settings;
 use interpd_protocol::api::{Method, Tool, ToolTable, WorkOffsets};
 use std::collections::BTreeMap;
 use std::sync::Arc;
+
+/// The tool table and work offsets a program is read with (`tools.set`, `offsets.set`): taken
+/// at `program.load`, so the motion reads the program as it was checked.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Tooling {
+    pub tools: Vec<interpd_config::ToolConfig>,
+    pub work_offsets: interpd_config::WorkOffsetsConfig,
+}
+
+impl Tooling {
+    /// `settings` with this tool table and these work offsets.
+    pub fn apply(&self, settings: &Settings) -> Settings {
+        Settings { tools: self.tools.clone(), work_offsets: self.work_offsets.clone(), ..settings.clone() }
+    }
+}
 
 impl ServiceCore {
     pub(crate) fn tool_table(&self) -> ToolTable {

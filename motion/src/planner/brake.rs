@@ -24,7 +24,7 @@ const UNDERSHOOT_REL_TOL: f64 = 1e-9;
 const CHECK_REL_TOL: f64 = 1e-9;
 
 /// Where the path next requires rest after `s_mm`: the next corner or dwell, or its end.
-pub fn next_stop_s(path: &Path, s_mm: f64) -> f64 {
+pub(crate) fn next_stop_s(path: &Path, s_mm: f64) -> f64 {
     let from = path.element_index_at(s_mm) + 1;
     path.elements[from.min(path.elements.len())..]
         .iter()
@@ -35,7 +35,7 @@ pub fn next_stop_s(path: &Path, s_mm: f64) -> f64 {
 /// The fastest stop from (s, v ≥ 0, a) that keeps every axis limit in `lim` along `path`
 /// and ends before `s_limit_mm`; segments from time 0. Empty at rest; `None` if none of the
 /// tried path limits gives one.
-pub fn brake_along(
+pub(crate) fn brake_along(
     path: &Path,
     s_mm: f64,
     v: f64,

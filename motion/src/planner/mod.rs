@@ -19,7 +19,7 @@
 //! gives the same profile as planning the whole program.
 
 mod block;
-pub mod brake;
+pub(crate) mod brake;
 mod branch;
 mod check;
 mod envelope;
@@ -44,7 +44,7 @@ mod view;
 pub use error::{Infeasibility, PlanError};
 pub use limits::Limits;
 pub use profile::{PathState, Segment};
-pub use resume::{STANDSTILL_A_MM_S2, STANDSTILL_V_MM_S};
+pub(crate) use resume::{STANDSTILL_A_MM_S2, STANDSTILL_V_MM_S};
 pub use step::Work;
 
 use crate::Settings;
@@ -73,6 +73,19 @@ pub struct PlanStats {
     /// The most work (`Work::units`) one block plan took, a failed one included: what bounds
     /// the time of one planning call, as a count that does not depend on the host's load.
     pub block_work_max: u64,
+}
+
+impl PlanStats {
+    /// Adds the counters of another planning run (a planner replaced by a replan).
+    pub fn absorb(&mut self, other: &PlanStats) {
+        self.nodes += other.nodes;
+        self.blocks += other.blocks;
+        self.work.add(&other.work);
+        self.horizon_stops += other.horizon_stops;
+        self.horizon_brakes += other.horizon_brakes;
+        self.forced_stops += other.forced_stops;
+        self.block_work_max = self.block_work_max.max(other.block_work_max);
+    }
 }
 
 /// About the most work (`Work::units`) one block plan of `nodes` nodes takes, found or not (its

@@ -56,6 +56,36 @@ impl Segment {
         let s = if self.ds_mm > 0.0 { self.s0_mm + ds.min(self.ds_mm) } else { self.s0_mm };
         PathState { s_mm: s, v: v0 + a0 * tau + 0.5 * j * tau * tau, a: a0 + j * tau, j }
     }
+
+    /// The state at absolute time `t_s` (clamped to the segment), with the segment's line and
+    /// whether the state lies at the segment's start.
+    pub fn sample(&self, t_s: f64) -> Sample {
+        let state = self.at(t_s - self.t0_s);
+        // Decided by position, not time: just after a stop at a corner the path has moved less
+        // than one ulp of s, so s still equals the joint while the motion is already on the
+        // element after it (its jerk belongs to that element's direction).
+        Sample { state, line: self.line, at_start: state.s_mm <= self.s0_mm }
+    }
+
+    /// The segment split at local time `tau_s` (clamped to it): the part before and the part
+    /// after, which starts in the state there.
+    pub fn split_at(&self, tau_s: f64) -> (Segment, Segment) {
+        let tau = tau_s.clamp(0.0, self.dt_s);
+        let st = self.at(tau);
+        let ds_before = if self.ds_mm > 0.0 { (st.s_mm - self.s0_mm).clamp(0.0, self.ds_mm) } else { 0.0 };
+        let before = Segment { dt_s: tau, ds_mm: ds_before, ..*self };
+        let after = Segment {
+            s0_mm: self.s0_mm + ds_before,
+            t0_s: self.t0_s + tau,
+            v0: st.v,
+            a0: st.a,
+            j: self.j,
+            dt_s: self.dt_s - tau,
+            ds_mm: self.ds_mm - ds_before,
+            line: self.line,
+        };
+        (before, after)
+    }
 }
 
 /// Walks a time-ordered segment list with a cursor (for sampling in increasing time).
@@ -79,12 +109,7 @@ impl Cursor {
         while self.index + 1 < segments.len() && segments[self.index].t1_s() <= t {
             self.index += 1;
         }
-        let seg = &segments[self.index];
-        let state = seg.at(t - seg.t0_s);
-        // Decided by position, not time: just after a stop at a corner the path has moved less
-        // than one ulp of s, so s still equals the joint while the motion is already on the
-        // element after it (its jerk belongs to that element's direction).
-        Some(Sample { state, line: seg.line, at_start: state.s_mm <= seg.s0_mm })
+        Some(segments[self.index].sample(t))
     }
 }
 

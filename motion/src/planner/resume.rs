@@ -11,15 +11,16 @@ use super::profile::Segment;
 use crate::Settings;
 
 /// Below these the machine counts as standing: no stop needs planning.
-pub const STANDSTILL_V_MM_S: f64 = 1e-9;
-pub const STANDSTILL_A_MM_S2: f64 = 1e-9;
+pub(crate) const STANDSTILL_V_MM_S: f64 = 1e-9;
+pub(crate) const STANDSTILL_A_MM_S2: f64 = 1e-9;
 
 impl Planner {
     /// A planner for a path whose first element starts with path velocity `v_mm_s` and
     /// acceleration `a_mm_s2` (mm/s, mm/s²) instead of at rest. Use it with
     /// [`Path::suffix_from`](crate::path::Path::suffix_from) to continue planning from a state
     /// in motion.
-    pub fn with_start_state(settings: &Settings, v_mm_s: f64, a_mm_s2: f64) -> Self {
+    #[cfg(test)]
+    pub(crate) fn with_start_state(settings: &Settings, v_mm_s: f64, a_mm_s2: f64) -> Self {
         Self::with_start_state_and_floor(settings, v_mm_s, a_mm_s2, Vec::new())
     }
 
@@ -28,7 +29,12 @@ impl Planner {
     /// it). Where the new bounds lie below the start velocity (a lower feed override, nodes
     /// placed differently from the plan the state came from), the floor keeps the start
     /// viable.
-    pub fn with_start_state_and_floor(settings: &Settings, v_mm_s: f64, a_mm_s2: f64, floor: Vec<Segment>) -> Self {
+    pub(crate) fn with_start_state_and_floor(
+        settings: &Settings,
+        v_mm_s: f64,
+        a_mm_s2: f64,
+        floor: Vec<Segment>,
+    ) -> Self {
         let mut p = Planner::new(settings);
         p.vbar_floor = floor;
         p.start = (v_mm_s, a_mm_s2);

@@ -27,7 +27,8 @@ mod stats;
 mod verify;
 mod window;
 
-pub use stage::{Prep, PrepError, PrepFailure};
+pub(crate) use stage::Prep;
+pub use stage::{PrepError, PrepFailure};
 pub use stats::PrepStats;
 
 use crate::Settings;
@@ -43,8 +44,9 @@ pub struct Prepared {
     pub wall_s: f64,
 }
 
-/// Streams a whole path through the stage (the offline use, `interpd plan`). A path without
-/// G64 elements comes back unchanged.
+/// Streams a whole path through the stage (a path made whole, such as MDI blocks; a program
+/// of any length goes through it in a [`crate::Feed`]). A path without G64 elements comes back
+/// unchanged.
 pub fn prepare_path(settings: &Settings, path: &Path) -> Result<Prepared, PrepError> {
     let t0 = Instant::now();
     if !path.elements.iter().any(|e| matches!(e.blend, crate::path::Blend::Tolerance { .. })) {

@@ -58,7 +58,7 @@ enum Rung {
 }
 
 /// The online smoothing stage.
-pub struct Prep {
+pub(crate) struct Prep {
     st: StageSettings,
     solvers: Solvers,
     out: VecDeque<Element>,
@@ -66,11 +66,11 @@ pub struct Prep {
     last_out: Option<Element>,
     run: Option<Run>,
     cond: Conditioner,
-    pub stats: PrepStats,
+    pub(crate) stats: PrepStats,
 }
 
 impl Prep {
-    pub fn new(settings: &Settings) -> Self {
+    pub(crate) fn new(settings: &Settings) -> Self {
         Self {
             st: StageSettings::new(settings),
             solvers: Solvers::default(),
@@ -84,7 +84,7 @@ impl Prep {
     }
 
     /// Takes the next programmed element.
-    pub fn push(&mut self, e: Element) -> Result<(), PrepError> {
+    pub(crate) fn push(&mut self, e: Element) -> Result<(), PrepError> {
         self.stats.moves_in += 1;
         let tol = self.g64_tol(&e);
         if let Some(t) = tol.filter(|_| Conditioner::mergeable(&e)) {
@@ -147,7 +147,7 @@ impl Prep {
     }
 
     /// No more elements follow.
-    pub fn finish(&mut self) -> Result<(), PrepError> {
+    pub(crate) fn finish(&mut self) -> Result<(), PrepError> {
         if let Some(c) = self.cond.flush() {
             self.push_conditioned(c)?;
         }
@@ -158,13 +158,8 @@ impl Prep {
     }
 
     /// The next smoothed (or passed-through) element, when one is ready.
-    pub fn pop(&mut self) -> Option<Element> {
+    pub(crate) fn pop(&mut self) -> Option<Element> {
         self.out.pop_front()
-    }
-
-    /// Elements ready to be taken.
-    pub fn ready(&self) -> usize {
-        self.out.len()
     }
 
     /// Only elements whose path length counts over the linear axes and that move no rotary

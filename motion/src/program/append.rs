@@ -1,16 +1,91 @@
-//! Program text that arrives while the program runs (`program.append`): a bounded buffer the
-//! control side fills and the program's reader empties, and the check of each piece against
-//! the program so far (modal state, position and line numbers carry on).
+//! Program text that arrives while the program runs (`program.append`): [`Appends`], the
+//! handle of a program loaded without an end. It checks each piece against the program so far
+//! (modal state, position and line numbers carry on) and keeps it in a bounded buffer that the
+//! program's reader empties as the motion goes.
 
+use super::MAX_LINE_BYTES;
 use super::error::{Diagnostics, ProgramErrors};
 use super::gcode::Interpreter;
-use super::stream::MAX_LINE_BYTES;
 use std::collections::VecDeque;
-use std::sync::{Mutex, MutexGuard};
+use std::sync::{Arc, Mutex, MutexGuard};
+
+/// A program loaded without an end (M2, M30, a closing `%`), open for text appended while it
+/// runs: the control side appends with [`Appends::append`], a [`crate::Feed`] opened with it
+/// reads on. Clones share the program.
+#[derive(Clone)]
+pub struct Appends {
+    /// The program so far: one append at a time.
+    checker: Arc<Mutex<AppendChecker>>,
+    buffer: Arc<AppendBuffer>,
+}
+
+impl std::fmt::Debug for Appends {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Appends").field("buffer", &self.buffer).finish_non_exhaustive()
+    }
+}
+
+impl Appends {
+    /// The continuation of the program `checker` has read, buffering at most `limit_bytes`
+    /// unread bytes.
+    pub(crate) fn new(checker: AppendChecker, limit_bytes: usize) -> Appends {
+        Appends { checker: Arc::new(Mutex::new(checker)), buffer: Arc::new(AppendBuffer::new(limit_bytes)) }
+    }
+
+    /// Checks `text` as the continuation of the program and buffers it for the reader; with
+    /// `end`, nothing can follow. A piece that does not parse, does not fit or comes after the
+    /// end is refused whole, and the program stays as it was.
+    pub fn append(&self, text: &str, end: bool) -> Result<Appended, AppendError> {
+        // The checker holds the program so far: it is consistent after any panic elsewhere,
+        // as it is replaced only whole.
+        let mut checker = self.checker.lock().unwrap_or_else(|p| p.into_inner());
+        if checker.ended() {
+            return Err(AppendError::Ended);
+        }
+        // Refused before it is checked when it cannot fit, so the checker stays as it is.
+        let (buffered_bytes, limit_bytes) = (self.buffer.buffered_bytes(), self.buffer.limit_bytes());
+        let wanted_bytes = text.len() + 1;
+        if buffered_bytes + wanted_bytes > limit_bytes {
+            return Err(AppendError::Full { buffered_bytes, limit_bytes, wanted_bytes });
+        }
+        let mut trial = checker.clone();
+        let mut appended = trial.append(text, end)?;
+        appended.program_end |= end;
+        self.buffer.push(text, appended.program_end)?;
+        *checker = trial;
+        Ok(appended)
+    }
+
+    /// Unread bytes.
+    pub fn buffered_bytes(&self) -> usize {
+        self.buffer.buffered_bytes()
+    }
+
+    /// Bytes a reader has taken so far: a program whose appended text was read cannot run
+    /// again from its start (the text is gone).
+    pub fn taken_bytes(&self) -> u64 {
+        self.buffer.taken_bytes()
+    }
+
+    /// The most unread bytes the buffer holds.
+    pub fn limit_bytes(&self) -> usize {
+        self.buffer.limit_bytes()
+    }
+
+    /// Nothing more can be appended: the program has ended.
+    pub fn is_closed(&self) -> bool {
+        self.buffer.is_closed()
+    }
+
+    /// The buffer the program's reader takes lines from.
+    pub(crate) fn buffer(&self) -> Arc<AppendBuffer> {
+        self.buffer.clone()
+    }
+}
 
 /// Text appended to an open program, not read yet.
 #[derive(Debug)]
-pub struct AppendBuffer {
+pub(crate) struct AppendBuffer {
     state: Mutex<Buffered>,
     limit_bytes: usize,
 }
@@ -27,6 +102,9 @@ struct Buffered {
 /// Why text cannot be appended.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum AppendError {
+    /// The text does not parse as the continuation of the program.
+    #[error("{0}")]
+    Program(#[from] ProgramErrors),
     #[error(
         "the program buffer holds {buffered_bytes} of {limit_bytes} bytes; {wanted_bytes} more do not fit \
          (send again when the motion has used some)"
@@ -48,7 +126,7 @@ pub(crate) enum Take {
 
 impl AppendBuffer {
     /// An empty buffer that holds at most `limit_bytes` unread bytes.
-    pub fn new(limit_bytes: usize) -> AppendBuffer {
+    pub(crate) fn new(limit_bytes: usize) -> AppendBuffer {
         AppendBuffer { state: Mutex::new(Buffered::default()), limit_bytes }
     }
 
@@ -58,7 +136,7 @@ impl AppendBuffer {
     }
 
     /// Adds `text` (a line break is added if it lacks one) and, with `end`, closes the buffer.
-    pub fn push(&self, text: &str, end: bool) -> Result<(), AppendError> {
+    pub(crate) fn push(&self, text: &str, end: bool) -> Result<(), AppendError> {
         let mut b = self.lock();
         if b.closed {
             return Err(AppendError::Ended);
@@ -81,26 +159,26 @@ impl AppendBuffer {
     }
 
     /// Unread bytes.
-    pub fn buffered_bytes(&self) -> usize {
+    pub(crate) fn buffered_bytes(&self) -> usize {
         self.lock().text.len()
     }
 
     /// Bytes the reader has taken so far.
-    pub fn taken_bytes(&self) -> u64 {
+    pub(crate) fn taken_bytes(&self) -> u64 {
         self.lock().taken_bytes
     }
 
-    pub fn limit_bytes(&self) -> usize {
+    pub(crate) fn limit_bytes(&self) -> usize {
         self.limit_bytes
     }
 
     /// No more text can be appended.
-    pub fn is_closed(&self) -> bool {
+    pub(crate) fn is_closed(&self) -> bool {
         self.lock().closed
     }
 
     /// A whole line or the end is there for the reader.
-    pub fn has_input(&self) -> bool {
+    pub(crate) fn has_input(&self) -> bool {
         let b = self.lock();
         b.closed || b.text.contains(&b'\n')
     }
@@ -126,7 +204,7 @@ impl AppendBuffer {
 
 /// Checks text appended to an open program against the program so far.
 #[derive(Clone)]
-pub struct AppendChecker {
+pub(crate) struct AppendChecker {
     interp: Interpreter,
     line_no: u32,
     origin: String,
@@ -141,7 +219,7 @@ pub struct Appended {
     pub elements: u64,
     /// Path length it added, mm.
     pub length_mm: f64,
-    /// It ended the program (M2, M30, a closing `%`).
+    /// It ended the program (M2, M30, a closing `%`, or `end`).
     pub program_end: bool,
 }
 
@@ -150,20 +228,15 @@ impl AppendChecker {
         AppendChecker { interp, line_no, origin }
     }
 
-    /// Lines of the program so far.
-    pub fn lines(&self) -> u32 {
-        self.line_no
-    }
-
     /// The program has ended: nothing can follow.
-    pub fn ended(&self) -> bool {
+    pub(crate) fn ended(&self) -> bool {
         self.interp.ended()
     }
 
     /// Checks `text` as the continuation of the program: every error with the program's line
     /// and column, the program unchanged on error. A piece must not end inside a G06 block,
     /// and the last one (`end`) must not leave the program inside one either.
-    pub fn append(&mut self, text: &str, end: bool) -> Result<Appended, ProgramErrors> {
+    pub(crate) fn append(&mut self, text: &str, end: bool) -> Result<Appended, ProgramErrors> {
         let mut interp = self.interp.clone();
         let mut d = Diagnostics::new(&self.origin);
         let mut line_no = self.line_no;

@@ -12,15 +12,21 @@ mod stream;
 mod table;
 
 pub use active::{ActiveCutter, ActiveModal, ActiveTool, CompSide};
-pub use append::{AppendBuffer, AppendChecker, AppendError, Appended};
+pub(crate) use append::AppendBuffer;
+pub use append::{AppendError, Appended, Appends};
 pub use error::{ProgramError, ProgramErrors};
 pub(crate) use gcode::fmt_num;
-pub use stream::{Checked, MAX_LINE_BYTES, ProgramStream, check, check_appended, check_text};
+pub(crate) use stream::ProgramStream;
+pub use stream::{Checked, check, check_open, check_text};
 
 use crate::Settings;
 use crate::path::Path;
 use error::Diagnostics;
 use std::collections::{BTreeMap, BTreeSet};
+
+/// The longest line read, bytes: far beyond any real block, and it bounds the memory a file
+/// without line breaks can take.
+pub const MAX_LINE_BYTES: usize = 64 * 1024;
 
 /// A line holding only this word ends G06 spline data (Huan, §2: "CR", end of record); an
 /// empty line or the next ordinary block does too.
@@ -83,8 +89,8 @@ pub fn parse(text: &str, origin: &str, settings: &Settings) -> Result<Program, P
     collect(ProgramStream::from_text(text.to_string(), origin, settings))
 }
 
-/// Reads and parses a program file whole (for programs of any length, read it as a
-/// [`ProgramStream`]).
+/// Reads and parses a program file whole (for programs of any length, plan it through a
+/// [`crate::Feed`], which reads it as the motion goes).
 pub fn load(path: &std::path::Path, settings: &Settings) -> Result<Program, ProgramErrors> {
     collect(ProgramStream::open(path, settings)?)
 }

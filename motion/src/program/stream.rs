@@ -7,19 +7,15 @@
 //! every support point of the block). Path tables are read whole: they are the data form of
 //! short multi-axis paths, not CAM output.
 
-use super::append::{AppendBuffer, AppendChecker, Take};
+use super::append::{AppendBuffer, AppendChecker, Appends, Take};
 use super::error::Diagnostics;
 use super::gcode::Interpreter;
-use super::{Format, ProgramError, ProgramErrors, Summary, table};
+use super::{Format, MAX_LINE_BYTES, ProgramError, ProgramErrors, Summary, table};
 use crate::Settings;
 use crate::path::{AxisVec, Element, MAX_AXES, Path};
 use std::collections::VecDeque;
 use std::io::{BufRead, BufReader, Read};
 use std::sync::Arc;
-
-/// The longest line read, bytes: far beyond any real block, and it bounds the memory a file
-/// without line breaks can take.
-pub const MAX_LINE_BYTES: usize = 64 * 1024;
 
 /// Where the lines come from.
 enum Lines {
@@ -39,7 +35,7 @@ enum Reader {
 }
 
 /// The elements of a program, read from its file as they are asked for.
-pub struct ProgramStream {
+pub(crate) struct ProgramStream {
     lines: Lines,
     reader: Reader,
     d: Diagnostics,
@@ -63,7 +59,7 @@ pub struct ProgramStream {
 
 impl ProgramStream {
     /// Opens the program file at `path` (named as given in messages).
-    pub fn open(path: &std::path::Path, settings: &Settings) -> Result<Self, ProgramErrors> {
+    pub(crate) fn open(path: &std::path::Path, settings: &Settings) -> Result<Self, ProgramErrors> {
         let origin = path.display().to_string();
         let file = std::fs::File::open(path).map_err(|e| fatal(&origin, format!("cannot read: {e}")))?;
         let mut lines = Lines::File(BufReader::with_capacity(1 << 16, file));
@@ -90,7 +86,7 @@ impl ProgramStream {
     }
 
     /// A stream over program text held in memory (`origin` names it in messages).
-    pub fn from_text(text: String, origin: &str, settings: &Settings) -> Self {
+    pub(crate) fn from_text(text: String, origin: &str, settings: &Settings) -> Self {
         let format = Format::detect(origin, &text);
         if format == Format::PathTable {
             let mut stream = Self::with_lines(Lines::Text { text: String::new(), at: 0 }, origin, settings, format);
@@ -127,7 +123,7 @@ impl ProgramStream {
 
     /// The program continues with the text appended to `buffer` after its own text (a path
     /// table takes none).
-    pub fn with_appends(mut self, buffer: Arc<AppendBuffer>) -> Self {
+    pub(crate) fn with_appends(mut self, buffer: Arc<AppendBuffer>) -> Self {
         if matches!(self.reader, Reader::GCode(_)) {
             self.appends = Some(buffer);
         }
@@ -136,7 +132,7 @@ impl ProgramStream {
 
     /// Records where the tool and offset state changes (a G-code program), to be taken with
     /// [`ProgramStream::take_modal_change`].
-    pub fn track_modal(&mut self) {
+    pub(crate) fn track_modal(&mut self) {
         if let Reader::GCode(interp) = &mut self.reader {
             interp.track_modal();
         }
@@ -145,7 +141,7 @@ impl ProgramStream {
     /// The next change of the tool and offset state: the first source line it applies to and
     /// the state from there on. A change is there once an element after it has been read;
     /// the first is the state the program starts with.
-    pub fn take_modal_change(&mut self) -> Option<(u32, super::ActiveModal)> {
+    pub(crate) fn take_modal_change(&mut self) -> Option<(u32, super::ActiveModal)> {
         match &mut self.reader {
             Reader::GCode(interp) => interp.take_modal_change(),
             Reader::Table { .. } => None,
@@ -154,7 +150,7 @@ impl ProgramStream {
 
     /// The stream has handed out everything there is but the program goes on: text appended
     /// later continues it.
-    pub fn waiting(&self) -> bool {
+    pub(crate) fn waiting(&self) -> bool {
         self.waiting && !self.eof
     }
 
@@ -168,17 +164,17 @@ impl ProgramStream {
     }
 
     /// Axis names in machine order.
-    pub fn axis_names(&self) -> &[String] {
+    pub(crate) fn axis_names(&self) -> &[String] {
         &self.axis_names
     }
 
     /// Where the path starts (the machine origin for G-code; a table's first row).
-    pub fn start(&self) -> AxisVec {
+    pub(crate) fn start(&self) -> AxisVec {
         self.start
     }
 
     /// Lines read so far and what they held.
-    pub fn summary(&self) -> &Summary {
+    pub(crate) fn summary(&self) -> &Summary {
         match &self.reader {
             Reader::GCode(i) => &i.summary,
             Reader::Table { summary, .. } => summary,
@@ -186,7 +182,7 @@ impl ProgramStream {
     }
 
     /// The dwell after the last element, s, once the stream has ended.
-    pub fn final_dwell_s(&self) -> Option<f64> {
+    pub(crate) fn final_dwell_s(&self) -> Option<f64> {
         if !self.eof {
             return None;
         }
@@ -198,7 +194,7 @@ impl ProgramStream {
 
     /// The next element, `None` at the end of the program. The first error ends the stream:
     /// every element handed out before it is valid.
-    pub fn next_element(&mut self) -> Result<Option<Element>, ProgramErrors> {
+    pub(crate) fn next_element(&mut self) -> Result<Option<Element>, ProgramErrors> {
         self.waiting = false;
         loop {
             if !self.d.errors.is_empty() {
@@ -216,7 +212,7 @@ impl ProgramStream {
 
     /// After an error: reads the rest of the program for its further errors (up to the cap)
     /// and returns them all.
-    pub fn all_errors(&mut self) -> ProgramErrors {
+    pub(crate) fn all_errors(&mut self) -> ProgramErrors {
         self.read_to_end();
         ProgramErrors(self.d.errors.clone())
     }
@@ -309,7 +305,7 @@ impl ProgramStream {
     /// waits for its successor (the motion is to stop at the end of what is there). It stays
     /// with the interpreter for the joint and the path position of the next one, and is not
     /// handed out again.
-    pub fn flush_waiting(&mut self) {
+    pub(crate) fn flush_waiting(&mut self) {
         let Reader::GCode(interp) = &self.reader else { return };
         if !self.waiting() || self.flushed {
             return;
@@ -354,18 +350,22 @@ pub fn check_text(text: String, origin: &str, settings: &Settings) -> Result<Che
 }
 
 /// [`check`] of the program at `path` (or of `text`, named `path`) that keeps a program
-/// without an end (M2, M30, a closing `%`) open: its checker takes the text appended to it.
-pub fn check_appended(
+/// without an end (M2, M30, a closing `%`) open for text appended while it runs: its
+/// [`Appends`] take that text, buffering at most `buffer_bytes` unread bytes. A program with an
+/// end has none.
+pub fn check_open(
     path: &std::path::Path,
     text: Option<String>,
     settings: &Settings,
-) -> Result<(Checked, Option<AppendChecker>), ProgramErrors> {
+    buffer_bytes: usize,
+) -> Result<(Checked, Option<Appends>), ProgramErrors> {
     let mut stream = match text {
         Some(t) => ProgramStream::from_text(t, &path.display().to_string(), settings),
         None => ProgramStream::open(path, settings)?,
     };
     stream.finish_at_eof = false;
-    check_stream(stream)
+    let (checked, checker) = check_stream(stream)?;
+    Ok((checked, checker.map(|c| Appends::new(c, buffer_bytes))))
 }
 
 fn check_stream(mut stream: ProgramStream) -> Result<(Checked, Option<AppendChecker>), ProgramErrors> {
@@ -412,7 +412,7 @@ fn not_text(origin: &str, e: std::io::Error) -> ProgramErrors {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::program::{AppendBuffer, AppendError};
+    use crate::program::AppendError;
 
     fn xyz() -> Settings {
         Settings::default_machine()
@@ -491,47 +491,51 @@ mod tests {
     #[test]
     fn appended_text_continues_an_open_program_and_waits_for_more() {
         let settings = xyz();
-        let (checked, checker) =
-            check_appended(std::path::Path::new("open.ngc"), Some("G1 X1 F600\nG1 X2\n".into()), &settings)
+        let (checked, appends) =
+            check_open(std::path::Path::new("open.ngc"), Some("G1 X1 F600\nG1 X2\n".into()), &settings, 64)
                 .expect("valid");
         assert!(!checked.summary.program_end);
         assert_eq!((checked.elements, checked.length_mm), (2, 2.0));
-        let mut checker = checker.expect("an open program takes appended text");
+        let appends = appends.expect("an open program takes appended text");
 
-        let buffer = Arc::new(AppendBuffer::new(64));
-        let mut s =
-            ProgramStream::from_text("G1 X1 F600\nG1 X2\n".into(), "open.ngc", &settings).with_appends(buffer.clone());
+        let mut s = ProgramStream::from_text("G1 X1 F600\nG1 X2\n".into(), "open.ngc", &settings)
+            .with_appends(appends.buffer());
         assert_eq!(s.next_element().expect("ok").map(|e| e.source.line), Some(1));
         // The second element waits for its successor's joint; nothing more is there.
         assert_eq!(s.next_element().expect("ok"), None);
         assert!(s.waiting());
 
         // A bad piece is refused with the program's line and column and changes nothing.
-        let e = checker.append("G1 X3 H1\n", false).expect_err("H").0;
+        let refused = |e: AppendError| match e {
+            AppendError::Program(e) => e.0,
+            e => panic!("not a program error: {e}"),
+        };
+        let e = refused(appends.append("G1 X3 H1\n", false).expect_err("H"));
         assert_eq!((e[0].line, e[0].col), (3, 7));
         // Spline data must come whole, and the last piece must not end inside it either.
-        let e = checker.append("G06\nX3 Y1 Z0;\n", false).expect_err("open G06").0;
+        let e = refused(appends.append("G06\nX3 Y1 Z0;\n", false).expect_err("open G06"));
         assert_eq!((e[0].line, e[0].col), (4, 1), "{}", e[0].message);
-        let e = checker.append("G06\nX3 Y1 Z0;\n", true).expect_err("program ends in G06").0;
+        let e = refused(appends.append("G06\nX3 Y1 Z0;\n", true).expect_err("program ends in G06"));
         assert_eq!((e[0].line, e[0].col), (3, 1));
         assert!(e[0].message.starts_with("the program ends inside this G06 block"), "{}", e[0].message);
-        let a = checker.append("G1 X3\nG1 Y1\n", false).expect("valid");
+        assert_eq!(appends.buffered_bytes(), 0, "nothing refused is buffered");
+        let a = appends.append("G1 X3\nG1 Y1", false).expect("valid");
         assert_eq!((a.lines, a.elements, a.length_mm, a.program_end), ((3, 4), 2, 2.0, false));
-        buffer.push("G1 X3\nG1 Y1", false).expect("fits");
         assert_eq!(s.next_element().expect("ok").map(|e| e.source.line), Some(2));
         assert_eq!(s.next_element().expect("ok").map(|e| e.source.line), Some(3));
         assert_eq!(s.next_element().expect("ok"), None);
         assert!(s.waiting());
 
-        // The buffer is bounded; M2 ends the program.
-        let full = buffer.push(&"G1 X5\n".repeat(20), false).expect_err("full");
+        // The buffer is bounded, and a piece that does not fit leaves the program as it was;
+        // M2 ends the program.
+        let full = appends.append(&"G1 X5\n".repeat(20), false).expect_err("full");
         assert!(matches!(full, AppendError::Full { limit_bytes: 64, .. }), "{full}");
-        let a = checker.append("G1 X0 Y0\nM2\n", false).expect("valid");
-        assert!(a.program_end && checker.ended());
-        buffer.push("G1 X0 Y0\nM2\n", true).expect("fits");
+        let a = appends.append("G1 X0 Y0\nM2\n", false).expect("valid");
+        assert!(a.program_end && appends.is_closed());
         let lines: Vec<u32> = std::iter::from_fn(|| s.next_element().expect("ok")).map(|e| e.source.line).collect();
         assert_eq!(lines, vec![4, 5]);
         assert!(!s.waiting());
-        assert_eq!(buffer.push("G1 X1", false), Err(AppendError::Ended));
+        assert_eq!(appends.append("G1 X1", false), Err(AppendError::Ended));
+        assert!(appends.taken_bytes() > 0);
     }
 }

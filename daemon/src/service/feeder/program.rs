@@ -1,0 +1,184 @@
+//! Runs along a path: a loaded program, read, smoothed and planned as the motion goes through
+//! an [`interpd_motion::Feed`], or a path made whole (MDI blocks). Each chunk takes about a
+//! chunk's duration of planned segments and the fastest stop from its end as its tail.
+
+use super::{Feeder, STARVED_STOP_CHUNKS};
+use crate::interp::Chunk;
+use crate::interp::coarse::{CoarseBuilder, CoarsePoint};
+use crate::service::lock;
+use crate::service::manual::ManualPart;
+use crate::service::modal_track::ModalTrack;
+use crate::service::tooling::Tooling;
+use interpd_motion::path::{AxisVec, Path};
+use interpd_motion::program::Appends;
+use interpd_motion::{Feed, FeedError};
+use std::sync::{Arc, Mutex};
+use std::time::SystemTime;
+
+/// Where a program's text comes from.
+#[derive(Debug, Clone)]
+pub enum ProgramText {
+    /// A file (inside the programs directory), as it was when it was loaded.
+    File { path: std::path::PathBuf, stamp: FileStamp },
+    /// Text sent with `program.load`.
+    Text { name: String, text: Arc<String> },
+}
+
+/// What identifies a file's content cheaply: a file rewritten after `program.load` is refused
+/// at the start rather than run half old, half new.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FileStamp {
+    pub len: u64,
+    pub modified: Option<SystemTime>,
+}
+
+impl FileStamp {
+    pub fn of(path: &std::path::Path) -> std::io::Result<FileStamp> {
+        let meta = std::fs::metadata(path)?;
+        Ok(FileStamp { len: meta.len(), modified: meta.modified().ok() })
+    }
+}
+
+/// What a run plans along.
+#[derive(Debug, Clone)]
+pub enum PathSource {
+    /// A path made whole (MDI blocks, law moves).
+    Whole(Arc<Path>),
+    /// A loaded program, read and smoothed as the motion goes, preceded by a straight rapid
+    /// move from `here` to its start when the machine stands elsewhere, read with the tool table
+    /// and work offsets it was loaded with; a program without an end continues with the text
+    /// appended to `appends`.
+    Program { text: ProgramText, here: AxisVec, tooling: Arc<Tooling>, appends: Option<Appends> },
+}
+
+/// Why a run's program cannot be opened.
+#[derive(Debug, thiserror::Error)]
+pub(super) enum OpenError {
+    #[error("{name}: the file changed after program.load; load it again")]
+    Changed { name: String },
+    #[error("{name}: cannot read: {source}")]
+    Unreadable {
+        name: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error(transparent)]
+    Feed(#[from] FeedError),
+}
+
+/// A run along a path: its feed, where the program's tool and offset changes go, and the move
+/// back to the held point that runs first when a held program resumes.
+pub(super) struct PathRun {
+    pub(super) feed: Box<Feed>,
+    /// The running program's tool and offset changes (`status.modal`); `None` for a path
+    /// made whole, which leaves the track of the program it interrupts as it is.
+    modal: Option<Arc<Mutex<ModalTrack>>>,
+    pub(super) returning: Option<ManualPart>,
+}
+
+impl PathRun {
+    pub(super) fn new(feed: Feed, modal: Option<Arc<Mutex<ModalTrack>>>) -> PathRun {
+        PathRun { feed: Box::new(feed), modal, returning: None }
+    }
+
+    /// Moves the tool and offset changes the feed has read into the track.
+    pub(super) fn track_modal(&mut self) {
+        let Some(track) = &self.modal else { return };
+        let mut next = self.feed.take_modal_change();
+        if next.is_none() {
+            return;
+        }
+        let mut t = lock(track);
+        while let Some((line, state)) = next {
+            t.push(line, state);
+            next = self.feed.take_modal_change();
+        }
+    }
+
+    /// Drops the path behind `s_mm`: the machine has passed it, and with it the tool and offset
+    /// changes before the first element kept.
+    pub(super) fn trim_before(&mut self, s_mm: f64) {
+        self.track_modal();
+        self.feed.trim_before(s_mm);
+        if let (Some(track), Some(first)) = (&self.modal, self.feed.path().elements.first()) {
+            lock(track).passed(first.source.line);
+        }
+    }
+}
+
+impl Feeder {
+    /// The path of `source`: a program's file is opened and checked to be the one loaded.
+    pub(super) fn open_path(&self, source: PathSource, feed_override: f64) -> Result<PathRun, OpenError> {
+        let (text, here, tooling, appends) = match source {
+            PathSource::Whole(path) => {
+                let feed = Feed::builder(&self.settings).feed_override(feed_override).whole((*path).clone());
+                return Ok(PathRun::new(feed, None));
+            }
+            PathSource::Program { text, here, tooling, appends } => (text, here, tooling, appends),
+        };
+        let settings = tooling.apply(&self.settings);
+        let mut builder = Feed::builder(&settings).start_from(here).feed_override(feed_override).track_modal();
+        if let Some(a) = &appends {
+            builder = builder.appends(a);
+        }
+        let feed = match &text {
+            ProgramText::File { path, stamp } => {
+                let name = path.display().to_string();
+                match FileStamp::of(path) {
+                    Ok(now) if now == *stamp => {}
+                    Ok(_) => return Err(OpenError::Changed { name }),
+                    Err(source) => return Err(OpenError::Unreadable { name, source }),
+                }
+                builder.open_file(path)?
+            }
+            ProgramText::Text { name, text } => builder.open_text(name, text.as_str()),
+        };
+        lock(&self.modal).clear();
+        Ok(PathRun::new(feed, Some(self.modal.clone())))
+    }
+
+    /// Fills `chunk` with the next stretch of the path's planned motion (about one chunk
+    /// duration, longer where no stop can follow its end); `Ok(false)` when nothing is left.
+    pub(super) fn fill_path_chunk(&mut self, chunk: &mut Chunk) -> Result<bool, FeedError> {
+        let chunk_s = self.chunk_s;
+        let max_piece_s = 2.0 * self.cycle_s;
+        // While the queue runs low, a program waiting for appended text is planned to rest at
+        // the end of what is there.
+        let rest_at_text_end = self.queues.chunks.len() <= STARVED_STOP_CHUNKS;
+        let Some(run) = self.run.as_mut() else { return Ok(false) };
+        run.open_chunk(chunk);
+        let super::Motion::Path(path) = &mut run.motion else { return Ok(false) };
+        let mut segments = Vec::new();
+        let mut t = 0.0;
+        let mut target = chunk_s;
+        let tail = loop {
+            let planned =
+                if rest_at_text_end { path.feed.plan_or_rest(target - t) } else { path.feed.plan(target - t) };
+            path.track_modal();
+            planned?;
+            t += path.feed.take(target - t, &mut segments);
+            let Some(last) = segments.last() else { return Ok(false) };
+            let end = last.at(last.dt_s);
+            if path.feed.exhausted() {
+                break Vec::new();
+            }
+            if let Some(stop) = path.feed.stop_from(end.s_mm, end.v, end.a, last.line) {
+                break stop;
+            }
+            // No stop from here: end the chunk a little later.
+            self.stats.tail_retries += 1;
+            target = t + 0.25 * chunk_s;
+        };
+        let mut builder = CoarseBuilder::new(path.feed.path(), max_piece_s, &self.max_jerk);
+        builder.build(&segments, 0.0, &mut chunk.points);
+        let end = *chunk.points.last().expect("points");
+        chunk.last = path.feed.finished();
+        if !tail.is_empty() {
+            chunk.tail.push(CoarsePoint { t_s: 0.0, ..end });
+            builder.build(&tail, 0.0, &mut chunk.tail);
+        }
+        self.stats.max_coarse_error_mm = self.stats.max_coarse_error_mm.max(builder.max_error_mm);
+        run.close_chunk(end, tail);
+        Ok(true)
+    }
+}

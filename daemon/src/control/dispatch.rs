@@ -309,8 +309,7 @@ impl From<ManualError> for ErrorObject {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::control::errors::hint;
-    use crate::service::law_run::LawProgramError;
+    use crate::control::errors::{LawProgramError, hint};
     use crate::sinks::{DriveNotReady, DrivesNotReady, NotReady};
     use interpd_motion::program::{ProgramError, ProgramErrors};
     use interpd_protocol::api::{Method, State};

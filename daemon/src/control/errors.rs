@@ -2,10 +2,14 @@
 //! causes as data (a program error's file, line and column; each drive that is not ready and
 //! why). The JSON-RPC layer (`control::dispatch`) gives each a code and uses its `Display` as
 //! the message.
+//!
+//! The causes that the service's own checks produce ([`ProgramPathError`] for a path outside
+//! the programs directory, [`LawProgramError`] for a program of `LAW` statements) are defined
+//! here as well: the control layer names them in its errors and codes, and depends on nothing
+//! of the service.
 
-use crate::service::law_run::LawProgramError;
-use crate::service::programs::ProgramPathError;
 use crate::sinks::DrivesNotReady;
+use interpd_motion::law::program::LawBlockError;
 use interpd_motion::prep::PrepError;
 use interpd_motion::program::ProgramErrors;
 use interpd_protocol::api::{Method, State};
@@ -33,6 +37,38 @@ pub enum LoadError {
     /// The path lies outside the programs directory (−32602, `data.param` "path").
     #[error("invalid params for program.load: {0}")]
     Path(#[from] ProgramPathError),
+}
+
+/// A path given to `program.load` that the rule refuses.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ProgramPathError {
+    #[error(
+        "path {path:?} contains `..`: programs are read from the programs directory {dir} ([programs] dir) and below it only"
+    )]
+    ParentComponent { path: String, dir: String },
+    #[error(
+        "path {path:?} lies outside the programs directory {dir} ([programs] dir; symbolic links resolved): programs are read from there only"
+    )]
+    Outside { path: String, dir: String },
+}
+
+/// What is wrong with a program of `LAW` statements, at its file and line.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LawProgramError {
+    /// A `LAW` statement does not parse. A syntax error carries its column, printed after the
+    /// line (`FILE:LINE:COL: message`).
+    #[error("{file}:{line}:{error}")]
+    Statement { file: String, line: u32, error: LawBlockError },
+    /// A line that is neither a `LAW` statement nor a comment.
+    #[error(
+        "{file}:{line}: {text:?} in a program of LAW statements: only LAW statements and comments may appear \
+         there (law moves and G-code do not mix in one program)"
+    )]
+    Mixed { file: String, line: u32, text: String },
+    /// A statement whose move cannot be made from where the previous one ends: a limit it
+    /// breaks, an axis the machine lacks.
+    #[error("{file}:{line}: {error}")]
+    Move { file: String, line: u32, error: LawBlockError },
 }
 
 /// `program.append` refused.

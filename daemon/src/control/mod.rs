@@ -31,6 +31,9 @@ mod framing;
 pub mod motion;
 pub mod server;
 
-pub use errors::{AppendError, LawError, LoadError, ManualError, NotAllowed, ResumeError, StartError};
+pub use errors::{
+    AppendError, LawError, LawProgramError, LoadError, ManualError, NotAllowed, ProgramPathError, ResumeError,
+    StartError,
+};
 pub use motion::{Motion, ProgramSource};
 pub use server::{ControlServer, ControlServerBuilder, ServerError, ServerStats};

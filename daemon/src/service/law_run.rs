@@ -9,11 +9,12 @@
 //!
 //! Also here: programs of `LAW` statements ([`LawProgram`]) and their errors.
 
+use crate::control::errors::LawProgramError;
 use crate::interp::coarse::{CoarsePoint, JERK_TOLERANCE, TOLERANCE_MM};
 use crate::interp::hermite::{self, Kinematic};
 use interpd_config::AxisKind;
 use interpd_motion::Settings;
-use interpd_motion::law::program::{self as law_program, LawBlock, LawBlockError, is_law_statement};
+use interpd_motion::law::program::{self as law_program, LawBlock, is_law_statement};
 use interpd_motion::law::{AxisState, LawMove};
 use interpd_motion::path::{AxisVec, Blend, Feed, Geometry, Line, MAX_AXES, Path, Source};
 use std::collections::VecDeque;
@@ -167,25 +168,6 @@ fn fits(mv: &LawMove, t0: f64, h: f64, start: &CoarsePoint, end: &CoarsePoint, m
 #[derive(Debug, Clone, PartialEq)]
 pub struct LawProgram {
     pub blocks: Vec<(u32, LawBlock)>,
-}
-
-/// What is wrong with a program of `LAW` statements, at its file and line.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum LawProgramError {
-    /// A `LAW` statement does not parse. A syntax error carries its column, printed after the
-    /// line (`FILE:LINE:COL: message`).
-    #[error("{file}:{line}:{error}")]
-    Statement { file: String, line: u32, error: LawBlockError },
-    /// A line that is neither a `LAW` statement nor a comment.
-    #[error(
-        "{file}:{line}: {text:?} in a program of LAW statements: only LAW statements and comments may appear \
-         there (law moves and G-code do not mix in one program)"
-    )]
-    Mixed { file: String, line: u32, text: String },
-    /// A statement whose move cannot be made from where the previous one ends: a limit it
-    /// breaks, an axis the machine lacks.
-    #[error("{file}:{line}: {error}")]
-    Move { file: String, line: u32, error: LawBlockError },
 }
 
 /// Whether the text read from `reader` has a `LAW` statement (line by line; unreadable text

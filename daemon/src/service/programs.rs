@@ -4,6 +4,7 @@
 //! with symbolic links resolved before the check, so that no link leads out of it. An error
 //! names the rule and the path as given, never anything read from a file.
 
+use crate::control::errors::ProgramPathError;
 use interpd_config::ProgramsConfig;
 use std::path::{Component, Path, PathBuf};
 
@@ -20,19 +21,6 @@ pub struct ProgramsDirError {
     dir: String,
     #[source]
     source: std::io::Error,
-}
-
-/// A path given to `program.load` that the rule refuses.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum ProgramPathError {
-    #[error(
-        "path {path:?} contains `..`: programs are read from the programs directory {dir} ([programs] dir) and below it only"
-    )]
-    ParentComponent { path: String, dir: String },
-    #[error(
-        "path {path:?} lies outside the programs directory {dir} ([programs] dir; symbolic links resolved): programs are read from there only"
-    )]
-    Outside { path: String, dir: String },
 }
 
 impl ProgramsDir {

@@ -3,7 +3,7 @@
 //! Kpx1 and Tni1), velocity feedforward (VV1 there) and acceleration feedforward. A linear
 //! drive ([`LinearDrive`]) works in m and N, a rotary one ([`RotaryDrive`]) in rad and N·m.
 
-use super::params::Check;
+use super::table::Check;
 use crate::ConfigError;
 use serde::Deserialize;
 

@@ -26,8 +26,9 @@
 //! Each model has its own typed parameter structs, read by serde from the flat keys:
 //! [`LinearTwoMass`] / [`RotaryTwoMass`] (`two_mass`), [`ThreeMass`] (`three_mass`), the drive
 //! [`LinearDrive`] / [`RotaryDrive`] (`drive`) and the process force [`LinearProcess`] /
-//! [`RotaryProcess`] (`process`); [`ParamSet`] says which an axis reads (`params`), presets
-//! are in `preset` and `[[plant.axis]]` in `overrides`.
+//! [`RotaryProcess`] (`process`); [`ParamSet`] says which an axis reads (`params`), the flat
+//! [`ParamTable`] and its range checks are in `table`, presets are in `preset` and
+//! `[[plant.axis]]` in `overrides`.
 
 mod drive;
 mod milling;
@@ -35,22 +36,24 @@ mod overrides;
 mod params;
 mod preset;
 mod process;
+mod table;
 mod three_mass;
 mod two_mass;
 
 pub use drive::{DriveParams, LinearDrive, RotaryDrive};
 pub use milling::{ActuatorConfig, MeasurementConfig, MillingConfig, StructureConfig};
 pub use overrides::PlantAxisConfig;
-pub use params::{AxisParams, ModelParams, ParamSet, ParamTable};
-pub use preset::{DEFAULT_LINEAR_PRESET, DEFAULT_ROTARY_PRESET, ModelKind, PRESETS, PresetFile, preset, preset_names};
+pub use params::{AxisParams, ModelKind, ModelParams, ParamSet};
+pub use preset::{DEFAULT_LINEAR_PRESET, DEFAULT_ROTARY_PRESET, PRESETS, PresetFile, preset, preset_names};
 pub use process::{LinearProcess, ProcessParams, RotaryProcess};
+pub use table::ParamTable;
 pub use three_mass::{ThreeMass, ThreeMassParams};
 pub use two_mass::{LinearTwoMass, RotaryTwoMass, TwoMassParams};
 
 use crate::{AxisConfig, AxisKind, AxisLetter, ConfigError, Validator};
-use params::Check;
 use preset::kind_word;
 use serde::Deserialize;
+use table::Check;
 
 /// How the drive interpolates the setpoints (one per interpolation cycle) onto its servo cycle,
 /// as a CiA 402 drive in cyclic synchronous position mode does.

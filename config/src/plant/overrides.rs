@@ -3,7 +3,8 @@
 //! preset and crosstalk targets plus any model parameter as a number; resolution checks the
 //! parameters against the axis's model.
 
-use super::params::{ParamTable, all_keys};
+use super::params::all_keys;
+use super::table::ParamTable;
 use crate::AxisLetter;
 use serde::Deserialize;
 use serde::de::{self, MapAccess, Visitor};

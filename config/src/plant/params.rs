@@ -1,22 +1,40 @@
-//! The parameters of one axis as TOML writes them: flat `key = number` pairs in a preset's
-//! `[params]` and in a `[[plant.axis]]` table. Which keys an axis has depends on its model
-//! and its kind ([`ParamSet`]); serde reads the table into that model's typed structs, and
-//! [`Check`] names the key where an offending value is set.
+//! Which keys a model reads: the models ([`ModelKind`]), a model on a kind of axis
+//! ([`ParamSet`]), and the typed structs serde reads an axis's flat table into
+//! ([`ModelParams`]). The table itself and the checks that name where a value is set are in
+//! `table`, which every model file uses; this file uses every model file.
 
 use super::drive::{LinearDrive, RotaryDrive};
-use super::preset::ModelKind;
 use super::process::{LinearProcess, RotaryProcess};
+use super::table::ParamTable;
 use super::three_mass::ThreeMass;
 use super::two_mass::{LinearTwoMass, RotaryTwoMass};
-use crate::{AxisKind, ConfigError, Validator, keys_of};
+use crate::{AxisKind, keys_of};
 use serde::Deserialize;
 use serde::de::value::MapDeserializer;
 use serde::de::{self, DeserializeOwned};
-use std::collections::BTreeMap;
+use std::fmt;
 use std::sync::OnceLock;
 
-/// Model parameters by key, in SI units named in the key (`_kg`, `_n_per_m`, `_rad`, …).
-pub type ParamTable = BTreeMap<String, f64>;
+/// Which mechanical model a preset uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ModelKind {
+    /// Motor, elastic transmission with backlash, load ([`super::LinearTwoMass`],
+    /// [`super::RotaryTwoMass`]).
+    TwoMass,
+    /// Motor, slide, structure/TCP with crosstalk outputs (Haas 2012, §5.2;
+    /// [`super::ThreeMass`]).
+    ThreeMass,
+}
+
+impl fmt::Display for ModelKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            ModelKind::TwoMass => "two-mass",
+            ModelKind::ThreeMass => "three-mass",
+        })
+    }
+}
 
 /// Everything one axis model reads from its flat table: the mechanics, the drive and the
 /// process force on the load. Unknown keys are errors.
@@ -102,58 +120,4 @@ pub fn all_keys() -> &'static [&'static str] {
 
 fn keys_of3<M: DeserializeOwned, D: DeserializeOwned, P: DeserializeOwned>() -> Vec<&'static str> {
     [keys_of::<M>(), keys_of::<D>(), keys_of::<P>()].concat()
-}
-
-/// The range checks of one axis's parameters. A value comes from the axis's override, its
-/// preset or a default; an error names the key where it is set: `plant.axis[i].KEY`,
-/// `plant preset NAME: KEY`, or `AXIS.KEY` for a default.
-pub(crate) struct Check<'a> {
-    pub v: &'a Validator<'a>,
-    pub preset_name: &'a str,
-    /// The keys the preset sets.
-    pub preset: &'a ParamTable,
-    /// The override's index in `[[plant.axis]]` and the keys it sets.
-    pub over: Option<(usize, &'a ParamTable)>,
-    /// How the axis is named where no key is set: `plant.axis[i]` or `plant (axis X)`.
-    pub axis_key: &'a str,
-}
-
-impl Check<'_> {
-    /// Whether the axis's override sets `key`.
-    pub fn overridden(&self, key: &str) -> bool {
-        self.over.is_some_and(|(_, o)| o.contains_key(key))
-    }
-
-    /// Where `key` is set, for messages.
-    pub fn key(&self, key: &str) -> String {
-        match self.over {
-            Some((i, _)) if self.overridden(key) => format!("plant.axis[{i}].{key}"),
-            _ if self.preset.contains_key(key) => format!("plant preset {}: {key}", self.preset_name),
-            _ => format!("{}.{key}", self.axis_key),
-        }
-    }
-
-    pub fn err(&self, key: &str, message: &str) -> ConfigError {
-        self.v.err(&self.key(key), message)
-    }
-
-    /// `x` if it is finite and > 0.
-    pub fn positive(&self, key: &str, x: f64) -> Result<f64, ConfigError> {
-        self.v.positive(&self.key(key), x).map(|_| x)
-    }
-
-    /// `x` if it is finite and ≥ 0.
-    pub fn non_negative(&self, key: &str, x: f64) -> Result<f64, ConfigError> {
-        self.v.non_negative(&self.key(key), x).map(|_| x)
-    }
-
-    /// `x` if it is finite and inside `[lo, hi]`.
-    pub fn in_range(&self, key: &str, x: f64, lo: f64, hi: f64) -> Result<f64, ConfigError> {
-        self.v.in_range(&self.key(key), x, lo, hi).map(|_| x)
-    }
-
-    /// `x` if it is finite.
-    pub fn finite(&self, key: &str, x: f64) -> Result<f64, ConfigError> {
-        if x.is_finite() { Ok(x) } else { Err(self.err(key, &format!("must be finite, got {x}"))) }
-    }
 }

@@ -3,10 +3,10 @@
 //! `interpd plan --plant FILE` takes a user file of the same form (`[plant] preset` names an
 //! embedded preset).
 
-use super::params::{ParamSet, ParamTable};
+use super::params::{ModelKind, ParamSet};
+use super::table::ParamTable;
 use crate::{AxisKind, ConfigError, Validator};
 use serde::Deserialize;
-use std::fmt;
 
 /// The embedded model presets: (name, TOML text).
 pub const PRESETS: [(&str, &str); 4] = [
@@ -20,27 +20,6 @@ pub const PRESETS: [(&str, &str); 4] = [
 pub const DEFAULT_LINEAR_PRESET: &str = "haas-laser";
 /// Preset used for rotary axes when `[plant] rotary_preset` is not given.
 pub const DEFAULT_ROTARY_PRESET: &str = "schneider-joint1";
-
-/// Which mechanical model a preset uses.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum ModelKind {
-    /// Motor, elastic transmission with backlash, load ([`super::LinearTwoMass`],
-    /// [`super::RotaryTwoMass`]).
-    TwoMass,
-    /// Motor, slide, structure/TCP with crosstalk outputs (Haas 2012, §5.2;
-    /// [`super::ThreeMass`]).
-    ThreeMass,
-}
-
-impl fmt::Display for ModelKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            ModelKind::TwoMass => "two-mass",
-            ModelKind::ThreeMass => "three-mass",
-        })
-    }
-}
 
 /// "linear" or "rotary", for messages.
 pub(crate) fn kind_word(k: AxisKind) -> &'static str {

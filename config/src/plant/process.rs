@@ -4,7 +4,7 @@
 //! takes a force ([`LinearProcess`]), a rotary one a torque ([`RotaryProcess`]); every part
 //! defaults to 0.
 
-use super::params::Check;
+use super::table::Check;
 use crate::ConfigError;
 use serde::Deserialize;
 

@@ -2,7 +2,7 @@
 //! of springs and dampers, with two crosstalk outputs into other axes (eq. 5.13); parameter
 //! names and values as in Table 5.1. Linear axes only.
 
-use super::params::Check;
+use super::table::Check;
 use crate::{AxisConfig, AxisKind, AxisLetter, ConfigError, Validator};
 use serde::Deserialize;
 

@@ -6,7 +6,7 @@
 //! The same model has two sets of keys: masses, N/m and m on a linear axis
 //! ([`LinearTwoMass`]), inertias, N·m/rad and rad on a rotary one ([`RotaryTwoMass`]).
 
-use super::params::Check;
+use super::table::Check;
 use crate::ConfigError;
 use serde::Deserialize;
 

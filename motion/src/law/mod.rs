@@ -15,7 +15,6 @@ mod characteristic;
 mod chebyshev;
 mod condition;
 mod ddouble;
-mod error;
 mod limits;
 mod movement;
 mod polynomial;
@@ -25,8 +24,7 @@ mod roots;
 mod solver;
 
 pub use characteristic::{Characteristics, Extreme, Peak};
-pub use condition::{Condition, ConditionSet, MAX_CONDITIONS, MAX_DEGREE};
-pub use error::LawError;
+pub use condition::{Condition, ConditionSet, LawError, MAX_CONDITIONS, MAX_DEGREE};
 pub use limits::{AxisLimits, LimitError, LimitKind};
 pub use movement::{AxisState, LawAxis, LawMove, LawMoveError};
 pub use polynomial::{Derivs, Law, Residual};

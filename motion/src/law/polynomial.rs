@@ -2,9 +2,8 @@
 //! derivatives for evaluation, and how well each condition is met.
 
 use super::chebyshev;
-use super::condition::{Condition, ConditionSet};
+use super::condition::{Condition, ConditionSet, LawError};
 use super::ddouble::Dd;
-use super::error::LawError;
 use super::solver;
 
 /// Highest derivative kept ready for evaluation: f⁗ is needed to find the extrema of f‴ (C_j).

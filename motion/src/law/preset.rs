@@ -1,8 +1,7 @@
 //! Built-in laws: the condition sets of the examples in the motion-design article
 //! (Bewegungsdesign nach Maß).
 
-use super::condition::Condition;
-use super::error::LawError;
+use super::condition::{Condition, LawError};
 
 /// A built-in law. Names (for `--preset` and the program's `PRESET=`) in [`Preset::NAMES`].
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -13,8 +13,7 @@
 //! flag `STRETCH` (grow the duration to the shortest feasible one instead of rejecting the
 //! move). `;` starts a comment.
 
-use super::condition::Condition;
-use super::error::LawError;
+use super::condition::{Condition, LawError};
 use super::limits::{AxisLimits, LimitError};
 use super::movement::{LawAxis, LawMove, LawMoveError};
 use super::polynomial::Law;

@@ -5,9 +5,8 @@
 //! −log₁₀(ε·cond) digits until double-double precision).
 
 use super::chebyshev;
-use super::condition::{Condition, ConditionSet};
+use super::condition::{Condition, ConditionSet, LawError};
 use super::ddouble::Dd;
-use super::error::LawError;
 use nalgebra::{DMatrix, DVector, SVD};
 
 /// Below this reciprocal condition number (σ_min/σ_max of the equilibrated system) the
@@ -149,6 +148,6 @@ fn singular_error(
         let detail = indices.iter().map(|&i| conds[i].to_string()).collect::<Vec<_>>().join(", ");
         LawError::Contradictory { indices, detail: format!("no polynomial of degree {degree} meets {detail}") }
     } else {
-        LawError::Dependent { indices, rcond, degree }
+        LawError::Dependent { indices, rcond, min: RCOND_MIN, degree }
     }
 }

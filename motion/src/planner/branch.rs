@@ -6,13 +6,13 @@
 //! the braking ramp's own next state (viable whenever the current state is) finds the largest
 //! viable one. No step ever goes back, so the work per node is bounded.
 
-use super::check::{IntervalGeom, violates};
+use super::check::violates;
 use super::envelope::{CurveStart, END_CURVE, Envelope};
 use super::error::Infeasibility;
 use super::falsi::Illinois;
 use super::interval::Interval;
 use super::limits::Limits;
-use super::node::Node;
+use super::node::{IntervalGeom, Node};
 use super::ramp::{CEILING_REL_TOL, Check, FlattenUnder, RampTrace, Wanted, ramp_interval, ramp_margin};
 use super::step::{Budget, Work, feasible, max_feasible};
 use super::view::View;

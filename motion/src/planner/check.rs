@@ -10,7 +10,7 @@
 
 use super::interval::Interval;
 use super::limits::Limits;
-use super::node::{NodeGeom, SpanPoly};
+use super::node::{IntervalGeom, NodeGeom, SpanPoly};
 
 /// Violations up to this (relative to the limit) are rounding, not a breach: the limits the
 /// planner works with already keep `planner.limit_fraction` of headroom.
@@ -29,26 +29,6 @@ pub(super) const FINE_CHECK_FRACTIONS: [f64; 7] = [0.0, 1.0 / 6.0, 2.0 / 6.0, 0.
 #[inline]
 fn check_fractions(g: &IntervalGeom) -> &'static [f64] {
     if g.fine_checks() { &FINE_CHECK_FRACTIONS } else { &CHECK_FRACTIONS }
-}
-
-/// The geometry of one interval in traversal order. `sign` is −1 for branches computed
-/// backwards from the end: reversing the path flips A′ and A‴ and keeps A″.
-#[derive(Clone, Copy)]
-pub(super) struct IntervalGeom<'a> {
-    pub start: &'a NodeGeom,
-    pub end: &'a NodeGeom,
-    pub ds_mm: f64,
-    pub sign: f64,
-    /// The exact geometry between the nodes where the path has one as a polynomial.
-    pub span: Option<&'a SpanPoly>,
-}
-
-impl IntervalGeom<'_> {
-    /// See [`SpanPoly::fine_checks`].
-    #[inline]
-    pub(super) fn fine_checks(&self) -> bool {
-        self.span.is_some_and(SpanPoly::fine_checks)
-    }
 }
 
 /// Geometry at fraction σ of the interval's length: exact where the interval has a

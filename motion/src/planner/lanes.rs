@@ -10,9 +10,8 @@
 //! The axes go in chunks of four that may overlap (five axes: 0–3 and 1–4), which the maximum
 //! does not mind; with fewer than four axes the lanes past the last axis are left out.
 
-use super::check::IntervalGeom;
 use super::limits::Limits;
-use super::node::{NodeGeom, SpanPoly};
+use super::node::{IntervalGeom, NodeGeom, SpanPoly};
 use crate::path::MAX_AXES;
 
 /// Axes per chunk.

@@ -1,6 +1,8 @@
 //! Sample nodes s_i of the path with the geometry the planner needs there (A′, A″, A‴ per axis,
-//! Kopp et al. 2019, §2), and the velocity bounds there: v̄(s_i) of eq. 6 (in its corrected
-//! per-axis form) and the acceleration-only maximum velocity curve (eq. 1a–1b with the path
+//! Kopp et al. 2019, §2), the geometry of the interval between two of them ([`SpanPoly`],
+//! [`IntervalGeom`]: the limit checks, scalar and in lanes, and the planner's steps all take
+//! it from here), and the velocity bounds there: v̄(s_i) of eq. 6 (in its corrected per-axis
+//! form) and the acceleration-only maximum velocity curve (eq. 1a–1b with the path
 //! acceleration free).
 
 use super::limits::Limits;
@@ -117,6 +119,26 @@ impl SpanPoly {
         let d2 = (c(7) + c(8) * p[1] + c(9) * p[2]) + (c(10) * p[3] + c(11) * p[4] + c(12) * p[5]);
         let d3 = (c(13) + c(14) * p[1] + c(15) * p[2]) + (c(16) * p[3] + c(17) * p[4]);
         (d1, d2, d3)
+    }
+}
+
+/// The geometry of one interval in traversal order. `sign` is −1 for branches computed
+/// backwards from the end: reversing the path flips A′ and A‴ and keeps A″.
+#[derive(Clone, Copy)]
+pub(super) struct IntervalGeom<'a> {
+    pub start: &'a NodeGeom,
+    pub end: &'a NodeGeom,
+    pub ds_mm: f64,
+    pub sign: f64,
+    /// The exact geometry between the nodes where the path has one as a polynomial.
+    pub span: Option<&'a SpanPoly>,
+}
+
+impl IntervalGeom<'_> {
+    /// See [`SpanPoly::fine_checks`].
+    #[inline]
+    pub(super) fn fine_checks(&self) -> bool {
+        self.span.is_some_and(SpanPoly::fine_checks)
     }
 }
 

@@ -8,9 +8,9 @@
 //! the distance from the last stop, so planning a program element by element gives the same
 //! nodes as planning it whole.
 
-use super::check::{IntervalGeom, interior_vbar_around, node_geom_at};
+use super::check::{interior_vbar_around, node_geom_at};
 use super::limits::Limits;
-use super::node::{Node, NodeGeom, SpanPoly, curvature_jump_cap, flat_velocity_bound, velocity_bound};
+use super::node::{IntervalGeom, Node, NodeGeom, SpanPoly, curvature_jump_cap, flat_velocity_bound, velocity_bound};
 use crate::Settings;
 use crate::path::{AxisDerivs, Element, Feed, JointKind};
 use interpd_config::AxisKind;

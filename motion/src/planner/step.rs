@@ -5,10 +5,11 @@
 //! bounded by `MAX_SEARCH_EVALS` evaluations of all terms and `MAX_TERM_EVALS` of one term per
 //! term followed.
 
-use super::check::{IntervalGeom, Term, VIOLATION_TOL, jerk_range, term_violation, violates, violation_term};
+use super::check::{Term, VIOLATION_TOL, jerk_range, term_violation, violates, violation_term};
 use super::falsi::Illinois;
 use super::interval::Interval;
 use super::limits::Limits;
+use super::node::IntervalGeom;
 
 /// Evaluations of the violation function per step, at most.
 pub(super) const MAX_SEARCH_EVALS: u32 = 48;

@@ -2,8 +2,7 @@
 //! backward (decreasing s, geometry mirrored) for the backward branches, so one branch
 //! implementation serves both (Kopp et al. 2019, eq. 3: the ± signs flip for the backward branch).
 
-use super::check::IntervalGeom;
-use super::node::{Node, NodeGeom};
+use super::node::{IntervalGeom, Node, NodeGeom};
 
 #[derive(Clone, Copy)]
 pub(super) struct View<'a> {

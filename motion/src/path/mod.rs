@@ -186,6 +186,9 @@ pub(crate) const TANGENT_ANGLE_TOL_RAD: f64 = 1e-9;
 pub(crate) const SUFFIX_AT_START_MM: f64 = 1e-9;
 /// Relative curvature difference below which a joint counts as G².
 pub(crate) const CURVATURE_REL_TOL: f64 = 1e-9;
+/// Moves shorter than this (mm) become no element: the G-code interpreter drops (and counts)
+/// them, and the cutter compensation drops offset pieces as short.
+pub(crate) const MIN_MOVE_MM: f64 = 1e-9;
 
 /// A continuous path through the axes: elements back to back in s.
 #[derive(Debug, Clone, PartialEq)]

@@ -24,7 +24,8 @@
 //! [`MAX_HELD_MOVES`]), and the tool path pieces before it that a later inside corner may
 //! still trim back into (at most [`MAX_STAGED`]).
 
-use crate::path::{AxisDerivs, AxisVec, Blend, CubicSpan, Feed, Geometry, Helix, Line, MAX_AXES, Source};
+use super::error::fmt_num;
+use crate::path::{AxisDerivs, AxisVec, Blend, CubicSpan, Feed, Geometry, Helix, Line, MAX_AXES, MIN_MOVE_MM, Source};
 use std::collections::VecDeque;
 use std::f64::consts::PI;
 
@@ -492,7 +493,7 @@ impl Cutter {
     }
 
     fn inside_corner_error(&self, piece: &Piece) -> CutterError {
-        piece.error(CutterErrorKind::InsideCorner { radius_mm: super::fmt_num(self.radius_mm) })
+        piece.error(CutterErrorKind::InsideCorner { radius_mm: fmt_num(self.radius_mm) })
     }
 
     /// `g1` up to and `g2` from their intersection in the plane, both non-empty.
@@ -572,7 +573,7 @@ impl Cutter {
                 let (a, b) = ([start[p], start[q]], [end[p], end[q]]);
                 let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
                 let chord = dx.hypot(dy);
-                if chord <= super::gcode::MIN_MOVE_MM {
+                if chord <= MIN_MOVE_MM {
                     return Some(Geometry::Helix(Helix::new(p, q, h.center(), h.sweep_rad(), start, end, linear)));
                 }
                 let (n, m, c) = ([-dy / chord, dx / chord], [(a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0], h.center());
@@ -637,10 +638,9 @@ impl Cutter {
                 // the left is inside the arc.
                 let new_radius = radius - sign * h.sweep_rad().signum() * r;
                 if new_radius <= MIN_OFFSET_RADIUS_MM {
-                    return Err(piece.error(CutterErrorKind::ConcaveArc {
-                        radius_mm: super::fmt_num(r),
-                        arc_mm: super::fmt_num(radius),
-                    }));
+                    return Err(
+                        piece.error(CutterErrorKind::ConcaveArc { radius_mm: fmt_num(r), arc_mm: fmt_num(radius) })
+                    );
                 }
                 let c = h.center();
                 let (mut a, mut b) = self.ends(&piece.geometry);
@@ -701,8 +701,8 @@ impl Cutter {
             let speed = d1[p].hypot(d1[q]);
             let kappa = (d1[p] * d2[q] - d1[q] * d2[p]).abs() / speed.powi(3);
             return Err(piece.error(CutterErrorKind::ConcaveSpline {
-                radius_mm: super::fmt_num(self.radius_mm),
-                curve_mm: super::fmt_num(1.0 / kappa),
+                radius_mm: fmt_num(self.radius_mm),
+                curve_mm: fmt_num(1.0 / kappa),
                 u: worst.1,
             }));
         }
@@ -759,12 +759,12 @@ impl Cutter {
     /// A line between two points, None if they coincide.
     fn line(&self, a: AxisVec, b: AxisVec) -> Option<Geometry> {
         let lin: f64 = (0..self.n_axes).filter(|&k| self.linear[k]).map(|k| (b[k] - a[k]).powi(2)).sum::<f64>().sqrt();
-        let len = if lin > super::gcode::MIN_MOVE_MM {
+        let len = if lin > MIN_MOVE_MM {
             lin
         } else {
             (0..self.n_axes).filter(|&k| !self.linear[k]).map(|k| (b[k] - a[k]).powi(2)).sum::<f64>().sqrt()
         };
-        (len > super::gcode::MIN_MOVE_MM).then(|| Geometry::Line(Line::new(a, b, len)))
+        (len > MIN_MOVE_MM).then(|| Geometry::Line(Line::new(a, b, len)))
     }
 
     fn plus(&self, mut a: AxisVec, shift: [f64; 2]) -> AxisVec {
@@ -868,7 +868,7 @@ fn intersect(g1: &Geometry, g2: &Geometry, p: usize, q: usize) -> Option<(f64, f
 /// The part s ∈ [s0, s1] of a line, arc or spline span (None if it is empty).
 fn trim(g: &Geometry, s0: f64, s1: f64, linear: &[bool]) -> Option<Geometry> {
     let len = g.length_mm();
-    if s1 - s0 <= super::gcode::MIN_MOVE_MM {
+    if s1 - s0 <= MIN_MOVE_MM {
         return None;
     }
     if s0 <= 0.0 && s1 >= len {

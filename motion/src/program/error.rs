@@ -69,3 +69,11 @@ impl Diagnostics {
         self.errors.len() >= MAX_ERRORS
     }
 }
+
+/// Numbers in messages: up to 4 decimals, trailing zeros dropped. Every reader of programs
+/// (G-code, the cutter compensation, path tables) phrases its errors with it.
+pub(crate) fn fmt_num(v: f64) -> String {
+    let s = format!("{v:.4}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" { "0".to_string() } else { s.to_string() }
+}

@@ -12,12 +12,15 @@ use super::{G06_END_MARKER, Summary};
 use crate::Settings;
 use crate::path::Line as LineGeom;
 use crate::path::{
-    AxisVec, Blend, CubicSpan, Feed, Geometry, Helix, MAX_AXES, MIN_CURVATURE_RADIUS_MM, Path, Source, SpanError,
-    spline::natural_tangents,
+    AxisVec, Blend, CubicSpan, Feed, Geometry, Helix, MAX_AXES, MIN_CURVATURE_RADIUS_MM, MIN_MOVE_MM, Path, Source,
+    SpanError, spline::natural_tangents,
 };
 use interpd_config::{AxisKind, AxisLetter};
 use std::cell::Cell;
 use std::f64::consts::PI;
+
+// `pub(crate)`: `program::fmt_num` (mod.rs) re-exports it from here.
+pub(crate) use super::error::fmt_num;
 
 /// Arc end points may miss the circle by this much before the arc is rejected, mm...
 pub(super) const ARC_RADIUS_ABS_TOL_MM: f64 = 0.002;
@@ -25,8 +28,6 @@ pub(super) const ARC_RADIUS_ABS_TOL_MM: f64 = 0.002;
 pub(super) const ARC_RADIUS_REL_TOL: f64 = 1e-5;
 /// Arcs with a smaller radius are degenerate.
 pub(super) const MIN_ARC_RADIUS_MM: f64 = 1e-6;
-/// Moves shorter than this are dropped (and counted) instead of becoming elements.
-pub(super) const MIN_MOVE_MM: f64 = 1e-9;
 /// Millimetres per inch (G20).
 const MM_PER_INCH: f64 = 25.4;
 
@@ -1543,13 +1544,6 @@ fn project_on_bisector(s: [f64; 2], e: [f64; 2], c: [f64; 2]) -> [f64; 2] {
 
 fn fmt_code(v: f64) -> String {
     if v.fract() == 0.0 { format!("{}", v as i64) } else { format!("{v}") }
-}
-
-/// Numbers in messages: up to 4 decimals, trailing zeros dropped.
-pub(crate) fn fmt_num(v: f64) -> String {
-    let s = format!("{v:.4}");
-    let s = s.trim_end_matches('0').trim_end_matches('.');
-    if s == "-0" { "0".to_string() } else { s.to_string() }
 }
 
 /// The error for a program whose text ends inside G06 spline data.

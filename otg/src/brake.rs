@@ -8,7 +8,7 @@
 //! that the overall durations can be compared with Ruckig's directly. The limits are passed
 //! mirrored (v_max ↔ v_min, a_max ↔ a_min, -j) for the lower side, as in Ruckig.
 
-use crate::profile::integrate;
+use crate::phase::integrate;
 
 /// Safety margin added to brake phase durations so that the braked state lies strictly inside
 /// the limits despite rounding (Ruckig: 2.2e-14 s), scaled up for phases much longer than 1 s.

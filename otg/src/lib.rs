@@ -40,6 +40,7 @@
 
 mod block;
 pub mod brake;
+mod phase;
 mod position_step1;
 mod position_step2;
 mod position_step2_cruise;

@@ -14,7 +14,8 @@
 //! v_c with concave arms, so {g ≥ 0} is at most two intervals, found by bracketing. (Derived for
 //! interpd; the structure is Berscheid & Kröger, RSS 2021, Sec. IV-C.)
 
-use crate::profile::{ControlSigns, Profile, ReachedLimits, integrate};
+use crate::phase::integrate;
+use crate::profile::{ControlSigns, Profile, ReachedLimits};
 
 /// Bracketing stops when the interval is this small relative to the cruise velocity scale.
 const BRACKET_REL: f64 = 4.0 * f64::EPSILON;

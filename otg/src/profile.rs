@@ -11,6 +11,7 @@
 //! The profiles finally used are refined afterwards (module `refine`).
 
 use crate::brake::BrakeProfile;
+use crate::phase::integrate;
 
 /// Margin on velocity and acceleration limits, relative to the limit (Ruckig: 1e-12 absolute).
 const LIMIT_EPS_REL: f64 = 1e-12;
@@ -121,12 +122,6 @@ pub(crate) struct Candidate {
     pub v_min: f64,
     pub a_max: f64,
     pub a_min: f64,
-}
-
-/// Integrate one constant-jerk phase: (p, v, a) after `t` seconds.
-#[inline]
-pub(crate) fn integrate(t: f64, p: f64, v: f64, a: f64, j: f64) -> (f64, f64, f64) {
-    (p + t * (v + t * (a / 2.0 + t * j / 6.0)), v + t * (a + t * j / 2.0), a + t * j)
 }
 
 /// max(1, |x_i|, |extra|).

@@ -11,7 +11,8 @@
 //! durations and is usually underdetermined: minimum-norm steps, by Householder QR.
 
 use crate::Limits;
-use crate::profile::{Candidate, Direction, Profile, integrate, magnitude, magnitude_or_one};
+use crate::phase::integrate;
+use crate::profile::{Candidate, Direction, Profile, magnitude, magnitude_or_one};
 
 /// Refinement runs when a final profile's phases, integrated from the start (pinned plateau
 /// accelerations as they come out, unless within rounding), miss the end state by more than

@@ -1,7 +1,8 @@
 //! The result of a calculation: one profile per DoF, all ending together (time or phase
 //! synchronisation) or independently, and sampling at any time.
 
-use crate::profile::{Profile, integrate};
+use crate::phase::integrate;
+use crate::profile::Profile;
 use crate::{MAX_DOFS, State};
 
 /// A DoF whose own duration is within this (relative) of the trajectory's ends with it.

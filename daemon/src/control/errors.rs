@@ -3,6 +3,9 @@
 //! why). The JSON-RPC layer (`control::dispatch`) gives each a code and uses its `Display` as
 //! the message.
 //!
+//! Also here: why the control server itself cannot start ([`ServerError`]), which the socket
+//! file and the server's start-up both return.
+//!
 //! The causes that the service's own checks produce ([`ProgramPathError`] for a path outside
 //! the programs directory, [`LawProgramError`] for a program of `LAW` statements) are defined
 //! here as well: the control layer names them in its errors and codes, and depends on nothing
@@ -13,6 +16,8 @@ use interpd_motion::law::program::LawBlockError;
 use interpd_motion::prep::PrepError;
 use interpd_motion::program::ProgramErrors;
 use interpd_protocol::api::{Method, State};
+use std::io;
+use std::path::PathBuf;
 
 /// A command that is not allowed in the current state (−32002).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
@@ -172,6 +177,27 @@ pub enum ManualError {
     /// The planner thread is gone (−32603).
     #[error("internal error: the planner thread has ended")]
     PlannerGone,
+}
+
+/// Why the control server could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum ServerError {
+    #[error("no control socket path given (ControlServerBuilder::socket)")]
+    NoSocketPath,
+    #[error("invalid control server setting: {0}")]
+    Config(&'static str),
+    #[error("another interpd is running on {}", .0.display())]
+    AlreadyRunning(PathBuf),
+    #[error("{} exists and is not a socket; remove it or choose another control socket path", .0.display())]
+    NotASocket(PathBuf),
+    #[error("cannot create the control socket {}: {source}", path.display())]
+    Socket {
+        path: PathBuf,
+        #[source]
+        source: io::Error,
+    },
+    #[error("cannot start the control server thread: {0}")]
+    Thread(#[source] io::Error),
 }
 
 /// What a person can do when `action` is refused in `state`: the state machine's next step,

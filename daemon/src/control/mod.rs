@@ -3,7 +3,11 @@
 //!
 //! - [`motion`]: the [`Motion`] trait the service implements;
 //! - [`errors`]: why it refuses a command, one error type per operation;
-//! - [`server`]: [`ControlServer`], the socket, its clients and their threads;
+//! - [`server`]: [`ControlServer`]: its settings, start-up and shutdown;
+//! - `socket`: the socket file (mode 0660, stale files replaced, live ones refused);
+//! - `accept`: the accept thread, admitting clients up to `max_clients`;
+//! - `connection`: one client's threads (requests and answers, events);
+//! - `shared`: the state those threads and the handle share;
 //! - `dispatch`: one received line to one answer (JSON-RPC rules, calls into [`Motion`], error
 //!   codes);
 //! - `framing`: lines out of a byte stream, never more than 1 MiB.
@@ -25,11 +29,15 @@
 //! # Ok(()) }
 //! ```
 
+mod accept;
+mod connection;
 mod dispatch;
 pub mod errors;
 mod framing;
 pub mod motion;
 pub mod server;
+mod shared;
+mod socket;
 
 pub use errors::{
     AppendError, LawError, LawProgramError, LoadError, ManualError, NotAllowed, ProgramPathError, ResumeError,

@@ -14,8 +14,11 @@ Floats are printed with repr(), the shortest text that reads back as the same do
 output can be compared exactly with what a Rust subscriber receives. The first line on stdout
 is `# subscribed to <service>` once the subscriber exists (nothing published before it is
 seen, apart from the one latest sample iceoryx2 keeps as history). Exits 0 after --samples
-setpoints, at the first setpoint flagged FINISHED (--until-finished) or when --timeout seconds
-have passed (exit 0 if anything was received by then, else 1).
+setpoints (default 100), at the first setpoint flagged FINISHED (--until-finished) or when
+--timeout seconds have passed (exit 0 if anything was received by then, else 1). With
+--until-finished a sample count applies only when --samples is given: the daemon publishes a
+setpoint every cycle, also while it stands before a program starts, so a default count would
+end the reading before the program does.
 
 The payload is `interpd_protocol::shm::Setpoints` (protocol/src/shm.rs): #[repr(C)], 288 bytes,
 alignment 8, no padding, iceoryx2 type name "interpd::Setpoints". iceoryx2 connects a
@@ -41,6 +44,8 @@ MAX_PUBLISHERS = 2
 MAX_SUBSCRIBERS = 8
 # protocol/src/shm.rs `flags`.
 FLAG_FINISHED = 1 << 3
+# Setpoints read without --samples and without --until-finished (0.4 s at a 4 ms cycle).
+DEFAULT_SAMPLES = 100
 # How long to sleep when nothing is queued, s (a 4 ms cycle; the queue holds 64 cycles).
 POLL_S = 0.001
 
@@ -77,12 +82,22 @@ assert ctypes.sizeof(Setpoints) == 288 and ctypes.alignment(Setpoints) == 8
 def parse_args() -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--prefix", default="interpd", help="iceoryx2 service prefix (default: interpd)")
-    p.add_argument("--samples", type=int, default=100, help="exit after this many setpoints (default 100)")
+    p.add_argument(
+        "--samples",
+        type=int,
+        help=f"exit after this many setpoints (default {DEFAULT_SAMPLES}; with --until-finished, no limit unless given)",
+    )
     p.add_argument("--timeout", type=float, default=10.0, help="give up after this many seconds (default 10)")
-    p.add_argument("--until-finished", action="store_true", help="exit at the first setpoint flagged FINISHED")
+    p.add_argument(
+        "--until-finished",
+        action="store_true",
+        help="exit at the first setpoint flagged FINISHED (no sample limit unless --samples is given)",
+    )
     args = p.parse_args()
-    if args.samples < 1 or not args.timeout > 0:
+    if (args.samples is not None and args.samples < 1) or not args.timeout > 0:
         p.error("--samples must be ≥ 1 and --timeout > 0")
+    if args.samples is None and not args.until_finished:
+        args.samples = DEFAULT_SAMPLES
     return args
 
 
@@ -128,7 +143,8 @@ def main() -> int:
             return 1
         print(line(sp), flush=False)
         received += 1
-        if received >= args.samples or (args.until_finished and sp.flags & FLAG_FINISHED):
+        counted = args.samples is not None and received >= args.samples
+        if counted or (args.until_finished and sp.flags & FLAG_FINISHED):
             break
     sys.stdout.flush()
     del subscriber, node

@@ -2,8 +2,10 @@
 //! declared with ctypes) reads the same setpoint stream as a Rust subscriber: a daemon with a
 //! service prefix of its own runs an example program; every line the script prints equals the
 //! setpoint the Rust subscriber received for that cycle (cycle, time, flags, s, v and every
-//! axis position, exactly), the script's cycles have no gaps, and it follows the motion to the
-//! program's end.
+//! axis position, exactly), the script's cycles have no gaps, and with `--until-finished` alone
+//! it follows the motion to the program's end, however many setpoints that takes. Without
+//! `--until-finished` it stops after 100 setpoints, and a `--samples` count given with it still
+//! applies.
 //!
 //! Skipped, with a message on stderr, only when `python3` or its `iceoryx2` module is missing
 //! (`python3 -m pip install -r .ci/python-requirements.txt`).
@@ -27,6 +29,8 @@ const SUBSCRIBE_TIMEOUT: Duration = Duration::from_secs(30);
 const MACHINE: &str = "config/machines/xyzab.toml";
 const PROGRAM: &str = "five_axis_table.csv";
 const AXES: usize = 5;
+/// The script's count without `--samples` and `--until-finished`.
+const DEFAULT_SAMPLES: usize = 100;
 
 /// `python3` if it can import iceoryx2; otherwise says why the test is skipped.
 fn python_with_iceoryx2() -> Option<&'static str> {
@@ -57,11 +61,13 @@ struct Script {
 }
 
 impl Script {
-    fn start(python: &str, prefix: &str) -> Script {
+    /// The script on `prefix` with `args` and the test's time limit.
+    fn start(python: &str, prefix: &str, args: &[&str]) -> Script {
         let script = repo_root().join("examples/python/subscribe_setpoints.py");
         let mut child = Command::new(python)
             .arg(&script)
-            .args(["--prefix", prefix, "--until-finished", "--samples", "1000000", "--timeout", SCRIPT_TIMEOUT_S])
+            .args(["--prefix", prefix, "--timeout", SCRIPT_TIMEOUT_S])
+            .args(args)
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
@@ -158,7 +164,8 @@ fn the_python_example_prints_what_the_rust_subscriber_receives() {
     let machine = repo_root().join(MACHINE).display().to_string();
     let daemon = Daemon::start(&["--config", &machine]);
     let collector = Collector::start(&daemon.prefix);
-    let mut script = Script::start(python, &daemon.prefix);
+    // No --samples: the documented way to follow a program to its end.
+    let mut script = Script::start(python, &daemon.prefix, &["--until-finished"]);
     script.wait_subscribed();
     let mut c = daemon.client();
     c.ok("program.load", json!({ "path": example(PROGRAM).display().to_string() }));
@@ -171,7 +178,11 @@ fn the_python_example_prints_what_the_rust_subscriber_receives() {
     assert_eq!(code, Some(0), "interpd run exit status; stderr:\n{stderr}");
 
     let by_cycle: HashMap<u64, &Setpoints> = received.iter().map(|s| (s.cycle, s)).collect();
-    assert!(printed.len() > 10, "the script printed {} setpoints", printed.len());
+    assert!(
+        printed.len() > DEFAULT_SAMPLES,
+        "--until-finished without --samples stopped after {} setpoints, not at FINISHED",
+        printed.len()
+    );
     for w in printed.windows(2) {
         assert_eq!(w[1].cycle, w[0].cycle + 1, "gap in the script's cycle numbers");
     }
@@ -194,4 +205,20 @@ fn the_python_example_prints_what_the_rust_subscriber_receives() {
         last.cycle,
         last.pos
     );
+}
+
+#[test]
+fn the_python_example_counts_samples_only_where_asked_to() {
+    let Some(python) = python_with_iceoryx2() else { return };
+    // A daemon standing idle publishes a setpoint every cycle and none is flagged FINISHED, so
+    // only a count ends the reading early.
+    let daemon = Daemon::start(&[]);
+    for (args, want) in [(&[][..], DEFAULT_SAMPLES), (&["--until-finished", "--samples", "7"][..], 7)] {
+        let mut script = Script::start(python, &daemon.prefix, args);
+        script.wait_subscribed();
+        let printed = script.finish();
+        assert_eq!(printed.len(), want, "subscribe_setpoints.py {args:?} printed {} setpoints", printed.len());
+    }
+    let (code, stderr) = daemon.terminate();
+    assert_eq!(code, Some(0), "interpd run exit status; stderr:\n{stderr}");
 }

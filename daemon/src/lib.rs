@@ -8,15 +8,20 @@
 //! - [`control`]: the JSON-RPC control socket;
 //! - [`sinks`]: where setpoints go: iceoryx2 shared memory, the CANopen master;
 //! - [`record`]: recording the streams to MCAP and replaying them;
-//! - [`rt`]: the real-time loop, clock, scheduling and timing statistics.
+//! - [`rt`]: the real-time loop, clock, scheduling and timing statistics;
+//! - [`plan`]: a program planned offline and sampled in simulated time (`plan`), with an
+//!   in-process observer of the samples (`interpd-sim` runs the simulated plant on them);
+//! - [`cmdline`]: what the command lines of `interpd` and `interpd-sim` share.
 //!
 //! The motion mathematics (programs, paths, smoothing, the look-ahead planner, motion laws) is
 //! the crate `interpd-motion`; the configuration is `interpd-config`; the wire formats are
 //! `interpd-protocol`. docs/architecture.md shows how they fit together.
 
+pub mod cmdline;
 pub mod comp;
 pub mod control;
 pub mod interp;
+pub mod plan;
 pub mod record;
 pub mod rt;
 pub mod service;

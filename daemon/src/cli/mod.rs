@@ -13,8 +13,9 @@ mod replay_shm;
 mod run;
 mod signals;
 
+pub use interpd::cmdline::CliError;
+
 use clap::{Parser, Subcommand};
-use std::fmt;
 use std::path::PathBuf;
 
 #[derive(Debug, Parser)]
@@ -42,7 +43,7 @@ pub enum Command {
         machine: Option<PathBuf>,
     },
     /// Plan a program offline and sample the motion in simulated time (CSV and/or JSON).
-    Plan(plan::PlanArgs),
+    Plan(interpd::plan::PlanArgs),
     /// The service: control socket, planner and real-time threads, setpoint sinks.
     Run(run::RunArgs),
     /// The main job on embedded defaults: interpd run + sim-plant over iceoryx2, an example
@@ -59,54 +60,6 @@ pub enum Command {
     /// Record the shared-memory streams (setpoints, feedback) to MCAP until SIGINT/SIGTERM or
     /// `--duration-s`.
     Record(record::RecordArgs),
-}
-
-/// A failed command: bad input (exit 2) or anything else (exit 1).
-#[derive(Debug)]
-pub enum CliError {
-    BadInput(String),
-    Failure(String),
-}
-
-impl CliError {
-    pub fn exit_code(&self) -> u8 {
-        match self {
-            CliError::BadInput(_) => 2,
-            CliError::Failure(_) => 1,
-        }
-    }
-}
-
-impl fmt::Display for CliError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            CliError::BadInput(m) | CliError::Failure(m) => write!(f, "{m}"),
-        }
-    }
-}
-
-impl From<interpd::config::ConfigError> for CliError {
-    fn from(e: interpd::config::ConfigError) -> Self {
-        CliError::BadInput(e.to_string())
-    }
-}
-
-impl From<interpd_motion::program::ProgramErrors> for CliError {
-    fn from(e: interpd_motion::program::ProgramErrors) -> Self {
-        CliError::BadInput(e.to_string())
-    }
-}
-
-pub fn init_logging(verbose: u8) {
-    let default = match verbose {
-        0 => "warn",
-        1 => "debug",
-        _ => "trace",
-    };
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
-    let _ =
-        tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).with_target(false).try_init();
 }
 
 pub fn run(cli: Cli) -> Result<(), CliError> {

@@ -11,6 +11,7 @@
 //! - [`rt`]: the real-time loop, clock, scheduling and timing statistics;
 //! - [`plan`]: a program planned offline and sampled in simulated time (`plan`), with an
 //!   in-process observer of the samples (`interpd-sim` runs the simulated plant on them);
+//! - [`demo`]: the daemon and the simulated plant as two processes on one program (`demo`);
 //! - [`cmdline`]: what the command lines of `interpd` and `interpd-sim` share.
 //!
 //! The motion mathematics (programs, paths, smoothing, the look-ahead planner, motion laws) is
@@ -20,6 +21,7 @@
 pub mod cmdline;
 pub mod comp;
 pub mod control;
+pub mod demo;
 pub mod interp;
 pub mod plan;
 pub mod record;

@@ -7,7 +7,7 @@
 //! are taken at the tool, from the plant's true load and actuator positions, where it cut.
 
 use super::CliError;
-use super::demo::{DemoArgs, Pair};
+use interpd::demo::{DemoArgs, Pair};
 use interpd_config::Config;
 use interpd_config::plant::PlantModel;
 use plotters::prelude::*;

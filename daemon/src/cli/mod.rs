@@ -48,7 +48,7 @@ pub enum Command {
     Run(run::RunArgs),
     /// The main job on embedded defaults: interpd run + sim-plant over iceoryx2, an example
     /// program, a summary and a plot.
-    Demo(demo::DemoArgs),
+    Demo(interpd::demo::DemoArgs),
     /// Replay a recording at its original timing: an MCAP recording onto iceoryx2 (`--to shm`),
     /// or a candump log to a CAN interface (`--to can:IFACE`, as can-utils' canplayer does).
     Replay(replay::ReplayArgs),

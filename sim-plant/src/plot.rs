@@ -49,7 +49,9 @@ impl Default for PlotOptions {
     }
 }
 
-fn register_font() -> Result<(), PlantError> {
+/// Registers the embedded font as plotters' `sans-serif` family (once per process), for this
+/// plot and for other plots drawn in the same process (`interpd-sim`'s milling scenario).
+pub fn register_font() -> Result<(), PlantError> {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
     let ok =
         *REGISTERED.get_or_init(|| plotters::style::register_font("sans-serif", FontStyle::Normal, FONT_TTF).is_ok());

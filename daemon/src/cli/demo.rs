@@ -14,12 +14,7 @@ use std::time::{Duration, Instant};
 const DEMO_PROGRAM: &str = include_str!("../../../examples/demo.ngc");
 
 pub fn run(args: &DemoArgs) -> Result<(), CliError> {
-    if let Some(name) = &args.scenario {
-        return match name.as_str() {
-            "milling-circle" => super::milling::run(args),
-            other => Err(CliError::BadInput(format!("--scenario {other}: unknown; known: milling-circle"))),
-        };
-    }
+    // The scenarios (--scenario) run in interpd-sim (cli/mod.rs hands them over).
     if args.json {
         return Err(CliError::BadInput("--json goes with --scenario".into()));
     }

@@ -4,9 +4,7 @@ mod check;
 mod demo;
 mod law;
 mod law_plot;
-mod milling;
 mod otg;
-mod plan;
 mod record;
 mod replay;
 mod replay_shm;
@@ -16,6 +14,8 @@ mod signals;
 pub use interpd::cmdline::CliError;
 
 use clap::{Parser, Subcommand};
+use interpd::plan::{PlanArgs, Setup};
+use std::os::unix::process::CommandExt;
 use std::path::PathBuf;
 
 #[derive(Debug, Parser)]
@@ -43,7 +43,7 @@ pub enum Command {
         machine: Option<PathBuf>,
     },
     /// Plan a program offline and sample the motion in simulated time (CSV and/or JSON).
-    Plan(interpd::plan::PlanArgs),
+    Plan(PlanArgs),
     /// The service: control socket, planner and real-time threads, setpoint sinks.
     Run(run::RunArgs),
     /// The main job on embedded defaults: interpd run + sim-plant over iceoryx2, an example
@@ -65,12 +65,32 @@ pub enum Command {
 pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Check { program, machine } => check::run(&program, machine.as_deref()),
-        Command::Plan(args) => plan::run(&args),
+        Command::Plan(args) if args.plant.is_some() => in_sim("`interpd plan --plant`"),
+        Command::Plan(args) => plan(&args),
         Command::Run(args) => run::run(&args),
+        Command::Demo(args) if args.scenario.is_some() => in_sim("`interpd demo --scenario`"),
         Command::Demo(args) => demo::run(&args),
         Command::Replay(args) => replay::run(&args),
         Command::Law(args) => law::run(&args),
         Command::Otg(args) => otg::run(&args),
         Command::Record(args) => record::run(&args),
     }
+}
+
+/// `interpd plan` without the plant: the sampling of `interpd::plan` on its own.
+fn plan(args: &PlanArgs) -> Result<(), CliError> {
+    let setup = Setup::from_args(args)?;
+    interpd::plan::run(args, &setup, None, &mut std::io::stdout().lock())?;
+    Ok(())
+}
+
+/// Hands the command line, as it is, to `interpd-sim` beside this binary, which runs the
+/// simulated plant in-process (interpd links no simulator); returns only when that fails.
+fn in_sim(what: &str) -> Result<(), CliError> {
+    let sim = interpd::cmdline::sibling_binary("interpd-sim").map_err(|e| {
+        CliError::Failure(format!("{what} runs in interpd-sim, which runs the simulated plant in-process: {e}"))
+    })?;
+    tracing::debug!("{what}: running {}", sim.display());
+    let e = std::process::Command::new(&sim).args(std::env::args_os().skip(1)).exec();
+    Err(CliError::Failure(format!("{what}: cannot start {}: {e}", sim.display())))
 }

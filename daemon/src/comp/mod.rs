@@ -26,7 +26,6 @@
 pub mod deflection;
 pub mod io;
 pub mod limiter;
-pub mod scenario;
 
 use deflection::Deflection;
 use interpd_config::Config;

@@ -1,27 +1,27 @@
-//! `interpd plan PROGRAM … [--plant[=PRESET|FILE]]`: the planning and sampling is
-//! `interpd::plan`; `--plant` runs the simulated plant in-process on the sampled setpoints.
+//! `plan --plant`: the simulated axes (sim-plant, in-process) driven by the sampled setpoints,
+//! one setpoint per row, as the sampling's [`SampleObserver`]: four columns per axis in the
+//! CSV (motor, load, following error, load error), the member `plant` in the JSON figures and
+//! the plant's summary in the text.
 
-use super::CliError;
-use interpd::config::Config;
-use interpd::plan::{AxisSample, ObserverError, PlanArgs, SampleObserver, Setup};
+use interpd::plan::{AxisSample, ObserverError, SampleObserver};
+use interpd_config::{Config, ConfigError};
 use std::io::Write;
 
-pub fn run(args: &PlanArgs) -> Result<(), CliError> {
-    let setup = Setup::from_args(args)?;
-    let mut plant = match &args.plant {
-        Some(choice) => Some(PlantRun::new(&setup.config, choice, setup.period_s)?),
-        None => None,
-    };
-    let observer = plant.as_mut().map(|p| p as &mut dyn SampleObserver);
-    interpd::plan::run(args, &setup, observer, &mut std::io::stdout().lock())?;
-    Ok(())
+/// Why the plant of `--plant` cannot be built: the option names no usable plant.
+#[derive(Debug, thiserror::Error)]
+pub enum PlantRunError {
+    /// No such preset or file, or a plant that does not fit the machine's axes.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    #[error("--plant: {0}")]
+    Plant(sim_plant::PlantError),
 }
 
 /// Standstill simulated after the motion end for the plant summary's residual vibration, s.
 const PLANT_SETTLE_S: f64 = 1.0;
 
 /// `--plant`: the simulated axes (sim-plant, in-process) driven by the sampled setpoints.
-struct PlantRun {
+pub struct PlantRun {
     plant: sim_plant::Plant,
     metrics: sim_plant::metrics::Metrics,
     /// The current row's setpoint per axis.
@@ -31,11 +31,12 @@ struct PlantRun {
 }
 
 impl PlantRun {
-    fn new(config: &Config, choice: &str, period_s: f64) -> Result<Self, CliError> {
+    /// The plant `choice` selects (`--plant`'s value: empty for the machine's `[plant]`, a
+    /// preset or a file) for the axes of `config`, stepped every `period_s`.
+    pub fn new(config: &Config, choice: &str, period_s: f64) -> Result<Self, PlantRunError> {
         let plant_config = config.plant.select(choice, &config.axes, "--plant")?;
         let resolved = plant_config.resolve(&config.axes, "--plant")?;
-        let plant =
-            sim_plant::Plant::new(&resolved, &plant_config).map_err(|e| CliError::BadInput(format!("--plant: {e}")))?;
+        let plant = sim_plant::Plant::new(&resolved, &plant_config).map_err(PlantRunError::Plant)?;
         // The recording keeps the last `[plant] record_s` (the summary's residual vibration
         // needs only the settling after the end); the maxima run over everything.
         let metrics = sim_plant::metrics::Metrics::new(&plant, (config.plant.record_s / period_s).ceil() as usize);

@@ -1,11 +1,16 @@
 //! `interpd plan --plant`: the simulated plant in-process on the planned setpoints, adding
-//! per-axis plant columns to the CSV and plant figures to the JSON.
+//! per-axis plant columns to the CSV and plant figures to the JSON. interpd hands the command
+//! to interpd-sim beside it, so every test here runs through both binaries.
 
 use interpd_e2e::{binary, example};
 use std::process::Command;
 
 fn run(args: &[&str]) -> (Option<i32>, String, String) {
-    let out = Command::new(binary("interpd")).args(args).output().expect("run interpd");
+    run_binary(&binary("interpd"), args)
+}
+
+fn run_binary(exe: &std::path::Path, args: &[&str]) -> (Option<i32>, String, String) {
+    let out = Command::new(exe).args(args).output().expect("run the binary");
     (
         out.status.code(),
         String::from_utf8_lossy(&out.stdout).into_owned(),
@@ -75,4 +80,51 @@ fn plant_option_errors_exit_2_and_name_the_option() {
     let (code, out, err) = run(&["plan", program.to_str().unwrap(), "--plant"]);
     assert_eq!(code, Some(0), "{err}");
     assert!(out.contains("haas-laser") && out.contains("contour error"), "{out}");
+}
+
+#[test]
+fn interpd_hands_the_plant_to_interpd_sim_with_its_arguments() {
+    let dir = std::env::temp_dir().join(format!("interpd-plan-plant-sim-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let program = example("circle_r10.ngc");
+    let program = program.to_str().unwrap();
+    let mut csv = Vec::new();
+    for exe in ["interpd", "interpd-sim"] {
+        let out = dir.join(format!("{exe}.csv"));
+        let (code, text, err) =
+            run_binary(&binary(exe), &["plan", program, "--plant=schneider-soft", "--out", out.to_str().unwrap()]);
+        assert_eq!(code, Some(0), "{exe}: {err}");
+        assert!(text.contains("schneider-soft") && text.contains("contour error"), "{exe}: {text}");
+        csv.push(std::fs::read(&out).expect("csv written"));
+    }
+    assert!(csv[0] == csv[1], "interpd plan --plant and interpd-sim plan --plant differ");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// interpd without interpd-sim beside it: what needs the plant in-process fails and says what
+/// is missing, where it was looked for and how to build it; the rest of interpd works.
+#[test]
+fn without_interpd_sim_the_plant_commands_say_what_is_missing() {
+    let dir = std::env::temp_dir().join(format!("interpd-alone-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let lone = dir.join("interpd");
+    std::fs::copy(binary("interpd"), &lone).expect("copy interpd");
+    let program = example("circle_r10.ngc");
+    let program = program.to_str().unwrap();
+    let looked_for = dir.join("interpd-sim");
+    for (args, what) in [
+        (vec!["plan", program, "--plant=schneider-stiff", "--json"], "`interpd plan --plant`"),
+        (vec!["demo", "--scenario", "milling-circle"], "`interpd demo --scenario`"),
+    ] {
+        let (code, out, err) = run_binary(&lone, &args);
+        assert_eq!(code, Some(1), "{args:?}: {out}\n{err}");
+        assert!(out.is_empty(), "{args:?}: {out}");
+        for want in [what, "interpd-sim not found", looked_for.to_str().unwrap(), "`cargo build --release`"] {
+            assert!(err.contains(want), "{args:?}: the message lacks {want:?}: {err}");
+        }
+    }
+    let (code, out, err) = run_binary(&lone, &["plan", program, "--json"]);
+    assert_eq!(code, Some(0), "plan without the plant: {err}");
+    assert!(out.contains("\"duration_s\"") && !out.contains("\"plant\""), "{out}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

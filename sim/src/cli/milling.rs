@@ -5,8 +5,10 @@
 //! over iceoryx2. The deflection model is identified first from a static load test on the
 //! simulated plant, with the measurement's noise (`sim_plant::process::identify`). The figures
 //! are taken at the tool, from the plant's true load and actuator positions, where it cut.
+//! `interpd` hands the command to `interpd-sim` (the static load test runs the plant
+//! in-process).
 
-use super::CliError;
+use interpd::cmdline::CliError;
 use interpd::demo::{DemoArgs, Pair};
 use interpd_config::Config;
 use interpd_config::plant::PlantModel;
@@ -116,7 +118,7 @@ fn mill(
     let dir = dir.join(&file_name);
     std::fs::create_dir_all(&dir).map_err(|e| CliError::Failure(format!("{}: {e}", dir.display())))?;
     let machine = dir.join("machine.toml");
-    std::fs::write(&machine, interpd::comp::scenario::machine_with_strategy(MACHINE, name, id))
+    std::fs::write(&machine, interpd_sim::scenario::machine_with_strategy(MACHINE, name, id))
         .map_err(|e| CliError::Failure(format!("{}: {e}", machine.display())))?;
     let trace = dir.join("trace.csv");
     let pair = Pair { dir: dir.clone(), machine: Some(machine), plot: None, trace: Some(trace.clone()) };
@@ -256,8 +258,8 @@ fn print_table(figures: &[Figures], plot: &Path, json_out: bool, force_n: f64) {
 
 /// The radial error of each strategy around the circle, drawn about a reference circle.
 fn write_polar(path: &Path, figures: &[Figures]) -> Result<(), String> {
-    super::law_plot::register_font();
     let err = |e: &dyn std::fmt::Display| format!("{}: cannot draw: {e}", path.display());
+    sim_plant::plot::register_font().map_err(|e| err(&e))?;
     let worst = figures.iter().flat_map(|f| f.polar.iter().map(|p| p.1.abs())).fold(0.0_f64, f64::max);
     // The zero-error circle, with room inside it for the largest inward error.
     let base = (worst * 1.2).max(50.0);

@@ -17,7 +17,7 @@ const R_MM: f64 = 35.0;
 const DT: f64 = 0.004;
 
 fn config(machine: &str, strategy: &str) -> Config {
-    let text = interpd::comp::scenario::machine_with_strategy(machine, strategy, identified());
+    let text = interpd_sim::scenario::machine_with_strategy(machine, strategy, identified());
     Config::from_toml_str(&text, "milling").unwrap_or_else(|e| panic!("{e}"))
 }
 

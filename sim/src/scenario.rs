@@ -1,6 +1,7 @@
 //! The `[compensation]` section of a machine whose X and Y run one strategy on the deflection
 //! model a static load test identified (`sim_plant::process::identify`): what
-//! `interpd demo --scenario milling-circle` runs, and its in-process test.
+//! `interpd demo --scenario milling-circle` runs (`cli/milling.rs`), and its in-process test
+//! (`tests/comp_plant.rs`).
 
 use sim_plant::process::identify::Identified;
 

@@ -1,0 +1,20 @@
+//! The `interpd-sim` command line. `interpd` starts it, beside itself, for `plan --plant` and
+//! `demo --scenario`, with the same arguments. Exit codes: 0 success, 2 bad input, 1 any other
+//! failure. Messages go to stderr, data to stdout.
+
+mod cli;
+
+use clap::Parser;
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    let args = cli::Cli::parse();
+    interpd::cmdline::init_logging(args.verbose);
+    match cli::run(args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("{e}");
+            ExitCode::from(e.exit_code())
+        }
+    }
+}

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# The project's test command (README, .ci/run): unit, property and end-to-end tests in a
-# release build, the time-bounded parser fuzzing, the CAN tests over vcan (in a VM when the
-# host has no vcan) and a 5-minute soak of the daemon with the plant, which runs beside the
-# CAN tests. Exit status: non-zero if anything failed.
+# The project's test command (README, .ci/run): no unused dependencies; unit, property and
+# end-to-end tests in a release build, the time-bounded parser fuzzing, the CAN tests over
+# vcan (in a VM when the host has no vcan) and a 5-minute soak of the daemon with the plant,
+# which runs beside the CAN tests. Exit status: non-zero if anything failed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -14,6 +14,14 @@ export PROPTEST_RNG_SEED="${PROPTEST_RNG_SEED:-20261123}"
 # The soak's client acts from a fixed seed too; 0 seconds skips it.
 SOAK_SECONDS="${SOAK_SECONDS:-300}"
 SOAK_SEED="${SOAK_SEED:-20261127}"
+# Unused dependencies fail the run first, before anything is built (cargo-machete reads each
+# crate's [dependencies]; .ci/run installs it).
+echo "== cargo machete (unused dependencies)"
+if ! cargo machete --version >/dev/null 2>&1; then
+    echo "cargo-machete is not installed: cargo install cargo-machete --locked" >&2
+    exit 1
+fi
+cargo machete
 echo "== cargo test --workspace --release (parser fuzzing ${FUZZ_SECONDS}s; the soak runs below)"
 cargo test --workspace --release -- --skip soak_keeps_the_limits_and_its_memory
 

@@ -5,6 +5,7 @@
 
 use std::fmt;
 use std::path::PathBuf;
+use std::process::ExitCode;
 
 /// A failed command: bad input (exit 2) or anything else (exit 1).
 #[derive(Debug)]
@@ -41,6 +42,26 @@ impl From<crate::config::ConfigError> for CliError {
 impl From<interpd_motion::program::ProgramErrors> for CliError {
     fn from(e: interpd_motion::program::ProgramErrors) -> Self {
         CliError::BadInput(e.to_string())
+    }
+}
+
+/// The options of every command of `interpd` and `interpd-sim` (the same, so `interpd` can
+/// hand its arguments over as they are).
+#[derive(Debug, clap::Args)]
+pub struct GlobalArgs {
+    /// More log output on stderr (-v debug, -vv trace). RUST_LOG overrides.
+    #[arg(short, long, action = clap::ArgAction::Count, global = true)]
+    pub verbose: u8,
+}
+
+/// The end of a command line's `main`: the error, if any, on stderr, and the exit code.
+pub fn exit(result: Result<(), CliError>) -> ExitCode {
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("{e}");
+            ExitCode::from(e.exit_code())
+        }
     }
 }
 

@@ -9,12 +9,6 @@ use std::process::ExitCode;
 
 fn main() -> ExitCode {
     let args = cli::Cli::parse();
-    interpd::cmdline::init_logging(args.verbose);
-    match cli::run(args) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("{e}");
-            ExitCode::from(e.exit_code())
-        }
-    }
+    interpd::cmdline::init_logging(args.global.verbose);
+    interpd::cmdline::exit(cli::run(args))
 }

@@ -14,6 +14,7 @@ mod signals;
 pub use interpd::cmdline::CliError;
 
 use clap::{Parser, Subcommand};
+use interpd::cmdline::GlobalArgs;
 use interpd::plan::{PlanArgs, Setup};
 use std::os::unix::process::CommandExt;
 use std::path::PathBuf;
@@ -25,9 +26,8 @@ use std::path::PathBuf;
     about = "Real-time interpolator daemon: part program in, jerk-limited axis setpoints out"
 )]
 pub struct Cli {
-    /// More log output on stderr (-v debug, -vv trace). RUST_LOG overrides.
-    #[arg(short, long, action = clap::ArgAction::Count, global = true)]
-    pub verbose: u8,
+    #[command(flatten)]
+    pub global: GlobalArgs,
     #[command(subcommand)]
     pub command: Command,
 }

@@ -5,7 +5,7 @@ mod milling;
 mod plan;
 
 use clap::{Parser, Subcommand};
-use interpd::cmdline::CliError;
+use interpd::cmdline::{CliError, GlobalArgs};
 use interpd::demo::DemoArgs;
 use interpd::plan::PlanArgs;
 
@@ -17,9 +17,8 @@ use interpd::plan::PlanArgs;
              for them)"
 )]
 pub struct Cli {
-    /// More log output on stderr (-v debug, -vv trace). RUST_LOG overrides.
-    #[arg(short, long, action = clap::ArgAction::Count, global = true)]
-    pub verbose: u8,
+    #[command(flatten)]
+    pub global: GlobalArgs,
     #[command(subcommand)]
     pub command: Command,
 }

@@ -33,8 +33,8 @@ impl fmt::Display for CliError {
 
 impl std::error::Error for CliError {}
 
-impl From<crate::config::ConfigError> for CliError {
-    fn from(e: crate::config::ConfigError) -> Self {
+impl From<interpd_config::ConfigError> for CliError {
+    fn from(e: interpd_config::ConfigError) -> Self {
         CliError::BadInput(e.to_string())
     }
 }

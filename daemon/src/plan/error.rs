@@ -11,7 +11,7 @@ pub type ObserverError = Box<dyn std::error::Error + Send + Sync>;
 pub enum PlanError {
     /// The machine configuration cannot be loaded or is invalid.
     #[error(transparent)]
-    Config(#[from] crate::config::ConfigError),
+    Config(#[from] interpd_config::ConfigError),
     #[error("--lookahead-mm must be positive, got {0}")]
     Lookahead(f64),
     #[error("--period-ms must be a number ≥ 0.01, got {0}")]

@@ -8,7 +8,7 @@ mod export;
 
 pub use error::{ObserverError, PlanError};
 
-use crate::config::Config;
+use interpd_config::Config;
 use interpd_motion::path::AxisDerivs;
 use interpd_motion::planner::profile::{Cursor, Sample};
 use interpd_motion::{Feed, Segment, Settings, program};

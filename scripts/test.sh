@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# The project's test command (README, .ci/run): no unused dependencies; unit, property and
-# end-to-end tests in a release build, the time-bounded parser fuzzing, the CAN tests over
-# vcan (in a VM when the host has no vcan) and a 5-minute soak of the daemon with the plant,
-# which runs beside the CAN tests. Exit status: non-zero if anything failed.
+# The project's test command (README, .ci/run): no unused dependencies and no import circles
+# between the files of one folder; unit, property and end-to-end tests in a release build, the
+# time-bounded parser fuzzing, the CAN tests over vcan (in a VM when the host has no vcan) and
+# a 5-minute soak of the daemon with the plant, which runs beside the CAN tests. Exit status:
+# non-zero if anything failed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -22,6 +23,8 @@ if ! cargo machete --version >/dev/null 2>&1; then
     exit 1
 fi
 cargo machete
+echo "== import circles between the files of one folder (scripts/module-cycles.py)"
+python3 scripts/module-cycles.py
 echo "== cargo test --workspace --release (parser fuzzing ${FUZZ_SECONDS}s; the soak runs below)"
 cargo test --workspace --release -- --skip soak_keeps_the_limits_and_its_memory
 

@@ -2,17 +2,16 @@
 //! an [`interpd_motion::Feed`], or a path made whole (MDI blocks). Each chunk takes about a
 //! chunk's duration of planned segments and the fastest stop from its end as its tail.
 
+use super::run::{Motion, PathRun};
 use super::{Feeder, STARVED_STOP_CHUNKS};
 use crate::interp::Chunk;
 use crate::interp::coarse::{CoarseBuilder, CoarsePoint};
 use crate::service::lock;
-use crate::service::manual::ManualPart;
-use crate::service::modal_track::ModalTrack;
 use crate::service::tooling::Tooling;
 use interpd_motion::path::{AxisVec, Path};
 use interpd_motion::program::Appends;
 use interpd_motion::{Feed, FeedError};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::SystemTime;
 
 /// Where a program's text comes from.
@@ -66,46 +65,6 @@ pub(super) enum OpenError {
     Feed(#[from] FeedError),
 }
 
-/// A run along a path: its feed, where the program's tool and offset changes go, and the move
-/// back to the held point that runs first when a held program resumes.
-pub(super) struct PathRun {
-    pub(super) feed: Box<Feed>,
-    /// The running program's tool and offset changes (`status.modal`); `None` for a path
-    /// made whole, which leaves the track of the program it interrupts as it is.
-    modal: Option<Arc<Mutex<ModalTrack>>>,
-    pub(super) returning: Option<ManualPart>,
-}
-
-impl PathRun {
-    pub(super) fn new(feed: Feed, modal: Option<Arc<Mutex<ModalTrack>>>) -> PathRun {
-        PathRun { feed: Box::new(feed), modal, returning: None }
-    }
-
-    /// Moves the tool and offset changes the feed has read into the track.
-    pub(super) fn track_modal(&mut self) {
-        let Some(track) = &self.modal else { return };
-        let mut next = self.feed.take_modal_change();
-        if next.is_none() {
-            return;
-        }
-        let mut t = lock(track);
-        while let Some((line, state)) = next {
-            t.push(line, state);
-            next = self.feed.take_modal_change();
-        }
-    }
-
-    /// Drops the path behind `s_mm`: the machine has passed it, and with it the tool and offset
-    /// changes before the first element kept.
-    pub(super) fn trim_before(&mut self, s_mm: f64) {
-        self.track_modal();
-        self.feed.trim_before(s_mm);
-        if let (Some(track), Some(first)) = (&self.modal, self.feed.path().elements.first()) {
-            lock(track).passed(first.source.line);
-        }
-    }
-}
-
 impl Feeder {
     /// The path of `source`: a program's file is opened and checked to be the one loaded.
     pub(super) fn open_path(&self, source: PathSource, feed_override: f64) -> Result<PathRun, OpenError> {
@@ -147,7 +106,7 @@ impl Feeder {
         let rest_at_text_end = self.queues.chunks.len() <= STARVED_STOP_CHUNKS;
         let Some(run) = self.run.as_mut() else { return Ok(false) };
         run.open_chunk(chunk);
-        let super::Motion::Path(path) = &mut run.motion else { return Ok(false) };
+        let Motion::Path(path) = &mut run.motion else { return Ok(false) };
         let mut segments = Vec::new();
         let mut t = 0.0;
         let mut target = chunk_s;

@@ -2,8 +2,7 @@
 //! a hold, an underrun or a planning failure), the return to a held program after an
 //! excursion (jog, MDI), and a new feed override (a replan from the end of the queue).
 
-use super::program::PathRun;
-use super::run::{Motion, Run, Wait};
+use super::run::{Motion, PathRun, Run, Wait};
 use super::{Feeder, ReturnError};
 use crate::interp::Epoch;
 use crate::interp::coarse::CoarsePoint;

@@ -1,14 +1,16 @@
 //! One motion being queued: what every kind of run shares (its epoch, the chunks it queued,
 //! where it waits) and what differs by kind ([`Motion`]).
 
-use super::program::PathRun;
 use super::{MANUAL_QUEUE_CHUNKS, QUEUE_CAPACITY, QUEUE_CHUNKS};
 use crate::interp::coarse::CoarsePoint;
 use crate::interp::{Chunk, DivertCause, Epoch};
 use crate::service::law_run::LawPart;
+use crate::service::lock;
 use crate::service::manual::ManualPart;
+use crate::service::modal_track::ModalTrack;
 use interpd_motion::{Feed, Segment};
 use std::collections::VecDeque;
+use std::sync::{Arc, Mutex};
 
 /// Where a run waits.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -50,6 +52,46 @@ impl Motion {
             Motion::Path(p) => Some(p),
             Motion::Law { feed, .. } => Some(PathRun::new(*feed, None)),
             Motion::Manual(_) => None,
+        }
+    }
+}
+
+/// A run along a path: its feed, where the program's tool and offset changes go, and the move
+/// back to the held point that runs first when a held program resumes.
+pub(super) struct PathRun {
+    pub(super) feed: Box<Feed>,
+    /// The running program's tool and offset changes (`status.modal`); `None` for a path
+    /// made whole, which leaves the track of the program it interrupts as it is.
+    modal: Option<Arc<Mutex<ModalTrack>>>,
+    pub(super) returning: Option<ManualPart>,
+}
+
+impl PathRun {
+    pub(super) fn new(feed: Feed, modal: Option<Arc<Mutex<ModalTrack>>>) -> PathRun {
+        PathRun { feed: Box::new(feed), modal, returning: None }
+    }
+
+    /// Moves the tool and offset changes the feed has read into the track.
+    pub(super) fn track_modal(&mut self) {
+        let Some(track) = &self.modal else { return };
+        let mut next = self.feed.take_modal_change();
+        if next.is_none() {
+            return;
+        }
+        let mut t = lock(track);
+        while let Some((line, state)) = next {
+            t.push(line, state);
+            next = self.feed.take_modal_change();
+        }
+    }
+
+    /// Drops the path behind `s_mm`: the machine has passed it, and with it the tool and offset
+    /// changes before the first element kept.
+    pub(super) fn trim_before(&mut self, s_mm: f64) {
+        self.track_modal();
+        self.feed.trim_before(s_mm);
+        if let (Some(track), Some(first)) = (&self.modal, self.feed.path().elements.first()) {
+            lock(track).passed(first.source.line);
         }
     }
 }

@@ -258,25 +258,6 @@ fn is_dwell(seg: &Segment) -> bool {
     seg.ds_mm == 0.0 && seg.v0 == 0.0 && seg.a0 == 0.0 && seg.j == 0.0
 }
 
-/// Splits `seg` at local time `tau_s` into the part before and the part after.
-pub fn split(seg: &Segment, tau_s: f64) -> (Segment, Segment) {
-    let tau = tau_s.clamp(0.0, seg.dt_s);
-    let st = seg.at(tau);
-    let ds_before = if seg.ds_mm > 0.0 { (st.s_mm - seg.s0_mm).clamp(0.0, seg.ds_mm) } else { 0.0 };
-    let before = Segment { dt_s: tau, ds_mm: ds_before, ..*seg };
-    let after = Segment {
-        s0_mm: seg.s0_mm + ds_before,
-        t0_s: seg.t0_s + tau,
-        v0: st.v,
-        a0: st.a,
-        j: seg.j,
-        dt_s: seg.dt_s - tau,
-        ds_mm: seg.ds_mm - ds_before,
-        line: seg.line,
-    };
-    (before, after)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -304,7 +285,7 @@ mod tests {
                 piece += 1;
             }
             let (a, b2) = (&pts[piece], &pts[piece + 1]);
-            let (st, _) = cursor.at(&segs, t).unwrap();
+            let st = cursor.sample(&segs, t).unwrap().state;
             p.path.eval(st.s_mm, &mut exact);
             for k in 0..3 {
                 let q = hermite::eval(a.axis(k), b2.axis(k), b2.t_s - a.t_s, t - a.t_s);
@@ -327,15 +308,5 @@ mod tests {
     fn fast_tight_arc_is_split_until_it_fits() {
         let (err, _, _) = check_dense("G1 X1 F30000\nG3 X1 Y2 I0 J1\nG3 X1 Y0 I0 J-1");
         assert!(err <= 1e-3, "deviation {err} mm");
-    }
-
-    #[test]
-    fn split_keeps_the_state() {
-        let seg = Segment { s0_mm: 1.0, t0_s: 2.0, v0: 10.0, a0: 100.0, j: -3000.0, dt_s: 0.05, ds_mm: 0.0, line: 3 };
-        let seg = Segment { ds_mm: seg.at(0.05).s_mm - 1.0, ..seg };
-        let (a, b) = split(&seg, 0.02);
-        let e = a.at(a.dt_s);
-        assert!((e.s_mm - b.s0_mm).abs() < 1e-12 && (e.v - b.v0).abs() < 1e-12 && (e.a - b.a0).abs() < 1e-12);
-        assert!((b.at(b.dt_s).s_mm - seg.at(seg.dt_s).s_mm).abs() < 1e-12);
     }
 }

@@ -22,7 +22,7 @@ impl Helix {
     /// Arc from `start` turning `sweep_rad` about `center` in the plane (p, q). The other axes
     /// go from `start` to `end`. `linear[k]` tells which axes count for the path length.
     #[allow(clippy::too_many_arguments)]
-    pub fn new(
+    pub(crate) fn new(
         p: usize,
         q: usize,
         center: [f64; 2],
@@ -48,7 +48,7 @@ impl Helix {
         Self { p, q, center, radius_mm, phi0_rad, sweep_rad, start, delta, length_mm }
     }
 
-    pub fn length_mm(&self) -> f64 {
+    pub(crate) fn length_mm(&self) -> f64 {
         self.length_mm
     }
 
@@ -71,7 +71,7 @@ impl Helix {
         (self.p, self.q)
     }
 
-    pub fn eval(&self, s: f64, out: &mut AxisDerivs) {
+    pub(crate) fn eval(&self, s: f64, out: &mut AxisDerivs) {
         let l = self.length_mm;
         let w = self.sweep_rad / l; // dθ/ds
         let theta = self.phi0_rad + w * s;

@@ -31,7 +31,7 @@ pub enum SpanError {
 
 /// Spline spans must not turn on a tighter radius than this, mm: no machine follows a 1 µm
 /// radius at any useful speed, and such near-cusps come from bad tangents or support points.
-pub const MIN_CURVATURE_RADIUS_MM: f64 = 1e-3;
+pub(crate) const MIN_CURVATURE_RADIUS_MM: f64 = 1e-3;
 
 /// Initial arc-length pieces per part of the span between the minima of |P′| (where the speed
 /// is monotone and smooth); the quadrature refines them where needed.
@@ -43,7 +43,13 @@ impl CubicSpan {
     /// The span from `a` to `b` with tangents `ta`, `tb` (per unit u), with the coefficients of
     /// Huan, eq. 2. Huan, eq. 2 prints R₃ = 3(A − B) + T_a + T_b; the cubic Hermite form is
     /// 2(A − B) + T_a + T_b. Axes flagged in `linear` define the arc length.
-    pub fn hermite(a: &AxisVec, b: &AxisVec, ta: &AxisVec, tb: &AxisVec, linear: &[bool]) -> Result<Self, SpanError> {
+    pub(crate) fn hermite(
+        a: &AxisVec,
+        b: &AxisVec,
+        ta: &AxisVec,
+        tb: &AxisVec,
+        linear: &[bool],
+    ) -> Result<Self, SpanError> {
         let mut r = [[0.0; MAX_AXES]; 4];
         for k in 0..MAX_AXES {
             r[0][k] = a[k]; // Huan, eq. 2: R₀ = A
@@ -74,7 +80,7 @@ impl CubicSpan {
         Ok(Self { r, linear: mask, n_axes, speed_minima: (minima, n_minima), table })
     }
 
-    pub fn length_mm(&self) -> f64 {
+    pub(crate) fn length_mm(&self) -> f64 {
         self.table.length()
     }
 
@@ -122,7 +128,7 @@ impl CubicSpan {
         self.table.u_of_s(&|u| speed_of(&self.r, &self.linear[..self.n_axes], u), s)
     }
 
-    pub fn eval(&self, s: f64, out: &mut AxisDerivs) {
+    pub(crate) fn eval(&self, s: f64, out: &mut AxisDerivs) {
         let u = self.u_at(s);
         self.eval_at_u(u, out);
     }

@@ -23,11 +23,11 @@ impl Line {
         Self { start, dir, length_mm }
     }
 
-    pub fn length_mm(&self) -> f64 {
+    pub(crate) fn length_mm(&self) -> f64 {
         self.length_mm
     }
 
-    pub fn eval(&self, s: f64, out: &mut AxisDerivs) {
+    pub(crate) fn eval(&self, s: f64, out: &mut AxisDerivs) {
         for k in 0..self.dir.len() {
             out.pos[k] = self.start[k] + self.dir[k] * s;
             out.d1[k] = self.dir[k];

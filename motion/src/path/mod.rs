@@ -14,9 +14,11 @@ pub(crate) mod spline;
 mod suffix;
 
 pub use arc::Helix;
-pub use cubic::{CubicSpan, MIN_CURVATURE_RADIUS_MM, SpanError};
+pub(crate) use cubic::MIN_CURVATURE_RADIUS_MM;
+pub use cubic::{CubicSpan, SpanError};
 pub use line::Line;
-pub use quintic::{HermiteEnd, QuinticSpan};
+pub(crate) use quintic::HermiteEnd;
+pub use quintic::QuinticSpan;
 pub use septic::SepticSpan;
 pub use suffix::Suffix;
 
@@ -160,7 +162,7 @@ impl Element {
 
     /// The element from `s_mm` on, as the first of a path (joint `Start`): cut there unless
     /// `s_mm` is at its start; a cut inside it drops its dwell, which lies behind.
-    pub fn from(&self, s_mm: f64) -> Element {
+    pub(crate) fn from(&self, s_mm: f64) -> Element {
         let mut e = self.clone();
         let offset = s_mm - e.s_start_mm;
         if offset > SUFFIX_AT_START_MM {
@@ -173,7 +175,7 @@ impl Element {
     }
 
     /// Whether the motion must come to rest (v = a = 0) where this element starts.
-    pub fn stops_before(&self) -> bool {
+    pub(crate) fn stops_before(&self) -> bool {
         matches!(self.joint, JointKind::Start | JointKind::Corner) || self.dwell_before_s > 0.0
     }
 }
@@ -237,7 +239,7 @@ impl Path {
     /// Appends an element made elsewhere (by the smoothing stage or a reader), keeping its
     /// place in s and its joint. A streamed path grows at the end this way and is trimmed at
     /// the front by [`Path::trim_before`].
-    pub fn push_element(&mut self, element: Element) {
+    pub(crate) fn push_element(&mut self, element: Element) {
         debug_assert!(
             self.elements
                 .last()
@@ -250,7 +252,7 @@ impl Path {
     /// Appends an element of another path moved by `s_offset_mm` along s: a program streamed
     /// behind an approach move. The element that starts its own path joins the last one here
     /// as their geometry does.
-    pub fn append_shifted(&mut self, mut element: Element, s_offset_mm: f64) {
+    pub(crate) fn append_shifted(&mut self, mut element: Element, s_offset_mm: f64) {
         element.s_start_mm += s_offset_mm;
         if element.joint == JointKind::Start {
             if let Some(prev) = self.elements.last() {
@@ -263,7 +265,7 @@ impl Path {
     /// Drops the elements that end before `s_mm`, keeping at least the last one, so a
     /// streamed path holds only what is still ahead of the motion. Path positions stay
     /// absolute; the path's start becomes the first kept element's start.
-    pub fn trim_before(&mut self, s_mm: f64) {
+    pub(crate) fn trim_before(&mut self, s_mm: f64) {
         let n = self.elements.partition_point(|e| e.s_end_mm() < s_mm).min(self.elements.len().saturating_sub(1));
         if n == 0 {
             return;
@@ -302,8 +304,10 @@ impl Path {
 
     /// The path from `s_mm` on, keeping absolute path positions: the element that contains
     /// `s_mm` is cut there and starts the new path (joint `Start`); a cut inside it drops its
-    /// dwell, which lies behind. Used to replan from a hold, an underrun or an override change.
-    pub fn suffix_from(&self, s_mm: f64) -> Path {
+    /// dwell, which lies behind. What a replan from `s_mm` plans along (a `Feed` cuts the
+    /// element the same way as it hands it to the planner); the tests compare with it.
+    #[cfg(test)]
+    pub(crate) fn suffix_from(&self, s_mm: f64) -> Path {
         let mut start = AxisDerivs::default();
         self.eval(s_mm, &mut start);
         let mut out = Path { start: start.pos, elements: Vec::new(), ..Path::new(self.axis_names.clone(), start.pos) };
@@ -320,7 +324,7 @@ impl Path {
 
     /// Index of the element a path cut at `s_mm` starts with ([`Path::suffix_from`]): the one
     /// containing `s_mm`, or the next one when `s_mm` is at its very end (no sliver).
-    pub fn first_index_from(&self, s_mm: f64) -> usize {
+    pub(crate) fn first_index_from(&self, s_mm: f64) -> usize {
         let first = self.element_index_at(s_mm);
         match self.elements.get(first) {
             Some(e) if e.s_end_mm() - s_mm <= SUFFIX_AT_START_MM && first + 1 < self.elements.len() => first + 1,

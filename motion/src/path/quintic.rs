@@ -6,7 +6,7 @@ use super::{AxisDerivs, AxisVec, MAX_AXES, SpanError};
 /// Value, first and second derivative per axis at one end of a quintic piece, with respect to
 /// the piece's own parameter t ∈ [0, 1].
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct HermiteEnd {
+pub(crate) struct HermiteEnd {
     pub pos: AxisVec,
     pub d1: AxisVec,
     pub d2: AxisVec,
@@ -38,7 +38,7 @@ impl QuinticSpan {
     /// The quintic Hermite piece from `a` to `b` (Haas 2012, §4.5, eq. 4.17–4.21: value, first
     /// and second derivative at both ends); derivatives are per unit t. Axes flagged in `linear`
     /// define the arc length.
-    pub fn hermite(a: &HermiteEnd, b: &HermiteEnd, linear: &[bool]) -> Result<Self, SpanError> {
+    pub(crate) fn hermite(a: &HermiteEnd, b: &HermiteEnd, linear: &[bool]) -> Result<Self, SpanError> {
         let mut c = [[0.0; 6]; MAX_AXES];
         for (k, ck) in c.iter_mut().enumerate() {
             ck[0] = a.pos[k];
@@ -65,7 +65,7 @@ impl QuinticSpan {
         Ok(Self { c, linear: mask, table })
     }
 
-    pub fn length_mm(&self) -> f64 {
+    pub(crate) fn length_mm(&self) -> f64 {
         self.table.length()
     }
 
@@ -83,7 +83,7 @@ impl QuinticSpan {
         self.table.u_of_s(&|t| speed_of(&self.c, &self.linear, t), s)
     }
 
-    pub fn eval(&self, s: f64, out: &mut AxisDerivs) {
+    pub(crate) fn eval(&self, s: f64, out: &mut AxisDerivs) {
         let t = self.t_at(s);
         self.eval_at_t(t, out);
     }

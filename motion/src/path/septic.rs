@@ -28,7 +28,7 @@ const END_INV: [[f64; 4]; 4] = [
 
 impl SepticSpan {
     /// Interval of length `h` (> 0) between table rows `a` and `b` (A, A′, A″, A‴ each).
-    pub fn new(a: &AxisDerivs, b: &AxisDerivs, h: f64) -> Self {
+    pub(crate) fn new(a: &AxisDerivs, b: &AxisDerivs, h: f64) -> Self {
         let mut coef = [[0.0; 8]; MAX_AXES];
         let (h2, h3) = (h * h, h * h * h);
         for (k, c) in coef.iter_mut().enumerate() {
@@ -55,7 +55,7 @@ impl SepticSpan {
         self.axes
     }
 
-    pub fn length_mm(&self) -> f64 {
+    pub(crate) fn length_mm(&self) -> f64 {
         self.h
     }
 
@@ -93,7 +93,7 @@ impl SepticSpan {
         out
     }
 
-    pub fn eval(&self, s: f64, out: &mut AxisDerivs) {
+    pub(crate) fn eval(&self, s: f64, out: &mut AxisDerivs) {
         let t = s / self.h;
         let (ih, ih2, ih3) = (1.0 / self.h, 1.0 / (self.h * self.h), 1.0 / (self.h * self.h * self.h));
         for k in 0..self.axes {

@@ -32,11 +32,11 @@ impl Suffix {
         }
     }
 
-    pub fn length_mm(&self) -> f64 {
+    pub(crate) fn length_mm(&self) -> f64 {
         self.length_mm
     }
 
-    pub fn eval(&self, s_mm: f64, out: &mut AxisDerivs) {
+    pub(crate) fn eval(&self, s_mm: f64, out: &mut AxisDerivs) {
         self.inner.eval(self.offset_mm + s_mm, out);
     }
 

@@ -215,7 +215,7 @@ mod tests {
         let p = program::parse(text, "t.ngc", &Settings::from(&cfg)).unwrap();
         let (segs, _) = crate::planner::Planner::plan_path(&Settings::from(&cfg), &p.path).unwrap();
         let mut cur = crate::planner::profile::Cursor::default();
-        let (st, _) = cur.at(&segs, at_s).unwrap();
+        let st = cur.sample(&segs, at_s).unwrap().state;
         let lim = Limits::from_settings(&Settings::from(&cfg));
         brake_along(&p.path, st.s_mm, st.v, st.a, &lim, next_stop_s(&p.path, st.s_mm), 1).map(|s| (s, st.v))
     }

@@ -27,7 +27,7 @@ pub struct Limits {
 }
 
 impl Limits {
-    pub fn from_settings(settings: &Settings) -> Self {
+    pub(crate) fn from_settings(settings: &Settings) -> Self {
         let f = settings.planner.limit_fraction;
         let mut l = Limits {
             n_axes: settings.axes.len(),

@@ -77,7 +77,7 @@ pub struct PlanStats {
 
 impl PlanStats {
     /// Adds the counters of another planning run (a planner replaced by a replan).
-    pub fn absorb(&mut self, other: &PlanStats) {
+    pub(crate) fn absorb(&mut self, other: &PlanStats) {
         self.nodes += other.nodes;
         self.blocks += other.blocks;
         self.work.add(&other.work);
@@ -106,6 +106,7 @@ const STOP_CLEARANCE_NODES: usize = 3;
 
 /// Interval lengths of a retained stop against the node spacing
 /// ([`Planner::can_stop_within_horizon`]).
+#[cfg(test)]
 const STOP_CHECK_DS_TOL_MM: f64 = 1e-9;
 
 /// The online planner.
@@ -214,7 +215,7 @@ impl Planner {
     /// Plans the horizon now, however short, when elements came since the last plan: for a
     /// path that is not known further yet (a program still arriving). What it hands on does
     /// not depend on the stop assumed at the horizon's end, as always.
-    pub fn plan_now(&mut self) -> Result<Vec<Segment>, PlanError> {
+    pub(crate) fn plan_now(&mut self) -> Result<Vec<Segment>, PlanError> {
         self.sample_pending();
         if self.nodes.len() >= 2 && (self.end_sampled || self.nodes.len() > self.planned_len) {
             self.plan_horizon(self.end_sampled)?;
@@ -227,7 +228,8 @@ impl Planner {
     /// keeps. The stop the last horizon planned proves it when it starts in that state, runs
     /// node to node and ends at rest; otherwise a stop is planned on a copy. The planner is
     /// unchanged.
-    pub fn can_stop_within_horizon(&self) -> bool {
+    #[cfg(test)]
+    pub(crate) fn can_stop_within_horizon(&self) -> bool {
         if self.nodes.len() < 2 {
             return self.start.0.abs() < 1e-9 && self.start.1.abs() < 1e-6;
         }
@@ -244,6 +246,7 @@ impl Planner {
     }
 
     /// Whether `retained_stop` is a stop from the hand-over state within the held nodes.
+    #[cfg(test)]
     fn retained_stop_holds(&self) -> bool {
         let (Some(first), Some(last)) = (self.retained_stop.first(), self.retained_stop.last()) else { return false };
         let fits = self.retained_stop.len() < self.nodes.len()

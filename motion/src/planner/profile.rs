@@ -95,11 +95,6 @@ pub struct Cursor {
 }
 
 impl Cursor {
-    /// State at absolute time `t` (clamped to the profile); the cursor only moves forward.
-    pub fn at(&mut self, segments: &[Segment], t: f64) -> Option<(PathState, u32)> {
-        self.sample(segments, t).map(|s| (s.state, s.line))
-    }
-
     /// State at absolute time `t` with the segment's line and whether the state lies at the
     /// segment's start (so a caller evaluating the geometry at a joint picks the right side).
     pub fn sample(&mut self, segments: &[Segment], t: f64) -> Option<Sample> {
@@ -156,4 +151,20 @@ pub fn limit_ratios(path: &Path, segments: &[Segment], settings: &Settings, dt_s
         }
     }
     worst
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_split_keeps_the_state() {
+        let seg = Segment { s0_mm: 1.0, t0_s: 2.0, v0: 10.0, a0: 100.0, j: -3000.0, dt_s: 0.05, ds_mm: 0.0, line: 3 };
+        let seg = Segment { ds_mm: seg.at(0.05).s_mm - 1.0, ..seg };
+        let (a, b) = seg.split_at(0.02);
+        let e = a.at(a.dt_s);
+        assert!((e.s_mm - b.s0_mm).abs() < 1e-12 && (e.v - b.v0).abs() < 1e-12 && (e.a - b.a0).abs() < 1e-12);
+        assert!((b.at(b.dt_s).s_mm - seg.at(seg.dt_s).s_mm).abs() < 1e-12);
+        assert_eq!((a.t0_s, b.t0_s, b.line), (2.0, 2.02, 3));
+    }
 }

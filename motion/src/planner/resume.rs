@@ -95,7 +95,7 @@ mod tests {
         let (segs, _) = Planner::plan_path(&cfg, &p.path).unwrap();
         let total = profile::duration_s(&segs);
         let mut cur = profile::Cursor::default();
-        let (st, _) = cur.at(&segs, 0.3).unwrap();
+        let st = cur.sample(&segs, 0.3).unwrap().state;
         let rest = p.path.suffix_from(st.s_mm);
         let mut planner = Planner::with_start_state(&cfg, st.v, st.a);
         for e in &rest.elements {

@@ -26,7 +26,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 /// The longest line read, bytes: far beyond any real block, and it bounds the memory a file
 /// without line breaks can take.
-pub const MAX_LINE_BYTES: usize = 64 * 1024;
+pub(crate) const MAX_LINE_BYTES: usize = 64 * 1024;
 
 /// A line holding only this word ends G06 spline data (Huan, §2: "CR", end of record); an
 /// empty line or the next ordinary block does too.

@@ -64,8 +64,9 @@ fn run(program_file: &std::path::Path, machine: Option<&std::path::Path>) -> Res
                     feed.path().eval_left(st.s_mm, &mut d);
                 }
                 for (k, peak) in peaks.iter_mut().enumerate() {
-                    peak.vel = peak.vel.max((d.d1[k] * st.v).abs());
-                    peak.acc = peak.acc.max((d.d2[k] * st.v * st.v + d.d1[k] * st.a).abs());
+                    let [vel, acc, _] = d.axis_rates(k, st.v, st.a, st.j);
+                    peak.vel = peak.vel.max(vel.abs());
+                    peak.acc = peak.acc.max(acc.abs());
                 }
                 t_s += CHECK_PERIOD_S;
             }

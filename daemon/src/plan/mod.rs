@@ -185,9 +185,7 @@ pub fn run(
             pipe.feed.path().eval_left(st.s_mm, &mut d)
         }
         for (i, axis) in axes.iter_mut().enumerate() {
-            let vel = d.d1[i] * st.v;
-            let acc = d.d2[i] * st.v * st.v + d.d1[i] * st.a;
-            let jerk = d.d3[i] * st.v.powi(3) + 3.0 * d.d2[i] * st.v * st.a + d.d1[i] * st.j;
+            let [vel, acc, jerk] = d.axis_rates(i, st.v, st.a, st.j);
             ratios.vel = ratios.vel.max(vel.abs() / lim.configured_vel[i]);
             ratios.acc = ratios.acc.max(acc.abs() / lim.configured_acc[i]);
             ratios.jerk = ratios.jerk.max(jerk.abs() / lim.configured_jerk[i]);
@@ -223,7 +221,6 @@ pub fn run(
     }
     let feed_stats = pipe.feed.stats();
     let stats = feed_stats.plan;
-    let plan_s = feed_stats.plan_s;
     let length_mm = pipe.feed.path().length_mm();
     let mut prep_stats = feed_stats.prep;
     if prep_stats.pieces == 0 {
@@ -231,6 +228,36 @@ pub fn run(
         prep_stats.max_excess_mm = 0.0;
     }
 
+    let figures = Figures { duration_s: duration, samples, period_s, ratios, length_mm, plan: stats, feed: feed_stats };
+    report(args, config, &checked, &figures, prep_stats, observer.as_deref(), stdout)
+}
+
+/// What a plan measured, for [`report`].
+struct Figures {
+    duration_s: f64,
+    samples: u64,
+    period_s: f64,
+    ratios: Ratios,
+    length_mm: f64,
+    plan: interpd_motion::planner::PlanStats,
+    feed: interpd_motion::feed::FeedStats,
+}
+
+/// Writes the figures to `stdout`: one JSON object (`--json`) or a line of text, with the
+/// observer's figures after them.
+fn report(
+    args: &PlanArgs,
+    config: &Config,
+    checked: &program::Checked,
+    figures: &Figures,
+    prep_stats: interpd_motion::prep::PrepStats,
+    observer: Option<&dyn SampleObserver>,
+    stdout: &mut dyn Write,
+) -> Result<(), PlanError> {
+    let Figures { duration_s: duration, samples, period_s, ratios, length_mm, plan: stats, feed: feed_stats } =
+        *figures;
+    let plan_s = feed_stats.plan_s;
+    let axis_names = config.axis_names();
     let evals_per_node = stats.work.evals as f64 / stats.nodes.max(1) as f64;
     if args.json {
         let json = serde_json::json!({
@@ -275,7 +302,7 @@ pub fn run(
         });
         // The observer's figures only when one ran (no null members in the output).
         let mut json = json;
-        if let Some(o) = observer.as_deref() {
+        if let Some(o) = observer {
             let (name, figures) = o.json();
             json[name] = figures;
         }
@@ -296,7 +323,7 @@ pub fn run(
             ratios.jerk,
             args.out.as_ref().map_or(String::new(), |p| format!("; {samples} samples in {}", p.display()))
         )?;
-        if let Some(o) = observer.as_deref() {
+        if let Some(o) = observer {
             write!(stdout, "{}", o.summary())?;
         }
     }

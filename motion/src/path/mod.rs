@@ -36,6 +36,19 @@ pub struct AxisDerivs {
     pub d3: AxisVec,
 }
 
+impl AxisDerivs {
+    /// Axis `k`'s velocity, acceleration and jerk where the path moves with velocity `v`,
+    /// acceleration `a` and jerk `j`: the chain rule Ȧ = A′v, Ä = A″v² + A′a,
+    /// A⃛ = A‴v³ + 3A″va + A′j (Kopp et al. 2019, eq. 1a–1c).
+    #[inline]
+    pub fn axis_rates(&self, k: usize, v: f64, a: f64, j: f64) -> [f64; 3] {
+        let vel = self.d1[k] * v;
+        let acc = self.d2[k] * v * v + self.d1[k] * a;
+        let jerk = self.d3[k] * v.powi(3) + 3.0 * self.d2[k] * v * a + self.d1[k] * j;
+        [vel, acc, jerk]
+    }
+}
+
 /// A geometry element parameterised by its own path length s ∈ [0, length_mm].
 #[derive(Debug, Clone, PartialEq)]
 pub enum Geometry {

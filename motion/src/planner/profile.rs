@@ -142,9 +142,7 @@ pub fn limit_ratios(path: &Path, segments: &[Segment], settings: &Settings, dt_s
             path.eval_left(st.s_mm, &mut d)
         }
         for (i, ax) in settings.axes.iter().enumerate() {
-            let vel = d.d1[i] * st.v;
-            let acc = d.d2[i] * st.v * st.v + d.d1[i] * st.a;
-            let jerk = d.d3[i] * st.v.powi(3) + 3.0 * d.d2[i] * st.v * st.a + d.d1[i] * st.j;
+            let [vel, acc, jerk] = d.axis_rates(i, st.v, st.a, st.j);
             worst[0] = worst[0].max(vel.abs() / ax.max_vel_per_s);
             worst[1] = worst[1].max(acc.abs() / ax.max_acc_per_s2);
             worst[2] = worst[2].max(jerk.abs() / ax.max_jerk_per_s3);

@@ -219,17 +219,9 @@ pub fn run(
     if !ratios.vel.is_finite() || !ratios.acc.is_finite() || !ratios.jerk.is_finite() || !duration.is_finite() {
         return Err(PlanError::NotFinite);
     }
-    let feed_stats = pipe.feed.stats();
-    let stats = feed_stats.plan;
     let length_mm = pipe.feed.path().length_mm();
-    let mut prep_stats = feed_stats.prep;
-    if prep_stats.pieces == 0 {
-        // Nothing was smoothed, so no sample was checked against the tolerance.
-        prep_stats.max_excess_mm = 0.0;
-    }
-
-    let figures = Figures { duration_s: duration, samples, period_s, ratios, length_mm, plan: stats, feed: feed_stats };
-    report(args, config, &checked, &figures, prep_stats, observer.as_deref(), stdout)
+    let figures = Figures { duration_s: duration, samples, period_s, ratios, length_mm, feed: pipe.feed.stats() };
+    report(args, config, &checked, &figures, observer.as_deref(), stdout)
 }
 
 /// What a plan measured, for [`report`].
@@ -239,7 +231,6 @@ struct Figures {
     period_s: f64,
     ratios: Ratios,
     length_mm: f64,
-    plan: interpd_motion::planner::PlanStats,
     feed: interpd_motion::feed::FeedStats,
 }
 
@@ -250,13 +241,16 @@ fn report(
     config: &Config,
     checked: &program::Checked,
     figures: &Figures,
-    prep_stats: interpd_motion::prep::PrepStats,
     observer: Option<&dyn SampleObserver>,
     stdout: &mut dyn Write,
 ) -> Result<(), PlanError> {
-    let Figures { duration_s: duration, samples, period_s, ratios, length_mm, plan: stats, feed: feed_stats } =
-        *figures;
-    let plan_s = feed_stats.plan_s;
+    let Figures { duration_s: duration, samples, period_s, ratios, length_mm, feed: feed_stats } = *figures;
+    let (stats, plan_s) = (feed_stats.plan, feed_stats.plan_s);
+    let mut prep_stats = feed_stats.prep;
+    if prep_stats.pieces == 0 {
+        // Nothing was smoothed, so no sample was checked against the tolerance.
+        prep_stats.max_excess_mm = 0.0;
+    }
     let axis_names = config.axis_names();
     let evals_per_node = stats.work.evals as f64 / stats.nodes.max(1) as f64;
     if args.json {

@@ -264,11 +264,6 @@ impl Feed {
         self.planner.limits()
     }
 
-    /// The feed override the programmed feeds are planned with.
-    pub fn feed_override(&self) -> f64 {
-        self.feed_override
-    }
-
     /// Where the motion starts (the machine position, or the program's start) and the program
     /// line of the first element; reads the program's first element.
     pub fn start(&mut self) -> Result<(AxisVec, u32), FeedError> {

@@ -333,7 +333,6 @@ struct Sampled {
     kept: Vec<Segment>,
     keep_all: bool,
     cursor: Cursor,
-    planned_until_s: f64,
 }
 
 /// Segments sampled past are dropped in batches of at least this many (each drop moves the
@@ -342,7 +341,7 @@ const RELEASE_BATCH: usize = 64;
 
 impl Sampled {
     fn new(feed: Feed, keep_all: bool) -> Self {
-        Self { feed, kept: Vec::new(), keep_all, cursor: Cursor::default(), planned_until_s: 0.0 }
+        Self { feed, kept: Vec::new(), keep_all, cursor: Cursor::default() }
     }
 
     /// The whole program is planned.
@@ -350,9 +349,9 @@ impl Sampled {
         self.feed.finished()
     }
 
-    /// End time of the planned motion so far, s.
+    /// End time of the planned motion so far, s (the samples never drop the last segment).
     fn planned_until_s(&self) -> f64 {
-        self.planned_until_s
+        self.kept.last().map_or(0.0, Segment::t1_s)
     }
 
     /// Plans on until at least one more segment is planned (or the program is planned to its
@@ -360,7 +359,6 @@ impl Sampled {
     fn advance(&mut self) -> Result<(), PlanError> {
         self.feed.plan(f64::MIN_POSITIVE)?;
         while let Some(seg) = self.feed.pop_segment() {
-            self.planned_until_s = seg.t1_s();
             self.kept.push(seg);
         }
         Ok(())

@@ -46,7 +46,6 @@ pub(super) struct Window {
     waiting: bool,
     /// A read ahead of the planner failed: returned where the planner reaches it.
     deferred: Option<FeedError>,
-    final_dwell_s: f64,
     /// Time spent reading the program and in the smoothing stage.
     pub(super) read_time: Duration,
     pub(super) prep_time: Duration,
@@ -68,7 +67,6 @@ impl Window {
     /// A window over a path held whole: the planner plans after each element.
     pub(super) fn whole(path: Path) -> Window {
         let after = path.elements.iter().map(|_| After::Plan).collect();
-        let final_dwell_s = path.final_dwell_s;
         Window {
             input: Input::Whole,
             path,
@@ -77,7 +75,6 @@ impl Window {
             done: true,
             waiting: false,
             deferred: None,
-            final_dwell_s,
             read_time: Duration::ZERO,
             prep_time: Duration::ZERO,
         }
@@ -94,7 +91,6 @@ impl Window {
         let s_offset_mm = before.length_mm();
         let mut window = Window::whole(before);
         window.done = false;
-        window.final_dwell_s = 0.0;
         let stream = match &appends {
             Some(buffer) => stream.with_appends(buffer.clone()),
             None => stream,
@@ -129,7 +125,7 @@ impl Window {
 
     /// The dwell after the last element, s (once every element is read).
     pub(super) fn final_dwell_s(&self) -> f64 {
-        self.final_dwell_s
+        self.path.final_dwell_s
     }
 
     /// What the program's lines held so far; `None` for a path held whole.
@@ -284,8 +280,7 @@ impl Window {
         smoothed?;
         if ended {
             self.done = true;
-            self.final_dwell_s = stream.final_dwell_s().unwrap_or(0.0);
-            self.path.final_dwell_s = self.final_dwell_s;
+            self.path.final_dwell_s = stream.final_dwell_s().unwrap_or(0.0);
         }
         let offset = *s_offset_mm;
         self.take_smoothed(offset, if ended { After::Finish } else { After::Plan });

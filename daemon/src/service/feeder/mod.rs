@@ -297,7 +297,9 @@ impl Feeder {
                 self.abort();
                 let start =
                     CoarsePoint::at_rest(0.0, 0.0, path.elements.first().map_or(0, |e| e.source.line), path.start);
-                let feed = Box::new(Feed::builder(&self.settings).feed_override(feed_override).whole((*path).clone()));
+                let feed = Box::new(
+                    Feed::builder(&self.settings).feed_override(feed_override).whole(Arc::unwrap_or_clone(path)),
+                );
                 self.run = Some(Run::new(Motion::Law { feed, law: laws }, feed_override, epoch, 0.0, start));
             }
             FeederCommand::Override(factor) => self.set_override(factor),
@@ -561,9 +563,9 @@ pub fn bounded_lookahead_mm(settings: &Settings) -> f64 {
 const LOOKAHEAD_STOPS: f64 = 3.0;
 const MIN_LOOKAHEAD_MM: f64 = 20.0;
 
-/// Why the return to a held program (or a restart along the path) cannot start.
+/// Why a restart along the path, or the return to a held program, cannot start.
 #[derive(Debug, thiserror::Error)]
-enum ReturnError {
+enum RestartError {
     #[error("manual motion: {0}")]
     Manual(#[from] ManualPlanError),
     #[error("{0}")]

@@ -6,7 +6,6 @@ use super::run::{Motion, PathRun};
 use super::{Feeder, STARVED_STOP_CHUNKS};
 use crate::interp::Chunk;
 use crate::interp::coarse::{CoarseBuilder, CoarsePoint};
-use crate::service::lock;
 use crate::service::tooling::Tooling;
 use interpd_motion::path::{AxisVec, Path};
 use interpd_motion::program::Appends;
@@ -70,7 +69,7 @@ impl Feeder {
     pub(super) fn open_path(&self, source: PathSource, feed_override: f64) -> Result<PathRun, OpenError> {
         let (text, here, tooling, appends) = match source {
             PathSource::Whole(path) => {
-                let feed = Feed::builder(&self.settings).feed_override(feed_override).whole((*path).clone());
+                let feed = Feed::builder(&self.settings).feed_override(feed_override).whole(Arc::unwrap_or_clone(path));
                 return Ok(PathRun::new(feed, None));
             }
             PathSource::Program { text, here, tooling, appends } => (text, here, tooling, appends),
@@ -92,7 +91,6 @@ impl Feeder {
             }
             ProgramText::Text { name, text } => builder.open_text(name, text.as_str()),
         };
-        lock(&self.modal).clear();
         Ok(PathRun::new(feed, Some(self.modal.clone())))
     }
 

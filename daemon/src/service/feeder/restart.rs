@@ -3,7 +3,7 @@
 //! excursion (jog, MDI), and a new feed override (a replan from the end of the queue).
 
 use super::run::{Motion, PathRun, Run, Wait};
-use super::{Feeder, ReturnError};
+use super::{Feeder, RestartError};
 use crate::interp::Epoch;
 use crate::interp::coarse::CoarsePoint;
 use crate::service::manual::{ManualGoal, ManualPart};
@@ -47,7 +47,7 @@ impl Feeder {
         epoch: Epoch,
         s_mm: f64,
         here: AxisVec,
-    ) -> Result<Run, ReturnError> {
+    ) -> Result<Run, RestartError> {
         let (at, line) = path.feed.eval(s_mm)?;
         path.feed.restart_at_rest(s_mm, Vec::new());
         let n = self.axis_limits.len();
@@ -98,7 +98,7 @@ impl Feeder {
                         let start = CoarsePoint::at_rest(0.0, s_mm, line, at.pos);
                         Run::new(Motion::Path(path), feed_override, epoch, s_mm, start)
                     })
-                    .map_err(ReturnError::from)
+                    .map_err(RestartError::from)
             }
         };
         match restarted {

@@ -22,6 +22,7 @@ mod programmed;
 mod qp;
 mod run;
 mod settings;
+mod simplify;
 mod stage;
 mod stats;
 mod verify;

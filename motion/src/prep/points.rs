@@ -39,6 +39,8 @@ pub(super) struct Placer {
     tangent: AxisVec,
     last_corner_s_mm: f64,
     seg_start_s_mm: f64,
+    /// Points placed since the last segment end.
+    seg_points: usize,
     started: bool,
     /// The next point, found final but waiting for more of the run behind it (see `place`).
     waiting_s_mm: Option<f64>,
@@ -50,6 +52,10 @@ const SLIVER_FRACTION: f64 = 0.3;
 const CALM_SPACINGS: f64 = 2.0;
 /// ... unless the segment has grown to this many `segment_mm`.
 const CALM_GIVE_UP: f64 = 2.0;
+/// A segment ends after this many points where the path is calm, and after twice as many
+/// anywhere: on tight geometry (loops, reversals, a wandering polyline) points come every few
+/// micrometres, and a window of `segment_mm` would hold thousands of them and solve too slowly.
+const SEGMENT_POINTS: usize = 40;
 /// A corner closer than this many first steps is reached in one step.
 const CORNER_LAND_FACTOR: f64 = 1.5;
 
@@ -61,6 +67,7 @@ impl Placer {
             tangent: [0.0; MAX_AXES],
             last_corner_s_mm: f64::NEG_INFINITY,
             seg_start_s_mm: 0.0,
+            seg_points: 0,
             started: false,
             waiting_s_mm: None,
         }
@@ -105,10 +112,16 @@ impl Placer {
             // inherits its steep derivatives), unless corners follow each other closely.
             let run_len = s_next - self.seg_start_s_mm;
             let calm = !self.near_corner(elems, s_next, elem, st);
-            let seg_end = end || (run_len >= st.segment_mm && (calm || run_len >= CALM_GIVE_UP * st.segment_mm));
+            self.seg_points += 1;
+            let long = run_len >= st.segment_mm || self.seg_points >= SEGMENT_POINTS;
+            let seg_end = end
+                || (long && calm)
+                || run_len >= CALM_GIVE_UP * st.segment_mm
+                || self.seg_points >= 2 * SEGMENT_POINTS;
             let p = self.point(elems, s_next, elem, vertex, seg_end);
             if seg_end {
                 self.seg_start_s_mm = s_next;
+                self.seg_points = 0;
             }
             if vertex && elems.get(elem).turn_in_rad > st.corner_rad {
                 self.last_corner_s_mm = s_next;
@@ -191,7 +204,19 @@ impl Placer {
         false
     }
 
+    /// A point halfway along the programmed path between `a` and `b`: where a piece between
+    /// them left the band, one more point holds the QP to the path there.
+    pub(super) fn midpoint(elems: &RunElems, a: &Point, b: &Point) -> Point {
+        let s_mm = 0.5 * (a.s_mm + b.s_mm);
+        let elem = elems.index_at(s_mm, a.elem);
+        Self::point_at(elems, s_mm, elem, false, false)
+    }
+
     fn point(&self, elems: &RunElems, s_mm: f64, elem: usize, vertex: bool, seg_end: bool) -> Point {
+        Self::point_at(elems, s_mm, elem, vertex, seg_end)
+    }
+
+    fn point_at(elems: &RunElems, s_mm: f64, elem: usize, vertex: bool, seg_end: bool) -> Point {
         let e = elems.get(elem);
         let mut d = AxisDerivs::default();
         e.eval(s_mm, &mut d);

@@ -10,9 +10,11 @@
 use super::condition::{Conditioned, Conditioner};
 use super::elements::{RunElem, angle_between};
 use super::pieces;
+use super::points::Placer;
 use super::qp::QpFailure;
 use super::run::{Run, RunEnd};
 use super::settings::StageSettings;
+use super::simplify;
 use super::stats::PrepStats;
 use super::verify;
 use super::window::{RightEnd, Solution, Solvers, State, WindowInput};
@@ -25,6 +27,12 @@ use std::time::Instant;
 
 /// Re-solves with a narrower band when the check finds a piece outside the tolerance.
 const VERIFY_RETRIES: usize = 3;
+/// Re-solves with one more point inside a piece that left the band, per window attempt: the
+/// QP's points pinned to alternate band edges (ringing on a short leg, a reversal) leave the
+/// pieces between them room to bulge out, which a point in between takes away.
+const REFINE_RETRIES: usize = 8;
+/// A piece shorter than this many tolerances is not split further; its band narrows instead.
+const REFINE_MIN_PER_TOL: f64 = 4.0;
 /// Band factor applied around a piece that failed the check.
 const VERIFY_SHRINK: f64 = 0.5;
 /// A committed node farther than this from the programmed path gets a connecting line before
@@ -279,8 +287,20 @@ impl Prep {
         } else if matches!(final_right, RightEnd::Join(_)) {
             ladder.push((last, RightEnd::Position, last, Rung::Looser));
         }
-        for (w_last, right, commit, rung) in ladder {
-            match self.try_window(w_last, right, commit) {
+        let mut commit_on_failure = if is_final { last } else { first_end };
+        for i in 0..ladder.len() {
+            let (mut w_last, right, mut commit, rung) = ladder[i];
+            let mut inserted = Vec::new();
+            let result = self.try_window(&mut w_last, right, &mut commit, &mut inserted);
+            // Points inserted into this attempt stay: the later rungs' indices move past them.
+            for &at in &inserted {
+                for r in &mut ladder[i + 1..] {
+                    r.0 += usize::from(r.0 >= at);
+                    r.2 += usize::from(r.2 >= at);
+                }
+                commit_on_failure += usize::from(commit_on_failure >= at);
+            }
+            match result {
                 Ok((pieces, sol)) => {
                     self.count_rung(rung, w_last);
                     self.emit_pieces(pieces, commit);
@@ -300,7 +320,7 @@ impl Prep {
                 }
             }
         }
-        self.exact_stop(if is_final { last } else { first_end })
+        self.exact_stop(commit_on_failure)
     }
 
     fn count_rung(&mut self, rung: Rung, w_last: usize) {
@@ -318,18 +338,23 @@ impl Prep {
         }
     }
 
-    /// One window solve with the check; narrows the band around failing pieces and retries.
+    /// One window solve with the check. A piece outside the band gets a point halfway along it
+    /// (while it is long enough), else its band narrows, and the window is solved again.
+    /// Points inserted move `last` and `commit` on; `inserted` collects their indices so the
+    /// caller can move its other indices too.
     fn try_window(
         &mut self,
-        last: usize,
+        last: &mut usize,
         right: RightEnd,
-        commit: usize,
+        commit: &mut usize,
+        inserted: &mut Vec<usize>,
     ) -> Result<(Vec<QuinticSpan>, Solution), QpFailure> {
-        let mut shrink = vec![1.0; last + 1];
-        for _ in 0..=VERIFY_RETRIES {
+        let mut shrink = vec![1.0; *last + 1];
+        let (mut narrowed, mut refined) = (0, 0);
+        loop {
             let run = self.run.as_ref().expect("open run");
             let input = WindowInput {
-                points: &run.points[..=last],
+                points: &run.points[..=*last],
                 left: &run.state,
                 left_levels: run.left_levels,
                 right,
@@ -353,27 +378,32 @@ impl Prep {
                 }
             };
             self.stats.iterations += u64::from(sol.iterations);
-            match check_pieces(run, &self.st, &mut self.stats, &sol, commit) {
+            let j = match check_pieces(run, &self.st, &mut self.stats, &sol, *commit) {
                 Ok(pieces) => return Ok((pieces, sol)),
-                Err(j) => {
-                    let p = &self.run.as_ref().expect("open run").points;
-                    tracing::debug!(
-                        piece = j,
-                        s_mm = p[j].s_mm,
-                        to_mm = p[j + 1].s_mm,
-                        "piece outside the band: narrowing"
-                    );
-                    for (i, (pt, z)) in p.iter().zip(&sol.states).enumerate().take(last + 1) {
-                        tracing::trace!(i, s = pt.s_mm, x = ?pt.pos[..2], zx = ?z[0], zy = ?z[1], "window point");
-                    }
-                    self.stats.verify_retries += 1;
-                    for s in &mut shrink[j.saturating_sub(1)..(j + 3).min(last + 1)] {
-                        *s *= VERIFY_SHRINK;
-                    }
-                }
+                Err(j) => j,
+            };
+            let run = self.run.as_mut().expect("open run");
+            let (a, b) = (run.points[j], run.points[j + 1]);
+            tracing::debug!(piece = j, s_mm = a.s_mm, to_mm = b.s_mm, "piece outside the band");
+            if refined < REFINE_RETRIES && b.s_mm - a.s_mm >= REFINE_MIN_PER_TOL * a.prog_tol_mm.min(b.prog_tol_mm) {
+                refined += 1;
+                self.stats.refined += 1;
+                run.points.insert(j + 1, Placer::midpoint(&run.elems, &a, &b));
+                shrink.insert(j + 1, shrink[j].min(shrink[j + 1]));
+                *last += 1;
+                *commit += 1;
+                inserted.push(j + 1);
+                continue;
+            }
+            if narrowed == VERIFY_RETRIES {
+                return Err(QpFailure::Numerical);
+            }
+            narrowed += 1;
+            self.stats.verify_retries += 1;
+            for s in &mut shrink[j.saturating_sub(1)..(j + 3).min(*last + 1)] {
+                *s *= VERIFY_SHRINK;
             }
         }
-        Err(QpFailure::Numerical)
     }
 
     fn emit_pieces(&mut self, pieces: Vec<QuinticSpan>, commit: usize) {
@@ -407,27 +437,35 @@ impl Prep {
         let from = run.elems.index_at(p0.s_mm - 2.0 * st.spacing_mm, p0.elem);
         let (s_f, f_pos) = run.elems.nearest(&c_pos, from, p0.elem + 1);
         let s_f = s_f.min(target.s_mm);
-        let mut parts: Vec<(Geometry, JointKind, Element)> = Vec::new();
+        // (geometry, joint, source element, the band left to simplify it in; NaN: keep as is).
+        let mut parts: Vec<(Geometry, JointKind, Element, f64)> = Vec::new();
         let gap = (0..st.n_axes).map(|k| (c_pos[k] - f_pos[k]).powi(2)).sum::<f64>().sqrt();
         let src_f = run.elems.get(run.elems.index_at(s_f, p0.elem)).element.clone();
         if gap > ON_PATH_MM {
-            parts.push((Geometry::Line(Line::new(c_pos, f_pos, gap)), JointKind::Corner, src_f.clone()));
+            parts.push((Geometry::Line(Line::new(c_pos, f_pos, gap)), JointKind::Corner, src_f.clone(), f64::NAN));
         }
         let i0 = run.elems.index_at(s_f, p0.elem);
         let mut i = i0;
         while i < run.elems.end() && run.elems.get(i).s0_mm < target.s_mm {
             let e: &RunElem = run.elems.get(i);
             let (a, b) = (s_f.max(e.s0_mm), target.s_mm.min(e.s1_mm()));
-            // A stop where the exact path is rejoined, then the programmed joints.
-            let mut joint = if i == i0 { JointKind::Corner } else { e.element.joint };
             let geoms = pieces::exact_part(e, a, b, &st.linear).map_err(|err| PrepError {
                 line: e.element.source.line,
                 s_mm: a,
                 reason: PrepFailure::ExactPart(err),
             })?;
-            for g in geoms {
-                parts.push((g, joint, e.element.clone()));
-                joint = JointKind::Smooth;
+            for (n, g) in geoms.into_iter().enumerate() {
+                // A stop where the exact path is rejoined (the first part emitted: a part of
+                // `i0` may be empty where the segment starts on its end); between elements the joint their
+                // geometry makes (a conditioned chord's own joint is that of its first
+                // programmed move, not the chord's), so every corner stops; the pieces of
+                // one element join smoothly.
+                let joint = match parts.last() {
+                    None => JointKind::Corner,
+                    Some((prev, ..)) if n == 0 => classify_joint(prev, &g, st.n_axes),
+                    Some(_) => JointKind::Smooth,
+                };
+                parts.push((g, joint, e.element.clone(), e.tol_mm));
             }
             i += 1;
         }
@@ -444,8 +482,9 @@ impl Prep {
         let dwell = std::mem::take(&mut run.dwell_s);
         run.next_joint = next;
         run.commit_to(commit, state, levels, st.spacing_mm);
+        let parts = simplify_lines(parts, st.n_axes);
         let mut first = true;
-        for (g, j, src) in parts {
+        for (g, j, src, _) in parts {
             self.emit(g, j, if first { dwell } else { 0.0 }, &src);
             first = false;
         }
@@ -479,6 +518,67 @@ impl Prep {
         self.last_out = Some(e.clone());
         self.out.push_back(e);
     }
+}
+
+/// Share of the band left on a line that the exact-stop fallback's simplification may use.
+const SIMPLIFY_BAND_SHARE: f64 = 0.5;
+
+/// The exact-stop fallback's parts with each run of programmed lines (same feed) replaced by
+/// its Douglas–Peucker simplification within half the band they leave, so the motion stops at
+/// the run's real corners only. The last line of a run is kept as programmed: where the
+/// fallback ends inside the path, the next window continues along its direction.
+fn simplify_lines(
+    parts: Vec<(Geometry, JointKind, Element, f64)>,
+    n_axes: usize,
+) -> Vec<(Geometry, JointKind, Element, f64)> {
+    let simplifiable = |p: &(Geometry, JointKind, Element, f64)| matches!(p.0, Geometry::Line(_)) && !p.3.is_nan();
+    let mut out: Vec<(Geometry, JointKind, Element, f64)> = Vec::with_capacity(parts.len());
+    let mut i = 0;
+    while i < parts.len() {
+        let mut j = i;
+        while j + 1 < parts.len()
+            && simplifiable(&parts[i])
+            && simplifiable(&parts[j + 1])
+            && parts[j + 1].2.feed == parts[i].2.feed
+        {
+            j += 1;
+        }
+        // parts[i..j] are simplified, parts[j] (the run's last line) is kept.
+        if j >= i + 2 {
+            let mut vertices: Vec<AxisVec> = parts[i..j].iter().map(|p| line_ends(&p.0).0).collect();
+            vertices.push(line_ends(&parts[j].0).0);
+            let tol = parts[i..j].iter().map(|p| p.3).fold(f64::INFINITY, f64::min) * SIMPLIFY_BAND_SHARE;
+            let kept = simplify::douglas_peucker(&vertices, n_axes, tol);
+            for w in kept.windows(2) {
+                let (a, b) = (vertices[w[0]], vertices[w[1]]);
+                let len = (0..n_axes).map(|k| (b[k] - a[k]).powi(2)).sum::<f64>().sqrt();
+                let g = Geometry::Line(Line::new(a, b, len));
+                // The run's first line keeps a stop before it; any other joint is what the
+                // simplified geometry makes.
+                let joint = match out.last() {
+                    _ if w[0] == 0 && matches!(parts[i].1, JointKind::Corner | JointKind::Start) => parts[i].1,
+                    Some((prev, ..)) => classify_joint(prev, &g, n_axes),
+                    None => parts[i].1,
+                };
+                out.push((g, joint, parts[i + w[0]].2.clone(), parts[i + w[0]].3));
+            }
+            let (g, _, src, tol) = parts[j].clone();
+            let joint = classify_joint(&out.last().expect("a simplified line").0, &g, n_axes);
+            out.push((g, joint, src, tol));
+        } else {
+            out.extend(parts[i..=j].iter().cloned());
+        }
+        i = j + 1;
+    }
+    out
+}
+
+/// Start and end of a line.
+fn line_ends(g: &Geometry) -> (AxisVec, AxisVec) {
+    let (mut a, mut b) = (AxisDerivs::default(), AxisDerivs::default());
+    g.eval(0.0, &mut a);
+    g.eval(g.length_mm(), &mut b);
+    (a.pos, b.pos)
 }
 
 /// The pieces of `points[..=commit]`, or the index of the first one outside the tolerance.

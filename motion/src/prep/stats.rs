@@ -32,6 +32,8 @@ pub struct PrepStats {
     pub iterations: u64,
     /// Re-solves with a narrower band after the check found a piece outside the tolerance.
     pub verify_retries: u64,
+    /// Re-solves with a point inserted halfway along a piece that left the band.
+    pub refined: u64,
     /// Fallback: a smaller window.
     pub fallback_smaller: u64,
     /// Fallback: the window's end only kept in its band.

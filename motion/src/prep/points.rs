@@ -29,7 +29,19 @@ pub(super) struct Point {
     pub vertex: bool,
     /// Closes a window segment.
     pub seg_end: bool,
+    /// How far the programmed path runs on along the point's tangent as a straight line,
+    /// behind and ahead of it (mm, up to `STRAIGHT_REACH_MM`; ahead only over the elements
+    /// known): an axis along which the path runs exactly may slide that far and no farther.
+    pub straight_mm: (f64, f64),
 }
+
+/// The farthest the straight extent of a point is followed, mm (beyond any window).
+const STRAIGHT_REACH_MM: f64 = 100.0;
+/// Elements of a straight extent followed at most on each side (CAM output has thousands of
+/// collinear micro-segments only where the conditioner merged them into chords already).
+const STRAIGHT_MAX_ELEMS: usize = 256;
+/// Tangents whose cosine is at least this are one straight line.
+const STRAIGHT_COS: f64 = 1.0 - 1e-12;
 
 /// Places points along a run as its elements become known.
 #[derive(Debug)]
@@ -232,8 +244,42 @@ impl Placer {
                 tangent = sum.map(|x| x / norm);
             }
         }
-        Point { s_mm, pos: d.pos, tangent, tol_mm: e.tol_mm, prog_tol_mm: e.prog_tol_mm, elem, vertex, seg_end }
+        let straight_mm = straight_extent(elems, s_mm, elem, &tangent);
+        Point {
+            s_mm,
+            pos: d.pos,
+            tangent,
+            tol_mm: e.tol_mm,
+            prog_tol_mm: e.prog_tol_mm,
+            elem,
+            vertex,
+            seg_end,
+            straight_mm,
+        }
     }
+}
+
+/// The straight extent (behind, ahead) of the path through `s_mm` along `tangent`: the lines
+/// around it that run exactly along the tangent. Zero on a curve or a vertex that turns.
+fn straight_extent(elems: &RunElems, s_mm: f64, elem: usize, tangent: &AxisVec) -> (f64, f64) {
+    let along = |i: usize| {
+        let e = elems.get(i);
+        matches!(e.element.geometry, crate::path::Geometry::Line(_))
+            && (0..MAX_AXES).map(|k| e.t_start[k] * tangent[k]).sum::<f64>() >= STRAIGHT_COS
+    };
+    if !along(elem) {
+        return (0.0, 0.0);
+    }
+    let (mut lo, mut hi) = (elem, elem);
+    while lo > elems.first_index() && elem - lo < STRAIGHT_MAX_ELEMS && along(lo - 1) {
+        lo -= 1;
+    }
+    while hi + 1 < elems.end() && hi - elem < STRAIGHT_MAX_ELEMS && along(hi + 1) {
+        hi += 1;
+    }
+    let back = (s_mm - elems.get(lo).s0_mm).clamp(0.0, STRAIGHT_REACH_MM);
+    let ahead = (elems.get(hi).s1_mm() - s_mm).clamp(0.0, STRAIGHT_REACH_MM);
+    (back, ahead)
 }
 
 impl Default for Placer {

@@ -32,7 +32,7 @@ const VERIFY_RETRIES: usize = 3;
 /// pieces between them room to bulge out, which a point in between takes away.
 const REFINE_RETRIES: usize = 8;
 /// A piece shorter than this many tolerances is not split further; its band narrows instead.
-const REFINE_MIN_PER_TOL: f64 = 4.0;
+const REFINE_MIN_PER_TOL: f64 = 0.25;
 /// Band factor applied around a piece that failed the check.
 const VERIFY_SHRINK: f64 = 0.5;
 /// A committed node farther than this from the programmed path gets a connecting line before
@@ -385,6 +385,7 @@ impl Prep {
             let run = self.run.as_mut().expect("open run");
             let (a, b) = (run.points[j], run.points[j + 1]);
             tracing::debug!(piece = j, s_mm = a.s_mm, to_mm = b.s_mm, "piece outside the band");
+            tracing::trace!(a = ?&a.pos[..3], b = ?&b.pos[..3], ta = ?&a.tangent[..3], tol = a.tol_mm, za = ?[sol.states[j][0], sol.states[j][1], sol.states[j][2]], zb = ?[sol.states[j+1][0], sol.states[j+1][1], sol.states[j+1][2]], vertex = a.vertex, "failing piece");
             if refined < REFINE_RETRIES && b.s_mm - a.s_mm >= REFINE_MIN_PER_TOL * a.prog_tol_mm.min(b.prog_tol_mm) {
                 refined += 1;
                 self.stats.refined += 1;

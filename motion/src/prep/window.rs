@@ -5,7 +5,7 @@ use super::band;
 use super::points::Point;
 use super::qp::{QpFailure, Rhs, Shape, WindowQp};
 use super::settings::StageSettings;
-use crate::path::{AxisVec, MAX_AXES};
+use crate::path::MAX_AXES;
 use std::collections::HashMap;
 
 /// Position and derivatives per axis in τ = s / point_spacing_mm (level 0 = position).
@@ -40,6 +40,11 @@ pub(super) struct WindowInput<'a> {
 /// Positions may slide this many window lengths along an unconstrained axis (a finite stand-in
 /// for "no bound", which the solver needs).
 const FREE_BAND_WINDOWS: f64 = 1.0;
+/// A point slides along a straight axis-parallel path by at most this many point spacings: as
+/// far as the check after the solve looks for the programmed path around a piece
+/// (`verify::piece_excess`, two spacings), so a piece slid farther is not measured against
+/// the wrong elements; more freedom than a spacing changes nothing a window needs.
+const SLIDE_SPACINGS: f64 = 1.0;
 /// An axis whose points differ by less than this over a window does not move there, mm.
 const STILL_AXIS_MM: f64 = 1e-12;
 
@@ -80,11 +85,26 @@ impl Solvers {
         let active = active_axes(st, w);
         let origin = pts[0].pos;
         let free = FREE_BAND_WINDOWS * st.window_mm();
-        let halfwidths: Vec<AxisVec> = shape
+        // (below, above) the programmed position per axis. An axis along which the path runs
+        // exactly (Haas 2012, Alg. 3.2: NaN wins) slides along the path, but only as far as
+        // the path stays that straight line: beyond, the point would leave the path (a
+        // plunge along Z slid back past the corner it came round).
+        let halfwidths: Vec<[(f64, f64); MAX_AXES]> = shape
             .bounded()
             .map(|j| {
-                let b = band::split(&pts[j].tangent, &active, pts[j].tol_mm);
-                b.map(|x| if x.is_finite() { x * (1.0 - st.band_margin) * w.shrink[j] } else { free })
+                let p = &pts[j];
+                let b = band::split(&p.tangent, &active, p.tol_mm);
+                std::array::from_fn(|k| {
+                    if b[k].is_finite() {
+                        let h = b[k] * (1.0 - st.band_margin) * w.shrink[j];
+                        (h, h)
+                    } else {
+                        let (back, ahead) = p.straight_mm;
+                        let (minus, plus) = if p.tangent[k] >= 0.0 { (back, ahead) } else { (ahead, back) };
+                        let slide = free.min(st.spacing_mm * SLIDE_SPACINGS);
+                        (minus.min(slide) * p.tangent[k].abs(), plus.min(slide) * p.tangent[k].abs())
+                    }
+                })
             })
             .collect();
         let mut sol = Solution { states: vec![[[0.0; 4]; MAX_AXES]; n], iterations: 0 };
@@ -105,7 +125,7 @@ impl Solvers {
             self.bands.clear();
             for (i, j) in shape.bounded().enumerate() {
                 let c = pts[j].pos[k] - origin[k];
-                self.bands.push((c - halfwidths[i][k], c + halfwidths[i][k]));
+                self.bands.push((c - halfwidths[i][k].0, c + halfwidths[i][k].1));
             }
             shape.rhs(&Rhs { left: &left, right: &right, bands: &self.bands }, &mut self.b);
             self.q.clear();

@@ -1,0 +1,506 @@
+#!/usr/bin/python3
+"""Agreement of interpd with LinuxCNC's interpreter over directories of G-code programs.
+
+Usage: /usr/bin/python3 scripts/linuxcnc-agreement.py BINARY DIR... [--machine FILE] [--json]
+       [--jobs N] [--list]
+
+For every `.ngc` under the DIRs (recursively):
+
+- Scope. A program is left out, with the reason, when it needs what interpd is not meant to
+  carry out (issue 38): probing (G38.x), lathe modes (G7 G8 G33.1 G70 G71 G72 G76, G96 with
+  G7/G8), remapping, HAL or Python (M62-M68, M100-M199, `#<_ini[`, `#<_hal[`, `(py,`, a
+  directory whose INI file remaps codes or loads Python), U/V/W axes, or an `o<name> call` of
+  a subroutine that is neither in the file nor a `name.ngc` in its directory.
+- LinuxCNC: `rs274 -g -t TOOLS -v VARS` (Debian's `linuxcnc-uspace`), run in the program's
+  directory (where LinuxCNC's interpreter looks for subroutine files without an INI file):
+  the verdict. The motion comes from `scripts/rs274_canon.py` (LinuxCNC's `gcode` module, the
+  same interpreter, doubles); for programs with T, D or H words, which the module cannot run
+  without a live tool table, from `rs274 -g`'s printed calls (4 decimals in the program's
+  units: the final position is then compared within 1 µm plus that rounding).
+- interpd: `BINARY check FILE --machine M`: the verdict, the first error, the path length
+  (the programmed path, cutter-compensated, before smoothing); `BINARY plan FILE --machine M
+  --period-ms 1e6 --out CSV`: the final position (the last sample, where the machine rests).
+
+The machine: the 3-axis machine FILE (default tests/machines/xyz_loose.toml, X Y ±1000 mm,
+Z ±500 mm) written to a scratch copy with travel widened to ±100 000 mm (the programs are not
+written for any one machine) and tools 1-99 added where FILE has none: diameter 0.125 in
+(3.175 mm), length 0, as `rs274`'s tool table gets them too (tool 1 of FILE is kept: 6 mm).
+
+Both accept and agree: final X Y Z within 1 µm and path length within 0.01 mm.
+"""
+import argparse
+import collections
+import concurrent.futures
+import json
+import math
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import tomllib
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+CANON = os.path.join(REPO, "scripts", "rs274_canon.py")
+SYSTEM_PYTHON = "/usr/bin/python3"
+MM_PER_INCH = 25.4
+POS_TOL_MM = 1e-3
+LENGTH_TOL_MM = 0.01
+TRAVEL_MM = 100_000.0
+DEFAULT_TOOL_DIAMETER_MM = 3.175
+TOOLS = range(1, 100)
+TIMEOUT_S = 120
+
+# ----------------------------------------------------------------------------------------------
+# Scope
+
+
+def strip_comments(line):
+    """The line without `( … )` comments and without what follows `;`."""
+    out, depth = [], False
+    for c in line:
+        if depth:
+            depth = c != ")"
+        elif c == "(":
+            depth = True
+        elif c == ";":
+            break
+        else:
+            out.append(c)
+    return "".join(out)
+
+
+def words(text):
+    """(letter, number text) of every word outside comments; named parameters `#<x>`,
+    O-word names `o<x>` and keywords of two or more letters (SIN, sub, while …) are skipped."""
+    out = []
+    for raw in text.splitlines():
+        line = strip_comments(raw).upper().replace(" ", "").replace("\t", "")
+        line = re.sub(r"<[^>]*>", "", line)
+        line = re.sub(r"[A-Z]{2,}", "", line)
+        for m in re.finditer(r"([A-Z])([-+]?[0-9.]+)?", line):
+            out.append((m.group(1), m.group(2) or ""))
+    return out
+
+
+def code_values(ws, letter):
+    vals = []
+    for l, n in ws:
+        if l == letter and n:
+            try:
+                vals.append(float(n))
+            except ValueError:
+                pass
+    return vals
+
+
+def ini_needs_remap(directory):
+    """The test directory's INI file remaps codes or loads Python (tests/interp/*)."""
+    for name in os.listdir(directory):
+        if name.endswith(".ini"):
+            try:
+                with open(os.path.join(directory, name), errors="replace") as f:
+                    text = f.read().upper()
+            except OSError:
+                continue
+            if "REMAP" in text or "[PYTHON]" in text or "TOPLEVEL" in text:
+                return True
+    return False
+
+
+def out_of_scope(path, text):
+    """The reason the program is left out, or None."""
+    ws = words(text)
+    g = code_values(ws, "G")
+    m = code_values(ws, "M")
+    low = text.lower()
+    if any(math.isclose(v, x) for v in g for x in (38.2, 38.3, 38.4, 38.5)):
+        return "probing (G38.x)"
+    if any(math.isclose(v, x) for v in g for x in (7, 8, 33.1, 70, 71, 72, 76)):
+        return "lathe modes (G7 G8 G33.1 G70-G72 G76)"
+    if (
+        any(62 <= v <= 68 or 100 <= v <= 199 for v in m)
+        or "#<_ini[" in low
+        or "#<_hal[" in low
+        or "(py," in low
+        or ";py," in low
+        or ini_needs_remap(os.path.dirname(path))
+    ):
+        return "remapping, HAL or Python"
+    if any(l in "UVW" for l, _ in ws):
+        return "U/V/W axes"
+    subs = {n.lower() for n in re.findall(r"o\s*<\s*([^>]+?)\s*>\s*sub\b", low)}
+    calls = {n.lower() for n in re.findall(r"o\s*<\s*([^>]+?)\s*>\s*call\b", low)}
+    directory = os.path.dirname(path)
+    present = {f[:-4].lower() for f in os.listdir(directory) if f.lower().endswith(".ngc")}
+    if calls - subs - present:
+        return "absent subroutine files"
+    return None
+
+
+def has_tool_word(text):
+    return any(l in "TDH" for l, _ in words(text))
+
+
+# ----------------------------------------------------------------------------------------------
+# LinuxCNC
+
+
+def rs274_g(path, tools_tbl, scratch):
+    """`rs274 -g`'s verdict (None or the first error line) and its printed output."""
+    var = os.path.join(scratch, "rs274.var")
+    open(var, "w").close()
+    try:
+        p = subprocess.run(
+            ["rs274", "-g", "-t", tools_tbl, "-v", var, os.path.basename(path)],
+            cwd=os.path.dirname(path),
+            env=dict(os.environ, HOME=scratch),
+            capture_output=True,
+            text=True,
+            errors="replace",
+            timeout=TIMEOUT_S,
+        )
+    except subprocess.TimeoutExpired:
+        return "timeout", ""
+    if p.returncode == 0:
+        return None, p.stdout
+    # The message goes to stderr (after "executing"); older builds print it on stdout.
+    lines = [
+        l for l in (p.stderr + "\n" + p.stdout).splitlines() if l.strip() and not l.lstrip()[:1].isdigit() and l.strip() != "executing"
+    ]
+    return (lines[0] if lines else f"exit {p.returncode}"), p.stdout
+
+
+def arc_length(start, end, centre, plane_axes, turns):
+    """Length of a helix from `start` to `end` (XYZ, mm) around `centre` (in the plane's axis
+    order) with signed `turns` (positive counter-clockwise)."""
+    i, j, k = plane_axes
+    a0 = math.atan2(start[j] - centre[1], start[i] - centre[0])
+    a1 = math.atan2(end[j] - centre[1], end[i] - centre[0])
+    r = math.hypot(start[i] - centre[0], start[j] - centre[1])
+    if turns > 0:
+        sweep = (a1 - a0) % (2 * math.pi)
+    else:
+        sweep = (a0 - a1) % (2 * math.pi)
+    if sweep <= 1e-12:
+        sweep = 2 * math.pi
+    sweep += 2 * math.pi * (abs(turns) - 1)
+    return math.hypot(r * sweep, end[k] - start[k])
+
+
+PLANE_AXES = {17: (0, 1, 2), 18: (2, 0, 1), 19: (1, 2, 0)}
+
+
+def canon_motion(path):
+    """(final XYZ mm, path length mm) from rs274_canon.py, or an error string."""
+    try:
+        p = subprocess.run(
+            [SYSTEM_PYTHON, CANON, os.path.basename(path)],
+            cwd=os.path.dirname(path),
+            capture_output=True,
+            text=True,
+            timeout=TIMEOUT_S,
+        )
+    except subprocess.TimeoutExpired:
+        return "canon timeout"
+    # The program's own (PRINT, …) output shares stdout: the answer is the JSON line.
+    answers = [l for l in p.stdout.splitlines() if l.startswith('{"file"')]
+    if p.returncode != 0 or not answers:
+        return f"canon failed ({p.returncode})"
+    v = json.loads(answers[-1])
+    if not v["ok"]:
+        return "canon refuses: " + v["error"]
+    pos = [0.0, 0.0, 0.0]
+    length = 0.0
+    for mv in v["moves"]:
+        end = mv["end"][:3]
+        if mv["kind"] == "arc":
+            length += arc_length(pos, end, mv["centre"], PLANE_AXES[mv["plane"]], mv["turns"])
+        else:
+            length += math.dist(pos, end)
+        pos = end
+    return pos, length, 0.0
+
+
+CALL = re.compile(r"([A-Z_0-9]+)\((.*)\)\s*$")
+PRINTED_PLANES = {"CANON_PLANE_XY": 17, "CANON_PLANE_XZ": 18, "CANON_PLANE_YZ": 19}
+
+
+def printed_motion(out):
+    """(final XYZ mm, path length mm, rounding mm) from `rs274 -g`'s printed calls: positions
+    in the units of USE_LENGTH_UNITS, plus the G5x, G92 and tool length offsets."""
+    scale, plane = 1.0, 17
+    g5x, g92, tlo = [0.0] * 3, [0.0] * 3, [0.0] * 3
+    pos = [0.0] * 3
+    length = 0.0
+    inch = False
+
+    def nums(args):
+        return [float(x) for x in re.split(r"[,\s]+", args.strip()) if x]
+
+    def machine(p):
+        return [(p[k] + g5x[k] + g92[k] + tlo[k]) * scale for k in range(3)]
+
+    for line in out.splitlines():
+        m = CALL.search(line)
+        if not m:
+            continue
+        name, args = m.group(1), m.group(2)
+        if name == "USE_LENGTH_UNITS":
+            inch = "INCHES" in args
+            scale = MM_PER_INCH if inch else 1.0
+        elif name == "SELECT_PLANE":
+            plane = PRINTED_PLANES.get(args.strip(), 17)
+        elif name == "SET_G5X_OFFSET":
+            g5x = nums(args)[1:4]
+        elif name == "SET_G92_OFFSET":
+            g92 = nums(args)[:3]
+        elif name == "USE_TOOL_LENGTH_OFFSET":
+            tlo = nums(args)[:3]
+        elif name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED"):
+            end = machine(nums(args)[:3])
+            length += math.dist(pos, end)
+            pos = end
+        elif name == "ARC_FEED":
+            a = nums(args)
+            i, j, k = PLANE_AXES[plane]
+            prog, centre_prog = [0.0] * 3, [0.0] * 3
+            prog[i], prog[j], prog[k] = a[0], a[1], a[5]
+            centre_prog[i], centre_prog[j] = a[2], a[3]
+            end = machine(prog)
+            c = machine(centre_prog)
+            length += arc_length(pos, end, [c[i], c[j]], (i, j, k), int(a[4]))
+            pos = end
+    # Per axis: the printed position and the printed tool length offset, each rounded.
+    rounding = 2 * 0.5e-4 * (MM_PER_INCH if inch else 1.0)
+    return pos, length, rounding
+
+
+# ----------------------------------------------------------------------------------------------
+# interpd
+
+LENGTH = re.compile(r"length ([0-9.]+) mm")
+
+
+def interpd_check(binary, path, machine):
+    """(None, length mm) or (first error message, None)."""
+    try:
+        p = subprocess.run(
+            [binary, "check", path, "--machine", machine], capture_output=True, text=True, timeout=TIMEOUT_S
+        )
+    except subprocess.TimeoutExpired:
+        return "timeout", None
+    if p.returncode == 0:
+        m = LENGTH.search(p.stdout)
+        return None, float(m.group(1)) if m else None
+    first = (p.stderr.strip().splitlines() or [f"exit {p.returncode}"])[0]
+    return first, None
+
+
+def interpd_final(binary, path, machine, scratch):
+    csv = os.path.join(scratch, "plan.csv")
+    try:
+        p = subprocess.run(
+            [binary, "plan", path, "--machine", machine, "--period-ms", "1e6", "--out", csv],
+            capture_output=True,
+            text=True,
+            timeout=TIMEOUT_S,
+        )
+    except subprocess.TimeoutExpired:
+        return "plan timeout"
+    if p.returncode != 0 and "has no motion" in p.stderr:
+        return [0.0, 0.0, 0.0]
+    if p.returncode != 0:
+        return "plan failed: " + (p.stderr.strip().splitlines() or [""])[0]
+    with open(csv) as f:
+        rows = f.read().strip().splitlines()
+    head = rows[0].split(",")
+    last = rows[-1].split(",")
+    return [float(last[head.index(a)]) for a in "XYZ"]
+
+
+def normalise(message, path):
+    """The error message without its position and with numbers replaced, for counting."""
+    msg = message
+    if msg.startswith(path):
+        msg = msg[len(path) :]
+    msg = re.sub(r"^:\d+:\d+:\s*", "", msg)
+    msg = re.sub(r"^:\d+:\s*", "", msg)
+    # Numbers that are not part of a word (G38.2 stays, a value like 0.0025 mm goes).
+    msg = re.sub(r"(?<![A-Za-z0-9.])[-+]?\d+(\.\d+)?(e[-+]?\d+)?", "N", msg)
+    return msg.strip()
+
+
+# ----------------------------------------------------------------------------------------------
+
+
+def machine_files(base, scratch):
+    """The widened machine file for interpd and the same tools as an rs274 tool table."""
+    with open(base, "rb") as f:
+        cfg = tomllib.load(f)
+    with open(base) as f:
+        text = f.read()
+    # Travel: rewrite the min/max lines of the axis tables.
+    text = re.sub(r"(?m)^min\s*=.*$", f"min = {-TRAVEL_MM}", text)
+    text = re.sub(r"(?m)^max\s*=.*$", f"max = {TRAVEL_MM}", text)
+    have = {t["number"]: t for t in cfg.get("tool", [])}
+    tools = []
+    for n in TOOLS:
+        t = have.get(n)
+        d = t["diameter"] if t else DEFAULT_TOOL_DIAMETER_MM
+        length = t.get("length", 0.0) if t else 0.0
+        tools.append((n, d, length))
+        if not t:
+            text += f"\n[[tool]]\nnumber = {n}\ndiameter = {d}\nlength = {length}\n"
+    machine = os.path.join(scratch, "machine.toml")
+    with open(machine, "w") as f:
+        f.write(text)
+    # rs274's tool table: standalone `rs274` reads its values as inches (a D6 offsets a G21
+    # program by 76.2 mm).
+    tbl = os.path.join(scratch, "tools.tbl")
+    with open(tbl, "w") as f:
+        for n, d, length in tools:
+            f.write(f"T{n} P{n} Z{length / MM_PER_INCH:.12f} D{d / MM_PER_INCH:.12f}\n")
+    return machine, tbl, tools
+
+
+def run_one(args, machine, tbl, path):
+    r = {"file": path}
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            text = f.read()
+    except OSError as e:
+        r["scope"] = f"unreadable ({e})"
+        return r
+    reason = out_of_scope(path, text)
+    if reason:
+        r["scope"] = reason
+        return r
+    r["scope"] = None
+    scratch = tempfile.mkdtemp(prefix="agree-")
+    try:
+        err, out = rs274_g(path, tbl, scratch)
+        r["rs274_ok"] = err is None
+        r["rs274_error"] = err
+        ierr, length = interpd_check(args.binary, path, machine)
+        r["interpd_ok"] = ierr is None
+        r["interpd_error"] = ierr
+        r["interpd_error_normalised"] = normalise(ierr, path) if ierr else None
+        if r["rs274_ok"] and r["interpd_ok"]:
+            theirs = printed_motion(out) if has_tool_word(text) else canon_motion(path)
+            ours = interpd_final(args.binary, path, machine, scratch)
+            r["interpd_length_mm"] = length
+            r["interpd_final_mm"] = ours if not isinstance(ours, str) else None
+            if isinstance(theirs, str) or isinstance(ours, str):
+                r["agree"] = False
+                r["why"] = theirs if isinstance(theirs, str) else ours
+            else:
+                pos, rs_length, rounding = theirs
+                r["rs274_final_mm"] = pos
+                r["rs274_length_mm"] = rs_length
+                dpos = max(abs(a - b) for a, b in zip(ours, pos))
+                dlen = abs(length - rs_length)
+                r["final_diff_mm"] = dpos
+                r["length_diff_mm"] = dlen
+                r["agree"] = dpos <= POS_TOL_MM + rounding and dlen <= LENGTH_TOL_MM
+                if not r["agree"]:
+                    r["why"] = f"final position differs by {dpos:.6f} mm, length by {dlen:.4f} mm"
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    return r
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("binary")
+    ap.add_argument("dirs", nargs="+")
+    ap.add_argument("--machine", default=os.path.join(REPO, "tests/machines/xyz_loose.toml"))
+    ap.add_argument("--json", action="store_true", help="one JSON object with the table and every program")
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--list", action="store_true", help="also list every in-scope program with its verdicts")
+    ap.add_argument("--top", type=int, default=15, help="refusal reasons listed")
+    args = ap.parse_args()
+    if shutil.which("rs274") is None:
+        sys.exit("rs274 not found: apt-get install -y --no-install-recommends linuxcnc-uspace")
+    files = []
+    for d in args.dirs:
+        for root, _, names in os.walk(d):
+            files += [os.path.abspath(os.path.join(root, n)) for n in names if n.lower().endswith(".ngc")]
+    files.sort()
+    scratch = tempfile.mkdtemp(prefix="agree-machine-")
+    try:
+        machine, tbl, _ = machine_files(args.machine, scratch)
+        with concurrent.futures.ThreadPoolExecutor(max_workers=args.jobs) as pool:
+            results = list(pool.map(lambda p: run_one(args, machine, tbl, p), files))
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+
+    left_out = collections.Counter(r["scope"] for r in results if r["scope"])
+    scope = [r for r in results if not r["scope"]]
+    both = [r for r in scope if r["rs274_ok"] and r["interpd_ok"]]
+    table = collections.OrderedDict(
+        [
+            ("programs", len(results)),
+            ("left out", sum(left_out.values())),
+            ("in scope", len(scope)),
+            ("accepted by rs274", sum(r["rs274_ok"] for r in scope)),
+            ("accepted by interpd", sum(r["interpd_ok"] for r in scope)),
+            ("both accept and agree", sum(r["agree"] for r in both)),
+            ("both accept but disagree", sum(not r["agree"] for r in both)),
+            ("rs274 only", sum(r["rs274_ok"] and not r["interpd_ok"] for r in scope)),
+            ("interpd only", sum(r["interpd_ok"] and not r["rs274_ok"] for r in scope)),
+            ("refused by both", sum(not r["rs274_ok"] and not r["interpd_ok"] for r in scope)),
+        ]
+    )
+    reasons = collections.Counter(r["interpd_error_normalised"] for r in scope if not r["interpd_ok"])
+    reasons_rs_ok = collections.Counter(
+        r["interpd_error_normalised"] for r in scope if not r["interpd_ok"] and r["rs274_ok"]
+    )
+    if args.json:
+        print(
+            json.dumps(
+                {
+                    "binary": args.binary,
+                    "dirs": args.dirs,
+                    "machine": args.machine,
+                    "table": table,
+                    "left_out": left_out,
+                    "interpd_refusals": reasons.most_common(),
+                    "interpd_refusals_where_rs274_accepts": reasons_rs_ok.most_common(),
+                    "programs": results,
+                },
+                indent=1,
+            )
+        )
+        return
+    print(f"interpd: {args.binary}; machine: {args.machine} (travel ±{TRAVEL_MM:g} mm, tools 1-99)")
+    width = max(len(k) for k in table)
+    for k, v in table.items():
+        print(f"  {k:<{width}}  {v:5d}")
+    rs_ok = table["accepted by rs274"]
+    if rs_ok:
+        print(f"  agreeing / accepted by rs274: {table['both accept and agree'] / rs_ok:.1%}")
+    print("left out:")
+    for k, v in left_out.most_common():
+        print(f"  {v:5d}  {k}")
+    print(f"interpd's refusals of in-scope programs (first error, normalised; top {args.top}):")
+    for k, v in reasons.most_common(args.top):
+        print(f"  {v:5d}  {k}  (rs274 accepts {reasons_rs_ok.get(k, 0)})")
+    disagree = [r for r in both if not r["agree"]]
+    if disagree:
+        print("both accept but disagree:")
+        for r in disagree:
+            print(f"  {r['file']}: {r.get('why')}")
+    if args.list:
+        print("in scope:")
+        for r in scope:
+            verdict = "agree" if r.get("agree") else "-"
+            print(
+                f"  {r['file']}: rs274 {'ok' if r['rs274_ok'] else 'refuses'}, interpd "
+                f"{'ok' if r['interpd_ok'] else r['interpd_error']}, {verdict}"
+            )
+
+
+if __name__ == "__main__":
+    main()

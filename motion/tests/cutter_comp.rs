@@ -343,8 +343,42 @@ fn gouges_and_misuse_are_errors_with_line_and_column() {
     let e = errors("G0 X0 Y0\nF1000\nG41 D1\nG1 X10 Y0\nG1 X10 Y10\nG1 X9.99 Y10\nG1 X9.99 Y0\n");
     assert!(e.starts_with("bad.ngc:6:1: cutter compensation: the tool (radius 3 mm) cannot reach"), "{e}");
     // A spline whose curvature radius on the tool's side is below the tool radius.
-    let e = errors("G0 X2 Y0\nF1000\nG41 D1\nG1 X1 Y0\nG06\nX0 Y1 Z0;\nX-1 Y0 Z0;\nCR\n");
+    let e = errors("G0 X6 Y0\nF1000\nG41 D1\nG1 X1 Y0\nG06\nX0 Y1 Z0;\nX-1 Y0 Z0;\nCR\n");
     assert!(e.contains("the spline turns on a radius of"), "{e}");
+    // An entry move not longer than the tool radius (LinuxCNC refuses it too).
+    let e = errors("G0 X0 Y0\nF1000\nG41 D1\nG1 X3 Y0\nG1 X3 Y10\n");
+    assert_eq!(
+        e,
+        "bad.ngc:4:1: cutter compensation: the entry move is not longer than the tool radius 3 mm: start it further from the contour"
+    );
+    // An entry arc that ends within the tool radius of where the tool stands.
+    let e = errors("G0 X0 Y0\nF1000\nG41 D1\nG2 X2 Y0 I1 J0\nG1 X2 Y10\n");
+    assert!(e.starts_with("bad.ngc:4:1: cutter compensation: the entry move is not longer"), "{e}");
+}
+
+#[test]
+fn entries_end_where_linuxcnc_ends_them() {
+    // G41 with a 3 mm tool: the entry along +X ends at (10, 3), the offset of its end point;
+    // the inside corner to +Y moves that end back along the entry's direction to where the
+    // offsets meet, (7, 3) (LinuxCNC's convert_straight_comp2), not to where the entry line
+    // itself crosses the next offset.
+    let p = program::parse("G0 X0 Y0 Z0\nF1000\nG41 D1\nG1 X10 Y0\nG1 X10 Y10\nG40 G1 X10 Y20\n", "e.ngc", &machine())
+        .expect("accepted");
+    assert_ends(&ends(&p.path), &[[7.0, 3.0, 0.0], [7.0, 10.0, 0.0], [10.0, 20.0, 0.0]]);
+    // An arc entry (G3 from (0, 0) to (10, 10) about (0, 10), tool left: inside the arc) ends
+    // 3 mm towards the centre, at (7, 10), on an arc about a new centre on that radius.
+    let p = program::parse("G0 X0 Y0 Z0\nF1000\nG41 D1\nG3 X10 Y10 I0 J10\nG1 X10 Y20\n", "e.ngc", &machine())
+        .expect("accepted");
+    let e = ends(&p.path);
+    assert_ends(&e[..1], &[[7.0, 10.0, 0.0]]);
+    match &p.path.elements[0].geometry {
+        interpd_motion::path::Geometry::Helix(h) => {
+            let c = h.center();
+            let (r0, r1) = (c[0].hypot(c[1]), (7.0 - c[0]).hypot(10.0 - c[1]));
+            assert!((r0 - r1).abs() < 1e-9 && (c[1] - 10.0).abs() < 1e-9, "centre {c:?}");
+        }
+        g => panic!("entry arc expected, got {}", g.kind_name()),
+    }
 }
 
 #[test]

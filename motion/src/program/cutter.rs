@@ -8,10 +8,14 @@
 //!   spline interpolator carry out the compensation; here it is a stage before the planner).
 //! - Outside corners get an arc of the tool radius around the corner point, so the path stays
 //!   tangent-continuous; inside corners are trimmed at the intersection of the two offsets.
-//! - The move after G41/G42 (the entry move, a line) goes from where the tool stands to the
-//!   offset of its end point, and joins the contour at an ordinary corner; the move after G40
-//!   (the exit move) goes from the offset of the contour's last point to its programmed end,
-//!   as LinuxCNC.
+//! - The move after G41/G42 (the entry move) as LinuxCNC (`convert_straight_comp1`,
+//!   `convert_arc_comp1`): a line goes from where the tool stands to the offset of its end
+//!   point across its own direction; at an inside corner that end moves back along the
+//!   line's direction to where the line's parallel offset meets the next offset. An arc ends
+//!   at the offset of its end point (towards or away from its centre) and turns about a new
+//!   centre on that radius, equidistant from where the tool stands. The move after G40 (the
+//!   exit move, a line) goes from the offset of the contour's last point to its programmed
+//!   end.
 //! - Short elements at inside corners (CAM chords) are swallowed as by the true offset curve:
 //!   where two offsets do not meet, either the new offset meets a piece kept back before the
 //!   tail (the pieces between are dropped), or the new element lies inside the corner (it is
@@ -79,6 +83,13 @@ const CONNECT_EXACT_MM: f64 = 1e-12;
 const CONNECT_PLANE_MM: f64 = 1e-9;
 /// Offset arcs with a smaller radius are degenerate (the tool radius equals the arc's).
 const MIN_OFFSET_RADIUS_MM: f64 = 1e-6;
+/// How far back (in tool radii, beyond the entry's own length) the parallel offset of a
+/// straight entry reaches for the inside corner after it: LinuxCNC moves the entry's end back
+/// by r / tan(half the corner), 115 r at a corner of 1°.
+const ENTRY_REACH: f64 = 1.0e4;
+/// LinuxCNC's `TOLERANCE_EQUAL` (2.9): an entry arc whose new centre lies this close to
+/// perpendicular (cosine) is refused.
+const ENTRY_ARC_COS_MIN: f64 = 1e-4;
 
 /// Left (G41) or right (G42) of the direction of travel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -112,12 +123,18 @@ pub(crate) enum CutterErrorKind {
         "cutter compensation: the tool (radius {radius_mm} mm) cannot reach the inside corner where this block starts: the previous or this element is shorter than the tool needs (gouge)"
     )]
     InsideCorner { radius_mm: String },
-    #[error("cutter compensation: the move after G41/G42 (the entry move) must be a straight line (G0/G1)")]
+    #[error("cutter compensation: the move after G41/G42 (the entry move) must be a line or an arc in the plane")]
     EntryNotLine,
     #[error(
-        "cutter compensation: the entry move ends where the tool stands: start it at least the tool radius away from the contour"
+        "cutter compensation: the entry move is not longer than the tool radius {radius_mm} mm: start it further from the contour"
     )]
-    EntryTooShort,
+    EntryTooShort { radius_mm: String },
+    #[error(
+        "cutter compensation: the entry arc ends where its offset would need a centre at infinity (the tool radius {radius_mm} mm against the arc)"
+    )]
+    EntryArcDegenerate { radius_mm: String },
+    #[error("cutter compensation: the entry move would have to turn back to reach the inside corner after it (gouge)")]
+    EntryReversed,
     #[error("cutter compensation: the move after G40 (the exit move) must be a straight line (G0/G1)")]
     ExitNotLine,
     #[error("cutter compensation: more than {MAX_HELD_MOVES} moves without motion in the compensation plane in a row")]
@@ -176,6 +193,11 @@ struct Held {
     /// offset meets the tail), and the error to report if the corner does not resolve.
     swallowed: usize,
     gouge: Option<CutterError>,
+    /// For a straight entry move: where the tool stands before it. The tail is then the
+    /// parallel offset of the entry's direction (reaching back [`ENTRY_REACH`] tool radii), so
+    /// that an inside corner moves the entry's end back along that direction as LinuxCNC does;
+    /// the entry handed on goes from here to the tail's (trimmed) end.
+    entry_from: Option<AxisVec>,
 }
 
 /// A tool path piece kept back: a later inside corner may still trim its end (`full`: the
@@ -318,27 +340,13 @@ impl Cutter {
             }
             State::Entry { shift } => {
                 let shift = *shift;
-                if !self.pass_off_plane(&piece, in_plane, shift, CutterErrorKind::EntryNotLine)? {
+                if !in_plane {
+                    let moved = self.shifted(&piece, shift)?;
+                    self.emit(moved);
                     return Ok(());
                 }
-                // As LinuxCNC: the entry move starts where the tool stands and ends at the offset
-                // of its end point; the corner to the next element is an ordinary one.
-                let (a, b) = self.ends(&piece.geometry);
-                let tangent = self.end_tangent(&piece.geometry);
-                let start = self.plus(a, shift);
-                let end = self.plus(b, self.normal(tangent));
-                let Some(g) = self.line(start, end) else {
-                    return Err(piece.error(CutterErrorKind::EntryTooShort));
-                };
-                let tail = Piece { geometry: g, ..piece };
-                self.state = State::On(Box::new(Held {
-                    tail,
-                    corner: b,
-                    tangent,
-                    moves: Vec::new(),
-                    swallowed: 0,
-                    gouge: None,
-                }));
+                let held = self.entry(piece, shift)?;
+                self.state = State::On(Box::new(held));
                 Ok(())
             }
             State::On(held) => {
@@ -382,7 +390,7 @@ impl Cutter {
     /// Joins the held tail to the offsets of the next contour element `piece` at the corner;
     /// hands on everything up to the last offset piece, which is held.
     fn join(&mut self, held: Held, mut offsets: Vec<Piece>, piece: &Piece) -> Result<Held, CutterError> {
-        let Held { tail, corner, tangent: t1, moves, swallowed, gouge } = held;
+        let Held { tail, corner, tangent: t1, moves, swallowed, gouge, entry_from } = held;
         let t2 = self.start_tangent(&piece.geometry);
         let n1 = self.normal(t1);
         let n2 = self.normal(t2);
@@ -397,13 +405,27 @@ impl Cutter {
             turn = -self.side.sign() * PI;
         }
         let outside = self.side.sign() * turn < 0.0;
+        // A straight entry into an inside corner whose offsets meet beyond the next element
+        // (LinuxCNC's tool path would run back along it): the entry is the line the tool
+        // moves on, and the corner is resolved as any other (the elements it swallows are
+        // dropped).
+        let (last, entry_from) = match entry_from {
+            Some(from)
+                if !outside
+                    && turn.abs() > STRAIGHT_JOINT_RAD
+                    && self.trim_corner(&last.geometry, &offsets[0].geometry).is_none() =>
+            {
+                (self.tail_piece(last, Some(from), t1)?.0, None)
+            }
+            other => (last, other),
+        };
         if swallowed > 0 && (outside || turn.abs() <= STRAIGHT_JOINT_RAD) {
             // Past elements the corner swallowed, the contour turns away: no inside corner
             // to resolve them.
             return Err(gouge.unwrap_or_else(|| self.inside_corner_error(piece)));
         }
         if turn.abs() <= STRAIGHT_JOINT_RAD {
-            let full = last.geometry.clone();
+            let (last, full) = self.tail_piece(last, entry_from, t1)?;
             self.stage(last, Some(full));
             self.hand_on_moves(moves, n1)?;
             // The offsets miss each other by at most r·θ: the next starts where this ends.
@@ -413,7 +435,7 @@ impl Cutter {
                 }
             }
         } else if outside {
-            let full = last.geometry.clone();
+            let (last, full) = self.tail_piece(last, entry_from, t1)?;
             self.stage(last, Some(full));
             let at = self.hand_on_moves(moves, n1)?.unwrap_or(corner);
             let a = self.plus(at, n1);
@@ -431,7 +453,12 @@ impl Cutter {
             g1.eval(g1.length_mm(), &mut d);
             let shift = [d.pos[self.p] - corner[self.p], d.pos[self.q] - corner[self.q]];
             let full = last.geometry.clone();
-            self.stage(Piece { geometry: g1, ..last }, Some(full));
+            let trimmed = Piece { geometry: g1, ..last };
+            let (trimmed, full) = match entry_from {
+                Some(_) => self.tail_piece(trimmed, entry_from, t1)?,
+                None => (trimmed, full),
+            };
+            self.stage(trimmed, Some(full));
             self.hand_on_moves(moves, shift)?;
             offsets[0].geometry = g2;
         } else {
@@ -447,7 +474,7 @@ impl Cutter {
             {
                 // Nearly tangent elements (rounded arc data): the offsets meet only far away or
                 // not at all; they are joined where the tail ends.
-                let full = last.geometry.clone();
+                let (last, full) = self.tail_piece(last, entry_from, t1)?;
                 self.stage(last, Some(full));
                 if let Some(g) = self.last_end.and_then(|end| self.starting_at(&offsets[0].geometry, end)) {
                     offsets[0].geometry = g;
@@ -464,6 +491,7 @@ impl Cutter {
                     moves: Vec::new(),
                     swallowed: 0,
                     gouge: None,
+                    entry_from: None,
                 });
             }
             if !moves.is_empty() {
@@ -479,6 +507,7 @@ impl Cutter {
                         moves,
                         swallowed: swallowed + 1,
                         gouge: Some(gouge.unwrap_or(error)),
+                        entry_from,
                     });
                 }
                 None => return Err(gouge.unwrap_or(error)),
@@ -489,7 +518,127 @@ impl Cutter {
             let full = o.geometry.clone();
             self.stage(o, Some(full));
         }
-        Ok(Held { tail: last, corner: contour_end, tangent: end_tangent, moves: Vec::new(), swallowed: 0, gouge: None })
+        Ok(Held {
+            tail: last,
+            corner: contour_end,
+            tangent: end_tangent,
+            moves: Vec::new(),
+            swallowed: 0,
+            gouge: None,
+            entry_from: None,
+        })
+    }
+
+    /// The entry move (the first move in the plane after G41/G42) as LinuxCNC's
+    /// `convert_straight_comp1` and `convert_arc_comp1`, from where the tool stands (the
+    /// programmed start moved by `shift`); held as the tail for the corner after it.
+    fn entry(&mut self, piece: Piece, shift: [f64; 2]) -> Result<Held, CutterError> {
+        let (a, b) = self.ends(&piece.geometry);
+        let start = self.plus(a, shift);
+        let (p, q, r) = (self.p, self.q, self.radius_mm);
+        let (dp, dq) = (b[p] - start[p], b[q] - start[q]);
+        let dist = dp.hypot(dq);
+        if dist <= r {
+            return Err(piece.error(CutterErrorKind::EntryTooShort { radius_mm: fmt_num(r) }));
+        }
+        match &piece.geometry {
+            Geometry::Line(_) => {
+                // The tool ends beside the end point, across the direction from where it stands.
+                let tangent = [dp / dist, dq / dist];
+                let end = self.plus(b, self.normal(tangent));
+                let reach = dist + ENTRY_REACH * r;
+                let mut from = end;
+                from[p] -= tangent[0] * reach;
+                from[q] -= tangent[1] * reach;
+                let tail = Piece { geometry: Geometry::Line(Line::new(from, end, reach)), ..piece };
+                Ok(Held {
+                    tail,
+                    corner: b,
+                    tangent,
+                    moves: Vec::new(),
+                    swallowed: 0,
+                    gouge: None,
+                    entry_from: Some(start),
+                })
+            }
+            Geometry::Helix(h) => {
+                let c = h.center();
+                let turn = h.sweep_rad().signum();
+                // The tool is inside the arc on the left of a counter-clockwise one.
+                let inside = self.side.sign() * turn > 0.0;
+                let radius = h.radius_mm();
+                if inside && radius <= r {
+                    return Err(
+                        piece.error(CutterErrorKind::ConcaveArc { radius_mm: fmt_num(r), arc_mm: fmt_num(radius) })
+                    );
+                }
+                // The end moves by r along the radius (towards the centre inside).
+                let (ep, eq) = (b[p] - c[0], b[q] - c[1]);
+                let re = ep.hypot(eq);
+                let k = if inside { -r } else { r } / re;
+                let mut end = b;
+                end[p] += k * ep;
+                end[q] += k * eq;
+                // The new centre lies on the line from the new end towards the programmed
+                // centre, as far from where the tool stands as from the new end.
+                let ab = (c[1] - end[q]).atan2(c[0] - end[p]);
+                let half = (start[p] - end[p]).hypot(start[q] - end[q]) / 2.0;
+                let cos_a = ((start[q] - end[q]).atan2(start[p] - end[p]) - ab).cos();
+                if cos_a.abs() < ENTRY_ARC_COS_MIN {
+                    return Err(piece.error(CutterErrorKind::EntryArcDegenerate { radius_mm: fmt_num(r) }));
+                }
+                let len = half / cos_a;
+                let centre = [end[p] + len * ab.cos(), end[q] + len * ab.sin()];
+                // One turn in the arc's direction, as LinuxCNC's find_turn.
+                let alpha = (start[q] - centre[1]).atan2(start[p] - centre[0]);
+                let beta = (end[q] - centre[1]).atan2(end[p] - centre[0]);
+                let sweep = if turn > 0.0 {
+                    if beta <= alpha { beta + 2.0 * PI - alpha } else { beta - alpha }
+                } else if alpha <= beta {
+                    beta - alpha - 2.0 * PI
+                } else {
+                    beta - alpha
+                };
+                let arc = Helix::new(p, q, centre, sweep, start, end, &self.linear[..self.n_axes]);
+                let tangent = self.end_tangent(&piece.geometry);
+                Ok(Held {
+                    tail: Piece { geometry: Geometry::Helix(arc), ..piece },
+                    corner: b,
+                    tangent,
+                    moves: Vec::new(),
+                    swallowed: 0,
+                    gouge: None,
+                    entry_from: None,
+                })
+            }
+            _ => Err(piece.error(CutterErrorKind::EntryNotLine)),
+        }
+    }
+
+    /// The tail as it is handed on, and its geometry for a later corner to trim back into:
+    /// for a straight entry the line from where the tool stood to the end of the (possibly
+    /// trimmed) parallel offset; any other tail as it is.
+    fn tail_piece(
+        &self,
+        tail: Piece,
+        entry_from: Option<AxisVec>,
+        tangent: [f64; 2],
+    ) -> Result<(Piece, Geometry), CutterError> {
+        let Some(from) = entry_from else {
+            let full = tail.geometry.clone();
+            return Ok((tail, full));
+        };
+        let (_, end) = self.ends(&tail.geometry);
+        // As LinuxCNC (move_endpoint_and_flush): an end moved behind the entry's start, seen
+        // across the entry's direction towards the tool's side, would reverse the move.
+        let n = self.normal(tangent);
+        if (end[self.p] - from[self.p]) * n[0] + (end[self.q] - from[self.q]) * n[1] < 0.0 {
+            return Err(tail.error(CutterErrorKind::EntryReversed));
+        }
+        let Some(g) = self.line(from, end) else {
+            return Err(tail.error(CutterErrorKind::EntryTooShort { radius_mm: fmt_num(self.radius_mm) }));
+        };
+        Ok((Piece { geometry: g.clone(), ..tail }, g))
     }
 
     fn inside_corner_error(&self, piece: &Piece) -> CutterError {
@@ -610,7 +759,8 @@ impl Cutter {
             return Err(held.gouge.expect("a swallowed element names its error"));
         }
         let n1 = self.normal(held.tangent);
-        self.emit(held.tail);
+        let (tail, _) = self.tail_piece(held.tail, held.entry_from, held.tangent)?;
+        self.emit(tail);
         for m in held.moves {
             // Held moves are lines (checked when offset), so shifting cannot fail.
             if let Ok(moved) = self.shifted(&m, n1) {

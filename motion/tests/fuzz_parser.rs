@@ -215,7 +215,11 @@ fn check_stray_word(rng: &mut Rng, name: &str, text: &str, cfg: &Settings) -> Re
     let mut changed: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
     changed[at] = format!("{word} {}", changed[at]);
     let changed = changed.join("\n");
+    // G41/G42/G43 without D/H take the tool in the spindle: on their line a D or H word is
+    // one they take, not a stray one.
+    let takes_tool = |l: &str| ["G41", "G42", "G43"].iter().any(|g| l.to_ascii_uppercase().contains(g));
     match program::parse(&changed, name, cfg) {
+        Ok(_) if word.to_ascii_uppercase().starts_with(['D', 'H']) && takes_tool(lines[at]) => Ok(()),
         Ok(_) => Err(format!("the stray word {word} at line {} was accepted", at + 1)),
         Err(e) if e.0.iter().any(|e| e.line == at as u32 + 1) => Ok(()),
         Err(e) => Err(format!("the stray word {word} at line {} gave errors elsewhere: {e}", at + 1)),

@@ -5,6 +5,7 @@
 //! ignored, since interpd interpolates motion only.
 
 use super::active::{ActiveCutter, ActiveModal, ActiveTool, CompSide, ModalLog};
+use super::arc_rule;
 use super::cutter::{Cutter, Piece, Side};
 use super::error::Diagnostics;
 use super::lexer::{Line, Word, lex_line};
@@ -22,10 +23,9 @@ use std::f64::consts::PI;
 // `pub(crate)`: `program::fmt_num` (mod.rs) re-exports it from here.
 pub(crate) use super::error::fmt_num;
 
-/// Arc end points may miss the circle by this much before the arc is rejected, mm...
+/// Slack of the travel check on elements (the rounding of programmed end points), mm. Arc end
+/// points are judged by LinuxCNC's rules (arc_rule.rs).
 pub(super) const ARC_RADIUS_ABS_TOL_MM: f64 = 0.002;
-/// ... plus this fraction of the radius.
-pub(super) const ARC_RADIUS_REL_TOL: f64 = 1e-5;
 /// Arcs with a smaller radius are degenerate.
 pub(super) const MIN_ARC_RADIUS_MM: f64 = 1e-6;
 /// Millimetres per inch (G20).
@@ -419,16 +419,9 @@ impl Interpreter {
         }
 
         // Modal settings first, as a controller executes them before motion in the same block.
-        if let (Some(_), Some(f)) = (g.units, block.words.iter().find(|w| w.letter == 'F')) {
-            // RS274NGC sets the feed before the units (LinuxCNC reads `G20 F10` as 10 mm/min):
-            // refused rather than guessed.
-            d.error(
-                line_no,
-                f.col,
-                "F in the same block as G20/G21: its unit would be ambiguous; program F in a block of its own",
-            );
-            return;
-        }
+        // RS274NGC sets the feed before the units: an F in a G20/G21 block is read in the
+        // units in force before the block (LinuxCNC reads `G21` … `G20 F10` as 10 mm/min).
+        let feed_unit_mm = self.modal.unit_mm;
         if let Some(u) = g.units {
             self.modal.unit_mm = u;
         }
@@ -451,7 +444,7 @@ impl Interpreter {
                 d.error(line_no, f.col, format!("feed F must be positive, got {}", f.value));
                 return;
             }
-            self.modal.feed_mm_s = Some(f.value * self.modal.unit_mm / 60.0);
+            self.modal.feed_mm_s = Some(f.value * feed_unit_mm / 60.0);
         }
         if let Some(b) = g.blend {
             match b {
@@ -503,7 +496,12 @@ impl Interpreter {
 
         let has_axis = line.words.iter().any(|w| AxisLetter::from_char(w.letter).is_some());
         let arc_words: Vec<&Word> = line.words.iter().filter(|w| matches!(w.letter, 'I' | 'J' | 'K' | 'R')).collect();
-        if !has_axis {
+        // As LinuxCNC: an arc in the centre form without axis words is a full circle back to
+        // where it starts.
+        let full_circle = matches!(self.modal.motion, Some(Motion::ArcCw | Motion::ArcCcw))
+            && !arc_words.is_empty()
+            && arc_words.iter().all(|w| w.letter != 'R');
+        if !has_axis && !full_circle {
             if let Some(w) = arc_words.first() {
                 d.error(line_no, w.col, format!("{} without an arc end point", w.letter));
             } else if g.motion.is_some() && g.motion != Some(Motion::Rapid) && g.motion != Some(Motion::Linear) {
@@ -583,32 +581,28 @@ impl Interpreter {
                         );
                         return false;
                     }
-                    let Some(dw) = block.get('D') else {
-                        let what =
-                            if matches!(word, CompWord::Table(_)) { "the tool number" } else { "the tool diameter" };
-                        d.error(line, col, format!("{name} needs D ({what})"));
-                        return false;
-                    };
+                    let dw = block.get('D');
                     let mut tool = None;
                     let radius_mm = if let CompWord::Table(_) = word {
-                        if dw.value < 0.0 || dw.value.fract() != 0.0 || dw.has_point {
-                            d.error(
-                                line,
-                                dw.col,
-                                format!("D must be a tool number (a non-negative integer), got {}", dw.value),
-                            );
-                            return false;
+                        // Without D, the tool in the spindle (T… M6), as LinuxCNC.
+                        let Some((number, col)) = self.tool_word(dw, 'D', line, col, d) else { return false };
+                        match number {
+                            Some(number) => {
+                                let Some(entry) = self.settings.tool(number) else {
+                                    d.error(line, col, format!("tool {number} is not in the tool table"));
+                                    return false;
+                                };
+                                self.summary.tools.insert(number);
+                                tool = Some(number);
+                                entry.diameter_mm / 2.0
+                            }
+                            None => 0.0,
                         }
-                        let number = dw.value as u32;
-                        let Some(entry) = self.settings.tool(number) else {
-                            d.error(line, dw.col, format!("tool {number} is not in the tool table"));
+                    } else {
+                        let Some(dw) = dw else {
+                            d.error(line, col, format!("{name} needs D (the tool diameter)"));
                             return false;
                         };
-                        self.summary.tools.insert(number);
-                        let radius_mm = entry.diameter_mm / 2.0;
-                        tool = Some(number);
-                        radius_mm
-                    } else {
                         if dw.value < 0.0 || !dw.value.is_finite() {
                             d.error(line, dw.col, format!("tool diameter D must not be negative, got {}", dw.value));
                             return false;
@@ -645,25 +639,19 @@ impl Interpreter {
             let length = match word {
                 ToolLengthWord::Cancel => None,
                 ToolLengthWord::Table => {
-                    let Some(h) = block.get('H') else {
-                        d.error(line, col, "G43 needs H (the tool number)");
-                        return false;
-                    };
-                    if h.value < 0.0 || h.value.fract() != 0.0 || h.has_point {
-                        d.error(
-                            line,
-                            h.col,
-                            format!("H must be a tool number (a non-negative integer), got {}", h.value),
-                        );
-                        return false;
+                    // Without H, the tool in the spindle (T… M6), as LinuxCNC.
+                    let Some((number, hcol)) = self.tool_word(block.get('H'), 'H', line, col, d) else { return false };
+                    match number {
+                        Some(number) => {
+                            let Some(tool) = self.settings.tool(number) else {
+                                d.error(line, hcol, format!("tool {number} is not in the tool table"));
+                                return false;
+                            };
+                            self.summary.tools.insert(number);
+                            Some((Some(number), tool.length_mm))
+                        }
+                        None => Some((Some(0), 0.0)),
                     }
-                    let number = h.value as u32;
-                    let Some(tool) = self.settings.tool(number) else {
-                        d.error(line, h.col, format!("tool {number} is not in the tool table"));
-                        return false;
-                    };
-                    self.summary.tools.insert(number);
-                    Some((Some(number), tool.length_mm))
                 }
                 ToolLengthWord::Dynamic => {
                     // G43.1 Z<length>: the Z word is the length, not a move (as LinuxCNC).
@@ -695,6 +683,29 @@ impl Interpreter {
             self.summary.work_offsets.insert(interpd_config::WORK_SYSTEMS[sys]);
         }
         true
+    }
+
+    /// The tool a D or H word names (with the word's column), or without the word the tool in
+    /// the spindle (with the G-code's column `col`), as LinuxCNC. `None` for no tool: none in
+    /// the spindle, or tool 0 when the table has none (LinuxCNC's empty spindle: radius and
+    /// length 0). `None` overall after an error.
+    fn tool_word(
+        &self,
+        w: Option<&Word>,
+        letter: char,
+        line: u32,
+        col: u32,
+        d: &mut Diagnostics,
+    ) -> Option<(Option<u32>, u32)> {
+        let Some(w) = w else {
+            let number = self.modal.tool.filter(|&n| n != 0 || self.settings.tool(0).is_some());
+            return Some((number, col));
+        };
+        if w.value < 0.0 || w.value.fract() != 0.0 || w.has_point {
+            d.error(line, w.col, format!("{letter} must be a tool number (a non-negative integer), got {}", w.value));
+            return None;
+        }
+        Some((Some(w.value as u32), w.col))
     }
 
     /// G92, G92.1, G92.2, G92.3 (after the coordinate system, as RS274NGC orders them). G92
@@ -1157,17 +1168,8 @@ impl Interpreter {
                 return;
             }
             let half = chord / 2.0;
-            let tol = ARC_RADIUS_ABS_TOL_MM + ARC_RADIUS_REL_TOL * r.abs();
-            if r.abs() < half - tol {
-                d.error(
-                    line,
-                    rw.col,
-                    format!(
-                        "arc radius R {} mm is smaller than half the chord ({} mm)",
-                        fmt_num(r.abs()),
-                        fmt_num(half)
-                    ),
-                );
+            if let Err(msg) = arc_rule::check_radius_form(half, r, unit) {
+                d.error(line, rw.col, msg);
                 return;
             }
             let h = (r * r - half * half).max(0.0).sqrt();
@@ -1191,19 +1193,8 @@ impl Interpreter {
                 d.error(line, col, "degenerate arc: the centre lies on the start point (radius zero)");
                 return;
             }
-            let tol = ARC_RADIUS_ABS_TOL_MM + ARC_RADIUS_REL_TOL * r0;
-            if (r0 - r1).abs() > tol {
-                d.error(
-                    line,
-                    col,
-                    format!(
-                        "arc end point is not on the circle: radius {} mm at the start, {} mm at the end (difference {} mm > {} mm)",
-                        fmt_num(r0),
-                        fmt_num(r1),
-                        fmt_num((r0 - r1).abs()),
-                        fmt_num(tol)
-                    ),
-                );
+            if let Err(msg) = arc_rule::check_centre_form(r0, r1, unit) {
+                d.error(line, col, msg);
                 return;
             }
             let full = chord <= MIN_MOVE_MM;
@@ -1211,6 +1202,19 @@ impl Interpreter {
             // exactly and the arc ends where programmed.
             let c = if full { c } else { project_on_bisector(s, e, c) };
             (c, sweep_angle(s, e, c, ccw, full))
+        };
+        // P: the number of turns, as LinuxCNC (the arc plus P - 1 full circles).
+        if let (Some(w), true) = (block.get('P'), block.words.iter().any(|w| w.letter == 'G' && w.value == 4.0)) {
+            d.error(line, w.col, "G4 is not allowed with G2/G3: both use P");
+            return;
+        }
+        let sweep = match block.get('P').map(|w| (w, arc_rule::turns(w.value))) {
+            None => sweep,
+            Some((_, Ok(n))) => sweep + sweep.signum() * 2.0 * PI * f64::from(n - 1),
+            Some((w, Err(msg))) => {
+                d.error(line, w.col, msg);
+                return;
+            }
         };
         let helix = Helix::new(p, q, center, sweep, start, target, &self.linear[..self.settings.axes.len()]);
         if helix.length_mm() <= MIN_MOVE_MM {

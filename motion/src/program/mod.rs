@@ -4,6 +4,7 @@
 
 mod active;
 mod append;
+mod arc_rule;
 mod cutter;
 mod error;
 mod gcode;

@@ -19,6 +19,14 @@ fn end(p: &Program) -> [f64; 3] {
     [e[0], e[1], e[2]]
 }
 
+/// The end point of element `i`.
+fn end_at(p: &Program, i: usize) -> [f64; 3] {
+    let g = &p.path.elements[i].geometry;
+    let mut d = AxisDerivs::default();
+    g.eval(g.length_mm(), &mut d);
+    [d.pos[0], d.pos[1], d.pos[2]]
+}
+
 fn close(a: [f64; 3], b: [f64; 3]) -> bool {
     a.iter().zip(b.iter()).all(|(x, y)| (x - y).abs() < 1e-9)
 }
@@ -135,9 +143,13 @@ fn error_positions() {
         ("G1 A1 F100\n", "t.ngc:1:4: axis A is not on this machine (axes: X Y Z)"),
         ("G1 X2000 F100\n", "t.ngc:1:4: X target 2000 mm is outside the travel range [-1000, 1000]"),
         ("G1 F100\nG2 X10 I0 J0\n", "t.ngc:2:8: degenerate arc: the centre lies on the start point (radius zero)"),
-        ("G42 X1\n", "t.ngc:1:1: G42 needs D (the tool number)"),
+        ("T3 M6\nG42 X1\n", "t.ngc:2:1: tool 3 is not in the tool table"),
+        ("G42.1 X1\n", "t.ngc:1:1: G42.1 needs D (the tool diameter)"),
         ("G41 D3\n", "t.ngc:1:5: tool 3 is not in the tool table"),
-        ("G43\n", "t.ngc:1:1: G43 needs H (the tool number)"),
+        ("T5 M6\nG43\n", "t.ngc:2:1: tool 5 is not in the tool table"),
+        ("F100\nG3 X0 I5 P1.5\n", "t.ngc:2:10: P (turns of the arc) must be an integer, got 1.5"),
+        ("F100\nG3 X0 I5 P0\n", "t.ngc:2:10: P (turns of the arc) must be 1 or more, got 0"),
+        ("F100\nG3 R5\n", "t.ngc:2:4: R without an arc end point"),
         ("G41.1 D-1\n", "t.ngc:1:7: tool diameter D must not be negative, got -1"),
         ("G0 G1 X1\n", "t.ngc:1:4: G1 conflicts with G0 in the same block (same modal group)"),
         ("F100\nG06 I1 J0 K0\nX1 Y0 Z0 P1 Q0 R0\n", "t.ngc:3:18: G06 span must end with ';'"),
@@ -178,16 +190,49 @@ fn every_word_is_used_or_an_error() {
         ("M2 M30\n", "t.ngc:1:4: M30 conflicts with M2 in the same block (same modal group)"),
         ("S-1\n", "t.ngc:1:1: spindle speed S must not be negative, got -1"),
         ("T1.5\n", "t.ngc:1:1: tool number T must be a non-negative integer, got 1.5"),
-        (
-            "G20 G1 X1 F10\n",
-            "t.ngc:1:11: F in the same block as G20/G21: its unit would be ambiguous; program F in a block of its own",
-        ),
         ("G0 X1\n%\n", "t.ngc:2:1: '%' is only valid as the first line of a program (and then as its last)"),
         ("G4 P1 X5\n", "t.ngc:1:7: axis word without a motion mode: program G0, G1, G2 or G3 first"),
     ];
     for (text, expect) in cases {
         assert_eq!(first_error(text), expect, "program:\n{text}");
     }
+}
+
+#[test]
+fn linuxcnc_forms_are_accepted() {
+    // F in a G20/G21 block is read in the units before it, as LinuxCNC reads it.
+    let p = ok("G20 G1 X1 F10\nG21 G1 X2 F100\n");
+    let feeds: Vec<f64> = p
+        .path
+        .elements
+        .iter()
+        .map(|e| match e.feed {
+            Feed::Programmed { mm_per_s } => mm_per_s * 60.0,
+            Feed::Rapid => f64::NAN,
+        })
+        .collect();
+    assert!((feeds[0] - 10.0).abs() < 1e-9 && (feeds[1] - 2540.0).abs() < 1e-9, "{feeds:?}");
+    // A centre-form arc without axis words is a full circle; P adds turns.
+    let p = ok("G0 X10\nF100\nG2 I5\nG3 I5 P3\nJ5\n");
+    let sweeps: Vec<f64> = p
+        .path
+        .elements
+        .iter()
+        .filter_map(|e| match &e.geometry {
+            Geometry::Helix(h) => Some(h.sweep_rad() / std::f64::consts::PI),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(sweeps.len(), 3);
+    assert!((sweeps[0] + 2.0).abs() < 1e-12 && (sweeps[1] - 6.0).abs() < 1e-12 && (sweeps[2] - 2.0).abs() < 1e-12);
+    // G43 and G41 without H/D take the tool in the spindle; with none, length and radius 0.
+    let mut settings = Settings::default_machine();
+    settings.tools = vec![crate::config::ToolConfig { number: 2, diameter_mm: 4.0, length_mm: 10.0, name: None }];
+    let p = parse("T2 M6\nG43\nG0 Z0\nG41\nG1 X10 F100\nG40 G1 X20\n", "t.ngc", &settings).expect("ok");
+    assert!(close(end_at(&p, 0), [0.0, 0.0, 10.0]));
+    assert!(close(end_at(&p, 1), [10.0, 2.0, 10.0]));
+    let p = parse("G43\nG0 Z1\nG41\nG1 X10 F100\n", "t.ngc", &settings).expect("ok");
+    assert!(close(end(&p), [10.0, 0.0, 1.0]));
 }
 
 #[test]

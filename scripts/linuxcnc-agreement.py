@@ -26,7 +26,9 @@ Z ±500 mm) written to a scratch copy with travel widened to ±100 000 mm (the p
 written for any one machine) and tools 1-99 added where FILE has none: diameter 0.125 in
 (3.175 mm), length 0, as `rs274`'s tool table gets them too (tool 1 of FILE is kept: 6 mm).
 
-Both accept and agree: final X Y Z within 1 µm and path length within 0.01 mm.
+Both accept and agree: final X Y Z within 1 µm and path length within 0.01 mm. A program both
+accept whose `interpd plan` fails or takes longer than 60 s has no final position and is
+counted apart.
 """
 import argparse
 import collections
@@ -51,6 +53,8 @@ TRAVEL_MM = 100_000.0
 DEFAULT_TOOL_DIAMETER_MM = 3.175
 TOOLS = range(1, 100)
 TIMEOUT_S = 120
+# `interpd plan` only gives the final position; a plan that takes longer is reported apart.
+PLAN_TIMEOUT_S = 60
 
 # ----------------------------------------------------------------------------------------------
 # Scope
@@ -305,10 +309,10 @@ def interpd_final(binary, path, machine, scratch):
             [binary, "plan", path, "--machine", machine, "--period-ms", "1e6", "--out", csv],
             capture_output=True,
             text=True,
-            timeout=TIMEOUT_S,
+            timeout=PLAN_TIMEOUT_S,
         )
     except subprocess.TimeoutExpired:
-        return "plan timeout"
+        return f"plan timeout ({PLAN_TIMEOUT_S} s)"
     if p.returncode != 0 and "has no motion" in p.stderr:
         return [0.0, 0.0, 0.0]
     if p.returncode != 0:
@@ -392,9 +396,13 @@ def run_one(args, machine, tbl, path):
             ours = interpd_final(args.binary, path, machine, scratch)
             r["interpd_length_mm"] = length
             r["interpd_final_mm"] = ours if not isinstance(ours, str) else None
-            if isinstance(theirs, str) or isinstance(ours, str):
+            if isinstance(ours, str):
+                # No final position from interpd: neither agreeing nor disagreeing.
+                r["agree"] = None
+                r["why"] = ours
+            elif isinstance(theirs, str):
                 r["agree"] = False
-                r["why"] = theirs if isinstance(theirs, str) else ours
+                r["why"] = theirs
             else:
                 pos, rs_length, rounding = theirs
                 r["rs274_final_mm"] = pos
@@ -446,8 +454,9 @@ def main():
             ("in scope", len(scope)),
             ("accepted by rs274", sum(r["rs274_ok"] for r in scope)),
             ("accepted by interpd", sum(r["interpd_ok"] for r in scope)),
-            ("both accept and agree", sum(r["agree"] for r in both)),
-            ("both accept but disagree", sum(not r["agree"] for r in both)),
+            ("both accept and agree", sum(r["agree"] is True for r in both)),
+            ("both accept but disagree", sum(r["agree"] is False for r in both)),
+            ("both accept, interpd plan fails", sum(r["agree"] is None for r in both)),
             ("rs274 only", sum(r["rs274_ok"] and not r["interpd_ok"] for r in scope)),
             ("interpd only", sum(r["interpd_ok"] and not r["rs274_ok"] for r in scope)),
             ("refused by both", sum(not r["rs274_ok"] and not r["interpd_ok"] for r in scope)),
@@ -489,7 +498,7 @@ def main():
         print(f"  {v:5d}  {k}  (rs274 accepts {reasons_rs_ok.get(k, 0)})")
     disagree = [r for r in both if not r["agree"]]
     if disagree:
-        print("both accept but disagree:")
+        print("both accept but disagree, or interpd's plan fails:")
         for r in disagree:
             print(f"  {r['file']}: {r.get('why')}")
     if args.list:

@@ -595,29 +595,28 @@ fn comp_program(rng: &mut Rng, r: f64) -> String {
     lines.push("F1000".into());
     lines.push(if rng.chance(0.5) { "G41 D1" } else { "G42 D1" }.to_string());
     // An element from `at` starting along `heading`: a line, or an arc of the given radius.
-    let element =
-        |rng: &mut Rng, at: &mut [f64; 2], heading: &mut f64, len: f64, arc_radius: Option<f64>| -> String {
-            match arc_radius {
-                None => {
-                    *at = [at[0] + len * heading.cos(), at[1] + len * heading.sin()];
-                    format!("G1 {a1}{} {a2}{}", fmt(at[0]), fmt(at[1]))
-                }
-                Some(radius) => {
-                    let ccw = rng.chance(0.5);
-                    let s = if ccw { 1.0 } else { -1.0 };
-                    let sweep = (len / radius).min(2.5);
-                    let c = [at[0] - s * radius * heading.sin(), at[1] + s * radius * heading.cos()];
-                    let a0 = (at[1] - c[1]).atan2(at[0] - c[0]);
-                    let a1_ = a0 + s * sweep;
-                    let (i, j) = (c[0] - at[0], c[1] - at[1]);
-                    *at = [c[0] + radius * a1_.cos(), c[1] + radius * a1_.sin()];
-                    *heading += s * sweep;
-                    // In G18 the arc direction is seen from +Y: G2/G3 as in the plane's own order.
-                    let code = if ccw { "G3" } else { "G2" };
-                    format!("{code} {a1}{} {a2}{} {o1}{} {o2}{}", fmt(at[0]), fmt(at[1]), fmt(i), fmt(j))
-                }
+    let element = |rng: &mut Rng, at: &mut [f64; 2], heading: &mut f64, len: f64, arc_radius: Option<f64>| -> String {
+        match arc_radius {
+            None => {
+                *at = [at[0] + len * heading.cos(), at[1] + len * heading.sin()];
+                format!("G1 {a1}{} {a2}{}", fmt(at[0]), fmt(at[1]))
             }
-        };
+            Some(radius) => {
+                let ccw = rng.chance(0.5);
+                let s = if ccw { 1.0 } else { -1.0 };
+                let sweep = (len / radius).min(2.5);
+                let c = [at[0] - s * radius * heading.sin(), at[1] + s * radius * heading.cos()];
+                let a0 = (at[1] - c[1]).atan2(at[0] - c[0]);
+                let a1_ = a0 + s * sweep;
+                let (i, j) = (c[0] - at[0], c[1] - at[1]);
+                *at = [c[0] + radius * a1_.cos(), c[1] + radius * a1_.sin()];
+                *heading += s * sweep;
+                // In G18 the arc direction is seen from +Y: G2/G3 as in the plane's own order.
+                let code = if ccw { "G3" } else { "G2" };
+                format!("{code} {a1}{} {a2}{} {o1}{} {o2}{}", fmt(at[0]), fmt(at[1]), fmt(i), fmt(j))
+            }
+        }
+    };
     // The entry: a line (faulty: not longer than the tool radius) or an arc.
     let entry_len = if fault == 0 { rng.range(0.2, 0.9) * r } else { rng.range(6.0, 30.0) * r };
     let entry_arc = (fault != 0 && rng.chance(0.3)).then(|| rng.range(8.0, 30.0) * r);

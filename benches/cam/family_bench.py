@@ -28,33 +28,9 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import family  # noqa: E402
+from cam_bench import max_distance  # noqa: E402  (the grid-binned polyline distance)
 
 MACHINE = os.path.join(HERE, "family_machine.toml")
-
-
-def max_distance(curve, samples, cell=0.05):
-    """Largest distance of `samples` from the polyline `curve` (segments binned in an x, y
-    grid of `cell` mm; a sample farther than a cell from every segment counts as infinity)."""
-    a, b = curve[:-1], curve[1:]
-    lo = np.floor((np.minimum(a, b)[:, :2] - cell) / cell).astype(np.int64)
-    hi = np.floor((np.maximum(a, b)[:, :2] + cell) / cell).astype(np.int64)
-    grid = {}
-    for i in range(len(a)):
-        for cx in range(lo[i, 0], hi[i, 0] + 1):
-            for cy in range(lo[i, 1], hi[i, 1] + 1):
-                grid.setdefault((cx, cy), []).append(i)
-    ab = b - a
-    len2 = np.maximum((ab * ab).sum(axis=1), 1e-300)
-    worst = 0.0
-    for p in samples:
-        idx = grid.get((int(np.floor(p[0] / cell)), int(np.floor(p[1] / cell))))
-        if not idx:
-            return float("inf")
-        idx = np.array(idx)
-        t = np.clip(((p - a[idx]) * ab[idx]).sum(axis=1) / len2[idx], 0.0, 1.0)
-        d = np.sqrt((((a[idx] + t[:, None] * ab[idx]) - p) ** 2).sum(axis=1)).min()
-        worst = max(worst, d)
-    return worst
 
 
 def run(binary, base, period_ms, limits):

@@ -37,6 +37,9 @@ pub(super) fn with_approach(settings: &Settings, here: &AxisVec, path: Path) -> 
     }
     for e in path.elements {
         out.push(e.geometry, e.feed, e.source, e.dwell_before_s, e.blend);
+        if let Some(last) = out.elements.last_mut() {
+            last.pause_before = e.pause_before;
+        }
     }
     out.final_dwell_s = path.final_dwell_s;
     out

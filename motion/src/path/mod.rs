@@ -166,6 +166,20 @@ pub struct Element {
     /// Dwell before this element starts (G4), s. A dwell forces a stop.
     pub dwell_before_s: f64,
     pub blend: Blend,
+    /// A planned pause (M0, M1, M60) before this element starts: the motion stops exactly
+    /// there and the program waits to be resumed.
+    pub pause_before: Option<Pause>,
+}
+
+/// A planned pause of the program (RS274NGC's program stops).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pause {
+    /// M0: the program stops until it is resumed.
+    Stop,
+    /// M1: as M0 when the optional-stop switch is on, else nothing.
+    Optional,
+    /// M60: a pallet shuttle and a stop (the shuttle is not interpd's; the stop is).
+    PalletShuttle,
 }
 
 impl Element {
@@ -182,6 +196,7 @@ impl Element {
             e.geometry = Geometry::Suffix(Box::new(Suffix::new(e.geometry, offset)));
             e.s_start_mm = s_mm;
             e.dwell_before_s = 0.0;
+            e.pause_before = None;
         }
         e.joint = JointKind::Start;
         e
@@ -189,7 +204,13 @@ impl Element {
 
     /// Whether the motion must come to rest (v = a = 0) where this element starts.
     pub(crate) fn stops_before(&self) -> bool {
-        matches!(self.joint, JointKind::Start | JointKind::Corner) || self.dwell_before_s > 0.0
+        matches!(self.joint, JointKind::Start | JointKind::Corner) || self.holds()
+    }
+
+    /// Whether the motion holds before this element: a dwell or a planned pause. Nothing is
+    /// blended across it.
+    pub(crate) fn holds(&self) -> bool {
+        self.dwell_before_s > 0.0 || self.pause_before.is_some()
     }
 }
 
@@ -234,7 +255,16 @@ impl Path {
             None => JointKind::Start,
             Some(prev) => classify_joint(&prev.geometry, &geometry, self.n_axes),
         };
-        self.elements.push(Element { geometry, s_start_mm, feed, source, joint, dwell_before_s, blend });
+        self.elements.push(Element {
+            geometry,
+            s_start_mm,
+            feed,
+            source,
+            joint,
+            dwell_before_s,
+            blend,
+            pause_before: None,
+        });
     }
 
     /// Moves every element but the last to `out`: a reader hands elements on as they are made

@@ -71,7 +71,7 @@ impl Conditioner {
 
     /// Whether `e` can join a chord: a straight move with no dwell before it.
     pub(super) fn mergeable(e: &Element) -> bool {
-        matches!(e.geometry, Geometry::Line(_)) && e.dwell_before_s == 0.0
+        matches!(e.geometry, Geometry::Line(_)) && !e.holds()
     }
 
     /// Takes the next line of the run (`mergeable`, tolerance `tol_mm`); returns the chord it
@@ -182,6 +182,7 @@ mod tests {
             source: Source::default(),
             joint: JointKind::Smooth,
             dwell_before_s: 0.0,
+            pause_before: None,
             blend: Blend::Tolerance { tol_mm: 0.01 },
         }
     }

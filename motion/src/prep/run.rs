@@ -39,11 +39,20 @@ pub(super) struct Run {
     pub next_joint: JointKind,
     /// Dwell before the run's first piece.
     pub dwell_s: f64,
+    /// Planned pause before the run's first piece.
+    pub pause: Option<crate::path::Pause>,
 }
 
 impl Run {
     /// A run starting with `first`, from `state` with `left_levels` fixed.
-    pub(super) fn new(dwell_s: f64, state: State, left_levels: usize, joint: JointKind, n_axes: usize) -> Self {
+    pub(super) fn new(
+        dwell_s: f64,
+        pause: Option<crate::path::Pause>,
+        state: State,
+        left_levels: usize,
+        joint: JointKind,
+        n_axes: usize,
+    ) -> Self {
         Self {
             elems: RunElems::new(n_axes),
             programmed: ProgrammedMoves::new(n_axes),
@@ -54,6 +63,7 @@ impl Run {
             end: RunEnd::Open,
             next_joint: joint,
             dwell_s,
+            pause,
         }
     }
 

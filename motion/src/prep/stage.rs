@@ -20,7 +20,8 @@ use super::verify;
 use super::window::{RightEnd, Solution, Solvers, State, WindowInput};
 use crate::Settings;
 use crate::path::{
-    AxisDerivs, AxisVec, Blend, Element, Geometry, JointKind, Line, MAX_AXES, QuinticSpan, SpanError, classify_joint,
+    AxisDerivs, AxisVec, Blend, Element, Geometry, JointKind, Line, MAX_AXES, Pause, QuinticSpan, SpanError,
+    classify_joint,
 };
 use std::collections::VecDeque;
 use std::time::Instant;
@@ -131,14 +132,14 @@ impl Prep {
                 let mut d = AxisDerivs::default();
                 e.geometry.eval(0.0, &mut d);
                 let turn = angle_between(&last.t_end, &d.d1, self.st.n_axes);
-                if e.dwell_before_s == 0.0 && turn <= self.st.max_corner_rad {
+                if !e.holds() && turn <= self.st.max_corner_rad {
                     run.push(c, t);
                     run.place(&self.st);
                     return self.advance();
                 }
             }
             let tangent = matches!(e.joint, JointKind::Smooth | JointKind::CurvatureJump);
-            let end = if tol.is_none() && tangent && e.dwell_before_s == 0.0 {
+            let end = if tol.is_none() && tangent && !e.holds() {
                 RunEnd::Join(start_state(e, self.st.spacing_mm))
             } else {
                 RunEnd::Stop
@@ -195,7 +196,7 @@ impl Prep {
 
     fn start_run(&mut self, c: Conditioned, tol: f64) -> Result<(), PrepError> {
         let e = &c.element;
-        let tangent = matches!(e.joint, JointKind::Smooth | JointKind::CurvatureJump) && e.dwell_before_s == 0.0;
+        let tangent = matches!(e.joint, JointKind::Smooth | JointKind::CurvatureJump) && !e.holds();
         let (state, levels, joint) = match &self.last_out {
             Some(prev) if tangent => (end_state(prev, self.st.spacing_mm), 3.min(self.st.levels), JointKind::Smooth),
             prev => {
@@ -205,7 +206,7 @@ impl Prep {
             }
         };
         self.stats.runs += 1;
-        let mut run = Run::new(e.dwell_before_s, state, levels, joint, self.st.n_axes);
+        let mut run = Run::new(e.dwell_before_s, e.pause_before, state, levels, joint, self.st.n_axes);
         run.push(c, tol);
         run.place(&self.st);
         self.run = Some(run);
@@ -416,8 +417,9 @@ impl Prep {
             let run = self.run.as_mut().expect("open run");
             let joint = std::mem::replace(&mut run.next_joint, JointKind::Smooth);
             let dwell = std::mem::take(&mut run.dwell_s);
+            let pause = run.pause.take();
             self.stats.pieces += 1;
-            self.emit(Geometry::Quintic(Box::new(piece)), joint, dwell, &src);
+            self.emit(Geometry::Quintic(Box::new(piece)), joint, (dwell, pause), &src);
         }
     }
 
@@ -481,12 +483,13 @@ impl Prep {
             (pieces::programmed_state(e_t, target.s_mm, st.spacing_mm), 3.min(st.levels), JointKind::Smooth)
         };
         let dwell = std::mem::take(&mut run.dwell_s);
+        let pause = run.pause.take();
         run.next_joint = next;
         run.commit_to(commit, state, levels, st.spacing_mm);
         let parts = simplify_lines(parts, st.n_axes);
         let mut first = true;
         for (g, j, src, _) in parts {
-            self.emit(g, j, if first { dwell } else { 0.0 }, &src);
+            self.emit(g, j, if first { (dwell, pause) } else { (0.0, None) }, &src);
             first = false;
         }
         self.stats.windows += 1;
@@ -500,11 +503,12 @@ impl Prep {
             (_, JointKind::Corner | JointKind::Start) => JointKind::Corner,
             (Some(prev), _) => classify_joint(&prev.geometry, &e.geometry, self.st.n_axes),
         };
-        let dwell = e.dwell_before_s;
-        self.emit(e.geometry.clone(), joint, dwell, &e);
+        self.emit(e.geometry.clone(), joint, (e.dwell_before_s, e.pause_before), &e);
     }
 
-    fn emit(&mut self, geometry: Geometry, joint: JointKind, dwell_before_s: f64, src: &Element) {
+    /// `hold`: the dwell (s) and the planned pause before the element.
+    fn emit(&mut self, geometry: Geometry, joint: JointKind, hold: (f64, Option<Pause>), src: &Element) {
+        let (dwell_before_s, pause_before) = hold;
         let len = geometry.length_mm();
         let e = Element {
             geometry,
@@ -514,6 +518,7 @@ impl Prep {
             joint,
             dwell_before_s,
             blend: src.blend,
+            pause_before,
         };
         self.out_s_mm += len;
         self.last_out = Some(e.clone());

@@ -13,8 +13,8 @@ use super::{G06_END_MARKER, Summary};
 use crate::Settings;
 use crate::path::Line as LineGeom;
 use crate::path::{
-    AxisVec, Blend, CubicSpan, Feed, Geometry, Helix, MAX_AXES, MIN_CURVATURE_RADIUS_MM, MIN_MOVE_MM, Path, Source,
-    SpanError, spline::natural_tangents,
+    AxisVec, Blend, CubicSpan, Feed, Geometry, Helix, MAX_AXES, MIN_CURVATURE_RADIUS_MM, MIN_MOVE_MM, Path, Pause,
+    Source, SpanError, spline::natural_tangents,
 };
 use interpd_config::{AxisKind, AxisLetter};
 use std::cell::Cell;
@@ -74,6 +74,8 @@ pub(crate) struct Modal {
     unit_mm: f64,
     absolute: bool,
     feed_mm_s: Option<f64>,
+    /// G93: F is the inverse of each feed move's time, minutes (1/min), given in every block.
+    inverse_time: bool,
     blend: Blend,
     /// Machine position (work offset and tool length applied).
     pub(super) pos: AxisVec,
@@ -141,6 +143,14 @@ pub(crate) struct Interpreter {
     tape: bool,
     /// Where the tool and offset state changes, when someone reads it (the running program).
     modal_log: Option<ModalLog>,
+    /// G93: the F of the block being executed, 1/min (each feed move's inverse time).
+    inverse_f: Option<f64>,
+    /// A planned pause (M0, M1, M60) waiting for the next element, and the element's source once
+    /// it has gone into the compensation stage (the pause goes with it to the path).
+    pending_pause: Option<Pause>,
+    pause_for: Option<(Source, Pause)>,
+    /// The pause of the block being executed.
+    block_pause: Option<Pause>,
 }
 
 /// Words of one block, by letter. Reading a word consumes it: a word that nothing in its
@@ -207,6 +217,7 @@ impl Interpreter {
             unit_mm: 1.0,
             absolute: true,
             feed_mm_s: None,
+            inverse_time: false,
             blend,
             pos,
             work_system: 0,
@@ -239,6 +250,10 @@ impl Interpreter {
             started: false,
             tape: false,
             modal_log: None,
+            inverse_f: None,
+            pending_pause: None,
+            pause_for: None,
+            block_pause: None,
         }
     }
 
@@ -381,7 +396,11 @@ impl Interpreter {
     fn block(&mut self, line: &Line, line_no: u32, d: &mut Diagnostics) {
         let block = Block::new(&line.words, line_no);
         let errors_before = d.errors.len();
+        self.block_pause = None;
         self.execute(&block, line, d);
+        if let Some(p) = self.block_pause.take() {
+            self.pending_pause = Some(p);
+        }
         if d.errors.len() == errors_before {
             if let Some(w) = block.unconsumed() {
                 d.error(line_no, w.col, unused_word_message(w.letter));
@@ -411,6 +430,7 @@ impl Interpreter {
         }
 
         let Some(g) = self.read_g_words(block, d) else { return };
+        self.summary.ignored_words += usize::from(g.spindle_mode);
         if !self.read_m_words(block, d) {
             return;
         }
@@ -439,12 +459,23 @@ impl Interpreter {
             }
             self.modal.plane = p;
         }
+        if let Some(inverse) = g.inverse_time {
+            // As LinuxCNC: a change of the feed mode (even to the mode in force) forgets the
+            // feed, so a feed move needs F again.
+            self.modal.inverse_time = inverse;
+            self.modal.feed_mm_s = None;
+        }
+        self.inverse_f = None;
         if let Some(f) = block.get('F') {
             if f.value <= 0.0 {
                 d.error(line_no, f.col, format!("feed F must be positive, got {}", f.value));
                 return;
             }
-            self.modal.feed_mm_s = Some(f.value * feed_unit_mm / 60.0);
+            if self.modal.inverse_time {
+                self.inverse_f = Some(f.value);
+            } else {
+                self.modal.feed_mm_s = Some(f.value * feed_unit_mm / 60.0);
+            }
         }
         if let Some(b) = g.blend {
             match b {
@@ -487,6 +518,10 @@ impl Interpreter {
             }
         }
         if g.spline {
+            if self.modal.inverse_time {
+                d.error(line_no, block.words[0].col, "G06 in inverse time (G93): program G94 first");
+                return;
+            }
             self.start_g06(block, block_no, d);
             return;
         }
@@ -516,6 +551,18 @@ impl Interpreter {
         };
         let Some(target) = self.target(block, d) else { return };
         let source = Source { line: line_no, block: block_no };
+        if self.modal.inverse_time && motion != Motion::Rapid && self.inverse_f.is_none() {
+            d.error(
+                line_no,
+                block.words[0].col,
+                "inverse time (G93): a feed move needs F (1/minutes) in its own block, as in LinuxCNC",
+            );
+            return;
+        }
+        if self.inverse_f.is_some() {
+            // Any value passes here: the move's feed is its length times F (below).
+            self.modal.feed_mm_s.get_or_insert(1.0);
+        }
         match motion {
             Motion::Rapid | Motion::Linear => {
                 if let Some(w) = arc_words.first() {
@@ -790,7 +837,7 @@ impl Interpreter {
 
     fn read_g_words(&self, block: &Block, d: &mut Diagnostics) -> Option<GWords> {
         let mut g = GWords::default();
-        let mut groups: [Option<u32>; 9] = [None; 9];
+        let mut groups: [Option<u32>; 11] = [None; 11];
         for w in block.words.iter().filter(|w| w.letter == 'G') {
             let code = (w.value * 10.0).round() as i64;
             if (w.value * 10.0 - code as f64).abs() > 1e-6 || code < 0 {
@@ -909,6 +956,31 @@ impl Interpreter {
                     g.tool_length = Some((ToolLengthWord::Cancel, w.col));
                     "G49"
                 }),
+                930 => (9, {
+                    g.inverse_time = Some(true);
+                    "G93"
+                }),
+                940 => (9, {
+                    g.inverse_time = Some(false);
+                    "G94"
+                }),
+                950 => {
+                    d.error(
+                        block.line,
+                        w.col,
+                        "G95 (feed per spindle revolution) needs a spindle; interpd interpolates motion only",
+                    );
+                    return None;
+                }
+                960 | 970 => (10, {
+                    // Constant surface speed: a spindle matter, ignored like S (G96's D is
+                    // its speed limit).
+                    if code == 960 {
+                        block.consume('D');
+                    }
+                    g.spindle_mode = true;
+                    if code == 960 { "G96" } else { "G97" }
+                }),
                 540 | 550 | 560 | 570 | 580 | 590 => (8, {
                     g.work = Some((code as usize - 540) / 10);
                     ["G54", "G55", "G56", "G57", "G58", "G59"][(code as usize - 540) / 10]
@@ -938,10 +1010,19 @@ impl Interpreter {
     fn read_m_words(&mut self, block: &Block, d: &mut Diagnostics) -> bool {
         // Modal groups: program end, spindle, tool change, coolant.
         let mut groups: [Option<i64>; 4] = [None; 4];
+        let mut pause = None;
         for w in block.words.iter().filter(|w| w.letter == 'M') {
             let code = w.value as i64;
             let group = match code {
                 2 | 30 if w.value.fract() == 0.0 => 0,
+                0 | 1 | 60 if w.value.fract() == 0.0 => {
+                    pause = Some(match code {
+                        0 => Pause::Stop,
+                        1 => Pause::Optional,
+                        _ => Pause::PalletShuttle,
+                    });
+                    0
+                }
                 3..=5 if w.value.fract() == 0.0 => 1,
                 6 if w.value.fract() == 0.0 => 2,
                 7..=9 if w.value.fract() == 0.0 => 3,
@@ -963,9 +1044,13 @@ impl Interpreter {
                 return false;
             }
             groups[group] = Some(code);
-            if group == 0 {
+            if group == 0 && matches!(code, 2 | 30) {
                 self.ended = true;
                 self.summary.program_end = true;
+            } else if group == 0 {
+                // The stop comes after the block's motion (RS274NGC's order of execution).
+                self.block_pause = pause;
+                self.summary.pauses += 1;
             } else {
                 self.summary.ignored_words += 1;
             }
@@ -1071,6 +1156,9 @@ impl Interpreter {
                 log.element();
             }
         }
+        if let Some(p) = self.pending_pause.take() {
+            self.pause_for = Some((source, p));
+        }
         let piece = Piece { geometry, feed, source, col, dwell_before_s: dwell, blend: self.modal.blend };
         if let Err(e) = self.cutter.push(piece) {
             d.error(e.line, e.col, e.kind.to_string());
@@ -1086,6 +1174,12 @@ impl Interpreter {
                 d.error(p.source.line, p.col, msg);
             }
             self.path.push(p.geometry, p.feed, p.source, p.dwell_before_s, p.blend);
+            if let Some((_, pause)) = self.pause_for.filter(|(s, _)| *s == p.source) {
+                self.pause_for = None;
+                if let Some(e) = self.path.elements.last_mut() {
+                    e.pause_before = Some(pause);
+                }
+            }
         }
     }
 
@@ -1117,6 +1211,7 @@ impl Interpreter {
 
     fn linear_move(&mut self, target: AxisVec, feed: Feed, source: Source, col: u32, d: &mut Diagnostics) {
         let len = self.move_length(&self.modal.pos, &target);
+        let feed = self.inverse_time_feed(feed, len);
         if len <= MIN_MOVE_MM {
             self.summary.zero_length_moves += 1;
             self.modal.pos = target;
@@ -1225,8 +1320,18 @@ impl Interpreter {
             d.error(line, block.words[0].col, msg);
             return;
         }
+        let feed = self.inverse_time_feed(feed, helix.length_mm());
         self.push(Geometry::Helix(helix), feed, source, block.words[0].col, d);
         self.modal.pos = target;
+    }
+
+    /// In inverse time (G93) a feed move of `len_mm` takes 1/F minutes: its path feed is
+    /// `len_mm · F / 60` mm/s. Rapids and moves in G94 keep `feed`.
+    fn inverse_time_feed(&self, feed: Feed, len_mm: f64) -> Feed {
+        match (feed, self.inverse_f) {
+            (Feed::Programmed { .. }, Some(f)) => Feed::Programmed { mm_per_s: len_mm * f / 60.0 },
+            _ => feed,
+        }
     }
 
     /// Checks the extreme points of the arc in its plane against the travel limits.
@@ -1502,6 +1607,10 @@ struct GWords {
     units: Option<f64>,
     absolute: Option<bool>,
     blend: Option<BlendWord>,
+    /// G93 (true) or G94 (false).
+    inverse_time: Option<bool>,
+    /// G96/G97: accepted and ignored.
+    spindle_mode: bool,
 }
 
 /// A line of G06 spline data: only X Y Z P Q R (and N) words.

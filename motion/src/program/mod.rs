@@ -44,8 +44,10 @@ pub struct Summary {
     pub kinds: BTreeMap<&'static str, usize>,
     /// Moves of zero length, dropped.
     pub zero_length_moves: usize,
-    /// Spindle, coolant and tool words (M3–M9, S, T), accepted and ignored.
+    /// Spindle, coolant and tool words (M3–M9, S, T, G96, G97), accepted and ignored.
     pub ignored_words: usize,
+    /// Planned pauses (M0, M1, M60): the motion stops exactly there and waits.
+    pub pauses: usize,
     /// The program ends with M2, M30 or a closing `%` (a path table always ends); one without
     /// an end can be continued (`program.append`).
     pub program_end: bool,

@@ -367,3 +367,36 @@ fn g92_refusals_name_the_place() {
     );
     assert!(first_error("G92 Q1\n").contains("G92 needs at least one axis word"));
 }
+
+#[test]
+fn feed_modes_and_spindle_modes() {
+    // G94 forgets the feed as LinuxCNC does; G96/G97 are ignored like S.
+    let p = ok("G94 G96 D2500 S200\nG97\nG1 X10 F600\n");
+    assert_eq!(p.path.elements[0].feed, Feed::Programmed { mm_per_s: 10.0 });
+    assert_eq!(p.summary.ignored_words, 3);
+    assert!(first_error("G1 X1 F600\nG94\nG1 X2\n").starts_with("t.ngc:3:1: G1 without feed"));
+    // G93: a 10 mm move in 1/2 minute runs at 20 mm/min; every feed move needs its own F.
+    let p = ok("G93\nG1 X10 F2\nG0 X0\nG2 X10 I5 F1\n");
+    let f = |i: usize| match p.path.elements[i].feed {
+        Feed::Programmed { mm_per_s } => mm_per_s,
+        Feed::Rapid => -1.0,
+    };
+    assert!((f(0) - 10.0 * 2.0 / 60.0).abs() < 1e-12);
+    assert_eq!(f(1), -1.0);
+    assert!((f(2) - 5.0 * PI_F64 / 60.0).abs() < 1e-9);
+    assert!(first_error("G93\nG1 X10 F2\nG1 X20\n").starts_with("t.ngc:3:1: inverse time (G93)"));
+    assert!(first_error("G95 G1 X1 F1\n").contains("needs a spindle"));
+}
+
+const PI_F64: f64 = std::f64::consts::PI;
+
+#[test]
+fn program_stops_are_planned_pauses_after_the_block_motion() {
+    use crate::path::Pause;
+    let p = ok("G1 X10 F600\nG1 X20 M0\nG1 X30\nM1\nG1 Y5\nM60\n");
+    let pauses: Vec<Option<Pause>> = p.path.elements.iter().map(|e| e.pause_before).collect();
+    assert_eq!(pauses, [None, None, Some(Pause::Stop), Some(Pause::Optional)]);
+    assert!(p.path.elements[2].stops_before());
+    assert_eq!(p.summary.pauses, 3);
+    assert!(first_error("M0 M1\n").contains("same modal group"));
+}

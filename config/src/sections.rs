@@ -217,11 +217,22 @@ pub struct ProgramsConfig {
     /// Program text appended and not yet read by the motion, at most, KiB: the back-pressure
     /// of `program.append`.
     pub append_buffer_kib: u32,
+    /// Directories inside `dir` (relative to it) where `o<name> call` looks for `name.ngc`
+    /// when the program defines no such subroutine; `"."` is `dir` itself.
+    pub subroutine_path: Vec<String>,
+    /// Iterations one O-word loop (`while`, `do`, `repeat`) may run, at most: a loop that runs
+    /// longer is an error at its line (it most likely never ends).
+    pub max_loop_iterations: u64,
 }
 
 impl Default for ProgramsConfig {
     fn default() -> Self {
-        Self { dir: None, append_buffer_kib: 4096 }
+        Self {
+            dir: None,
+            append_buffer_kib: 4096,
+            subroutine_path: vec![".".to_string()],
+            max_loop_iterations: 10_000_000,
+        }
     }
 }
 
@@ -230,7 +241,32 @@ impl ProgramsConfig {
         if self.dir.as_deref().is_some_and(str::is_empty) {
             return Err(v.err("programs.dir", "must not be empty (leave it out for the working directory)"));
         }
+        for p in &self.subroutine_path {
+            let path = std::path::Path::new(p);
+            if p.is_empty()
+                || path.is_absolute()
+                || path.components().any(|c| matches!(c, std::path::Component::ParentDir))
+            {
+                return Err(v.err(
+                    "programs.subroutine_path",
+                    &format!("'{p}' must be a directory inside programs.dir: relative, without '..'"),
+                ));
+            }
+        }
+        v.in_range("programs.max_loop_iterations", self.max_loop_iterations as f64, 1.0, 1e12)?;
         v.in_range("programs.append_buffer_kib", f64::from(self.append_buffer_kib), 1.0, 1_048_576.0)
+    }
+
+    /// The subroutine directories, each inside the programs directory (`dir`, or the working
+    /// directory when unset).
+    pub fn subroutine_dirs(&self) -> Vec<std::path::PathBuf> {
+        let base = std::path::PathBuf::from(self.dir.as_deref().unwrap_or("."));
+        self.subroutine_path.iter().map(|p| base.join(p)).collect()
+    }
+
+    /// The programs directory (the working directory when unset).
+    pub fn base_dir(&self) -> std::path::PathBuf {
+        std::path::PathBuf::from(self.dir.as_deref().unwrap_or("."))
     }
 
     /// [`ProgramsConfig::append_buffer_kib`] in bytes.

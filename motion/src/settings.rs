@@ -1,7 +1,8 @@
 //! What the motion library needs to know of a machine.
 
 use interpd_config::{
-    AxisConfig, AxisLetter, Config, ConfigError, PlannerConfig, PrepConfig, ToolConfig, WorkOffsetsConfig,
+    AxisConfig, AxisLetter, Config, ConfigError, PlannerConfig, PrepConfig, ProgramsConfig, ToolConfig,
+    WorkOffsetsConfig,
 };
 
 /// The machine's axes with their limits, and the planner and smoothing settings: the part of
@@ -17,6 +18,8 @@ pub struct Settings {
     pub tools: Vec<ToolConfig>,
     /// The work coordinate systems G54 … G59.
     pub work_offsets: WorkOffsetsConfig,
+    /// Where subroutine files are found and how long a loop may run.
+    pub programs: ProgramsConfig,
 }
 
 impl Settings {
@@ -28,6 +31,7 @@ impl Settings {
             prep: config.prep.clone(),
             tools: config.tools.clone(),
             work_offsets: config.work_offsets.clone(),
+            programs: config.programs.clone(),
         }
     }
 

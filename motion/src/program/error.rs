@@ -60,6 +60,13 @@ impl Diagnostics {
         }
     }
 
+    /// Names `file` in the errors from here on (a subroutine file is being read).
+    pub(super) fn set_file(&mut self, file: &str) {
+        if self.file != file {
+            self.file = file.to_string();
+        }
+    }
+
     /// The file the errors name.
     pub(super) fn file(&self) -> &str {
         &self.file

@@ -8,7 +8,9 @@ use super::active::{ActiveCutter, ActiveModal, ActiveTool, CompSide, ModalLog};
 use super::arc_rule;
 use super::cutter::{Cutter, Piece, Side};
 use super::error::Diagnostics;
-use super::lexer::{Line, Word, lex_line};
+use super::flow::{Flow, LineAt, LinePos};
+use super::lexer::{Line, Word, lex_block};
+use super::params::{Params, Snapshot};
 use super::{G06_END_MARKER, Summary};
 use crate::Settings;
 use crate::path::Line as LineGeom;
@@ -123,7 +125,7 @@ struct G06Block {
 
 #[derive(Clone)]
 pub(crate) struct Interpreter {
-    settings: Settings,
+    pub(super) settings: Settings,
     /// The origin of each work system G54 … G59 per machine axis, read once from the settings
     /// (an axis lookup by name per coordinate would dominate the reading of micro-segments).
     work_origins: [AxisVec; interpd_config::WORK_SYSTEMS.len()],
@@ -151,6 +153,12 @@ pub(crate) struct Interpreter {
     pause_for: Option<(Source, Pause)>,
     /// The pause of the block being executed.
     block_pause: Option<Pause>,
+    /// Numbered and named parameters.
+    pub(super) params: Params,
+    /// O-word control flow.
+    pub(super) flow: Flow,
+    /// The line being read.
+    pub(super) current_line: u32,
 }
 
 /// Words of one block, by letter. Reading a word consumes it: a word that nothing in its
@@ -254,6 +262,9 @@ impl Interpreter {
             pending_pause: None,
             pause_for: None,
             block_pause: None,
+            params: Params::default(),
+            flow: Flow::default(),
+            current_line: 0,
         }
     }
 
@@ -312,24 +323,61 @@ impl Interpreter {
 
     /// Feeds one source line (1-based number).
     pub(super) fn line(&mut self, text: &str, line_no: u32, d: &mut Diagnostics) {
+        let _ = self.line_at(text, line_no, None, d);
+    }
+
+    /// Feeds one source line at `at` (its place in the program text, so that control flow can
+    /// go back to it); returns where reading goes on if not at the next line.
+    pub(super) fn line_at(
+        &mut self,
+        text: &str,
+        line_no: u32,
+        at: Option<&LineAt>,
+        d: &mut Diagnostics,
+    ) -> Option<LinePos> {
+        self.current_line = line_no;
         if self.ended {
-            return;
+            return None;
         }
-        self.summary.lines = line_no;
+        self.summary.lines = self.summary.lines.max(line_no);
+        if self.flow.skipping() {
+            return self.skipped_line(text, at, d);
+        }
+        self.line_text(text, line_no, at, d)
+    }
+
+    fn line_text(&mut self, text: &str, line_no: u32, at: Option<&LineAt>, d: &mut Diagnostics) -> Option<LinePos> {
         if self.g06.is_some() && text.trim().eq_ignore_ascii_case(G06_END_MARKER) {
             self.finish_g06(d);
-            return;
+            return None;
         }
-        let line = match lex_line(text) {
+        if text.contains('#') {
+            self.refresh_snapshot(line_no);
+        }
+        let lexed = match lex_block(text, &self.params) {
             Ok(l) => l,
             Err(e) => {
                 d.error(line_no, e.col, e.message);
                 if let Some(b) = &mut self.g06 {
                     b.unterminated = false; // a broken line inside spline data: do not pile on
                 }
-                return;
+                return None;
             }
         };
+        // Assignments take effect after the whole line is read, before the block executes.
+        for a in &lexed.assigns {
+            if let Err(m) = self.params.set(&a.param, a.value) {
+                d.error(line_no, a.col, m);
+                return None;
+            }
+        }
+        if let Some(o) = &lexed.oword {
+            if self.g06.is_some() {
+                self.finish_g06(d);
+            }
+            return self.o_word(text, o, at, d);
+        }
+        let line = lexed.line;
         if line.percent {
             if self.g06.is_some() {
                 self.finish_g06(d);
@@ -343,25 +391,25 @@ impl Interpreter {
                 d.error(line_no, 1, "'%' is only valid as the first line of a program (and then as its last)");
             }
             self.started = true;
-            return;
+            return None;
         }
         self.started |= !line.blank;
         if self.g06.is_some() {
             if line.blank {
                 self.finish_g06(d);
-                return;
+                return None;
             }
             if line.words.is_empty() {
-                return; // comment-only line inside spline data
+                return None; // comment-only line inside spline data
             }
             if is_span_line(&line) {
                 self.g06_span(&line, line_no, d);
-                return;
+                return None;
             }
             self.finish_g06(d);
         }
         if line.words.is_empty() {
-            return;
+            return None;
         }
         self.summary.blocks += 1;
         self.block(&line, line_no, d);
@@ -371,11 +419,56 @@ impl Interpreter {
                 log.record(line_no, active);
             }
         }
+        None
+    }
+
+    /// The interpreter's state as the predefined parameters report it (line `line_no`).
+    fn refresh_snapshot(&mut self, line_no: u32) {
+        let m = &self.modal;
+        let mut snap = Snapshot::default();
+        for (slot, letter) in AxisLetter::ALL.iter().enumerate().take(9) {
+            let Some(k) = self.settings.axis_index(*letter) else { continue };
+            let unit = if self.linear[k] { m.unit_mm } else { 1.0 };
+            snap.pos[slot] = (m.pos[k] - self.program_offset(k)) / unit;
+            snap.abs[slot] = m.pos[k] / unit;
+            snap.g92[slot] = m.g92[k] / unit;
+        }
+        snap.g92_on = m.g92.iter().any(|v| *v != 0.0);
+        snap.coord_index = m.work_system + 1;
+        snap.coord_code = [540.0, 550.0, 560.0, 570.0, 580.0, 590.0, 591.0, 592.0, 593.0][m.work_system.min(8)];
+        snap.metric = m.unit_mm == 1.0;
+        snap.absolute = m.absolute;
+        snap.inverse_time = m.inverse_time;
+        snap.tool = m.tool.map_or(0.0, f64::from);
+        snap.selected_tool = m.prepared_tool.map_or(-1.0, f64::from);
+        snap.tool_length = m.tool_length.map_or(0.0, |(_, l)| l / m.unit_mm);
+        snap.tool_offset_on = m.tool_length.is_some();
+        snap.feed = m.feed_mm_s.map_or(0.0, |f| f * 60.0 / m.unit_mm);
+        snap.motion_code = match m.motion {
+            None | Some(Motion::Rapid) => 0.0,
+            Some(Motion::Linear) => 10.0,
+            Some(Motion::ArcCw) => 20.0,
+            Some(Motion::ArcCcw) => 30.0,
+        };
+        snap.plane_code = match m.plane {
+            Plane::Xy => 170.0,
+            Plane::Zx => 180.0,
+            Plane::Yz => 190.0,
+        };
+        snap.ccomp_code = match m.comp.map(|c| c.side) {
+            None => 400.0,
+            Some(CompSide::Left) => 410.0,
+            Some(CompSide::Right) => 420.0,
+        };
+        snap.line = f64::from(line_no);
+        snap.call_level = self.flow.depth() as f64;
+        self.params.snap = snap;
     }
 
     /// Ends the program text: refuses one that stops inside G06 spline data (cut short, most
     /// likely) and attaches a trailing dwell.
     pub(super) fn finish(&mut self, d: &mut Diagnostics) {
+        self.finish_flow(d);
         // A file that stops inside spline data was most likely cut short: its last span may
         // be missing or truncated, so nothing of it runs.
         if let Some((line, col)) = self.open_g06_with_spans() {

@@ -4,6 +4,15 @@
 //! blanks between the letter and its number are allowed. `( … )` is a comment inside a line,
 //! `;` starts a comment that runs to the end of the line (in G06 spline data it also ends a
 //! span). A line holding only `%` marks the start or end of a tape and is skipped.
+//!
+//! A word's value may be a parameter or an expression (`X[#1 + 2]`, `G#5`, `Y-#<depth>`),
+//! evaluated as the line is read with the parameter values from before the line; `#… = value`
+//! assignments are collected and take effect after the whole line is read (as LinuxCNC). An
+//! `O` word opens a control-flow line (`o100 while [#1 LT 3]`), returned unevaluated: its
+//! arguments are read only when it executes.
+
+use super::expr::{self, Cursor, ExprError};
+use super::params::{ParamRef, Params};
 
 /// One word with the column (1-based, characters) of its letter.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -29,6 +38,35 @@ pub(super) struct Line {
     pub percent: bool,
 }
 
+/// A parameter assignment of a line: the parameter, its new value and the column of its `#`.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Assign {
+    pub param: ParamRef,
+    pub value: f64,
+    pub col: u32,
+}
+
+/// The O word of a control-flow line: `o<name> keyword …` or `o123 keyword …`.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct OWord {
+    /// `123` or the name in lower case.
+    pub name: String,
+    pub col: u32,
+    /// Lower case (`sub`, `call`, `while` …); empty if none.
+    pub keyword: String,
+    pub keyword_col: u32,
+    /// Byte where the arguments start (read with [`o_args`]).
+    pub rest_at: usize,
+}
+
+/// A lexed line with what RS274NGC adds to words.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(super) struct Lexed {
+    pub line: Line,
+    pub assigns: Vec<Assign>,
+    pub oword: Option<OWord>,
+}
+
 /// A lexing error: column and message.
 #[derive(Debug, Clone, PartialEq)]
 pub(super) struct LexError {
@@ -36,18 +74,140 @@ pub(super) struct LexError {
     pub message: String,
 }
 
-/// Lexes one line (without its line terminator).
+/// Lexes one line without parameters (a `#` reads 0 or is undefined).
+#[cfg(test)]
+pub(super) fn lex_line(text: &str) -> Result<Line, LexError> {
+    lex_block(text, &Params::default()).map(|l| l.line)
+}
+
+/// The column (1-based, characters) of byte `at` of `text`.
+pub(super) fn col_of(text: &str, at: usize) -> u32 {
+    let at = at.min(text.len());
+    let mut k = at;
+    while !text.is_char_boundary(k) {
+        k -= 1;
+    }
+    text[..k].chars().count() as u32 + 1
+}
+
+fn expr_error(text: &str, e: ExprError) -> LexError {
+    LexError { col: col_of(text, e.at), message: e.message }
+}
+
+/// The O word of a line and nothing else (for lines skipped by control flow: their values are
+/// not evaluated). None if the line has none.
+pub(super) fn o_word_only(text: &str) -> Option<OWord> {
+    let b = text.as_bytes();
+    let mut i = 0;
+    while i < b.len() && b[i].is_ascii_whitespace() {
+        i += 1;
+    }
+    // A block number may come first.
+    if matches!(b.get(i), Some(b'n' | b'N')) {
+        i += 1;
+        while i < b.len() && (b[i].is_ascii_digit() || b[i].is_ascii_whitespace()) {
+            i += 1;
+        }
+    }
+    if !matches!(b.get(i), Some(b'o' | b'O')) {
+        return None;
+    }
+    read_o_word(text, i).ok()
+}
+
+/// Reads `O<name> keyword` from byte `i` (at the `O`).
+fn read_o_word(text: &str, i: usize) -> Result<OWord, LexError> {
+    let b = text.as_bytes();
+    let col = col_of(text, i);
+    let mut c = Cursor::new(b, i + 1);
+    let name = match c.peek() {
+        Some(b'<') => {
+            c.i += 1;
+            let mut name = String::new();
+            loop {
+                match b.get(c.i) {
+                    None => return Err(LexError { col, message: "O word name '<' is not closed with '>'".into() }),
+                    Some(b'>') => break,
+                    Some(b' ' | b'\t') => {}
+                    Some(&x) if x.is_ascii() => name.push(char::from(x.to_ascii_lowercase())),
+                    Some(_) => {
+                        return Err(LexError {
+                            col: col_of(text, c.i),
+                            message: "an O word name holds ASCII letters, digits and '_' only".into(),
+                        });
+                    }
+                }
+                c.i += 1;
+            }
+            c.i += 1;
+            if name.is_empty() {
+                return Err(LexError { col, message: "empty O word name 'o<>'".into() });
+            }
+            name
+        }
+        Some(x) if x.is_ascii_digit() => {
+            let v = expr::number(&mut c).map_err(|e| expr_error(text, e))?;
+            if v.fract() != 0.0 || v < 0.0 {
+                return Err(LexError {
+                    col,
+                    message: format!("O word number must be a non-negative integer, got {v}"),
+                });
+            }
+            format!("{}", v as u64)
+        }
+        _ => return Err(LexError { col, message: "O word needs a number or a <name>".into() }),
+    };
+    c.skip_blanks();
+    let keyword_at = c.i;
+    while b.get(c.i).is_some_and(u8::is_ascii_alphabetic) {
+        c.i += 1;
+    }
+    let keyword = text[keyword_at..c.i].to_ascii_lowercase();
+    Ok(OWord { name, col, keyword, keyword_col: col_of(text, keyword_at), rest_at: c.i })
+}
+
+/// The values after an O word's keyword (`[…] […]`, up to a comment or the end): the
+/// arguments of `call`, the condition of `if`/`while`, the count of `repeat`.
+pub(super) fn o_args(text: &str, at: usize, params: &Params) -> Result<Vec<f64>, LexError> {
+    let b = text.as_bytes();
+    let mut c = Cursor::new(b, at);
+    let mut out = Vec::new();
+    loop {
+        match c.peek() {
+            None | Some(b';') => return Ok(out),
+            Some(b'(') => match text[c.i..].find(')') {
+                Some(off) => c.i += off + 1,
+                None => {
+                    return Err(LexError {
+                        col: col_of(text, c.i),
+                        message: "comment '(' is not closed with ')' on this line".into(),
+                    });
+                }
+            },
+            Some(b'[') => out.push(expr::bracketed(&mut c, params).map_err(|e| expr_error(text, e))?),
+            Some(_) => {
+                return Err(LexError {
+                    col: col_of(text, c.i),
+                    message: "an O word takes only [ ] values after its keyword".into(),
+                });
+            }
+        }
+    }
+}
+
+/// Lexes one line (without its line terminator), evaluating word values with `params`.
 ///
 /// Works on the bytes of the line (numbers and letters are ASCII) and counts columns in
 /// characters, so a comment with non-ASCII text before a word keeps its column right.
-pub(super) fn lex_line(text: &str) -> Result<Line, LexError> {
+pub(super) fn lex_block(text: &str, params: &Params) -> Result<Lexed, LexError> {
     let bytes = text.as_bytes();
     let mut line = Line { blank: true, ..Line::default() };
+    let mut assigns = Vec::new();
     let trimmed = text.trim();
     if trimmed == "%" {
         line.blank = false;
         line.percent = true;
-        return Ok(line);
+        return Ok(Lexed { line, ..Lexed::default() });
     }
     // Byte index into the line and the 1-based column (in characters) of the character there.
     let (mut i, mut col) = (0usize, 1u32);
@@ -80,11 +240,14 @@ pub(super) fn lex_line(text: &str) -> Result<Line, LexError> {
             c if c.is_ascii_alphabetic() => {
                 let letter = c.to_ascii_uppercase();
                 if letter == 'O' {
-                    // An O word opens a subroutine or loop line whose keywords are no words.
-                    return Err(LexError {
-                        col: here,
-                        message: "O word: subroutines and loops (O codes) are not supported".into(),
-                    });
+                    // An O word opens a control-flow line whose keywords are no words; only a
+                    // block number may come before it.
+                    if line.words.iter().any(|w| w.letter != 'N') || !assigns.is_empty() {
+                        return Err(LexError { col: here, message: "an O word must begin its line".into() });
+                    }
+                    let o = read_o_word(text, i)?;
+                    line.end_col = col_of(text, o.rest_at);
+                    return Ok(Lexed { line, assigns, oword: Some(o) });
                 }
                 // From here on only ASCII bytes are consumed: one byte is one column.
                 let letter_at = i;
@@ -93,6 +256,15 @@ pub(super) fn lex_line(text: &str) -> Result<Line, LexError> {
                     i += 1;
                 }
                 let start = i;
+                if starts_expression(bytes, i) {
+                    let mut cur = Cursor::new(bytes, i);
+                    let value = expr::real_value(&mut cur, params).map_err(|e| expr_error(text, e))?;
+                    i = cur.i;
+                    col = col_of(text, i);
+                    line.words.push(Word { letter, value, col: here, has_point: value.fract() != 0.0 });
+                    line.end_col = col;
+                    continue;
+                }
                 if i < bytes.len() && (bytes[i] == b'+' || bytes[i] == b'-') {
                     i += 1;
                 }
@@ -128,6 +300,22 @@ pub(super) fn lex_line(text: &str) -> Result<Line, LexError> {
                 line.words.push(Word { letter, value, col: here, has_point });
                 line.end_col = col;
             }
+            '#' => {
+                let mut cur = Cursor::new(bytes, i);
+                let param = expr::param_ref(&mut cur, params).map_err(|e| expr_error(text, e))?;
+                if cur.peek() != Some(b'=') {
+                    return Err(LexError {
+                        col: col_of(text, cur.i),
+                        message: format!("expected '=' after {param} (a parameter assignment)"),
+                    });
+                }
+                cur.i += 1;
+                let value = expr::real_value(&mut cur, params).map_err(|e| expr_error(text, e))?;
+                assigns.push(Assign { param, value, col: here });
+                i = cur.i;
+                col = col_of(text, i);
+                line.end_col = col;
+            }
             '/' if line.words.is_empty() => {
                 return Err(LexError { col: here, message: "block delete '/' is not supported".into() });
             }
@@ -137,7 +325,25 @@ pub(super) fn lex_line(text: &str) -> Result<Line, LexError> {
     if line.end_col == 0 {
         line.end_col = 1;
     }
-    Ok(line)
+    Ok(Lexed { line, assigns, oword: None })
+}
+
+/// Whether a word's value at byte `i` is more than a plain number: a parameter, a bracketed
+/// expression, a function, or a sign before one of these.
+fn starts_expression(b: &[u8], i: usize) -> bool {
+    match b.get(i) {
+        Some(b'[' | b'#') => true,
+        Some(b'+' | b'-') => {
+            matches!(b.get(i + 1), Some(b'[' | b'#')) || b.get(i + 1).is_some_and(u8::is_ascii_alphabetic)
+        }
+        Some(c) if c.is_ascii_alphabetic() => {
+            let rest = &b[i..];
+            let name_len = rest.iter().take_while(|c| c.is_ascii_alphabetic()).count();
+            let after = rest[name_len..].iter().find(|c| **c != b' ' && **c != b'\t');
+            after == Some(&b'[')
+        }
+        _ => false,
+    }
 }
 
 /// The powers of ten an f64 holds exactly: 10^0 … 10^22.

@@ -7,8 +7,11 @@ mod append;
 mod arc_rule;
 mod cutter;
 mod error;
+mod expr;
+mod flow;
 mod gcode;
 mod lexer;
+mod params;
 mod stream;
 mod table;
 

@@ -9,18 +9,29 @@
 
 use super::append::{AppendBuffer, AppendChecker, Appends, Take};
 use super::error::Diagnostics;
+use super::flow::{LineAt, LinePos};
 use super::gcode::Interpreter;
 use super::{Format, MAX_LINE_BYTES, ProgramError, ProgramErrors, Summary, table};
 use crate::Settings;
 use crate::path::{AxisVec, Element, MAX_AXES, Path};
 use std::collections::VecDeque;
 use std::io::{BufRead, BufReader, Read};
+use std::path::PathBuf;
 use std::sync::Arc;
 
 /// Where the lines come from.
 enum Lines {
     File(BufReader<std::fs::File>),
     Text { text: String, at: usize },
+}
+
+/// A subroutine file being read (`o<name> call` of a sub in its own file).
+struct SubSource {
+    reader: BufReader<std::fs::File>,
+    path: Arc<PathBuf>,
+    /// Byte offset of the next line, and the number of the line read last.
+    offset: u64,
+    line_no: u32,
 }
 
 /// What turns the lines into elements.
@@ -40,6 +51,10 @@ pub(crate) struct ProgramStream {
     reader: Reader,
     d: Diagnostics,
     line_no: u32,
+    /// Byte offset of the program's next line (control flow goes back to a line by it).
+    offset: u64,
+    /// Subroutine files being read, the innermost last.
+    subs: Vec<SubSource>,
     buf: Vec<u8>,
     ready: VecDeque<Element>,
     /// The end of the text was reached and the reader finished.
@@ -109,6 +124,8 @@ impl ProgramStream {
             reader,
             d: Diagnostics::new(origin),
             line_no: 0,
+            offset: 0,
+            subs: Vec::new(),
             buf: Vec::new(),
             ready: VecDeque::new(),
             eof: false,
@@ -233,6 +250,11 @@ impl ProgramStream {
             return;
         };
         self.buf.clear();
+        if !self.subs.is_empty() {
+            self.read_sub_line();
+            return;
+        }
+        let offset = self.offset;
         let got = match &mut self.lines {
             Lines::File(r) => r.by_ref().take(MAX_LINE_BYTES as u64 + 1).read_until(b'\n', &mut self.buf),
             Lines::Text { text, at } => {
@@ -244,9 +266,13 @@ impl ProgramStream {
             }
         };
         // After the program's own text, the appended text (nothing after the program's end).
+        let mut from_appends = false;
         let got = match (got, &self.appends) {
             (Ok(0), Some(more)) if !interp.ended() => match more.take_line(&mut self.buf, MAX_LINE_BYTES) {
-                Take::Line => Ok(self.buf.len().max(1)),
+                Take::Line => {
+                    from_appends = true;
+                    Ok(self.buf.len().max(1))
+                }
                 Take::Waiting => {
                     self.waiting = true;
                     return;
@@ -257,7 +283,9 @@ impl ProgramStream {
         };
         match got {
             Ok(0) if !self.finish_at_eof && !interp.ended() => {
-                // A check of an open program: it stays open for appended text.
+                // A check of an open program: it stays open for appended text, which cannot
+                // continue a loop, a branch or a call.
+                interp.finish_flow(&mut self.d);
                 self.eof = true;
                 return;
             }
@@ -269,7 +297,11 @@ impl ProgramStream {
                 self.eof = true;
                 return;
             }
-            Ok(_) => {}
+            Ok(n) => {
+                if !from_appends {
+                    self.offset += n as u64;
+                }
+            }
             Err(e) => {
                 self.d.error(self.line_no + 1, 0, format!("cannot read: {e}"));
                 self.eof = true;
@@ -277,6 +309,10 @@ impl ProgramStream {
             }
         }
         self.line_no += 1;
+        let at = (!from_appends).then(|| LineAt {
+            here: LinePos { source: None, offset, line: self.line_no },
+            next: LinePos { source: None, offset: self.offset, line: self.line_no + 1 },
+        });
         if self.buf.len() > MAX_LINE_BYTES {
             self.d.error(self.line_no, 1, format!("line longer than {MAX_LINE_BYTES} bytes"));
             self.eof = true;
@@ -288,17 +324,131 @@ impl ProgramStream {
         if self.buf.last() == Some(&b'\r') {
             self.buf.pop();
         }
-        match std::str::from_utf8(&self.buf) {
-            Ok(text) => interp.line(text, self.line_no, &mut self.d),
+        let jump = match std::str::from_utf8(&self.buf) {
+            Ok(text) => interp.line_at(text, self.line_no, at.as_ref(), &mut self.d),
             Err(e) => {
                 self.d.error(self.line_no, e.valid_up_to() as u32 + 1, "the file is not UTF-8 text");
                 self.eof = true;
                 return;
             }
+        };
+        let before = self.ready.len();
+        interp.path.drain_settled(&mut self.ready);
+        self.skip_flushed(before);
+        if let Some(to) = jump {
+            self.jump(to);
+        }
+    }
+
+    /// Reads the next line of the innermost subroutine file; errors name that file.
+    fn read_sub_line(&mut self) {
+        let Reader::GCode(interp) = &mut self.reader else { return };
+        let Some(sub) = self.subs.last_mut() else { return };
+        let file = sub.path.display().to_string();
+        let got = sub.reader.by_ref().take(MAX_LINE_BYTES as u64 + 1).read_until(b'\n', &mut self.buf);
+        let offset = sub.offset;
+        let n = match got {
+            Ok(0) => {
+                self.d.set_file(&file);
+                interp.source_ended(&file, &mut self.d);
+                self.eof = true;
+                return;
+            }
+            Ok(n) => n,
+            Err(e) => {
+                self.d.set_file(&file);
+                self.d.error(sub.line_no + 1, 0, format!("cannot read: {e}"));
+                self.eof = true;
+                return;
+            }
+        };
+        sub.offset += n as u64;
+        sub.line_no += 1;
+        let at = LineAt {
+            here: LinePos { source: Some(sub.path.clone()), offset, line: sub.line_no },
+            next: LinePos { source: Some(sub.path.clone()), offset: sub.offset, line: sub.line_no + 1 },
+        };
+        let origin = self.d.file().to_string();
+        self.d.set_file(&file);
+        if self.buf.len() > MAX_LINE_BYTES {
+            self.d.error(at.here.line, 1, format!("line longer than {MAX_LINE_BYTES} bytes"));
+            self.eof = true;
+            return;
+        }
+        while matches!(self.buf.last(), Some(b'\n' | b'\r')) {
+            self.buf.pop();
+        }
+        let jump = match std::str::from_utf8(&self.buf) {
+            Ok(text) => interp.line_at(text, at.here.line, Some(&at), &mut self.d),
+            Err(e) => {
+                self.d.error(at.here.line, e.valid_up_to() as u32 + 1, "the file is not UTF-8 text");
+                self.eof = true;
+                return;
+            }
+        };
+        if self.d.errors.is_empty() {
+            self.d.set_file(&origin);
         }
         let before = self.ready.len();
         interp.path.drain_settled(&mut self.ready);
         self.skip_flushed(before);
+        if let Some(to) = jump {
+            self.jump(to);
+        }
+    }
+
+    /// Goes on reading at `to`: a line of the program or of a subroutine file (opened if it is
+    /// not open).
+    fn jump(&mut self, to: LinePos) {
+        let Some(path) = &to.source else {
+            self.subs.clear();
+            match &mut self.lines {
+                Lines::File(r) => {
+                    let delta = to.offset as i64 - self.offset as i64;
+                    if let Err(e) = r.seek_relative(delta) {
+                        self.d.error(to.line, 0, format!("cannot go back in the program file: {e}"));
+                        self.eof = true;
+                        return;
+                    }
+                }
+                Lines::Text { at, .. } => *at = to.offset as usize,
+            }
+            self.offset = to.offset;
+            self.line_no = to.line.saturating_sub(1);
+            return;
+        };
+        let k = match self.subs.iter().position(|s| s.path == *path) {
+            Some(k) => k,
+            None => match std::fs::File::open(path.as_path()) {
+                Ok(f) => {
+                    self.subs.push(SubSource {
+                        reader: BufReader::with_capacity(1 << 14, f),
+                        path: path.clone(),
+                        offset: 0,
+                        line_no: 0,
+                    });
+                    self.subs.len() - 1
+                }
+                Err(e) => {
+                    self.d.error(self.line_no, 0, format!("cannot read the subroutine file {}: {e}", path.display()));
+                    self.eof = true;
+                    return;
+                }
+            },
+        };
+        self.subs.truncate(k + 1);
+        let sub = &mut self.subs[k];
+        let origin = self.d.file().to_string();
+        let delta = to.offset as i64 - sub.offset as i64;
+        if let Err(e) = sub.reader.seek_relative(delta) {
+            self.d.set_file(&path.display().to_string());
+            self.d.error(to.line, 0, format!("cannot go back in the subroutine file: {e}"));
+            self.d.set_file(&origin);
+            self.eof = true;
+            return;
+        }
+        sub.offset = to.offset;
+        sub.line_no = to.line.saturating_sub(1);
     }
 
     /// While waiting for appended text: hands out the last element read too, which otherwise
@@ -441,6 +591,29 @@ mod tests {
         }
         assert_eq!(count, 10_000, "the move to X0 Y0 has zero length");
         assert_eq!(s.final_dwell_s(), Some(0.0));
+    }
+
+    #[test]
+    fn a_loop_streams_in_bounded_memory() {
+        // 200 000 iterations of a three-line loop body from a file: the reader goes back to the
+        // loop's head in the file, never holding more than one element ahead.
+        let text = "G1 X0 Y0 F6000\n#1 = 0\no1 while [#1 LT 200000]\n  G1 X[#1 MOD 2 + 1] Y[#1 * 0.001]\n  \
+                    #1 = [#1 + 1]\no1 endwhile\nM2\n";
+        let dir = std::env::temp_dir().join(format!("interpd-loop-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let file = dir.join("loop.ngc");
+        std::fs::write(&file, text).expect("write");
+        let mut s = ProgramStream::open(&file, &xyz()).expect("open");
+        let mut count = 0u64;
+        while let Some(e) = s.next_element().expect("valid") {
+            count += 1;
+            assert!(s.ready.len() <= 1 && e.source.line == 4);
+        }
+        assert_eq!(count, 200_000);
+        assert_eq!(s.summary().lines, 7);
+        let checked = check(&file, &xyz()).expect("check runs the loop too");
+        assert_eq!(checked.elements, 200_000);
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

@@ -182,7 +182,7 @@ fn every_word_is_used_or_an_error() {
         ),
         ("G0 X1 D2\n", "t.ngc:1:7: D word with no G41/G42 (or G41.1/G42.1) to use it"),
         ("G0 X1 L2\n", "t.ngc:1:7: L word with no G-code that uses it"),
-        ("O100 G0 X1\n", "t.ngc:1:1: O word: subroutines and loops (O codes) are not supported"),
+        ("O100 G0 X1\n", "t.ngc:1:6: unknown O word keyword 'g'"),
         ("G61 P1\n", "t.ngc:1:5: P is only valid with G4, G64 or in G06 spline data"),
         ("G0 X1 N5\n", "t.ngc:1:7: block number N must be the first word of the block"),
         ("M3 M4\n", "t.ngc:1:4: M4 conflicts with M3 in the same block (same modal group)"),
@@ -399,4 +399,103 @@ fn program_stops_are_planned_pauses_after_the_block_motion() {
     assert!(p.path.elements[2].stops_before());
     assert_eq!(p.summary.pauses, 3);
     assert!(first_error("M0 M1\n").contains("same modal group"));
+}
+
+/// The end points of a program's elements (X Y Z), rounded to 1e-6.
+fn ends(p: &Program) -> Vec<[f64; 3]> {
+    p.path
+        .elements
+        .iter()
+        .map(|e| {
+            let mut d = AxisDerivs::default();
+            e.geometry.eval(e.geometry.length_mm(), &mut d);
+            [0, 1, 2].map(|k| (d.pos[k] * 1e6).round() / 1e6)
+        })
+        .collect()
+}
+
+fn errors_of(text: &str, settings: &Settings) -> Vec<String> {
+    match parse(text, "t.ngc", settings) {
+        Ok(_) => panic!("program must be rejected:\n{text}"),
+        Err(e) => e.0.iter().map(|e| e.to_string()).collect(),
+    }
+}
+
+#[test]
+fn parameters_expressions_and_control_flow_as_linuxcnc() {
+    // Checked against rs274 (LinuxCNC 2.9): the same end points.
+    let text = "#<r> = 5\n#1 = 0\no100 while [#1 LT 3]\n  G1 X[#1 * #<r>] Y[#1] F600\n  #1 = [#1 + 1]\n\
+                o100 endwhile\no200 sub\n  G1 X#1 Y#2\n  o200 return [#1 + #2]\no200 endsub\no200 call [1] [2]\n\
+                o300 if [#<_value> EQ 3]\n  G1 Z-1\no300 elseif [1]\n  G1 Z-2\no300 else\n  G1 Z-3\no300 endif\n\
+                o400 repeat [3]\n  G91 G1 X1\no400 endrepeat\nG90\no500 do\n  #1 = [#1 - 1]\n  o510 if [#1 EQ 1]\n\
+                o500 continue\n  o510 endif\n  G1 Y#1\no500 while [#1 GT 0]\nM2\n";
+    let p = ok(text);
+    let want = [
+        [5.0, 1.0, 0.0],
+        [10.0, 2.0, 0.0],
+        [1.0, 2.0, 0.0],
+        [1.0, 2.0, -1.0],
+        [2.0, 2.0, -1.0],
+        [3.0, 2.0, -1.0],
+        [4.0, 2.0, -1.0],
+        [4.0, 0.0, -1.0],
+    ];
+    assert_eq!(ends(&p), want);
+    // Assignments take effect after the line: X reads the old #1.
+    let p = ok("#1 = 2\n#1 = 7 G1 X#1 F100\nG1 Y#1\n");
+    assert_eq!(ends(&p), [[2.0, 0.0, 0.0], [2.0, 7.0, 0.0]]);
+    // Predefined parameters: the position in program units, the modes.
+    let p = ok("G20\nG1 X1 F10\nG1 Y[#5420 * 2 + #<_imperial>]\n");
+    assert!(close(end(&p), [25.4, 3.0 * 25.4, 0.0]));
+    // G-codes from parameters, break out of a while, a sub's named locals.
+    let p = ok("#2 = 1\nG#2 X1 F100\no1 while [1]\n  o1 break\no1 endwhile\no9 sub\n#<a> = #1\nG1 Y#<a>\no9 endsub\n\
+                o9 call [4]\n");
+    assert_eq!(ends(&p), [[1.0, 0.0, 0.0], [1.0, 4.0, 0.0]]);
+}
+
+#[test]
+fn language_errors_are_positioned() {
+    let s = xyz();
+    let cases: [(&str, &str); 14] = [
+        ("G1 X[1/0] F100\n", "t.ngc:1:7: division by zero"),
+        ("G1 X#<depth> F100\n", "t.ngc:1:5: named parameter #<depth> is not defined"),
+        ("#1 = SQRT[-1]\n", "t.ngc:1:6: SQRT of -1"),
+        ("#5420 = 1\n", "t.ngc:1:1: parameter #5420 is read-only"),
+        ("o1 while [1]\no1 endwhile\n", "t.ngc:1:1: o1 while: the loop has run 1000 times"),
+        ("o1 do\no1 while [1]\n", "t.ngc:1:1: o1 while: the loop has run 1000 times"),
+        ("o<r> sub\no<r> call\no<r> endsub\no<r> call\n", "t.ngc:2:1: o<r> call: calls nested deeper than 10"),
+        ("o<nope> call\n", "t.ngc:1:1: call of an undefined subroutine o<nope>"),
+        ("o<../x> call\n", "t.ngc:1:1: subroutine file name '../x' is refused"),
+        ("o1 while [1]\nG1 X1 F100\n", "t.ngc:1:1: o1 is not closed"),
+        ("o1 if [0]\nG1 X1 F100\n", "t.ngc:1:1: o1 if: the program ends before its elseif or else or endif"),
+        ("o2 endwhile\n", "t.ngc:1:1: o2 endwhile without o2 while"),
+        ("o2 if\n", "t.ngc:1:4: o2 if needs its value in [ ]"),
+        ("G1 X1 o2 if [1]\n", "t.ngc:1:7: an O word must begin its line"),
+    ];
+    let mut capped = s.clone();
+    capped.programs.max_loop_iterations = 1000;
+    for (text, want) in cases {
+        let e = errors_of(text, &capped);
+        assert!(e[0].starts_with(want), "{text}: {e:?}");
+    }
+    // MDI text reads parameters but cannot loop.
+    let mut m = ModalState::new(&s, [0.0; crate::path::MAX_AXES]);
+    let e = parse_gcode_from("o1 while [1]\n", "mdi", &s, &mut m).expect_err("no loops in MDI");
+    assert!(e.0[0].message.contains("not supported in appended text or MDI"), "{e}");
+}
+
+#[test]
+fn subroutine_files_come_from_the_subroutine_path_inside_the_programs_directory() {
+    let dir = std::env::temp_dir().join(format!("interpd-subs-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("subs")).expect("dir");
+    std::fs::write(dir.join("subs/square.ngc"), "o<square> sub\nG1 X#1 F100\nG1 Y#1\no<square> endsub\n").expect("w");
+    std::fs::write(dir.join("subs/broken.ngc"), "o<broken> sub\nG1 X1 F100\n").expect("w");
+    let mut s = xyz();
+    s.programs.dir = Some(dir.display().to_string());
+    s.programs.subroutine_path = vec!["subs".into()];
+    let p = parse("o<square> call [3]\nG1 Z-1 F100\no<square> call [5]\n", "t.ngc", &s).expect("valid");
+    assert_eq!(ends(&p), [[3.0, 0.0, 0.0], [3.0, 3.0, 0.0], [3.0, 3.0, -1.0], [5.0, 3.0, -1.0], [5.0, 5.0, -1.0]]);
+    let e = errors_of("o<broken> call\n", &s);
+    assert!(e[0].contains("broken.ngc ends before its endsub"), "{e:?}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

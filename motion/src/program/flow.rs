@@ -74,8 +74,10 @@ struct Skip {
     until: &'static [&'static str],
     /// The matching line is executed (an `elseif` is evaluated) rather than only ending the skip.
     execute: bool,
-    /// What is skipped, for the error at the end of the program: "o100 if" at line, column.
+    /// What is skipped ("o100 if"), and the error if the program ends first (None: the
+    /// standard one), at line, column.
     what: String,
+    missing: Option<String>,
     line: u32,
     col: u32,
 }
@@ -112,8 +114,15 @@ impl Interpreter {
     /// A line while skipping: only its O word is read; the line that ends the skip is executed
     /// if the skip says so.
     pub(super) fn skipped_line(&mut self, text: &str, at: Option<&LineAt>, d: &mut Diagnostics) -> Option<LinePos> {
-        let o = super::lexer::o_word_only(text)?;
+        let o = super::lexer::o_word_only(text, &self.params)?;
         let skip = self.flow.skip.as_ref()?;
+        if o.keyword == "sub" && skip.until == ["endsub"] {
+            // As LinuxCNC: a definition inside a definition is an error where it starts.
+            let line = at.map_or(self.current_line, |a| a.here.line);
+            d.error(line, o.col, format!("nested subroutine definition: {} sub inside {}", o_name(&o.name), skip.what));
+            self.flow.skip = None;
+            return None;
+        }
         if o.name != skip.name || !skip.until.contains(&o.keyword.as_str()) {
             return None;
         }
@@ -195,7 +204,9 @@ impl Interpreter {
         match o.keyword.as_str() {
             "sub" => {
                 if self.flow.entering.as_deref() == Some(o.name.as_str()) {
+                    // Entering the sub a call is waiting for: known from here on.
                     self.flow.entering = None;
+                    self.flow.subs.insert(o.name.clone(), at.next.clone());
                     return None;
                 }
                 if !args.is_empty() {
@@ -207,8 +218,14 @@ impl Interpreter {
                 None
             }
             "endsub" | "return" => {
-                if self.flow.frames.last().is_none_or(|f| f.name != o.name) {
-                    d.error(line, o.col, format!("{label} outside a call of {}", o_name(&o.name)));
+                // `return` may carry the name of a block inside the sub (LinuxCNC's own
+                // examples write `o1010 return` inside `o1010 if`); `endsub` names the sub.
+                let Some(frame) = self.flow.frames.last() else {
+                    d.error(line, o.col, format!("{label} outside a subroutine call"));
+                    return None;
+                };
+                if o.keyword == "endsub" && frame.name != o.name {
+                    d.error(line, o.col, format!("{label} inside the call of {}", o_name(&frame.name)));
                     return None;
                 }
                 if args.len() > 1 {
@@ -236,11 +253,21 @@ impl Interpreter {
                     return None;
                 }
                 let target = match self.flow.subs.get(&o.name) {
-                    Some(p) => p.clone(),
+                    Some(p) => Some(p.clone()),
                     None => match self.subroutine_file(&o.name) {
-                        Ok(path) => {
+                        Ok(Some(path)) => {
                             self.flow.entering = Some(o.name.clone());
-                            LinePos { source: Some(Arc::new(path)), offset: 0, line: 1 }
+                            Some(LinePos { source: Some(Arc::new(path)), offset: 0, line: 1 })
+                        }
+                        Ok(None) if at.here.source.is_none() => {
+                            // As LinuxCNC: the sub may follow in the program; read on to it
+                            // (skipping) and enter it there.
+                            self.flow.entering = Some(o.name.clone());
+                            None
+                        }
+                        Ok(None) => {
+                            d.error(line, o.col, undefined_message(&o.name));
+                            return None;
                         }
                         Err(m) => {
                             d.error(line, o.col, m);
@@ -258,7 +285,13 @@ impl Interpreter {
                     line,
                     col: o.col,
                 });
-                Some(target)
+                if target.is_none() {
+                    self.skip(o, &["sub"], true, &label, line);
+                    if let Some(s) = &mut self.flow.skip {
+                        s.missing = Some(undefined_message(&o.name));
+                    }
+                }
+                target
             }
             "if" => {
                 let c = one_arg(d)?;
@@ -447,25 +480,27 @@ impl Interpreter {
     }
 
     fn skip(&mut self, o: &OWord, until: &'static [&'static str], execute: bool, what: &str, line: u32) {
-        self.flow.skip = Some(Skip { name: o.name.clone(), until, execute, what: what.to_string(), line, col: o.col });
+        self.flow.skip = Some(Skip {
+            name: o.name.clone(),
+            until,
+            execute,
+            what: what.to_string(),
+            missing: None,
+            line,
+            col: o.col,
+        });
     }
 
-    /// The file `name.ngc` on the subroutine path, inside the programs directory.
-    fn subroutine_file(&self, name: &str) -> Result<PathBuf, String> {
-        let undefined = || {
-            format!(
-                "call of an undefined subroutine {}: no 'sub' of it above this line and no file {name}.ngc on the \
-                 subroutine path ([programs] subroutine_path)",
-                o_name(name)
-            )
-        };
+    /// The file `name.ngc` on the subroutine path, inside the programs directory (None if there
+    /// is none).
+    fn subroutine_file(&self, name: &str) -> Result<Option<PathBuf>, String> {
         if name.contains('/') || name.contains('\\') || name.contains("..") || name.starts_with('.') {
             return Err(format!(
                 "subroutine file name '{name}' is refused: it must name a file in the subroutine path (no '/', '..')"
             ));
         }
         let base = self.settings.programs.base_dir();
-        let Ok(base) = base.canonicalize() else { return Err(undefined()) };
+        let Ok(base) = base.canonicalize() else { return Ok(None) };
         for dir in self.settings.programs.subroutine_dirs() {
             let file = dir.join(format!("{name}.ngc"));
             let Ok(real) = file.canonicalize() else { continue };
@@ -477,10 +512,10 @@ impl Interpreter {
                 ));
             }
             if real.is_file() {
-                return Ok(real);
+                return Ok(Some(real));
             }
         }
-        Err(undefined())
+        Ok(None)
     }
 
     /// The end of a subroutine file before its `endsub`.
@@ -498,7 +533,9 @@ impl Interpreter {
     pub(super) fn finish_flow(&mut self, d: &mut Diagnostics) {
         if let Some(s) = self.flow.skip.take() {
             let wanted = s.until.join(" or ");
-            d.error(s.line, s.col, format!("{}: the program ends before its {wanted}", s.what));
+            let message = s.missing.unwrap_or_else(|| format!("{}: the program ends before its {wanted}", s.what));
+            d.error(s.line, s.col, message);
+            return;
         }
         if let Some(b) = self.flow.blocks.last() {
             d.error(b.line, b.col, format!("{} is not closed: the program ends inside it", o_name(&b.name)));
@@ -507,6 +544,14 @@ impl Interpreter {
             d.error(f.line, f.col, format!("the program ends inside the call of {}", o_name(&f.name)));
         }
     }
+}
+
+fn undefined_message(name: &str) -> String {
+    format!(
+        "call of an undefined subroutine {}: no 'sub' of it in the program and no file {name}.ngc on the subroutine \
+         path ([programs] subroutine_path)",
+        o_name(name)
+    )
 }
 
 fn loop_cap_message(label: &str, max: u64) -> String {

@@ -96,7 +96,7 @@ fn expr_error(text: &str, e: ExprError) -> LexError {
 
 /// The O word of a line and nothing else (for lines skipped by control flow: their values are
 /// not evaluated). None if the line has none.
-pub(super) fn o_word_only(text: &str) -> Option<OWord> {
+pub(super) fn o_word_only(text: &str, params: &Params) -> Option<OWord> {
     let b = text.as_bytes();
     let mut i = 0;
     while i < b.len() && b[i].is_ascii_whitespace() {
@@ -112,11 +112,11 @@ pub(super) fn o_word_only(text: &str) -> Option<OWord> {
     if !matches!(b.get(i), Some(b'o' | b'O')) {
         return None;
     }
-    read_o_word(text, i).ok()
+    read_o_word(text, i, params).ok()
 }
 
 /// Reads `O<name> keyword` from byte `i` (at the `O`).
-fn read_o_word(text: &str, i: usize) -> Result<OWord, LexError> {
+fn read_o_word(text: &str, i: usize, params: &Params) -> Result<OWord, LexError> {
     let b = text.as_bytes();
     let col = col_of(text, i);
     let mut c = Cursor::new(b, i + 1);
@@ -145,8 +145,13 @@ fn read_o_word(text: &str, i: usize) -> Result<OWord, LexError> {
             }
             name
         }
-        Some(x) if x.is_ascii_digit() => {
-            let v = expr::number(&mut c).map_err(|e| expr_error(text, e))?;
+        Some(x) if x.is_ascii_digit() || x == b'#' || x == b'[' => {
+            // A number, or one computed as LinuxCNC allows (`o#<sub> call`, `O[#2 * 10] call`).
+            let v = if x.is_ascii_digit() {
+                expr::number(&mut c).map_err(|e| expr_error(text, e))?
+            } else {
+                expr::real_value(&mut c, params).map_err(|e| expr_error(text, e))?
+            };
             if v.fract() != 0.0 || v < 0.0 {
                 return Err(LexError {
                     col,
@@ -245,7 +250,7 @@ pub(super) fn lex_block(text: &str, params: &Params) -> Result<Lexed, LexError> 
                     if line.words.iter().any(|w| w.letter != 'N') || !assigns.is_empty() {
                         return Err(LexError { col: here, message: "an O word must begin its line".into() });
                     }
-                    let o = read_o_word(text, i)?;
+                    let o = read_o_word(text, i, params)?;
                     line.end_col = col_of(text, o.rest_at);
                     return Ok(Lexed { line, assigns, oword: Some(o) });
                 }

@@ -499,3 +499,17 @@ fn subroutine_files_come_from_the_subroutine_path_inside_the_programs_directory(
     assert!(e[0].contains("broken.ngc ends before its endsub"), "{e:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn subs_may_follow_the_main_program_and_return_from_inside_a_block() {
+    // LinuxCNC's nc_files/retval.ngc and tests/interp/subs-follow-main, in short.
+    let p = ok("o1 call [2]\nG1 X#<_value> F100\no1 call [-1]\nG1 Y#<_value>\nM2\n\
+                o1 sub\no10 if [#1 GT 0]\no10 return [123 * #1]\no10 endif\no1 endsub [7]\n");
+    assert_eq!(ends(&p), [[246.0, 0.0, 0.0], [246.0, 7.0, 0.0]]);
+    let p = ok(
+        "#<s> = 2\no#<s> call\no[#<s> * 2] call\nM2\no2 sub\nG1 X1 F100\no2 endsub\no4 sub\nG1 Y1 F100\no4 endsub\n",
+    );
+    assert_eq!(ends(&p), [[1.0, 0.0, 0.0], [1.0, 1.0, 0.0]]);
+    let e = errors_of("o<n> sub\no100 sub\no100 endsub\no<n> endsub\n", &xyz());
+    assert!(e[0].starts_with("t.ngc:2:1: nested subroutine definition"), "{e:?}");
+}

@@ -7,6 +7,7 @@
 use super::active::{ActiveCutter, ActiveModal, ActiveTool, CompSide, ModalLog};
 use super::arc_rule;
 use super::cutter::{Cutter, Piece, Side};
+use super::cycles::{CycleKind, CycleState};
 use super::error::Diagnostics;
 use super::flow::{Flow, LineAt, LinePos};
 use super::lexer::{Line, Word, lex_block};
@@ -39,6 +40,8 @@ enum Motion {
     Linear,
     ArcCw,
     ArcCcw,
+    /// A canned cycle (G73, G81 … G89).
+    Cycle(CycleKind),
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -73,12 +76,12 @@ pub(crate) struct Modal {
     motion: Option<Motion>,
     plane: Plane,
     /// mm per program length unit (1 for G21, 25.4 for G20).
-    unit_mm: f64,
-    absolute: bool,
-    feed_mm_s: Option<f64>,
+    pub(super) unit_mm: f64,
+    pub(super) absolute: bool,
+    pub(super) feed_mm_s: Option<f64>,
     /// G93: F is the inverse of each feed move's time, minutes (1/min), given in every block.
-    inverse_time: bool,
-    blend: Blend,
+    pub(super) inverse_time: bool,
+    pub(super) blend: Blend,
     /// Machine position (work offset and tool length applied).
     pub(super) pos: AxisVec,
     /// Active work coordinate system, 0 = G54 … 5 = G59; its origin is read from the settings
@@ -130,11 +133,11 @@ pub(crate) struct Interpreter {
     /// (an axis lookup by name per coordinate would dominate the reading of micro-segments).
     work_origins: [AxisVec; interpd_config::WORK_SYSTEMS.len()],
     linear: [bool; MAX_AXES],
-    modal: Modal,
+    pub(super) modal: Modal,
     /// Cutter radius compensation: contour elements go through it on their way to the path.
-    cutter: Cutter,
+    pub(super) cutter: Cutter,
     g06: Option<G06Block>,
-    pending_dwell_s: f64,
+    pub(super) pending_dwell_s: f64,
     default_tol_mm: f64,
     pub path: Path,
     pub summary: Summary,
@@ -157,6 +160,8 @@ pub(crate) struct Interpreter {
     pub(super) params: Params,
     /// O-word control flow.
     pub(super) flow: Flow,
+    /// Canned cycle state.
+    pub(super) cycle: CycleState,
     /// The line being read.
     pub(super) current_line: u32,
 }
@@ -164,9 +169,9 @@ pub(crate) struct Interpreter {
 /// Words of one block, by letter. Reading a word consumes it: a word that nothing in its
 /// block consumed is an error, so a typo never vanishes in silence (every letter other than G
 /// and M appears at most once per block, so one bit per letter records it).
-struct Block<'l> {
-    words: &'l [Word],
-    line: u32,
+pub(super) struct Block<'l> {
+    pub(super) words: &'l [Word],
+    pub(super) line: u32,
     consumed: Cell<u32>,
 }
 
@@ -176,7 +181,7 @@ impl<'l> Block<'l> {
     }
 
     /// The word of `letter`, consumed.
-    fn get(&self, letter: char) -> Option<&'l Word> {
+    pub(super) fn get(&self, letter: char) -> Option<&'l Word> {
         let w = self.words.iter().find(|w| w.letter == letter);
         if w.is_some() {
             self.consume(letter);
@@ -264,6 +269,7 @@ impl Interpreter {
             block_pause: None,
             params: Params::default(),
             flow: Flow::default(),
+            cycle: CycleState::default(),
             current_line: 0,
         }
     }
@@ -449,6 +455,14 @@ impl Interpreter {
             Some(Motion::Linear) => 10.0,
             Some(Motion::ArcCw) => 20.0,
             Some(Motion::ArcCcw) => 30.0,
+            Some(Motion::Cycle(k)) => match k {
+                CycleKind::G73 => 730.0,
+                CycleKind::G81 => 810.0,
+                CycleKind::G82 => 820.0,
+                CycleKind::G83 => 830.0,
+                CycleKind::G85 => 850.0,
+                CycleKind::G89 => 890.0,
+            },
         };
         snap.plane_code = match m.plane {
             Plane::Xy => 170.0,
@@ -460,6 +474,7 @@ impl Interpreter {
             Some(CompSide::Left) => 410.0,
             Some(CompSide::Right) => 420.0,
         };
+        snap.retract_r = self.cycle.retract_r;
         snap.line = f64::from(line_no);
         snap.call_level = self.flow.depth() as f64;
         self.params.snap = snap;
@@ -618,11 +633,31 @@ impl Interpreter {
             self.start_g06(block, block_no, d);
             return;
         }
+        let previous_motion = self.modal.motion;
+        if let Some(r) = g.retract_r {
+            self.cycle.retract_r = r;
+        }
+        if g.cancel_cycle {
+            self.modal.motion = None;
+            self.cycle.il = None;
+        }
         if let Some(m) = g.motion {
             self.modal.motion = Some(m);
         }
 
         let has_axis = line.words.iter().any(|w| AxisLetter::from_char(w.letter).is_some());
+        if let Some(Motion::Cycle(kind)) = self.modal.motion {
+            if has_axis {
+                let source = Source { line: line_no, block: block_no };
+                self.canned_cycle(kind, previous_motion == Some(Motion::Cycle(kind)), block, source, d);
+            } else if let Some(w) = g.motion.and(block.words.iter().find(|w| w.letter == 'G')) {
+                d.error(line_no, w.col, "a canned cycle needs the axis words of the hole (at least its Z)");
+            }
+            return;
+        }
+        if has_axis {
+            self.cycle.il = None;
+        }
         let arc_words: Vec<&Word> = line.words.iter().filter(|w| matches!(w.letter, 'I' | 'J' | 'K' | 'R')).collect();
         // As LinuxCNC: an arc in the centre form without axis words is a full circle back to
         // where it starts.
@@ -690,6 +725,7 @@ impl Interpreter {
                 };
                 self.arc_move(block, target, motion == Motion::ArcCcw, Feed::Programmed { mm_per_s: f }, source, d);
             }
+            Motion::Cycle(_) => unreachable!("cycles are executed above"),
         }
     }
 
@@ -920,7 +956,7 @@ impl Interpreter {
 
     /// The offset from program to machine coordinates on axis `k`: the work offset, on Z the
     /// tool length (G43), and the G92 offset.
-    fn program_offset(&self, k: usize) -> f64 {
+    pub(super) fn program_offset(&self, k: usize) -> f64 {
         let tool = match self.modal.tool_length {
             Some((_, l)) if self.settings.axes[k].name == AxisLetter::Z => l,
             _ => 0.0,
@@ -928,9 +964,22 @@ impl Interpreter {
         self.work_origins[self.modal.work_system][k] + tool + self.modal.g92[k]
     }
 
+    /// The axes a canned cycle works on in the active plane: the plane's two and the normal.
+    pub(super) fn cycle_letters(&self) -> [AxisLetter; 3] {
+        match self.modal.plane {
+            Plane::Xy => [AxisLetter::X, AxisLetter::Y, AxisLetter::Z],
+            Plane::Zx => [AxisLetter::Z, AxisLetter::X, AxisLetter::Y],
+            Plane::Yz => [AxisLetter::Y, AxisLetter::Z, AxisLetter::X],
+        }
+    }
+
+    pub(super) fn plane_name(&self) -> &'static str {
+        self.modal.plane.name()
+    }
+
     fn read_g_words(&self, block: &Block, d: &mut Diagnostics) -> Option<GWords> {
         let mut g = GWords::default();
-        let mut groups: [Option<u32>; 11] = [None; 11];
+        let mut groups: [Option<u32>; 12] = [None; 12];
         for w in block.words.iter().filter(|w| w.letter == 'G') {
             let code = (w.value * 10.0).round() as i64;
             if (w.value * 10.0 - code as f64).abs() > 1e-6 || code < 0 {
@@ -1048,6 +1097,38 @@ impl Interpreter {
                 490 => (7, {
                     g.tool_length = Some((ToolLengthWord::Cancel, w.col));
                     "G49"
+                }),
+                800 => (0, {
+                    g.cancel_cycle = true;
+                    "G80"
+                }),
+                730 | 810 | 820 | 830 | 850 | 890 => (0, {
+                    let (kind, label) = match code {
+                        730 => (CycleKind::G73, "G73"),
+                        810 => (CycleKind::G81, "G81"),
+                        820 => (CycleKind::G82, "G82"),
+                        830 => (CycleKind::G83, "G83"),
+                        850 => (CycleKind::G85, "G85"),
+                        _ => (CycleKind::G89, "G89"),
+                    };
+                    g.motion = Some(Motion::Cycle(kind));
+                    label
+                }),
+                740 | 760 | 840 | 860 | 870 | 880 | 330 | 331 | 841 | 842 => {
+                    d.error(
+                        block.line,
+                        w.col,
+                        format!(
+                            "G{} needs a spindle (tapping, boring with spindle stop or orientation, threading); \
+                             interpd interpolates motion only",
+                            fmt_code(w.value)
+                        ),
+                    );
+                    return None;
+                }
+                980 | 990 => (11, {
+                    g.retract_r = Some(code == 990);
+                    if code == 990 { "G99" } else { "G98" }
                 }),
                 930 => (9, {
                     g.inverse_time = Some(true);
@@ -1211,7 +1292,7 @@ impl Interpreter {
         ok.then_some(target)
     }
 
-    fn travel_violation(&self, k: usize, value: f64) -> Option<String> {
+    pub(super) fn travel_violation(&self, k: usize, value: f64) -> Option<String> {
         let a = &self.settings.axes[k];
         if value < a.min_pos || value > a.max_pos {
             Some(format!(
@@ -1302,7 +1383,7 @@ impl Interpreter {
         })
     }
 
-    fn linear_move(&mut self, target: AxisVec, feed: Feed, source: Source, col: u32, d: &mut Diagnostics) {
+    pub(super) fn linear_move(&mut self, target: AxisVec, feed: Feed, source: Source, col: u32, d: &mut Diagnostics) {
         let len = self.move_length(&self.modal.pos, &target);
         let feed = self.inverse_time_feed(feed, len);
         if len <= MIN_MOVE_MM {
@@ -1704,6 +1785,10 @@ struct GWords {
     inverse_time: Option<bool>,
     /// G96/G97: accepted and ignored.
     spindle_mode: bool,
+    /// G80.
+    cancel_cycle: bool,
+    /// G98 (false) or G99 (true).
+    retract_r: Option<bool>,
 }
 
 /// A line of G06 spline data: only X Y Z P Q R (and N) words.

@@ -6,6 +6,7 @@ mod active;
 mod append;
 mod arc_rule;
 mod cutter;
+mod cycles;
 mod error;
 mod expr;
 mod flow;

@@ -513,3 +513,27 @@ fn subs_may_follow_the_main_program_and_return_from_inside_a_block() {
     let e = errors_of("o<n> sub\no100 sub\no100 endsub\no<n> endsub\n", &xyz());
     assert!(e[0].starts_with("t.ngc:2:1: nested subroutine definition"), "{e:?}");
 }
+
+#[test]
+fn canned_cycles_expand_as_linuxcnc() {
+    // G81 from Z10 with R2 (LinuxCNC's initial retract mode is G99): rapid over the hole, down
+    // to R, feed to the bottom, rapid back to R; the next hole the same from R.
+    let p = ok("G0 Z10\nF100\nG81 X5 Y5 Z-3 R2\nX10\nG98 G83 X20 Z-5 R2 Q2\nG80\nG0 X0\n");
+    let kinds: Vec<char> = p.path.elements.iter().map(|e| if e.feed == Feed::Rapid { 'r' } else { 'f' }).collect();
+    let text: String = kinds.iter().collect();
+    assert_eq!(text, "rrrfrrfrrrfrrfrrfrrfrr", "{:?}", ends(&p));
+    assert_eq!(ends(&p)[2], [5.0, 5.0, 2.0]);
+    assert_eq!(ends(&p)[8], [20.0, 5.0, 10.0], "G98 goes back up to where the cycles started");
+    assert!(p.path.elements.iter().all(|e| e.blend == crate::path::Blend::Exact));
+    for (text, want) in [
+        ("G81 X1 Z-1 F100\n", "t.ngc:1:1: G81 needs R"),
+        ("G83 X1 Z-1 R1 F100\n", "t.ngc:1:1: G83 needs Q"),
+        ("G82 X1 Z-1 R1 F100\n", "t.ngc:1:1: G82 needs P"),
+        ("G81 X1 Z1 R-1 F100\n", "t.ngc:1:11: G81: the retract plane R lies below"),
+        ("G81 X1 Z-1 R1 L0 F100\n", "t.ngc:1:15: G81: L (repeats) must be a positive integer"),
+        ("G84 X1 Z-1 R1 F100\n", "t.ngc:1:1: G84 needs a spindle"),
+        ("G33 X1 K1\n", "t.ngc:1:1: G33 needs a spindle"),
+    ] {
+        assert!(first_error(text).starts_with(want), "{text}: {}", first_error(text));
+    }
+}

@@ -67,7 +67,7 @@ pub fn to_status(state: &ActiveModal, line: u32, n_axes: usize) -> ProgramModal 
     };
     ProgramModal {
         line,
-        work_offset: interpd_config::WORK_SYSTEMS[state.work_system].to_string(),
+        work_offset: state.work_system_name().to_string(),
         work_offset_values: state.work_offset[..n_axes].to_vec(),
         g92_offset: state.g92_offset[..n_axes].to_vec(),
         tool: state.tool.map(|t| SpindleTool { number: t.number, length_mm: t.length_mm, radius_mm: t.radius_mm }),

@@ -39,7 +39,7 @@ pub struct ActiveCutter {
 /// The tool and offset state of a stretch of a program.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ActiveModal {
-    /// 0 = G54 … 5 = G59.
+    /// 0 = G54 … 5 = G59, 6 … 8 = G59.1 … G59.3 ([`WORK_SYSTEM_NAMES`]).
     pub work_system: usize,
     /// The work offset of that system per axis (machine order), mm or deg.
     pub work_offset: AxisVec,
@@ -50,6 +50,17 @@ pub struct ActiveModal {
     pub tool_length: Option<(Option<u32>, f64)>,
     /// `None` when compensation is off (G40).
     pub cutter: Option<ActiveCutter>,
+}
+
+/// The work coordinate systems by index: the six of the configuration (`[work_offsets]`) and
+/// LinuxCNC's G59.1 … G59.3, which start at zero and are set by G10 L2/L20 in the program.
+pub const WORK_SYSTEM_NAMES: [&str; 9] = ["G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3"];
+
+impl ActiveModal {
+    /// The name of the active work coordinate system (`"G54"` …).
+    pub fn work_system_name(&self) -> &'static str {
+        WORK_SYSTEM_NAMES[self.work_system.min(WORK_SYSTEM_NAMES.len() - 1)]
+    }
 }
 
 /// The changes of [`ActiveModal`] along a program, as the interpreter records them.

@@ -4,13 +4,14 @@
 //! minute), N, M2/M30; spindle, coolant and tool words (M3–M9, S, T) are accepted and counted as
 //! ignored, since interpd interpolates motion only.
 
-use super::active::{ActiveCutter, ActiveModal, ActiveTool, CompSide, ModalLog};
+use super::active::{ActiveCutter, ActiveModal, ActiveTool, CompSide, ModalLog, WORK_SYSTEM_NAMES};
 use super::arc_rule;
 use super::cutter::{Cutter, Piece, Side};
 use super::cycles::{CycleKind, CycleState};
 use super::error::Diagnostics;
 use super::flow::{Flow, LineAt, LinePos};
 use super::lexer::{Line, Word, lex_block};
+use super::offsets::OffsetWord;
 use super::params::{Params, Snapshot};
 use super::{G06_END_MARKER, Summary};
 use crate::Settings;
@@ -35,7 +36,7 @@ pub(super) const MIN_ARC_RADIUS_MM: f64 = 1e-6;
 const MM_PER_INCH: f64 = 25.4;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Motion {
+pub(super) enum Motion {
     Rapid,
     Linear,
     ArcCw,
@@ -73,7 +74,7 @@ impl Plane {
 /// The modal state a controller keeps between blocks.
 #[derive(Debug, Clone)]
 pub(crate) struct Modal {
-    motion: Option<Motion>,
+    pub(super) motion: Option<Motion>,
     plane: Plane,
     /// mm per program length unit (1 for G21, 25.4 for G20).
     pub(super) unit_mm: f64,
@@ -92,7 +93,7 @@ pub(crate) struct Modal {
     /// The G92 offset per axis, added to every work offset, and the values G92 saved last
     /// (G92.3 restores them; LinuxCNC's parameters 5211–5219).
     pub(super) g92: AxisVec,
-    g92_saved: AxisVec,
+    pub(super) g92_saved: AxisVec,
     /// The tool `T` selected last, and the tool `M6` put in the spindle.
     prepared_tool: Option<u32>,
     pub(super) tool: Option<u32>,
@@ -131,8 +132,8 @@ pub(crate) struct Interpreter {
     pub(super) settings: Settings,
     /// The origin of each work system G54 … G59 per machine axis, read once from the settings
     /// (an axis lookup by name per coordinate would dominate the reading of micro-segments).
-    work_origins: [AxisVec; interpd_config::WORK_SYSTEMS.len()],
-    linear: [bool; MAX_AXES],
+    pub(super) work_origins: [AxisVec; WORK_SYSTEM_NAMES.len()],
+    pub(super) linear: [bool; MAX_AXES],
     pub(super) modal: Modal,
     /// Cutter radius compensation: contour elements go through it on their way to the path.
     pub(super) cutter: Cutter,
@@ -162,6 +163,8 @@ pub(crate) struct Interpreter {
     pub(super) flow: Flow,
     /// Canned cycle state.
     pub(super) cycle: CycleState,
+    /// The block being executed moves in machine coordinates (G53).
+    block_g53: bool,
     /// The line being read.
     pub(super) current_line: u32,
 }
@@ -187,6 +190,15 @@ impl<'l> Block<'l> {
             self.consume(letter);
         }
         w
+    }
+
+    /// Consumes every axis word (their values were used whole).
+    pub(super) fn consume_axes(&self) {
+        for w in self.words {
+            if AxisLetter::from_char(w.letter).is_some() {
+                self.consume(w.letter);
+            }
+        }
     }
 
     fn consume(&self, letter: char) {
@@ -250,7 +262,13 @@ impl Interpreter {
         }
         Self {
             settings: settings.clone(),
-            work_origins: std::array::from_fn(|sys| settings.work_offsets.vector(sys, &settings.axes)),
+            work_origins: std::array::from_fn(|sys| {
+                if sys < interpd_config::WORK_SYSTEMS.len() {
+                    settings.work_offsets.vector(sys, &settings.axes)
+                } else {
+                    [0.0; MAX_AXES]
+                }
+            }),
             linear,
             modal: Self::initial_modal(settings, [0.0; MAX_AXES]),
             cutter: Cutter::new(&linear[..settings.axes.len()]),
@@ -270,6 +288,7 @@ impl Interpreter {
             params: Params::default(),
             flow: Flow::default(),
             cycle: CycleState::default(),
+            block_g53: false,
             current_line: 0,
         }
     }
@@ -475,6 +494,13 @@ impl Interpreter {
             Some(CompSide::Right) => 420.0,
         };
         snap.retract_r = self.cycle.retract_r;
+        for (sys, origin) in self.work_origins.iter().enumerate() {
+            for (slot, letter) in AxisLetter::ALL.iter().enumerate().take(9) {
+                if let Some(k) = self.settings.axis_index(*letter) {
+                    snap.work[sys][slot] = origin[k];
+                }
+            }
+        }
         snap.line = f64::from(line_no);
         snap.call_level = self.flow.depth() as f64;
         self.params.snap = snap;
@@ -616,6 +642,19 @@ impl Interpreter {
         }
         if !self.tool_and_offsets(&g, block, d) {
             return;
+        }
+        self.block_g53 = false;
+        if let Some((word, col)) = g.offset_word {
+            if word == OffsetWord::Machine {
+                if !self.machine_coordinates_ok(col, &g.motion, block, d) {
+                    return;
+                }
+                self.block_g53 = true;
+            } else {
+                let source = Source { line: line_no, block: block_no };
+                self.offset_word(word, col, g.motion.is_some(), block, line, source, d);
+                return;
+            }
         }
         if matches!(g.tool_length, Some((ToolLengthWord::Dynamic, _))) {
             return; // its Z word is the tool length
@@ -856,7 +895,7 @@ impl Interpreter {
                 return false;
             }
             self.modal.work_system = sys;
-            self.summary.work_offsets.insert(interpd_config::WORK_SYSTEMS[sys]);
+            self.summary.work_offsets.insert(WORK_SYSTEM_NAMES[sys]);
         }
         true
     }
@@ -1157,7 +1196,24 @@ impl Interpreter {
                 }),
                 540 | 550 | 560 | 570 | 580 | 590 => (8, {
                     g.work = Some((code as usize - 540) / 10);
-                    ["G54", "G55", "G56", "G57", "G58", "G59"][(code as usize - 540) / 10]
+                    WORK_SYSTEM_NAMES[(code as usize - 540) / 10]
+                }),
+                591..=593 => (8, {
+                    g.work = Some(code as usize - 591 + 6);
+                    WORK_SYSTEM_NAMES[code as usize - 591 + 6]
+                }),
+                100 | 280 | 281 | 300 | 301 | 520 | 530 => (1, {
+                    let (word, label) = match code {
+                        100 => (OffsetWord::G10, "G10"),
+                        280 => (OffsetWord::Home(false), "G28"),
+                        281 => (OffsetWord::SetHome(false), "G28.1"),
+                        300 => (OffsetWord::Home(true), "G30"),
+                        301 => (OffsetWord::SetHome(true), "G30.1"),
+                        520 => (OffsetWord::Local, "G52"),
+                        _ => (OffsetWord::Machine, "G53"),
+                    };
+                    g.offset_word = Some((word, w.col));
+                    label
                 }),
                 _ => {
                     d.error(block.line, w.col, format!("unsupported G-code G{}", fmt_code(w.value)));
@@ -1261,7 +1317,7 @@ impl Interpreter {
     }
 
     /// Target position of a motion block, after units, G90/G91 and travel checks.
-    fn target(&self, block: &Block, d: &mut Diagnostics) -> Option<AxisVec> {
+    pub(super) fn target(&self, block: &Block, d: &mut Diagnostics) -> Option<AxisVec> {
         let mut target = self.modal.pos;
         let mut ok = true;
         for w in block.words {
@@ -1278,7 +1334,13 @@ impl Interpreter {
             };
             let scale = if self.linear[k] { self.modal.unit_mm } else { 1.0 };
             let v = w.value * scale;
-            target[k] = if self.modal.absolute { v + self.program_offset(k) } else { self.modal.pos[k] + v };
+            target[k] = if self.block_g53 {
+                v // G53: machine coordinates
+            } else if self.modal.absolute {
+                v + self.program_offset(k)
+            } else {
+                self.modal.pos[k] + v
+            };
             if !target[k].is_finite() {
                 d.error(block.line, w.col, format!("{letter} target is not a finite number"));
                 ok = false;
@@ -1787,6 +1849,8 @@ struct GWords {
     spindle_mode: bool,
     /// G80.
     cancel_cycle: bool,
+    /// G10, G28, G28.1, G30, G30.1, G52, G53 (non-modal), with the column of the word.
+    offset_word: Option<(OffsetWord, u32)>,
     /// G98 (false) or G99 (true).
     retract_r: Option<bool>,
 }

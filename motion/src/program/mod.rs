@@ -12,11 +12,12 @@ mod expr;
 mod flow;
 mod gcode;
 mod lexer;
+mod offsets;
 mod params;
 mod stream;
 mod table;
 
-pub use active::{ActiveCutter, ActiveModal, ActiveTool, CompSide};
+pub use active::{ActiveCutter, ActiveModal, ActiveTool, CompSide, WORK_SYSTEM_NAMES};
 pub(crate) use append::AppendBuffer;
 pub use append::{AppendError, Appended, Appends};
 pub use error::{ProgramError, ProgramErrors};
@@ -133,9 +134,9 @@ impl ModalState {
         &self.0.pos
     }
 
-    /// The active work coordinate system, `"G54"` … `"G59"`.
+    /// The active work coordinate system, `"G54"` … `"G59.3"`.
     pub fn work_system(&self) -> &'static str {
-        interpd_config::WORK_SYSTEMS[self.0.work_system]
+        WORK_SYSTEM_NAMES[self.0.work_system.min(WORK_SYSTEM_NAMES.len() - 1)]
     }
 
     /// Active tool length compensation: the tool (None for G43.1) and the length added to Z, mm.

@@ -12,7 +12,7 @@ pub(super) const MAX_NUMBERED: usize = 5602;
 /// Call arguments are `#1` … `#30`, local to each call.
 pub(super) const CALL_ARGS: usize = 30;
 /// Numbers computed from the interpreter's state on every read; assigning them is an error.
-const COMPUTED: [std::ops::RangeInclusive<usize>; 2] = [5210..=5220, 5400..=5428];
+const COMPUTED: [std::ops::RangeInclusive<usize>; 3] = [5210..=5220, 5221..=5390, 5400..=5428];
 
 /// A parameter a program names.
 #[derive(Debug, Clone, PartialEq)]
@@ -60,6 +60,9 @@ pub(super) struct Snapshot {
     pub retract_r: bool,
     pub line: f64,
     pub call_level: f64,
+    /// Work offsets G54 … G59.3, X … W (#5221 + 20·k …), in the machine's units (mm, deg) as
+    /// LinuxCNC keeps them.
+    pub work: [[f64; 9]; 9],
 }
 
 /// The parameter store.
@@ -118,6 +121,7 @@ impl Params {
                 }
             }
             5420..=5428 => s.pos[n - 5420],
+            5221..=5390 if (n - 5221) % 20 < 9 => s.work[(n - 5221) / 20][(n - 5221) % 20],
             _ => self.numbered[n],
         })
     }
@@ -159,6 +163,18 @@ impl Params {
             }
         }
         Ok(())
+    }
+
+    /// Sets a numbered parameter the interpreter owns (G28.1, G30.1).
+    pub(super) fn set_numbered(&mut self, n: usize, v: f64) {
+        if let Some(slot) = self.numbered.get_mut(n) {
+            *slot = v;
+        }
+    }
+
+    /// A stored numbered parameter (0 when out of range).
+    pub(super) fn stored(&self, n: usize) -> f64 {
+        self.numbered.get(n).copied().unwrap_or(0.0)
     }
 
     /// Enters a subroutine: `#1` … `#30` become `args` (the rest 0) and a fresh scope of named

@@ -515,6 +515,25 @@ fn subs_may_follow_the_main_program_and_return_from_inside_a_block() {
 }
 
 #[test]
+fn offsets_home_positions_and_machine_coordinates() {
+    // Checked against rs274 in tests/programs/language/offsets_g10_g28_g53.ngc; here the rules.
+    let p = ok("G10 L2 P2 X100\nG55 G0 X1\nG53 G0 X5\nG28.1\nG0 X0\nG28\nG59.3 G0 X3\n");
+    assert_eq!(ends(&p), [[101.0, 0.0, 0.0], [5.0, 0.0, 0.0], [100.0, 0.0, 0.0], [5.0, 0.0, 0.0], [3.0, 0.0, 0.0]]);
+    assert!(p.summary.work_offsets.contains("G59.3"));
+    for (text, want) in [
+        ("G91 G53 G0 X1\n", "t.ngc:1:5: G53 cannot be used in incremental distance mode"),
+        ("G53 G2 X1 I1 F100\n", "t.ngc:1:1: G53 moves in machine coordinates with G0 or G1 only"),
+        ("G10 L1 P1 R2\n", "t.ngc:1:5: G10 L1: the tool table comes from the configuration"),
+        ("G10 L2 X1\n", "t.ngc:1:1: G10 L2 needs P"),
+        ("G10 L2 P10 X1\n", "t.ngc:1:8: G10: P must be a coordinate system 0 … 9"),
+        ("G28.1 X1\n", "t.ngc:1:7: G28.1 stores the current position and takes no axis words"),
+        ("#5221 = 3\n", "t.ngc:1:1: parameter #5221 is read-only"),
+    ] {
+        assert!(first_error(text).starts_with(want), "{text}: {}", first_error(text));
+    }
+}
+
+#[test]
 fn canned_cycles_expand_as_linuxcnc() {
     // G81 from Z10 with R2 (LinuxCNC's initial retract mode is G99): rapid over the hole, down
     // to R, feed to the bottom, rapid back to R; the next hole the same from R.

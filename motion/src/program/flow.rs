@@ -5,8 +5,10 @@
 //! Control flow executes as the lines are read: a loop goes back to the place of its head in
 //! the program's text and reads on from there (as LinuxCNC seeks in its file), a call goes to
 //! the body of its subroutine and back; lines of a branch not taken are skipped unread. Nothing
-//! is unrolled, so memory is bounded by the nesting, not by the iterations. A loop that runs
-//! more than `[programs] max_loop_iterations` times is an error at its line; calls nest at most
+//! is unrolled, so memory is bounded by the nesting, not by the iterations. When the program's
+//! loop iterations and calls together pass `[programs] max_loop_iterations`, the loop (or
+//! call) that does is an error at its line, so nested loops cannot multiply into a hang; calls
+//! nest at most
 //! [`MAX_CALL_DEPTH`] deep. A subroutine is known once its definition has been read; a call of
 //! one the program has not defined looks for `name.ngc` on `[programs] subroutine_path`,
 //! inside the programs directory.
@@ -53,7 +55,6 @@ struct OBlock {
     kind: Kind,
     line: u32,
     col: u32,
-    iterations: u64,
 }
 
 #[derive(Debug, Clone)]
@@ -92,6 +93,9 @@ pub(crate) struct Flow {
     /// A call into a subroutine file: its `o<name> sub` line opens the body instead of
     /// defining it.
     entering: Option<String>,
+    /// Loop iterations and calls so far: `[programs] max_loop_iterations` bounds them for the
+    /// whole program, so nested loops and calls cannot multiply past it either.
+    steps: u64,
 }
 
 impl Flow {
@@ -240,6 +244,11 @@ impl Interpreter {
                 Some(frame.ret)
             }
             "call" => {
+                self.flow.steps += 1;
+                if self.flow.steps >= max_iter {
+                    d.error(line, o.col, loop_cap_message(&label, max_iter));
+                    return None;
+                }
                 if args.len() > CALL_ARGS {
                     d.error(line, o.keyword_col, format!("{label}: at most {CALL_ARGS} arguments (#1 … #30)"));
                     return None;
@@ -351,8 +360,8 @@ impl Interpreter {
                         self.flow.blocks.pop();
                         return None;
                     }
-                    b.iterations += 1;
-                    if b.iterations >= max_iter {
+                    self.flow.steps += 1;
+                    if self.flow.steps >= max_iter {
                         let (l, col) = (b.line, b.col);
                         d.error(l, col, loop_cap_message(&label, max_iter));
                         return None;
@@ -366,14 +375,13 @@ impl Interpreter {
                         |b| matches!(&b.kind, Kind::While { head } if b.name == o.name && *head == at.here),
                     );
                 if again {
-                    let b = self.flow.blocks.last_mut().expect("checked");
                     if c == 0.0 {
                         self.flow.blocks.pop();
                         self.skip(o, &["endwhile"], false, &label, line);
                         return None;
                     }
-                    b.iterations += 1;
-                    if b.iterations >= max_iter {
+                    self.flow.steps += 1;
+                    if self.flow.steps >= max_iter {
                         d.error(line, o.col, loop_cap_message(&label, max_iter));
                     }
                     return None;
@@ -414,7 +422,12 @@ impl Interpreter {
                     d.error(line, o.col, format!("{label} without {} repeat", o_name(&o.name)));
                     return None;
                 }
-                self.next_repeat()
+                let jump = self.next_repeat();
+                if jump.is_some() && self.flow.steps >= max_iter {
+                    d.error(line, o.col, loop_cap_message(&label, max_iter));
+                    return None;
+                }
+                jump
             }
             "break" | "continue" => {
                 let Some(k) =
@@ -440,6 +453,10 @@ impl Interpreter {
                     }
                     (Kind::Repeat { .. }, false) => {
                         let jump = self.next_repeat();
+                        if jump.is_some() && self.flow.steps >= max_iter {
+                            d.error(line, o.col, loop_cap_message(&label, max_iter));
+                            return None;
+                        }
                         if jump.is_none() {
                             self.skip(o, &["endrepeat"], false, &label, line);
                         }
@@ -471,12 +488,12 @@ impl Interpreter {
             return None;
         }
         *left -= 1;
-        b.iterations += 1;
+        self.flow.steps += 1;
         Some(body.clone())
     }
 
     fn push_block(&mut self, o: &OWord, kind: Kind, line: u32) {
-        self.flow.blocks.push(OBlock { name: o.name.clone(), kind, line, col: o.col, iterations: 0 });
+        self.flow.blocks.push(OBlock { name: o.name.clone(), kind, line, col: o.col });
     }
 
     fn skip(&mut self, o: &OWord, until: &'static [&'static str], execute: bool, what: &str, line: u32) {
@@ -555,5 +572,8 @@ fn undefined_message(name: &str) -> String {
 }
 
 fn loop_cap_message(label: &str, max: u64) -> String {
-    format!("{label}: the loop has run {max} times ([programs] max_loop_iterations); it most likely never ends")
+    format!(
+        "{label}: the program's loops and calls have run {max} times ([programs] max_loop_iterations); this loop most \
+         likely never ends"
+    )
 }

@@ -47,12 +47,6 @@ const DELIBERATE: &[(&str, &str)] = &[
     ("38_block_delete.ngc", "codes interpd does not carry out (block delete)"),
     ("39_fractional_block_number.ngc", "fractional block number"),
     ("61_g64_q.ngc", "G64 Q"),
-<<<<<<< HEAD
-    ("64_o_word.ngc", "codes interpd does not carry out (O codes)"),
-=======
-    ("69_feed_with_units.ngc", "F with G20/G21 in one block"),
-    ("73_arc_turns_p.ngc", "P with G2/G3"),
->>>>>>> 326a8fa (G-code: LinuxCNC's parameters, expressions and O-word control flow, executed as the program streams)
 ];
 
 /// Fails with the install hint unless rs274 and the `gcode` module run; `dir` is the test's own.

@@ -6,7 +6,7 @@
 #   tests run directly on the host (cargo test) with INTERPD_VCAN=vcan0.
 # - VM mode: otherwise (containers, CI: the kernel has no CAN support) the tests and the
 #   binaries they start are built as static executables, packed into an initramfs with busybox
-#   and the four CAN modules of a stock Debian 12 kernel, and run in a QEMU VM (TCG) that
+#   and the five CAN modules of a stock Debian 12 kernel, and run in a QEMU VM (TCG) that
 #   brings up vcan0. The VM runs in virtual time (-icount shift=0,sleep=off): its clock
 #   advances 1 ns per executed instruction, so no guest thread is ever late because the host
 #   was busy, the 4 ms cycle holds, and a run is repeatable. It proves the behaviour and the
@@ -20,7 +20,8 @@
 # Environment (all optional):
 #   INTERPD_VCAN_MODE        auto (default) | host | vm  -- force a mode (vm also works on hosts with vcan)
 #   INTERPD_VCAN_TESTS       the test targets of the interpd-e2e package to run (default
-#                            "can can_daemon"; space-separated)
+#                            "can can_daemon can_boot can_python"; space-separated; can_python
+#                            copies this host's python3 with `canopen` into the VM)
 #   INTERPD_VCAN_EXTRA_BINS  workspace binaries the tests start, put into the VM's /bin
 #                            (default "interpd sim-plant"; space-separated)
 #   INTERPD_VCAN_TIMEOUT     seconds before the VM is killed (default 600)
@@ -42,10 +43,11 @@ MODE="${INTERPD_VCAN_MODE:-auto}"
 TIMEOUT="${INTERPD_VCAN_TIMEOUT:-600}"
 # Binaries the CAN tests start: the daemon (master) and the simulated drives.
 EXTRA_BINS="${INTERPD_VCAN_EXTRA_BINS-interpd sim-plant}"
-TESTS="${INTERPD_VCAN_TESTS-can can_daemon}"
+TESTS="${INTERPD_VCAN_TESTS-can can_daemon can_boot can_python}"
 # Tests share one bus and lock it anyway; one thread keeps their output readable.
 TEST_ARGS=(--test-threads=1 --nocapture "$@")
-MODULES=(net/can/can net/can/can-raw drivers/net/can/dev/can-dev drivers/net/can/vcan)
+# can-bcm: python-can's periodic sends (the Python drives' heartbeat) use the broadcast manager.
+MODULES=(net/can/can net/can/can-raw net/can/can-bcm drivers/net/can/dev/can-dev drivers/net/can/vcan)
 START=$SECONDS
 
 log() { printf '== vcan-vm: %s\n' "$*" >&2; }
@@ -180,6 +182,10 @@ done
 # --- kernel and CAN modules (cached) ------------------------------------------------------
 
 KDIR="$CACHE/kernel"
+# A cache from a run with fewer modules is extracted again.
+for m in "${MODULES[@]}"; do
+    [ -f "$KDIR/$(basename "$m").ko" ] || rm -f "$KDIR/ok"
+done
 if [ ! -f "$KDIR/ok" ]; then
     rm -rf "$KDIR" "$CACHE/extract"
     mkdir -p "$KDIR" "$CACHE/extract"
@@ -243,6 +249,25 @@ done
 for bin in $EXTRA_BINS; do
     cp "$TARGET_DIR/$TRIPLE/release/$bin" "$STAGE/bin/$bin"
 done
+# Without their debug info (panics keep their file and line): the initramfs is unpacked into
+# the guest's RAM, and six static executables with line tables and Python would not fit.
+if command -v strip >/dev/null 2>&1; then
+    for f in "$STAGE"/bin/*; do
+        [ -L "$f" ] || [ "$(basename "$f")" = busybox ] || strip --strip-debug "$f"
+    done
+fi
+# The Python drives of tests/tests/can_python.rs: this host's python3 with `canopen` and `can`
+# (pip install -r .ci/python-requirements.txt), copied with what it loads
+# (scripts/vcan-vm-python.py), and the drive script and the EDS it serves.
+case " $TESTS " in
+*" can_python "*)
+    python3 -c 'import canopen, can' 2>/dev/null ||
+        die "the test can_python needs python3 with the canopen package (python3 -m pip install -r .ci/python-requirements.txt)"
+    log "$(python3 scripts/vcan-vm-python.py "$STAGE")"
+    mkdir -p "$STAGE/share"
+    cp tests/python/canopen_drive.py sim-plant/eds/interpd-sim-drive.eds "$STAGE/share/"
+    ;;
+esac
 args=""
 for a in "${TEST_ARGS[@]}"; do args="$args $(shquote "$a")"; done
 insmods=""
@@ -270,6 +295,7 @@ ip link set up dev lo
 ip link add dev $IFACE type vcan || fail "ip link add dev $IFACE type vcan"
 ip link set up dev $IFACE || fail "ip link set up $IFACE"
 echo "INTERPD-VCAN-READY uptime=\$(cut -d' ' -f1 /proc/uptime)s"
+export INTERPD_VCAN_SHARE=/share
 export INTERPD_VCAN=$IFACE INTERPD_BIN_DIR=/bin INTERPD_VCAN_BINS=$(shquote "$EXTRA_BINS") INTERPD_VCAN_VIRTUAL_TIME=1
 export HOME=/tmp TMPDIR=/tmp RUST_BACKTRACE=1
 cd /tmp

@@ -3,6 +3,7 @@
 //! thread: the SDO client and server of CiA 301, an object dictionary, and the reader of CiA 306
 //! EDS/DCF files.
 
+pub mod boot;
 pub mod eds;
 pub mod ini;
 pub mod od;

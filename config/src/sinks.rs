@@ -12,10 +12,36 @@
 //! boot_timeout_ms = 3000             # start-up waits this long for every drive's first answer
 //! enable_window_increments = 1000    # |actual − setpoint| a drive may have to be enabled
 //! tx_fail_cycles = 3                 # cycles with failed sends in a row before a controlled stop
+//! heartbeat_producer_ms = 100        # 0x1017 the master writes into every drive
+//! sdo_timeout_ms = 1000              # one SDO answer may take this long
+//!
+//! [sinks.can.node.2]                 # what node 2 must be (default: the simulated drive)
+//! vendor_id = 0x0000_0000
+//! product_code = 0x0000_0402
+//! eds = "drives/servo.eds"           # or its identity from an EDS/DCF ([DeviceInfo])
 //! ```
 
 use crate::{AxisConfig, ConfigError, Validator};
 use serde::Deserialize;
+use std::collections::BTreeMap;
+
+/// The identity of the project's simulated drive (its EDS's `[DeviceInfo]`): what every node is
+/// expected to be unless `[sinks.can.node.N]` says otherwise.
+pub const SIM_DRIVE_VENDOR_ID: u32 = 0;
+pub const SIM_DRIVE_PRODUCT_CODE: u32 = 0x402;
+
+/// `[sinks.can.node.N]`: what the master expects node N to be.
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct CanNodeConfig {
+    /// Expected 0x1018:1; default: the EDS's `VendorNumber`, else the simulated drive's.
+    pub vendor_id: Option<u32>,
+    /// Expected 0x1018:2; default: the EDS's `ProductNumber`, else the simulated drive's.
+    pub product_code: Option<u32>,
+    /// An EDS or DCF of the device, read by the master at start-up (a relative path is taken
+    /// from the daemon's working directory).
+    pub eds: Option<String>,
+}
 
 /// `[sinks]`.
 #[derive(Debug, Clone, Deserialize, PartialEq)]
@@ -63,6 +89,12 @@ pub struct CanConfig {
     /// Cycles in a row in which sending failed (ENOBUFS, interface down, bus-off) before the
     /// master requests a controlled stop.
     pub tx_fail_cycles: u32,
+    /// Heartbeat producer time the master writes into every drive's 0x1017 at boot, ms.
+    pub heartbeat_producer_ms: u32,
+    /// Longest wait for one SDO answer while configuring a drive, ms.
+    pub sdo_timeout_ms: f64,
+    /// Per node (the key is the node-ID): the identity the master checks at boot.
+    pub node: BTreeMap<String, CanNodeConfig>,
 }
 
 /// Default scale: 10 000 increments per mm (0.1 µm resolution), as the EDS's 0x608F/0x6092.
@@ -78,6 +110,9 @@ impl Default for CanConfig {
             boot_timeout_ms: 3000.0,
             enable_window_increments: 1000,
             tx_fail_cycles: 3,
+            heartbeat_producer_ms: 100,
+            sdo_timeout_ms: 1000.0,
+            node: BTreeMap::new(),
         }
     }
 }
@@ -100,6 +135,11 @@ impl CanConfig {
         } else {
             self.increments_per_unit.clone()
         }
+    }
+
+    /// `[sinks.can.node.N]` of node `id` (the defaults when the table is absent).
+    pub fn node_config(&self, id: u8) -> CanNodeConfig {
+        self.node.get(&id.to_string()).cloned().unwrap_or_default()
     }
 
     /// Checks an interface name as Linux accepts it (1–15 printable characters, no `/`, no
@@ -164,6 +204,32 @@ impl CanConfig {
         v.in_range("sinks.can.boot_timeout_ms", self.boot_timeout_ms, 0.0, 60_000.0)?;
         if self.enable_window_increments == 0 {
             return Err(v.err("sinks.can.enable_window_increments", "must be at least 1"));
+        }
+        if !(1..=u32::from(u16::MAX)).contains(&self.heartbeat_producer_ms) {
+            return Err(v.err(
+                "sinks.can.heartbeat_producer_ms",
+                &format!("must lie in 1..=65535 (0x1017 is 16 bits), got {}", self.heartbeat_producer_ms),
+            ));
+        }
+        if f64::from(self.heartbeat_producer_ms) >= self.heartbeat_timeout_ms {
+            return Err(v.err(
+                "sinks.can.heartbeat_producer_ms",
+                &format!(
+                    "{} ms is not below heartbeat_timeout_ms ({} ms): every heartbeat would count as lost",
+                    self.heartbeat_producer_ms, self.heartbeat_timeout_ms
+                ),
+            ));
+        }
+        v.in_range("sinks.can.sdo_timeout_ms", self.sdo_timeout_ms, 1.0, 60_000.0)?;
+        let ids = self.node_ids(n);
+        for key in self.node.keys() {
+            let ok = key.parse::<u8>().ok().is_some_and(|id| ids.contains(&id));
+            if !ok {
+                return Err(v.err(
+                    &format!("sinks.can.node.{key}"),
+                    &format!("is not the node-ID of a configured axis (the node-IDs are {ids:?})"),
+                ));
+            }
         }
         if !(1..=1000).contains(&self.tx_fail_cycles) {
             return Err(

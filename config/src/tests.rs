@@ -179,13 +179,20 @@ fn can_section_errors_name_the_key() {
         ("boot_timeout_ms = -1.0", "sinks.can.boot_timeout_ms", "[0, 60000]"),
         ("enable_window_increments = 0", "sinks.can.enable_window_increments", "at least 1"),
         ("tx_fail_cycles = 0", "sinks.can.tx_fail_cycles", "1..=1000"),
+        ("heartbeat_producer_ms = 0", "sinks.can.heartbeat_producer_ms", "1..=65535"),
+        ("heartbeat_producer_ms = 500", "sinks.can.heartbeat_producer_ms", "not below heartbeat_timeout_ms"),
+        ("sdo_timeout_ms = 0.0", "sinks.can.sdo_timeout_ms", "[1, 60000]"),
+        ("node.7 = { vendor_id = 1 }", "sinks.can.node.7", "not the node-ID of a configured axis"),
     ];
     for (line, key, what) in cases {
         let e = err_text(&format!("[machine]\n{two}\n[sinks.can]\n{line}\n"));
         assert!(e.contains(key) && e.contains(what), "{line}: {e}");
     }
-    let e = err_text(&format!("[machine]\n{AXIS_X}\n[sinks.can]\nnode = [1]\n"));
-    assert!(e.contains("unknown field `node`") && e.contains("sinks.can"), "{e}");
+    let e = err_text(&format!("[machine]\n{AXIS_X}\n[sinks.can]\nnodes = [1]\n[sinks.can.node.1]\nvendor = 1\n"));
+    assert!(e.contains("unknown field `vendor`") && e.contains("sinks.can"), "{e}");
+    let ok = parse(&format!("[machine]\n{AXIS_X}\n[sinks.can.node.1]\nproduct_code = 0x1234\n")).unwrap();
+    assert_eq!(ok.sinks.can.node_config(1).product_code, Some(0x1234));
+    assert_eq!(ok.sinks.can.node_config(2), Default::default());
 }
 
 #[test]

@@ -403,6 +403,61 @@ pub mod emcy_code {
     pub const RPDO_TIMEOUT: u16 = 0x8250;
     /// CiA 402: following error (position deviation too large).
     pub const FOLLOWING_ERROR: u16 = 0x8611;
+
+    /// What an emergency error code (and the CiA 402 error code 0x603F, which holds the same)
+    /// means: the exact entry of CiA 301 table 21 or the CiA 402-2 annex where there is one,
+    /// else the class its high byte names.
+    pub fn text(code: u16) -> &'static str {
+        const EXACT: [(u16, &str); 30] = [
+            (0x0000, "error reset or no error"),
+            (0x1000, "generic error"),
+            (0x2310, "continuous over-current"),
+            (0x2320, "short circuit at the motor"),
+            (0x3110, "mains over-voltage"),
+            (0x3120, "mains under-voltage"),
+            (0x3210, "DC link over-voltage"),
+            (0x3220, "DC link under-voltage"),
+            (0x4210, "excess temperature of the device"),
+            (0x4310, "excess temperature of the drive"),
+            (0x5441, "enable input off (safe torque off)"),
+            (0x6010, "software reset (watchdog)"),
+            (0x7121, "motor blocked"),
+            (0x7305, "incremental sensor 1 fault"),
+            (0x7500, "communication error"),
+            (0x8100, "communication: generic"),
+            (0x8110, "CAN overrun (objects lost)"),
+            (0x8120, "CAN in error passive mode"),
+            (0x8130, "life guard or heartbeat error"),
+            (0x8140, "recovered from bus-off"),
+            (0x8150, "CAN-ID collision"),
+            (0x8210, "PDO not processed due to length error"),
+            (0x8220, "PDO length exceeded"),
+            (0x8240, "unexpected SYNC data length"),
+            (0x8250, "RPDO timeout"),
+            (0x8400, "velocity speed controller"),
+            (0x8611, "following error"),
+            (0x8612, "reference limit"),
+            (0xFF00, "device-specific"),
+            (0x9000, "external error"),
+        ];
+        if let Some((_, t)) = EXACT.iter().find(|(c, _)| *c == code) {
+            return t;
+        }
+        match code >> 8 {
+            0x10 => "generic error",
+            0x20..=0x2F => "current",
+            0x30..=0x3F => "voltage",
+            0x40..=0x4F => "temperature",
+            0x50..=0x5F => "device hardware",
+            0x60..=0x6F => "device software",
+            0x70..=0x7F => "additional modules",
+            0x80..=0x8F => "monitoring",
+            0x90..=0x9F => "external error",
+            0xF0 => "additional functions",
+            0xFF => "device-specific",
+            _ => "not defined by CiA 301 or CiA 402",
+        }
+    }
 }
 
 /// Error register (0x1001) bits.
@@ -699,6 +754,14 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn emergency_codes_have_their_meaning() {
+        assert_eq!(emcy_code::text(0x8611), "following error");
+        assert_eq!(emcy_code::text(0x8100), "communication: generic");
+        assert_eq!(emcy_code::text(0x2399), "current");
+        assert_eq!(emcy_code::text(0x0100), "not defined by CiA 301 or CiA 402");
     }
 
     #[test]

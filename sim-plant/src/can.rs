@@ -12,13 +12,13 @@
 //! position actual, the motor encoder, stays still while the load may swing out.
 
 use crate::PlantError;
-use crate::can_node::{DriveNode, HEARTBEAT_PERIOD_MS, Motion, NodeParams, NodeStats};
+use crate::can_node::{DriveNode, Motion, NodeParams, NodeStats};
 use crate::metrics::Metrics;
 use crate::plant::{AxisTarget, Plant};
 use interpd_config::Config;
 use interpd_protocol::MAX_AXES;
 use interpd_protocol::can_socket::{from_socketcan, to_socketcan};
-use interpd_protocol::cia301::{self, CobObject, DecodeError, Message, NmtState, NodeId};
+use interpd_protocol::cia301::{self, CobObject, DecodeError, Frame, Message, NmtState, NodeId};
 use interpd_protocol::cia402::{PowerState, Scale};
 use socketcan::{CanSocket, Socket, SocketOptions};
 use std::os::fd::AsRawFd;
@@ -81,7 +81,7 @@ fn wall_us() -> u64 {
 struct Bus {
     socket: CanSocket,
     nodes: Vec<DriveNode>,
-    out: Vec<Message>,
+    out: Vec<Frame>,
     stats: BusStats,
     cycle_us: u64,
     dt_s: f64,
@@ -129,13 +129,12 @@ pub fn run(
         let node = NodeId::new(id).ok_or_else(|| PlantError::Input(format!("sinks.can.nodes[{i}]: {id}")))?;
         let scale = Scale::new(k).map_err(|e| PlantError::Input(format!("sinks.can.increments_per_unit[{i}]: {e}")))?;
         let p = NodeParams { node, scale, cycle_us, quick_stop_dec: config.axes[i].max_acc_per_s2 };
-        let (drive, boot) = DriveNode::boot(p, positions[i]);
+        let (drive, boot) = DriveNode::boot(p, positions[i])
+            .map_err(|e| PlantError::Input(format!("the drive's EDS (sim-plant/eds/interpd-sim-drive.eds): {e}")))?;
         bus.nodes.push(drive);
         bus.out.push(boot);
     }
     bus.flush();
-    let heartbeat = Duration::from_millis(HEARTBEAT_PERIOD_MS);
-    let mut next_heartbeat = Instant::now() + heartbeat;
     while !stop.load(Ordering::SeqCst) {
         // Wake for the next frame, the earliest watchdog deadline or the poll period.
         let now = wall_us();
@@ -180,13 +179,10 @@ pub fn run(
                 std::thread::sleep(poll);
             }
         }
-        if Instant::now() >= next_heartbeat {
-            next_heartbeat += heartbeat;
-            if next_heartbeat < Instant::now() {
-                next_heartbeat = Instant::now() + heartbeat;
-            }
-            for i in 0..bus.nodes.len() {
-                let hb = bus.nodes[i].heartbeat();
+        // Each node's heartbeat producer runs at its own 0x1017 (off until the master sets it).
+        let now = wall_us();
+        for i in 0..bus.nodes.len() {
+            if let Some(hb) = bus.nodes[i].heartbeat_due(now) {
                 bus.out.push(hb);
             }
         }
@@ -214,7 +210,7 @@ fn wait_readable(socket: &CanSocket, timeout: Duration) {
 impl Bus {
     fn flush(&mut self) {
         for m in self.out.drain(..) {
-            let Some(f) = to_socketcan(&m.encode()) else { continue };
+            let Some(f) = to_socketcan(&m) else { continue };
             match self.socket.write_frame(&f) {
                 Ok(()) => self.stats.tx_frames += 1,
                 Err(e) => {
@@ -238,13 +234,26 @@ impl Bus {
         plant: &mut Plant,
         metrics: Option<&mut Metrics>,
     ) -> Result<(), PlantError> {
+        // SDO requests and RPDO1s first: their COB-IDs and lengths are the dictionary's, not
+        // the fixed ones of the predefined connection set's decoder.
+        if let Some(i) = self.nodes.iter().position(|d| d.is_sdo_request(frame)) {
+            self.nodes[i].on_sdo(frame.payload(), &mut self.out);
+            return Ok(());
+        }
+        if let Some(i) = self.nodes.iter().position(|d| d.is_rpdo(frame)) {
+            if !self.nodes[i].on_rpdo(frame.payload(), t_us, &mut self.out) {
+                self.stats.wrong_dlc += 1;
+            }
+            return Ok(());
+        }
         match cia301::decode(frame) {
             Ok(Message::Sync { .. }) => {
                 self.stats.syncs += 1;
                 self.on_sync(t_us, plant, metrics)?;
             }
-            Ok(Message::Rpdo1 { node, pdo }) => match self.index(node) {
-                Some(i) => self.nodes[i].on_rpdo(Some(pdo), 6, t_us, &mut self.out),
+            Ok(Message::Rpdo1 { node, .. }) => match self.index(node) {
+                // Our node with its RPDO1 disabled or moved.
+                Some(_) => self.stats.unknown_cob_id += 1,
                 None => self.stats.rpdo_other_node += 1,
             },
             Ok(Message::Nmt { command, target }) => {
@@ -259,11 +268,11 @@ impl Bus {
                     self.stats.other_node_frames += 1;
                 }
             }
-            Err(DecodeError::WrongDlc { id, got, .. }) => {
+            Err(DecodeError::WrongDlc { id, .. }) => {
                 self.stats.wrong_dlc += 1;
                 if let Some(CobObject::Rpdo1(node)) = CobObject::classify(id) {
-                    if let Some(i) = self.index(node) {
-                        self.nodes[i].on_rpdo(None, got, t_us, &mut self.out);
+                    if self.index(node).is_none() {
+                        self.stats.rpdo_other_node += 1;
                     }
                 }
             }

@@ -1,20 +1,27 @@
-//! One simulated CiA 402 drive as a CANopen node (sim-plant/eds/interpd-sim-drive.eds): the NMT
-//! state machine, the power drive system state machine on the statusword, cyclic synchronous
-//! position (RPDO1 applied on SYNC, TPDO1 answered), EMCY on faults, the SYNC watchdog and the
-//! quick-stop ramp. Pure logic with explicit times: the bus loop ([`crate::can`]) feeds it
-//! frames and ticks, it returns the frames to send and the position its axis is to follow.
+//! One simulated CiA 402 drive as a CANopen node: its object dictionary from the shipped EDS
+//! ([`crate::can_od`]) with an SDO server on it, the NMT state machine, the PDOs its mapping
+//! defines (CiA 402's default at power-on: RPDO1 = controlword, TPDO1 = statusword), the
+//! heartbeat producer of 0x1017 (off at power-on), the power drive system state machine on the
+//! statusword, cyclic synchronous position once 0x6060 = 8 (target position applied on SYNC),
+//! EMCY on faults, the SYNC watchdog and the quick-stop ramp. Pure logic with explicit times:
+//! the bus loop ([`crate::can`]) feeds it frames and ticks, it returns the frames to send and
+//! the position its axis is to follow.
 
-use interpd_protocol::cia301::{Emcy, Message, NmtCommand, NmtState, NodeId, emcy_code, error_register};
-use interpd_protocol::cia402::{PowerState, PowerStateMachine, Rpdo1, Scale, Tpdo1, statusword};
+use crate::can_od::{self, DriveDictionary};
+use interpd_canopen::eds::EdsError;
+use interpd_canopen::sdo_frame::request_cob;
+use interpd_canopen::sdo_server::SdoServer;
+use interpd_protocol::cia301::{Emcy, Frame, Message, NmtCommand, NmtState, NodeId, emcy_code, error_register};
+use interpd_protocol::cia402::{PowerState, PowerStateMachine, Scale, statusword};
 
-/// EDS 0x1017: producer heartbeat time, ms.
-pub const HEARTBEAT_PERIOD_MS: u64 = 100;
 /// EDS 0x1015 (inhibit time EMCY, 100 µs units): at most one EMCY per node per 10 ms.
 pub const EMCY_INHIBIT_US: u64 = 10_000;
 /// EDS 0x6065: following error window, increments.
 pub const FOLLOWING_ERROR_WINDOW: i64 = 100_000;
 /// SYNC watchdog: this many communication cycles (0x1006) without SYNC trip it.
 pub const WATCHDOG_CYCLES: u64 = 3;
+/// Mode of operation 0x6060 for cyclic synchronous position.
+pub const MODE_CSP: i128 = 8;
 /// Vendor byte 0 of EMCY 0x8100 (communication): why.
 pub mod comm_fault {
     /// No SYNC for [`super::WATCHDOG_CYCLES`] cycles.
@@ -51,7 +58,7 @@ pub struct NodeParams {
 pub struct NodeStats {
     pub syncs: u64,
     pub rpdos: u64,
-    /// RPDO1 with a DLC other than 6 (answered with EMCY 0x8210).
+    /// RPDO1 with a length other than its mapping's (answered with EMCY 0x8210/0x8220).
     pub rpdo_bad_length: u64,
     pub nmt_commands: u64,
     pub watchdog_trips: u64,
@@ -59,6 +66,8 @@ pub struct NodeStats {
     pub emcy_sent: u64,
     /// EMCY not sent because of the inhibit time.
     pub emcy_inhibited: u64,
+    pub sdo_requests: u64,
+    pub sdo_aborts: u64,
 }
 
 /// One drive node.
@@ -67,8 +76,14 @@ pub struct DriveNode {
     p: NodeParams,
     nmt: NmtState,
     power: PowerStateMachine,
-    /// The last RPDO1 received (applied on each SYNC, as CSP drives keep the last value).
-    rpdo: Option<Rpdo1>,
+    od: DriveDictionary,
+    sdo: SdoServer,
+    /// An RPDO1 arrived since NMT start (its objects are applied on each SYNC, as CSP drives
+    /// keep the last value).
+    rpdo_seen: bool,
+    /// The last TPDO1 sent (event-driven transmission sends on change).
+    last_tpdo: Option<Vec<u8>>,
+    next_heartbeat_us: Option<u64>,
     motion: Motion,
     /// Commanded position of the cycle now running and of the one before, axis units.
     target: f64,
@@ -81,13 +96,17 @@ pub struct DriveNode {
 
 impl DriveNode {
     /// A node that has just powered up at `position` (axis units): NMT boot-up, power state
-    /// Switch on disabled. Returns it and its boot-up message.
-    pub fn boot(p: NodeParams, position: f64) -> (DriveNode, Message) {
+    /// Switch on disabled, the dictionary of the EDS. Returns it and its boot-up message.
+    pub fn boot(p: NodeParams, position: f64) -> Result<(DriveNode, Frame), EdsError> {
         let node = DriveNode {
             p,
             nmt: NmtState::BootUp.after_boot_up(),
             power: PowerStateMachine::new(PowerState::NotReadyToSwitchOn.on_init_complete()),
-            rpdo: None,
+            od: DriveDictionary::new(p.node)?,
+            sdo: SdoServer::new(p.node),
+            rpdo_seen: false,
+            last_tpdo: None,
+            next_heartbeat_us: None,
             motion: Motion::Hold,
             target: position,
             prev_target: position,
@@ -96,7 +115,7 @@ impl DriveNode {
             error_register: 0,
             stats: NodeStats::default(),
         };
-        (node, Message::Heartbeat { node: p.node, state: NmtState::BootUp })
+        Ok((node, Message::Heartbeat { node: p.node, state: NmtState::BootUp }.encode()))
     }
 
     pub fn id(&self) -> NodeId {
@@ -111,9 +130,22 @@ impl DriveNode {
     pub fn motion(&self) -> Motion {
         self.motion
     }
+    pub fn dictionary(&self) -> &DriveDictionary {
+        &self.od
+    }
     /// The position the axis is to be at the end of the cycle now running, axis units.
     pub fn target(&self) -> f64 {
         self.target
+    }
+
+    /// Whether `frame` is this node's RPDO1 (on the COB-ID its 0x1400:1 holds while valid).
+    pub fn is_rpdo(&self, frame: &Frame) -> bool {
+        frame.id().as_standard().is_some_and(|id| self.od.rpdo_cob() == Some(id))
+    }
+
+    /// Whether `frame` is an SDO request to this node.
+    pub fn is_sdo_request(&self, frame: &Frame) -> bool {
+        frame.id().as_standard() == Some(request_cob(self.p.node))
     }
 
     /// The statusword: the state bits plus voltage enabled, remote, and CSP "drive follows the
@@ -131,72 +163,124 @@ impl DriveNode {
         sw
     }
 
-    /// The heartbeat message.
-    pub fn heartbeat(&self) -> Message {
-        Message::Heartbeat { node: self.p.node, state: self.nmt }
+    /// The heartbeat if it is due at `now_us` (producer time 0x1017; none while it is 0).
+    pub fn heartbeat_due(&mut self, now_us: u64) -> Option<Frame> {
+        let period_us = self.od.heartbeat_ms() * 1000;
+        if period_us == 0 {
+            self.next_heartbeat_us = None;
+            return None;
+        }
+        let next = *self.next_heartbeat_us.get_or_insert(now_us + period_us);
+        if now_us < next {
+            return None;
+        }
+        self.next_heartbeat_us = Some(if next + period_us > now_us { next + period_us } else { now_us + period_us });
+        Some(Message::Heartbeat { node: self.p.node, state: self.nmt }.encode())
     }
 
-    /// NMT node control addressed to this node (or to all). A reset reboots the node (returns
-    /// its boot-up message); leaving Operational while enabled is a communication fault.
-    pub fn on_nmt(&mut self, command: NmtCommand, now_us: u64, out: &mut Vec<Message>) {
+    /// When the next heartbeat is due (µs), if the producer runs.
+    pub fn next_heartbeat_us(&self) -> Option<u64> {
+        self.next_heartbeat_us
+    }
+
+    /// An SDO request (the data bytes of a frame on 0x600 + node): served in pre-operational
+    /// and operational, as CiA 301 table 80 allows.
+    pub fn on_sdo(&mut self, payload: &[u8], out: &mut Vec<Frame>) {
+        if !matches!(self.nmt, NmtState::PreOperational | NmtState::Operational) {
+            return;
+        }
+        self.stats.sdo_requests += 1;
+        let before = self.sdo.stats.aborts_sent;
+        if let Some(f) = self.sdo.on_request(payload, &mut self.od) {
+            out.push(f);
+        }
+        self.stats.sdo_aborts += self.sdo.stats.aborts_sent - before;
+    }
+
+    /// NMT node control addressed to this node (or to all). Reset node reboots the node with
+    /// its whole dictionary at the defaults; reset communication restores the communication
+    /// area (mapping, heartbeat) and keeps the drive's state. Both end with the boot-up message.
+    /// Leaving Operational while enabled is a communication fault.
+    pub fn on_nmt(&mut self, command: NmtCommand, now_us: u64, out: &mut Vec<Frame>) {
         self.stats.nmt_commands += 1;
         let before = self.nmt;
         let after = self.nmt.apply(command);
-        if after == NmtState::BootUp {
-            let (fresh, boot) = DriveNode::boot(self.p, self.target);
-            let stats = self.stats;
-            *self = fresh;
-            self.stats = stats;
-            out.push(boot);
-            return;
-        }
-        self.nmt = after;
         if before == NmtState::Operational && after != NmtState::Operational {
-            self.rpdo = None;
+            self.rpdo_seen = false;
             if self.power.state().is_operation_enabled() {
                 self.fault(emcy_code::COMMUNICATION, comm_fault::NMT_LEFT_OPERATIONAL, now_us, out);
             }
         }
+        if after == NmtState::BootUp {
+            if command == NmtCommand::ResetNode {
+                self.od.reset_node();
+                self.power = PowerStateMachine::new(PowerState::NotReadyToSwitchOn.on_init_complete());
+                self.motion = Motion::Hold;
+                self.error_register = 0;
+            } else {
+                self.od.reset_communication();
+            }
+            self.sdo = SdoServer::new(self.p.node);
+            self.rpdo_seen = false;
+            self.last_tpdo = None;
+            self.next_heartbeat_us = None;
+            self.last_sync_us = None;
+            self.nmt = NmtState::BootUp.after_boot_up();
+            out.push(Message::Heartbeat { node: self.p.node, state: NmtState::BootUp }.encode());
+            return;
+        }
+        self.nmt = after;
         if after == NmtState::Operational {
             // The watchdog starts with the first SYNC after the start.
             self.last_sync_us = None;
+            self.last_tpdo = None;
         }
     }
 
-    /// An RPDO1 frame for this node with `len` data bytes; `pdo` when the length was right.
-    pub fn on_rpdo(&mut self, pdo: Option<Rpdo1>, len: u8, now_us: u64, out: &mut Vec<Message>) {
+    /// This node's RPDO1 with its data bytes: written into the mapped objects when the length
+    /// is the mapping's, else EMCY 0x8210 (short) or 0x8220 (long). Returns whether it was
+    /// accepted.
+    pub fn on_rpdo(&mut self, data: &[u8], now_us: u64, out: &mut Vec<Frame>) -> bool {
         if !self.nmt.pdo_allowed() {
-            return;
+            return true;
         }
-        match pdo {
-            Some(p) => {
+        match self.od.apply_rpdo(data) {
+            Ok(()) => {
                 self.stats.rpdos += 1;
-                self.rpdo = Some(p);
+                self.rpdo_seen = true;
+                true
             }
-            None => {
+            Err(expected) => {
                 self.stats.rpdo_bad_length += 1;
-                let code = if len < 6 { emcy_code::PDO_LENGTH } else { emcy_code::PDO_LENGTH_EXCEEDED };
-                self.emcy(code, error_register::COMMUNICATION, [len, 0, 0, 0, 0], now_us, out);
+                let code = if data.len() < expected { emcy_code::PDO_LENGTH } else { emcy_code::PDO_LENGTH_EXCEEDED };
+                self.emcy(code, error_register::COMMUNICATION, [data.len() as u8, 0, 0, 0, 0], now_us, out);
+                false
             }
         }
     }
 
     /// SYNC at `now_us` with the axis at `actual` (axis units, the state at this instant):
-    /// answer TPDO1, apply the controlword, take the new target. Nothing outside Operational.
-    pub fn on_sync(&mut self, actual: f64, now_us: u64, out: &mut Vec<Message>) {
+    /// answer TPDO1 as its transmission type says, apply the controlword, take the new target
+    /// in CSP. Nothing outside Operational.
+    pub fn on_sync(&mut self, actual: f64, now_us: u64, out: &mut Vec<Frame>) {
         if !self.nmt.pdo_allowed() {
             return;
         }
         self.stats.syncs += 1;
         self.last_sync_us = Some(now_us);
         let was_enabled = self.power.state().is_operation_enabled();
-        if let Some(pdo) = self.rpdo {
-            self.power.apply(pdo.controlword);
+        if self.rpdo_seen {
+            self.power.apply(self.od.int(can_od::CONTROLWORD) as u16);
         }
         let state = self.power.state();
+        let csp = self.od.int(can_od::MODES_DISPLAY) == MODE_CSP;
         match (state, self.motion) {
-            (PowerState::OperationEnabled, _) => {
-                let target = self.rpdo.map_or(self.target, |p| self.p.scale.to_units(p.target_position));
+            (PowerState::OperationEnabled, _) if csp => {
+                let target = if self.rpdo_seen {
+                    self.p.scale.to_units(self.od.int(can_od::TARGET_POSITION) as i32)
+                } else {
+                    self.target
+                };
                 self.motion = Motion::Follow;
                 self.prev_target = self.target;
                 self.target = target;
@@ -211,12 +295,31 @@ impl DriveNode {
                 self.complete_if_standing();
             }
             (_, Motion::Ramp { .. }) => {}
-            // Shutdown, disable voltage, disable operation: the power stage is off, the axis
-            // holds where it was commanded.
+            // Shutdown, disable voltage, disable operation, or enabled without a mode: the
+            // power stage holds the axis where it was commanded.
             _ => self.motion = Motion::Hold,
         }
         let position_actual = self.increments(actual);
-        out.push(Message::Tpdo1 { node: self.p.node, pdo: Tpdo1 { statusword: self.statusword(), position_actual } });
+        self.od.set(can_od::STATUSWORD, i128::from(self.statusword()));
+        self.od.set(can_od::POSITION_ACTUAL, i128::from(position_actual));
+        self.send_tpdo(out);
+    }
+
+    /// TPDO1 after a SYNC: every n-th SYNC for types 1–240, on change for the event-driven
+    /// types (0, 254, 255; this drive evaluates them at SYNC).
+    fn send_tpdo(&mut self, out: &mut Vec<Frame>) {
+        let Some(cob) = self.od.tpdo_cob() else { return };
+        let data = self.od.tpdo_bytes();
+        let send = match self.od.tpdo_transmission() {
+            n @ 1..=240 => self.stats.syncs % u64::from(n) == 0,
+            _ => self.last_tpdo.as_ref() != Some(&data),
+        };
+        if send {
+            if let Ok(f) = Frame::standard(cob, &data) {
+                out.push(f);
+            }
+            self.last_tpdo = Some(data);
+        }
     }
 
     /// Advances a running quick-stop ramp by one cycle (`dt_s`); when it reaches standstill the
@@ -235,7 +338,7 @@ impl DriveNode {
 
     /// The SYNC watchdog at `now_us`: in Operation enabled, no SYNC for [`WATCHDOG_CYCLES`]
     /// cycles trips it (quick-stop ramp, Fault, EMCY 0x8100). Returns whether it tripped now.
-    pub fn check_watchdog(&mut self, now_us: u64, out: &mut Vec<Message>) -> bool {
+    pub fn check_watchdog(&mut self, now_us: u64, out: &mut Vec<Frame>) -> bool {
         if self.watchdog_deadline_us().is_some_and(|deadline| now_us >= deadline) {
             self.stats.watchdog_trips += 1;
             self.fault(emcy_code::COMMUNICATION, comm_fault::SYNC_WATCHDOG, now_us, out);
@@ -274,7 +377,7 @@ impl DriveNode {
     }
 
     /// Fault (transition 13): fault reaction = quick-stop ramp from the current motion, EMCY.
-    fn fault(&mut self, code: u16, vendor0: u8, now_us: u64, out: &mut Vec<Message>) {
+    fn fault(&mut self, code: u16, vendor0: u8, now_us: u64, out: &mut Vec<Frame>) {
         let s = self.power.state();
         if s.is_fault() {
             return;
@@ -290,21 +393,23 @@ impl DriveNode {
             error_register::COMMUNICATION
         };
         self.error_register |= reg | error_register::GENERIC;
+        self.od.set(can_od::ERROR_CODE, i128::from(code));
+        self.od.set(can_od::ERROR_REGISTER, i128::from(self.error_register));
         self.emcy(code, self.error_register, [vendor0, 0, 0, 0, 0], now_us, out);
     }
 
     /// Queues an EMCY unless the inhibit time since the last one has not passed.
-    fn emcy(&mut self, code: u16, register: u8, vendor: [u8; 5], now_us: u64, out: &mut Vec<Message>) {
+    fn emcy(&mut self, code: u16, register: u8, vendor: [u8; 5], now_us: u64, out: &mut Vec<Frame>) {
         if self.last_emcy_us.is_some_and(|t| now_us.saturating_sub(t) < EMCY_INHIBIT_US) {
             self.stats.emcy_inhibited += 1;
             return;
         }
         self.last_emcy_us = Some(now_us);
         self.stats.emcy_sent += 1;
-        out.push(Message::Emcy {
-            node: self.p.node,
-            emcy: Emcy { error_code: code, error_register: register, vendor },
-        });
+        out.push(
+            Message::Emcy { node: self.p.node, emcy: Emcy { error_code: code, error_register: register, vendor } }
+                .encode(),
+        );
     }
 
     /// Rounds to increments, saturating at the i32 range (a plant far outside the travel still
@@ -321,7 +426,9 @@ impl DriveNode {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use interpd_protocol::cia402::controlword;
+    use interpd_canopen::boot::{BootError, CspSetup, NodeBoot, Op, csp_ops};
+    use interpd_protocol::cia301::decode;
+    use interpd_protocol::cia402::{Rpdo1, Tpdo1, controlword};
 
     const CYCLE_US: u64 = 4000;
 
@@ -334,27 +441,79 @@ mod tests {
         }
     }
 
-    fn rpdo(cw: u16, mm: f64) -> Option<Rpdo1> {
-        Some(Rpdo1 { controlword: cw, target_position: (mm * 1e4).round() as i32 })
+    fn rpdo(cw: u16, mm: f64) -> Vec<u8> {
+        Rpdo1 { controlword: cw, target_position: (mm * 1e4).round() as i32 }.to_bytes().to_vec()
+    }
+
+    fn msgs(out: &[Frame]) -> Vec<Message> {
+        out.iter().filter_map(|f| decode(f).ok()).collect()
+    }
+
+    fn last_tpdo(out: &[Frame]) -> Tpdo1 {
+        match msgs(out).into_iter().rev().find(|m| matches!(m, Message::Tpdo1 { .. })) {
+            Some(Message::Tpdo1 { pdo, .. }) => pdo,
+            _ => panic!("no TPDO1 in {out:?}"),
+        }
+    }
+
+    fn setup() -> CspSetup {
+        CspSetup { vendor_id: 0, product_code: 0x402, cycle_us: CYCLE_US as u32, heartbeat_ms: 100, extra: Vec::new() }
+    }
+
+    /// A master's frame to the node.
+    fn deliver(n: &mut DriveNode, f: &Frame, t: u64, out: &mut Vec<Frame>) {
+        if n.is_sdo_request(f) {
+            n.on_sdo(f.payload(), out);
+        } else if let Ok(Message::Nmt { command, .. }) = decode(f) {
+            n.on_nmt(command, t, out);
+        }
+    }
+
+    /// Runs the master's boot of `ops` against the node; returns the outcome and the frames
+    /// the node sent.
+    fn run_boot(n: &mut DriveNode, ops: Vec<Op>, t: u64) -> (Result<(), BootError>, Vec<Frame>) {
+        let mut boot = NodeBoot::new(n.id(), ops, 1_000_000, 1_000_000);
+        let mut to_node = Vec::new();
+        let mut seen = Vec::new();
+        let mut result = boot.poll(t, &mut to_node);
+        while result.is_none() {
+            let frames = std::mem::take(&mut to_node);
+            assert!(!frames.is_empty(), "the boot stalls");
+            let mut from_node = Vec::new();
+            for f in &frames {
+                deliver(n, f, t, &mut from_node);
+            }
+            for f in &from_node {
+                result = result.or(boot.on_frame(f, t, &mut to_node));
+            }
+            seen.extend(from_node);
+        }
+        // The last frames (NMT start) need no answer.
+        for f in &to_node {
+            deliver(n, f, t, &mut seen);
+        }
+        (result.unwrap(), seen)
     }
 
     /// Boots, starts and enables a node; returns it and the time.
     fn enabled() -> (DriveNode, u64) {
-        let (mut n, boot) = DriveNode::boot(params(), 0.0);
-        assert_eq!(boot, Message::Heartbeat { node: params().node, state: NmtState::BootUp });
+        let (mut n, boot) = DriveNode::boot(params(), 0.0).unwrap();
+        assert_eq!(decode(&boot), Ok(Message::Heartbeat { node: params().node, state: NmtState::BootUp }));
         assert_eq!(n.nmt(), NmtState::PreOperational);
         let mut out = Vec::new();
         let mut t = 0;
         n.on_sync(0.0, t, &mut out);
         assert!(out.is_empty(), "no PDO before NMT start");
-        n.on_nmt(NmtCommand::Start, t, &mut out);
+        let (result, _) = run_boot(&mut n, csp_ops(params().node, &setup()), t);
+        result.unwrap();
+        assert_eq!(n.nmt(), NmtState::Operational);
         for cw in [controlword::SHUTDOWN, controlword::SWITCH_ON, controlword::ENABLE_OPERATION] {
             t += CYCLE_US;
-            n.on_rpdo(rpdo(cw, 0.0), 6, t, &mut out);
+            assert!(n.on_rpdo(&rpdo(cw, 0.0), t, &mut out));
             n.on_sync(0.0, t, &mut out);
         }
         assert_eq!(n.power_state(), PowerState::OperationEnabled);
-        let Some(Message::Tpdo1 { pdo, .. }) = out.last() else { panic!("{out:?}") };
+        let pdo = last_tpdo(&out);
         assert_eq!(PowerState::from_statusword(pdo.statusword), Some(PowerState::OperationEnabled));
         assert!(pdo.statusword & statusword::CSP_FOLLOWING_BIT != 0);
         (n, t)
@@ -365,12 +524,11 @@ mod tests {
         let (mut n, mut t) = enabled();
         let mut out = Vec::new();
         t += CYCLE_US;
-        n.on_rpdo(rpdo(controlword::ENABLE_OPERATION, 0.5), 6, t, &mut out);
+        n.on_rpdo(&rpdo(controlword::ENABLE_OPERATION, 0.5), t, &mut out);
         assert_eq!(n.target(), 0.0, "RPDO alone does not move");
         n.on_sync(0.0, t, &mut out);
         assert_eq!(n.target(), 0.5);
-        let Some(Message::Tpdo1 { pdo, .. }) = out.last() else { panic!() };
-        assert_eq!(pdo.position_actual, 0);
+        assert_eq!(last_tpdo(&out).position_actual, 0);
     }
 
     #[test]
@@ -380,7 +538,7 @@ mod tests {
         // Move at 100 mm/s for a few cycles.
         for k in 1..=5 {
             t += CYCLE_US;
-            n.on_rpdo(rpdo(controlword::ENABLE_OPERATION, 0.4 * k as f64), 6, t, &mut out);
+            n.on_rpdo(&rpdo(controlword::ENABLE_OPERATION, 0.4 * k as f64), t, &mut out);
             n.on_sync(0.0, t, &mut out);
         }
         out.clear();
@@ -389,7 +547,7 @@ mod tests {
         assert!(n.check_watchdog(t + 3 * CYCLE_US + 1, &mut out));
         assert_eq!(n.power_state(), PowerState::FaultReactionActive);
         assert_eq!(
-            out,
+            msgs(&out),
             [Message::Emcy {
                 node: params().node,
                 emcy: Emcy {
@@ -419,7 +577,7 @@ mod tests {
             [controlword::FAULT_RESET, controlword::SHUTDOWN, controlword::SWITCH_ON, controlword::ENABLE_OPERATION]
         {
             t += CYCLE_US;
-            n.on_rpdo(rpdo(cw, n.target()), 6, t, &mut out);
+            n.on_rpdo(&rpdo(cw, n.target()), t, &mut out);
             n.on_sync(n.target(), t, &mut out);
         }
         assert_eq!(n.power_state(), PowerState::OperationEnabled);
@@ -430,10 +588,10 @@ mod tests {
         let (mut n, mut t) = enabled();
         let mut out = Vec::new();
         t += CYCLE_US;
-        n.on_rpdo(rpdo(controlword::ENABLE_OPERATION, 0.4), 6, t, &mut out);
+        n.on_rpdo(&rpdo(controlword::ENABLE_OPERATION, 0.4), t, &mut out);
         n.on_sync(0.0, t, &mut out);
         t += CYCLE_US;
-        n.on_rpdo(rpdo(controlword::QUICK_STOP, 0.8), 6, t, &mut out);
+        n.on_rpdo(&rpdo(controlword::QUICK_STOP, 0.8), t, &mut out);
         n.on_sync(0.4, t, &mut out);
         assert_eq!(n.power_state(), PowerState::QuickStopActive);
         assert!(matches!(n.motion(), Motion::Ramp { .. }));
@@ -447,10 +605,10 @@ mod tests {
     fn bad_rpdo_length_and_following_error_send_emcy_with_inhibit() {
         let (mut n, t) = enabled();
         let mut out = Vec::new();
-        n.on_rpdo(None, 4, t, &mut out);
-        n.on_rpdo(None, 8, t + 1, &mut out); // inhibited
-        n.on_rpdo(None, 8, t + EMCY_INHIBIT_US, &mut out);
-        let codes: Vec<u16> = out
+        assert!(!n.on_rpdo(&[0x0F; 4], t, &mut out));
+        n.on_rpdo(&[0x0F; 8], t + 1, &mut out); // inhibited
+        n.on_rpdo(&[0x0F; 8], t + EMCY_INHIBIT_US, &mut out);
+        let codes: Vec<u16> = msgs(&out)
             .iter()
             .filter_map(|m| if let Message::Emcy { emcy, .. } = m { Some(emcy.error_code) } else { None })
             .collect();
@@ -460,11 +618,12 @@ mod tests {
         out.clear();
         // The axis lags 11 mm behind: beyond the 10 mm window.
         let t2 = t + 2 * EMCY_INHIBIT_US;
-        n.on_rpdo(rpdo(controlword::ENABLE_OPERATION, 11.0), 6, t2, &mut out);
+        n.on_rpdo(&rpdo(controlword::ENABLE_OPERATION, 11.0), t2, &mut out);
         n.on_sync(0.0, t2, &mut out);
         assert_eq!(n.power_state(), PowerState::FaultReactionActive);
         assert!(
-            out.iter()
+            msgs(&out)
+                .iter()
                 .any(|m| matches!(m, Message::Emcy { emcy, .. } if emcy.error_code == emcy_code::FOLLOWING_ERROR))
         );
     }
@@ -478,8 +637,64 @@ mod tests {
         assert_eq!(n.nmt(), NmtState::PreOperational);
         out.clear();
         n.on_nmt(NmtCommand::ResetNode, t, &mut out);
-        assert_eq!(out, [Message::Heartbeat { node: params().node, state: NmtState::BootUp }]);
+        assert_eq!(msgs(&out), [Message::Heartbeat { node: params().node, state: NmtState::BootUp }]);
         assert_eq!((n.nmt(), n.power_state()), (NmtState::PreOperational, PowerState::SwitchOnDisabled));
-        assert_eq!(n.stats.nmt_commands, 3, "counters survive a reset");
+        assert_eq!(n.stats.nmt_commands, 4, "counters survive a reset (the boot sent reset communication and start)");
+    }
+
+    #[test]
+    fn power_on_defaults_until_the_master_configures() {
+        let (mut n, _) = DriveNode::boot(params(), 1.0).unwrap();
+        let mut out = Vec::new();
+        assert_eq!(n.heartbeat_due(0), None, "heartbeat off at power-on");
+        assert_eq!(n.heartbeat_due(10_000_000), None);
+        n.on_nmt(NmtCommand::Start, 0, &mut out);
+        // CiA 402's default RPDO1 carries the controlword alone: a 6-byte RPDO1 is too long.
+        assert!(!n.on_rpdo(&rpdo(controlword::SHUTDOWN, 0.0), 0, &mut out));
+        assert!(n.on_rpdo(&[0x06, 0x00], 0, &mut out));
+        n.on_sync(1.0, 0, &mut out);
+        // The default TPDO1 is the statusword alone.
+        let tpdo: Vec<&Frame> = out.iter().filter(|f| f.id().raw() == 0x182).collect();
+        assert_eq!(tpdo.len(), 1);
+        assert_eq!(tpdo[0].len(), 2);
+        // Enabled without a mode of operation, the drive holds.
+        for cw in [controlword::SWITCH_ON, controlword::ENABLE_OPERATION] {
+            n.on_rpdo(&cw.to_le_bytes(), 0, &mut out);
+            n.on_sync(1.0, 0, &mut out);
+        }
+        assert_eq!((n.power_state(), n.motion()), (PowerState::OperationEnabled, Motion::Hold));
+    }
+
+    #[test]
+    fn the_boot_refuses_a_wrong_identity_and_names_an_abort() {
+        let (mut n, _) = DriveNode::boot(params(), 0.0).unwrap();
+        let wrong = CspSetup { vendor_id: 0x0000_0195, product_code: 0x1234, ..setup() };
+        let (result, _) = run_boot(&mut n, csp_ops(params().node, &wrong), 0);
+        assert_eq!(
+            result.unwrap_err().to_string(),
+            "node 2: wrong device: expected vendor-ID 0x00000195, product code 0x00001234; found vendor-ID \
+             0x00000000, product code 0x00000402 (object 0x1018)"
+        );
+        assert_eq!(n.nmt(), NmtState::PreOperational, "not started");
+        let mut bad = setup();
+        bad.extra.push(Op::Write {
+            at: interpd_canopen::Address::new(0x6065, 0),
+            data: vec![1, 2],
+            what: "following error window (0x6065:0)".into(),
+        });
+        let (result, _) = run_boot(&mut n, csp_ops(params().node, &bad), 0);
+        assert_eq!(
+            result.unwrap_err().to_string(),
+            "node 2: following error window (0x6065:0): node 2: SDO download (write) of 0x6065:0 refused by the \
+             drive: abort 0x06070013: data type does not match, length of service parameter too low"
+        );
+        assert_eq!(n.nmt(), NmtState::PreOperational, "not started");
+        // Configured: the heartbeat runs at 0x1017.
+        let (result, _) = run_boot(&mut n, csp_ops(params().node, &setup()), 0);
+        result.unwrap();
+        assert_eq!(n.heartbeat_due(0), None);
+        assert!(n.heartbeat_due(100_000).is_some());
+        assert_eq!(n.heartbeat_due(150_000), None);
+        assert!(n.heartbeat_due(200_000).is_some());
     }
 }

@@ -53,6 +53,7 @@ pub mod analysis;
 pub mod axis;
 pub mod can;
 pub mod can_node;
+pub mod can_od;
 pub mod discretize;
 pub mod drive;
 pub mod metrics;

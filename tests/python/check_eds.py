@@ -44,11 +44,11 @@ def main(path):
         (0x1000, "Device type", datatypes.UNSIGNED32, "ro", 0x00020192),
         (0x1001, "Error register", datatypes.UNSIGNED8, "ro", 0),
         (0x1014, "COB-ID EMCY", datatypes.UNSIGNED32, "ro", 0x80 + NODE_ID),
-        (0x1017, "Producer heartbeat time", datatypes.UNSIGNED16, "rw", None),
         (0x6040, "Controlword", datatypes.UNSIGNED16, "rww", None),
         (0x6041, "Statusword", datatypes.UNSIGNED16, "ro", None),
-        (0x6060, "Modes of operation", datatypes.INTEGER8, "rw", 8),
-        (0x6061, "Modes of operation display", datatypes.INTEGER8, "ro", 8),
+        (0x1017, "Producer heartbeat time", datatypes.UNSIGNED16, "rw", 0),
+        (0x6060, "Modes of operation", datatypes.INTEGER8, "rw", 0),
+        (0x6061, "Modes of operation display", datatypes.INTEGER8, "ro", 0),
         (0x6064, "Position actual value", datatypes.INTEGER32, "ro", None),
         (0x607A, "Target position", datatypes.INTEGER32, "rww", None),
         (0x6502, "Supported drive modes", datatypes.UNSIGNED32, "ro", 0x80),
@@ -74,28 +74,34 @@ def main(path):
     check(default(0x60C2, 1) == 4 and default(0x60C2, 2) == -3, "0x60C2: interpolation period is not 4 ms (4 x 10^-3 s)")
     check(0x608F in od or 0x6091 in od, "neither 0x608F nor 0x6091 present")
 
-    # PDOs exactly as a master derives them from the dictionary.
+    # The power-on PDOs exactly as a master derives them from the dictionary: CiA 402's
+    # default, the controlword alone in RPDO1 and the statusword alone in TPDO1, event-driven.
     network = canopen.Network()
     node = network.add_node(NODE_ID, od)
     node.rpdo.read(from_od=True)
     node.tpdo.read(from_od=True)
     expect_pdos = [
-        ("RPDO1", node.rpdo[1], 0x200 + NODE_ID, [("Controlword", 0x6040, 16), ("Target position", 0x607A, 32)]),
-        ("TPDO1", node.tpdo[1], 0x180 + NODE_ID,
-         [("Statusword", 0x6041, 16), ("Position actual value", 0x6064, 32)]),
+        ("RPDO1", node.rpdo[1], 0x200 + NODE_ID, [("Controlword", 0x6040, 16)]),
+        ("TPDO1", node.tpdo[1], 0x180 + NODE_ID, [("Statusword", 0x6041, 16)]),
     ]
     for label, pdo, cob_id, entries in expect_pdos:
         check(pdo.enabled, f"{label}: not enabled")
         check(pdo.cob_id == cob_id, f"{label}: COB-ID 0x{pdo.cob_id:X}, expected 0x{cob_id:X}")
-        check(pdo.trans_type == 1, f"{label}: transmission type {pdo.trans_type}, expected 1 (every SYNC)")
+        check(pdo.trans_type == 255, f"{label}: transmission type {pdo.trans_type}, expected 255 (event-driven)")
         got = [(v.name, v.index, v.length) for v in pdo.map]
         check(got == entries, f"{label}: mapping {got}, expected {entries}")
-        check(pdo.length == 48, f"{label}: {pdo.length} bits, expected 48 (DLC 6 in the protocol crate)")
-    # Encoding through canopen gives the protocol crate's byte layout (little-endian).
+    # The mapping the master configures (interpd_canopen::boot::csp_ops) encoded by canopen
+    # gives the protocol crate's byte layout (little-endian, DLC 6).
     rpdo = node.rpdo[1]
+    rpdo.clear()
+    rpdo.add_variable(0x6040)
+    rpdo.add_variable(0x607A)
     rpdo["Controlword"].raw = 0x000F
     rpdo["Target position"].raw = -2
+    check(rpdo.length == 48, f"configured RPDO1: {rpdo.length} bits, expected 48")
     check(bytes(rpdo.data) == bytes([0x0F, 0x00, 0xFE, 0xFF, 0xFF, 0xFF]), f"RPDO1 bytes {bytes(rpdo.data).hex()}")
+    for index in (0x6040, 0x607A, 0x6041, 0x6064, 0x6061):
+        check(od[index].pdo_mappable, f"0x{index:04X}: the master maps it, so it must be PDO-mappable")
     check(len(node.rpdo.map) >= 1 and len(node.tpdo.map) >= 1, "no PDO maps")
 
     structural_check(path)
@@ -136,7 +142,9 @@ def structural_check(path):
                           if (m := re.fullmatch(rf"{sec}sub([0-9A-Fa-f]+)", s, re.IGNORECASE)))
             n = int(eds.get(sec, "SubNumber"), 0)
             check(n == len(subs), f"[{sec}]: SubNumber={n}, {len(subs)} sub-index sections")
-            check(subs and int(eds.get(f"{sec}sub0", "DefaultValue"), 0) == subs[-1],
+            # In a PDO mapping parameter sub-index 0 is the number of mapped objects.
+            is_mapping = 0x1600 <= index <= 0x17FF or 0x1A00 <= index <= 0x1BFF
+            check(is_mapping or (subs and int(eds.get(f"{sec}sub0", "DefaultValue"), 0) == subs[-1]),
                   f"[{sec}]: sub-index 0 is not the highest sub-index {subs[-1] if subs else None}")
         else:
             for key in ("ParameterName", "DataType", "AccessType"):

@@ -732,8 +732,9 @@ fn malformed_and_unexpected_frames_are_counted_on_both_sides() {
     plan.push(f(0x700 + u16::from(NODES[0]), &[5, 5]));
     plan.push(f(0x080, &[1, 2, 3]));
     plan.push(f(0x000, &[1]));
-    // Unknown COB-IDs, 29-bit and remote frames, undefined values.
-    for id in [0x100u16, 0x581, 0x601, 0x281, 0x7E5, 0x7FF] {
+    // Unknown COB-IDs (TIME, TPDO2/3 of node 1, …; SDO is served now), 29-bit and remote
+    // frames, undefined values.
+    for id in [0x100u16, 0x381, 0x481, 0x281, 0x7E5, 0x7FF] {
         plan.push(f(id, &[0; 8]));
     }
     plan.push(Frame::data(CanId::extended(0x0000_0202).expect("id"), &[0; 6]).expect("frame"));

@@ -88,15 +88,15 @@ fn eds_matches_the_protocol_crate() {
         ("1014", format!("$NODEID+0x{:X}", cob::EMCY_BASE)),
         ("1400sub1", format!("$NODEID+0x{:X}", cob::RPDO1_BASE)),
         ("1800sub1", format!("$NODEID+0x{:X}", cob::TPDO1_BASE)),
-        // Controlword u16 then target position i32: the layout of cia402::Rpdo1.
+        // CiA 402's default mapping at power-on: controlword alone, statusword alone.
+        ("1600sub0", "1".to_owned()),
         ("1600sub1", "0x60400010".to_owned()),
-        ("1600sub2", "0x607A0020".to_owned()),
-        // Statusword u16 then position actual value i32: the layout of cia402::Tpdo1.
+        ("1A00sub0", "1".to_owned()),
         ("1A00sub1", "0x60410010".to_owned()),
-        ("1A00sub2", "0x60640020".to_owned()),
-        ("6060", "8".to_owned()),
+        // No mode and no heartbeat until the master configures them.
+        ("6060", "0".to_owned()),
+        ("1017", "0".to_owned()),
         // What sim-plant's drive node implements (sim_plant::can_node).
-        ("1017", can_node::HEARTBEAT_PERIOD_MS.to_string()),
         ("1015", (can_node::EMCY_INHIBIT_US / 100).to_string()),
         ("6065", can_node::FOLLOWING_ERROR_WINDOW.to_string()),
         // Quick stop option code 2: ramp, then Switch on disabled (cia402::next_state).
@@ -108,4 +108,29 @@ fn eds_matches_the_protocol_crate() {
     for (section, want) in expect {
         assert_eq!(default_value(&eds, section).as_deref(), Some(want.as_str()), "[{section}] DefaultValue");
     }
+}
+
+/// The master's configuration maps exactly the layout of cia402::Rpdo1 and Tpdo1 (controlword
+/// u16 + target position i32; statusword u16 + position actual value i32).
+#[test]
+fn the_masters_mapping_is_the_protocol_crates_layout() {
+    use interpd_canopen::boot::{CspSetup, Op, csp_ops};
+    let node = interpd_protocol::cia301::NodeId::new(3).expect("node");
+    let setup = CspSetup { vendor_id: 0, product_code: 0x402, cycle_us: 4000, heartbeat_ms: 100, extra: Vec::new() };
+    let writes: Vec<(u16, u8, Vec<u8>)> = csp_ops(node, &setup)
+        .into_iter()
+        .filter_map(|op| if let Op::Write { at, data, .. } = op { Some((at.index, at.sub, data)) } else { None })
+        .collect();
+    let value = |i: u16, s: u8| writes.iter().rev().find(|w| w.0 == i && w.1 == s).map(|w| w.2.clone());
+    let u32le = |v: u32| Some(v.to_le_bytes().to_vec());
+    assert_eq!(value(0x1600, 1), u32le(0x6040_0010));
+    assert_eq!(value(0x1600, 2), u32le(0x607A_0020));
+    assert_eq!(value(0x1600, 0), Some(vec![2]));
+    assert_eq!(value(0x1A00, 1), u32le(0x6041_0010));
+    assert_eq!(value(0x1A00, 2), u32le(0x6064_0020));
+    assert_eq!(value(0x1400, 1), u32le(u32::from(cob::RPDO1_BASE) + 3));
+    assert_eq!(value(0x1800, 1), u32le(u32::from(cob::TPDO1_BASE) + 3));
+    assert_eq!((value(0x1400, 2), value(0x1800, 2)), (Some(vec![1]), Some(vec![1])), "synchronous");
+    assert_eq!(value(0x6060, 0), Some(vec![8]));
+    assert_eq!(value(0x1017, 0), Some(100u16.to_le_bytes().to_vec()));
 }

@@ -93,8 +93,13 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let can = if config.sinks.can.enabled() {
         let start = CanMaster::start(&config, args.candump.as_deref()).map_err(|e| CliError::Failure(e.to_string()))?;
         eprintln!(
-            "interpd: CAN {}: {} of {} drives answered at start-up",
+            "interpd: CAN {}: {} drives configured in {:.1} ms ({} SDO transfers), {} silent; {} of {} answered at \
+             start-up",
             config.sinks.can.interface,
+            start.boot.nodes,
+            start.boot.elapsed_ms,
+            start.boot.sdo_transfers,
+            start.boot.silent,
             start.answered,
             config.axes.len()
         );

@@ -1,15 +1,17 @@
 //! The CANopen master (sink `can:IFACE`): CiA 402 cyclic synchronous position over SocketCAN.
 //!
-//! - [`CanMaster::start`] opens the bus, starts the receive thread (`can_rx.rs`), sends
-//!   NMT start to every configured node and SYNC once per cycle until every drive has answered
-//!   with TPDO1 (or `boot_timeout_ms` passed): the drives' actual positions become the daemon's
-//!   start position, so nothing jumps when they are enabled.
+//! - [`CanMaster::start`] opens the bus, starts the receive thread (`can_rx.rs`) and the boot
+//!   thread (`can_boot.rs`), which resets, checks and configures every node over SDO and starts
+//!   it; any failure there refuses the start, naming the node. Then SYNC once per cycle until
+//!   every drive has answered with TPDO1 (or `boot_timeout_ms` passed): the drives' actual
+//!   positions become the daemon's start position, so nothing jumps when they are enabled.
 //! - The [`CanSink`] it returns goes into the real-time thread: per cycle one RPDO1 per axis,
 //!   then SYNC, on a non-blocking socket (`can_sink.rs`).
 //! - `BusShared` (`can_state.rs`) is the [`DriveMonitor`] the service asks before `motion.start` and polls
 //!   for faults; `status.drives` and `status.can_bus` come from it.
 //! - `--candump FILE` is written by the receive thread (`can_log.rs`).
 
+use super::can_boot::{BootInput, BootPlan, BootReport};
 use super::can_log::CandumpLog;
 pub use super::can_sink::CanSink;
 use super::can_state::{BusShared, NodeShared};
@@ -18,7 +20,7 @@ use crate::rt::clock;
 use interpd_config::Config;
 use interpd_protocol::MAX_AXES;
 use interpd_protocol::can_socket::to_socketcan;
-use interpd_protocol::cia301::{Message, NmtCommand, NodeId};
+use interpd_protocol::cia301::{Message, NodeId};
 use interpd_protocol::cia402::Scale;
 use serde_json::Value;
 use socketcan::{CanSocket, Socket, SocketOptions};
@@ -37,6 +39,8 @@ pub struct CanStart {
     pub start_position: [f64; MAX_AXES],
     /// Drives that answered during start-up, of all configured.
     pub answered: usize,
+    /// The configuration round of the boot thread.
+    pub boot: BootReport,
 }
 
 /// The running master: the receive thread and the shared state.
@@ -44,6 +48,7 @@ pub struct CanMaster {
     shared: Arc<BusShared>,
     stop: Arc<AtomicBool>,
     rx: Option<JoinHandle<Option<CandumpLog>>>,
+    boot: Option<JoinHandle<()>>,
 }
 
 impl DriveMonitor for BusShared {
@@ -93,16 +98,39 @@ impl CanMaster {
         rx_socket.set_error_filter_accept_all().map_err(sock_err)?;
         let tx_socket = open("send")?;
         tx_socket.set_write_timeout(Duration::from_millis(50)).map_err(sock_err)?;
+        let boot_socket = open("configuration")?;
+        boot_socket.set_write_timeout(Duration::from_millis(50)).map_err(sock_err)?;
         let log = candump.map(|p| CandumpLog::create(p, &iface)).transpose().map_err(setup)?;
+        let ids: Vec<NodeId> = nodes.iter().map(|n| n.node).collect();
+        let plan = BootPlan::from_config(config, &ids).map_err(setup)?;
 
         let shared = Arc::new(BusShared::new(iface.clone(), nodes, can));
         let stop = Arc::new(AtomicBool::new(false));
+        let (boot_tx, boot_rx) = std::sync::mpsc::channel::<BootInput>();
         let (s2, stop2) = (shared.clone(), stop.clone());
         let rx = std::thread::Builder::new()
             .name("interpd-can-rx".into())
-            .spawn(move || super::can_rx::run(rx_socket, s2, log, stop2))
+            .spawn(move || super::can_rx::run(rx_socket, s2, log, boot_tx, stop2))
             .map_err(|e| setup(format!("cannot start the receive thread: {e}")))?;
-        let master = CanMaster { shared: shared.clone(), stop, rx: Some(rx) };
+        let (started_tx, started_rx) = std::sync::mpsc::channel();
+        let (s3, stop3) = (shared.clone(), stop.clone());
+        let boot_thread = std::thread::Builder::new()
+            .name("interpd-can-boot".into())
+            .spawn(move || super::can_boot::run(boot_socket, s3, plan, boot_rx, started_tx, stop3))
+            .map_err(|e| setup(format!("cannot start the boot thread: {e}")))?;
+        let master = CanMaster { shared: shared.clone(), stop, rx: Some(rx), boot: Some(boot_thread) };
+        // The boot thread bounds every wait by its own timeouts; an ended thread closes the channel.
+        let report = match started_rx.recv() {
+            Ok(Ok(report)) => report,
+            Ok(Err(message)) => return Err(setup(format!("configuring the drives failed: {message}; nothing moves"))),
+            Err(_) => return Err(setup("the boot thread ended without a result".into())),
+        };
+        tracing::info!(
+            "CAN {iface}: {} drives configured in {:.1} ms ({} SDO transfers)",
+            report.nodes,
+            report.elapsed_ms,
+            report.sdo_transfers
+        );
 
         let answered = boot(&tx_socket, &shared, config.cycle_s(), can.boot_timeout_ms * 1e-3);
         let mut start_position = [0.0; MAX_AXES];
@@ -113,7 +141,7 @@ impl CanMaster {
             targets.push(actual);
         }
         let sink = CanSink::new(tx_socket, shared, targets)?;
-        Ok(CanStart { master, sink, start_position, answered })
+        Ok(CanStart { master, sink, start_position, answered, boot: report })
     }
 
     /// The drive monitor for the motion core.
@@ -130,6 +158,9 @@ impl CanMaster {
 
     fn stop_rx(&mut self) {
         self.stop.store(true, Ordering::Release);
+        if let Some(h) = self.boot.take() {
+            let _ = h.join();
+        }
         if let Some(h) = self.rx.take() {
             if let Ok(Some(log)) = h.join() {
                 let c = &self.shared.counters;
@@ -146,8 +177,9 @@ impl Drop for CanMaster {
     }
 }
 
-/// NMT start to every node, then SYNC once per cycle until every drive has sent TPDO1 or
-/// `timeout_s` passed. Returns how many answered. Not real-time: blocking sends are fine here.
+/// SYNC once per cycle (the boot thread has started the nodes) until every drive has sent
+/// TPDO1 or `timeout_s` passed. Returns how many answered. Not real-time: blocking sends are
+/// fine here.
 fn boot(socket: &CanSocket, shared: &BusShared, cycle_s: f64, timeout_s: f64) -> usize {
     let send = |m: Message| {
         if let Some(f) = to_socketcan(&m.encode()) {
@@ -156,10 +188,6 @@ fn boot(socket: &CanSocket, shared: &BusShared, cycle_s: f64, timeout_s: f64) ->
             }
         }
     };
-    for n in &shared.nodes {
-        send(Message::Nmt { command: NmtCommand::Start, target: Some(n.node) });
-        shared.counters.nmt_sent.fetch_add(1, Ordering::Relaxed);
-    }
     let period_ns = (cycle_s * 1e9) as u64;
     let t0 = clock::now_ns();
     let until = t0 + (timeout_s * 1e9) as u64;

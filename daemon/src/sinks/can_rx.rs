@@ -4,6 +4,7 @@
 //! the motion (a drive leaving Operation enabled, a lost heartbeat, bus-off, a run of failed
 //! sends, a dead interface) into faults for the supervisor.
 
+use super::can_boot::BootInput;
 use super::can_log::CandumpLog;
 use super::can_state::{BusShared, NodeShared};
 use crate::rt::clock;
@@ -13,6 +14,7 @@ use interpd_protocol::cia402::PowerState;
 use socketcan::{CanSocket, Socket};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::Sender;
 use std::time::{Duration, SystemTime};
 
 /// How long a read waits, so the periodic checks run even on a silent bus.
@@ -38,6 +40,8 @@ struct Rx {
     nmt_sent_ns: Vec<u64>,
     tpdo_lost: Vec<bool>,
     tx_fail_reported: bool,
+    /// SDO responses and heartbeats for the boot thread.
+    boot: Sender<BootInput>,
 }
 
 /// Runs until `stop` is set; returns the candump log (flushed) for the final report.
@@ -45,11 +49,12 @@ pub fn run(
     socket: CanSocket,
     shared: Arc<BusShared>,
     log: Option<CandumpLog>,
+    boot: Sender<BootInput>,
     stop: Arc<AtomicBool>,
 ) -> Option<CandumpLog> {
     let n = shared.nodes.len();
     let mut rx =
-        Rx { shared, socket, log, nmt_sent_ns: vec![0; n], tpdo_lost: vec![false; n], tx_fail_reported: false };
+        Rx { shared, socket, log, nmt_sent_ns: vec![0; n], tpdo_lost: vec![false; n], tx_fail_reported: false, boot };
     while !stop.load(Ordering::Acquire) {
         rx.receive_one();
         rx.periodic();
@@ -106,6 +111,26 @@ impl Rx {
 
     fn handle(&mut self, frame: &Frame, now: u64) {
         let c = &self.shared.counters;
+        // SDO: responses of our nodes go to the boot thread; requests are our own (loopback).
+        if let Some(id) = frame.id().as_standard().filter(|_| frame.kind() == FrameKind::Data) {
+            let node = cia301::NodeId::new((id & 0x7F) as u8);
+            let ours = node.is_some_and(|n| self.index(n).is_some());
+            match id & 0x780 {
+                0x580 if ours => {
+                    c.rx_sdo.fetch_add(1, Ordering::Relaxed);
+                    let _ = self.boot.send(BootInput::Frame(*frame));
+                    return;
+                }
+                0x600 if ours => {
+                    c.rx_own.fetch_add(1, Ordering::Relaxed);
+                    return;
+                }
+                0x700 if ours => {
+                    let _ = self.boot.send(BootInput::Frame(*frame));
+                }
+                _ => {}
+            }
+        }
         match cia301::decode(frame) {
             Ok(Message::Tpdo1 { node, pdo }) => match self.index(node) {
                 Some(i) => self.on_tpdo(i, pdo.statusword, pdo.position_actual, now),
@@ -126,9 +151,10 @@ impl Rx {
                     if count <= LOGGED_EMCY {
                         let more = if count == LOGGED_EMCY { " (further EMCY only counted)" } else { "" };
                         tracing::warn!(
-                            "CAN: {} EMCY 0x{:04X}, error register 0x{:02X}, vendor {:02X?}{more}",
+                            "CAN: {} EMCY 0x{:04X} ({}), error register 0x{:02X}, vendor {:02X?}{more}",
                             n.label(),
                             emcy.error_code,
+                            cia301::emcy_code::text(emcy.error_code),
                             emcy.error_register,
                             emcy.vendor
                         );
@@ -175,7 +201,10 @@ impl Rx {
         let was = n.was_enabled.swap(enabled, Ordering::Relaxed);
         if was && !enabled && commanded {
             let state = PowerState::from_statusword(statusword).map_or("an undefined state".into(), |s| s.to_string());
-            let emcy = n.last_emcy_code().map(|c| format!(", last EMCY 0x{c:04X}")).unwrap_or_default();
+            let emcy = n
+                .last_emcy_code()
+                .map(|c| format!(", last EMCY 0x{c:04X} {}", cia301::emcy_code::text(c)))
+                .unwrap_or_default();
             self.shared.push_fault(format!(
                 "{} left Operation enabled: now {state} (statusword 0x{statusword:04X}{emcy})",
                 n.label()
@@ -194,10 +223,16 @@ impl Rx {
                 if n.was_enabled.swap(false, Ordering::Relaxed) {
                     self.shared.push_fault(format!("{} rebooted while in Operation enabled", n.label()));
                 }
-                tracing::info!("CAN: {} booted; starting it (NMT start)", n.label());
-                self.nmt_start(i, now, true);
+                // A node that boots has no configuration (any more): the boot thread configures
+                // and starts it, unless it is configuring it right now (then this boot-up is
+                // the answer to its reset).
+                n.configured.store(false, Ordering::Release);
+                if !n.configuring.load(Ordering::Acquire) {
+                    let _ = self.boot.send(BootInput::Rebooted(i));
+                }
             }
-            NmtState::PreOperational => self.nmt_start(i, now, false),
+            NmtState::PreOperational if n.configured.load(Ordering::Acquire) => self.nmt_start(i, now, false),
+            NmtState::PreOperational => {}
             NmtState::Operational | NmtState::Stopped => {}
         }
     }

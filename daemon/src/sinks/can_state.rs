@@ -45,6 +45,11 @@ pub struct NodeShared {
     pub was_enabled: AtomicBool,
     /// A heartbeat-lost fault was reported and not yet cleared by a new heartbeat.
     pub heartbeat_lost: AtomicBool,
+    /// The master has configured the node (boot-up round done); a boot-up message clears it.
+    pub configured: AtomicBool,
+    /// The boot thread is configuring the node now (its boot-up messages are answers to its
+    /// own reset, not reboots).
+    pub configuring: AtomicBool,
 }
 
 impl NodeShared {
@@ -67,6 +72,8 @@ impl NodeShared {
             target: AtomicI32::new(0),
             was_enabled: AtomicBool::new(false),
             heartbeat_lost: AtomicBool::new(false),
+            configured: AtomicBool::new(false),
+            configuring: AtomicBool::new(false),
         }
     }
 
@@ -162,6 +169,8 @@ impl NodeShared {
             heartbeat_lost: self.heartbeat_lost.load(Ordering::Relaxed),
             emcy_count: self.emcy_count.load(Ordering::Relaxed),
             last_emcy_code: self.last_emcy_code().map(|c| format!("0x{c:04X}")),
+            last_emcy_text: self.last_emcy_code().map(|c| interpd_protocol::cia301::emcy_code::text(c).to_string()),
+            configured: self.configured.load(Ordering::Relaxed),
         }
     }
 
@@ -205,6 +214,10 @@ pub struct BusCounters {
     /// Setpoints outside the i32 increment range (not sent; the previous target is kept).
     pub scale_errors: AtomicU64,
     pub nmt_sent: AtomicU64,
+    /// Frames the boot thread sent (NMT and SDO requests while configuring drives).
+    pub boot_tx: AtomicU64,
+    /// SDO responses received from configured nodes.
+    pub rx_sdo: AtomicU64,
     pub log_records: AtomicU64,
     pub log_errors: AtomicU64,
 }
@@ -231,6 +244,8 @@ impl BusCounters {
             "syncs": g(&self.syncs),
             "scale_errors": g(&self.scale_errors),
             "nmt_sent": g(&self.nmt_sent),
+            "boot_tx": g(&self.boot_tx),
+            "rx_sdo": g(&self.rx_sdo),
             "log_records": g(&self.log_records),
             "log_errors": g(&self.log_errors),
         })

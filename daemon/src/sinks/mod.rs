@@ -5,6 +5,7 @@
 //! log. Failures are counted and reported outside the cycle.
 
 pub mod can;
+mod can_boot;
 mod can_log;
 mod can_rx;
 mod can_sink;

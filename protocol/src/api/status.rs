@@ -150,6 +150,13 @@ pub struct DriveStatus {
     pub emcy_count: u64,
     /// Error code of the last EMCY, as `"0x8100"`.
     pub last_emcy_code: Option<String>,
+    /// Its meaning (CiA 301 / CiA 402 0x603F), e.g. `"following error"`.
+    #[serde(default)]
+    pub last_emcy_text: Option<String>,
+    /// The master has configured the drive over SDO (boot-up, PDOs, mode, heartbeat) since its
+    /// last boot-up message.
+    #[serde(default)]
+    pub configured: bool,
 }
 
 /// The result of `status`.

@@ -232,7 +232,7 @@ fn drive_status_on_the_wire() {
             "axis": "X", "node": 1, "state": "operation_enabled", "statusword": 0x1237, "nmt": null,
             "position_actual": 0, "position_actual_units": 0.0, "target_position": 0, "controlword": null,
             "tpdo_count": 0, "last_tpdo_ms_ago": null, "last_heartbeat_ms_ago": null, "heartbeat_lost": false,
-            "emcy_count": 0, "last_emcy_code": "0x8100",
+            "emcy_count": 0, "last_emcy_code": "0x8100", "last_emcy_text": null, "configured": false,
         })
     );
     assert_eq!(serde_json::from_value::<DriveStatus>(v).expect("de"), d);

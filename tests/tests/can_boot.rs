@@ -1,0 +1,242 @@
+//! The master's boot of the drives over a real SocketCAN interface (scripts/vcan-vm.sh; without
+//! `INTERPD_VCAN` each test prints a note and passes): `interpd run --can` resets, checks and
+//! configures `sim-plant --source can:` drives that power up with CiA 402's default mapping and
+//! heartbeat off, for 3 and for 6 nodes (boot and configuration time measured on the bus); a
+//! wrong identity and an SDO abort during configuration refuse the start, naming the node, and
+//! nothing moves (no SYNC, no RPDO on the bus).
+
+use interpd_e2e::daemon::Daemon;
+use interpd_e2e::vcan::{self, Capture, Proc};
+use interpd_protocol::cia301::{self, Frame, Message, NmtCommand, NmtState};
+use serde_json::{Value, json};
+use std::path::Path;
+use std::process::Command;
+use std::time::{Duration, Instant, SystemTime};
+
+const SLOW: Duration = Duration::from_secs(60);
+const AXES: [&str; 6] = ["X", "Y", "Z", "A", "B", "C"];
+
+fn virtual_time() -> bool {
+    std::env::var("INTERPD_VCAN_VIRTUAL_TIME").is_ok_and(|v| v == "1")
+}
+
+/// A machine of `n` linear axes on nodes 1..=n at `cycle_ms`, plus `extra` TOML.
+fn config(dir: &Path, n: usize, cycle_ms: f64, extra: &str) -> String {
+    let mut text = format!("[machine]\nname = \"boot test\"\ncycle_ms = {cycle_ms}\n");
+    for name in &AXES[..n] {
+        text += &format!(
+            "[[axis]]\nname = \"{name}\"\nkind = \"linear\"\nmax_vel = 250.0\nmax_acc = 2500.0\nmax_jerk = \
+             50000.0\nmin = -1000.0\nmax = 1000.0\n"
+        );
+        if *name == "A" || *name == "B" || *name == "C" {
+            text = text.replace(
+                &format!("name = \"{name}\"\nkind = \"linear\""),
+                &format!("name = \"{name}\"\nkind = \"rotary\""),
+            );
+        }
+    }
+    text += &format!("[sinks.can]\nboot_timeout_ms = 500\n{extra}\n");
+    let path = dir.join("machine.toml");
+    std::fs::write(&path, &text).expect("write config");
+    path.display().to_string()
+}
+
+fn start_drives(iface: &str, cfg: &str, dir: &Path) -> Proc {
+    let source = format!("can:{iface}");
+    let mut args = vec!["--config", cfg, "--source", source.as_str()];
+    if virtual_time() {
+        args.extend(["--rt-priority", "70"]);
+    }
+    let mut p = Proc::start("sim-plant", &args, dir);
+    p.wait_for_stderr("sim-plant: ready", SLOW);
+    p
+}
+
+/// `interpd run` that is expected to refuse: its exit status and stderr.
+fn run_refused(iface: &str, cfg: &str, dir: &Path) -> (Option<i32>, String) {
+    let socket = dir.join("control.sock");
+    let mut child = Command::new(interpd_e2e::binary("interpd"))
+        .args(["run", "--config", cfg, "--can", iface, "--no-shm", "--socket"])
+        .arg(&socket)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("start interpd run");
+    let until = Instant::now() + SLOW;
+    while child.try_wait().expect("wait").is_none() {
+        if Instant::now() > until {
+            let _ = child.kill();
+            panic!("interpd run did not exit");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let out = child.wait_with_output().expect("output");
+    (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+fn secs(a: SystemTime, b: SystemTime) -> f64 {
+    b.duration_since(a).map_or(0.0, |d| d.as_secs_f64())
+}
+
+/// A candump line with a note, for the annotated boot sequence.
+fn line(t0: SystemTime, t: SystemTime, f: &Frame) -> String {
+    let data: String = f.payload().iter().map(|b| format!("{b:02X}")).collect();
+    let id = f.id().raw();
+    let note = match (id, f.payload()) {
+        (0x000, [0x82, n]) => format!("NMT reset communication, node {n}"),
+        (0x000, [0x01, n]) => format!("NMT start, node {n}"),
+        (0x701..=0x77F, [0]) => "boot-up".into(),
+        (0x701..=0x77F, [s]) => format!("heartbeat, state 0x{s:02X}"),
+        (0x601..=0x67F, d) if d.len() == 8 => {
+            format!("SDO request {:#04X} 0x{:02X}{:02X}:{}", d[0], d[2], d[1], d[3])
+        }
+        (0x581..=0x5FF, d) if d.len() == 8 => {
+            format!("SDO response {:#04X} 0x{:02X}{:02X}:{}", d[0], d[2], d[1], d[3])
+        }
+        (0x080, _) => "SYNC".into(),
+        (0x181..=0x1FF, _) => "TPDO1".into(),
+        (0x201..=0x27F, _) => "RPDO1".into(),
+        _ => String::new(),
+    };
+    format!("({:10.6}) {id:03X}#{data:<16}  ; {note}", secs(t0, t))
+}
+
+#[test]
+fn the_master_configures_three_and_six_default_drives() {
+    let Some((iface, _bus)) = vcan::bus("the_master_configures_three_and_six_default_drives") else { return };
+    let mut figures = Vec::new();
+    for n in [3usize, 6] {
+        let dir = vcan::temp_dir(&format!("can-boot{n}"));
+        let cfg = config(&dir, n, 4.0, "");
+        let drives = start_drives(&iface, &cfg, &dir);
+        let capture = Capture::start(&iface);
+        let daemon = Daemon::start(&["--config", cfg.as_str(), "--can", iface.as_str(), "--no-shm"]);
+        let mut client = daemon.client();
+        // The drives get enabled by the master's cycle; then a short move.
+        let until = Instant::now() + SLOW;
+        loop {
+            let st = client.ok("status", Value::Null);
+            let drives = st["drives"].as_array().cloned().unwrap_or_default();
+            if drives.len() == n && drives.iter().all(|d| d["state"] == "operation_enabled") {
+                break;
+            }
+            assert!(Instant::now() < until, "drives not enabled: {st}");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        client.ok("program.load", json!({ "text": "G21 G90\nG1 X1 Y-1 F3000\nG1 X0 Y0\nM30\n" }));
+        client.ok("motion.start", Value::Null);
+        let st = client.wait_state(&["finished", "error"], SLOW);
+        assert_eq!(st["state"], "finished", "{st}");
+        drop(client);
+        let (code, err) = daemon.terminate();
+        assert_eq!(code, Some(0), "{err}");
+        let frames = capture.finish();
+        let (code, drives_err) = drives.terminate();
+        assert_eq!(code, Some(0), "{drives_err}");
+
+        // On the bus: per node reset → boot-up → SDO … → start, and before any SYNC.
+        let nmt = |cmd: NmtCommand| {
+            frames
+                .iter()
+                .filter(move |(_, f)| matches!(cia301::decode(f), Ok(Message::Nmt { command, .. }) if command == cmd))
+        };
+        let first_reset = nmt(NmtCommand::ResetCommunication).next().expect("NMT reset communication").0;
+        let last_start = nmt(NmtCommand::Start).next_back().expect("NMT start").0;
+        assert_eq!(nmt(NmtCommand::ResetCommunication).count(), n);
+        assert_eq!(nmt(NmtCommand::Start).count(), n);
+        let first_sync = frames.iter().find(|(_, f)| f.id().raw() == 0x080).expect("SYNC").0;
+        assert!(first_sync >= last_start, "SYNC before the last node was started");
+        let boot_ups = frames
+            .iter()
+            .filter(|(_, f)| matches!(cia301::decode(f), Ok(Message::Heartbeat { state: NmtState::BootUp, .. })))
+            .count();
+        assert_eq!(boot_ups, n, "one boot-up per node, the answer to its reset communication");
+        let sdo = frames.iter().filter(|(_, f)| (0x581..=0x5FF).contains(&f.id().raw())).count();
+        let said = err.lines().find(|l| l.contains("drives configured in")).unwrap_or("").to_string();
+        figures.push(format!(
+            "{n} nodes: bus {:.1} ms from the first NMT reset communication to the last NMT start, {} SDO responses; \
+             daemon: {said}",
+            secs(first_reset, last_start) * 1e3,
+            sdo
+        ));
+        // No heartbeat before 0x1017 was written; then every 100 ms.
+        let hb_before_config = frames
+            .iter()
+            .filter(|(t, f)| {
+                *t < first_reset
+                    && matches!(cia301::decode(f), Ok(Message::Heartbeat { state, .. }) if state != NmtState::BootUp)
+            })
+            .count();
+        assert_eq!(hb_before_config, 0, "heartbeat off at power-on");
+        if n == 3 {
+            // The annotated boot sequence of node 1, and the first cycles.
+            let mut text = Vec::new();
+            let mine = |id: u32| matches!(id, 0x000 | 0x080 | 0x181 | 0x201 | 0x581 | 0x601 | 0x701);
+            for (t, f) in frames.iter().filter(|(t, f)| *t >= first_reset && mine(f.id().raw())) {
+                if f.id().raw() == 0x000 && f.payload().get(1).is_some_and(|&x| x != 1) {
+                    continue;
+                }
+                text.push(line(first_reset, *t, f));
+                if text.len() > 80 {
+                    break;
+                }
+            }
+            eprintln!("boot sequence of node 1:\n{}", text.join("\n"));
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    eprintln!("boot figures:\n  {}", figures.join("\n  "));
+}
+
+#[test]
+fn a_wrong_identity_is_refused_naming_the_node_and_nothing_moves() {
+    let Some((iface, _bus)) = vcan::bus("a_wrong_identity_is_refused_naming_the_node_and_nothing_moves") else {
+        return;
+    };
+    let dir = vcan::temp_dir("can-identity");
+    let cfg = config(&dir, 3, 4.0, "[sinks.can.node.2]\nvendor_id = 0x195\nproduct_code = 0x1234");
+    let drives = start_drives(&iface, &cfg, &dir);
+    let capture = Capture::start(&iface);
+    let (code, err) = run_refused(&iface, &cfg, &dir);
+    let frames = capture.finish();
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains(
+            "drive Y (node 2): node 2: wrong device: expected vendor-ID 0x00000195, product code 0x00001234; found \
+             vendor-ID 0x00000000, product code 0x00000402"
+        ),
+        "{err}"
+    );
+    assert!(frames.iter().all(|(_, f)| !matches!(f.id().raw(), 0x080 | 0x201..=0x27F)), "nothing moves");
+    let (code, drives_err) = drives.terminate();
+    assert_eq!(code, Some(0), "{drives_err}");
+    eprintln!("wrong identity: {}", err.lines().filter(|l| l.contains("node 2")).collect::<Vec<_>>().join(" | "));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_sdo_abort_during_configuration_names_the_node_and_nothing_moves() {
+    let Some((iface, _bus)) = vcan::bus("an_sdo_abort_during_configuration_names_the_node_and_nothing_moves") else {
+        return;
+    };
+    let dir = vcan::temp_dir("can-abort");
+    // A 0.2 ms cycle: the drive's 0x1006 takes 250 µs at least (its EDS's LowLimit).
+    let cfg = config(&dir, 3, 0.2, "");
+    let drives = start_drives(&iface, &cfg, &dir);
+    let capture = Capture::start(&iface);
+    let (code, err) = run_refused(&iface, &cfg, &dir);
+    let frames = capture.finish();
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains(
+            "communication cycle period (0x1006:0): node 1: SDO download (write) of 0x1006:0 refused by the drive: \
+             abort 0x06090032: value of parameter written too low"
+        ),
+        "{err}"
+    );
+    assert!(frames.iter().all(|(_, f)| !matches!(f.id().raw(), 0x080 | 0x201..=0x27F)), "nothing moves");
+    let (code, drives_err) = drives.terminate();
+    assert_eq!(code, Some(0), "{drives_err}");
+    eprintln!("SDO abort: {}", err.lines().filter(|l| l.contains("abort")).collect::<Vec<_>>().join(" | "));
+    let _ = std::fs::remove_dir_all(&dir);
+}

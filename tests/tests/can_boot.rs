@@ -101,6 +101,63 @@ fn line(t0: SystemTime, t: SystemTime, f: &Frame) -> String {
     format!("({:10.6}) {id:03X}#{data:<16}  ; {note}", secs(t0, t))
 }
 
+/// A second SDO client on the bus (a commissioning tool): uploads from every node in turn,
+/// back to back, until finished.
+struct Flood {
+    stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    handle: std::thread::JoinHandle<u64>,
+}
+
+impl Flood {
+    fn finish(self) -> u64 {
+        self.stop.store(true, std::sync::atomic::Ordering::Release);
+        self.handle.join().expect("flood thread")
+    }
+}
+
+fn sdo_flood(iface: &str, n: usize) -> Flood {
+    use interpd_canopen::Address;
+    use interpd_canopen::sdo_client::{SdoClient, Step};
+    use socketcan::Socket;
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let flag = stop.clone();
+    let iface = iface.to_string();
+    let handle = std::thread::spawn(move || {
+        let sock = vcan::open(&iface, Duration::from_millis(5));
+        let t0 = Instant::now();
+        let now_us = || t0.elapsed().as_micros() as u64;
+        let mut done = 0u64;
+        let mut k = 0usize;
+        while !flag.load(std::sync::atomic::Ordering::Acquire) {
+            let node = cia301::NodeId::new((k % n) as u8 + 1).expect("node");
+            let at = if k % 2 == 0 { Address::new(0x1018, 1) } else { Address::new(0x1008, 0) };
+            k += 1;
+            let mut client = SdoClient::new(node, 200_000);
+            let Ok(first) = client.upload(at, now_us()) else { continue };
+            vcan::send(&sock, &first);
+            loop {
+                let Ok(f) = sock.read_frame() else {
+                    if client.poll(now_us()).is_some() {
+                        break;
+                    }
+                    continue;
+                };
+                let Ok(frame) = interpd_protocol::can_socket::from_socketcan(&f) else { continue };
+                match client.on_frame(&frame, now_us()) {
+                    Some(Step::Send(next)) => vcan::send(&sock, &next),
+                    Some(_) => {
+                        done += 1;
+                        break;
+                    }
+                    None => {}
+                }
+            }
+        }
+        done
+    });
+    Flood { stop, handle }
+}
+
 #[test]
 fn the_master_configures_three_and_six_default_drives() {
     let Some((iface, _bus)) = vcan::bus("the_master_configures_three_and_six_default_drives") else { return };
@@ -123,9 +180,13 @@ fn the_master_configures_three_and_six_default_drives() {
             assert!(Instant::now() < until, "drives not enabled: {st}");
             std::thread::sleep(Duration::from_millis(20));
         }
-        client.ok("program.load", json!({ "text": "G21 G90\nG1 X1 Y-1 F3000\nG1 X0 Y0\nM30\n" }));
+        client.ok("program.load", json!({ "text": "G21 G90\nG1 X10 Y-10 F3000\nG1 X0 Y0\nM30\n" }));
         client.ok("motion.start", Value::Null);
+        // SDO traffic while the motion runs, as a commissioning tool makes it: uploads of
+        // 0x1018:1 and the segmented 0x1008 from every node, back to back.
+        let flood = sdo_flood(&iface, n);
         let st = client.wait_state(&["finished", "error"], SLOW);
+        let sdo_during_motion = flood.finish();
         assert_eq!(st["state"], "finished", "{st}");
         drop(client);
         let (code, err) = daemon.terminate();
@@ -152,12 +213,43 @@ fn the_master_configures_three_and_six_default_drives() {
             .count();
         assert_eq!(boot_ups, n, "one boot-up per node, the answer to its reset communication");
         let sdo = frames.iter().filter(|(_, f)| (0x581..=0x5FF).contains(&f.id().raw())).count();
+        // The SYNC period while motion runs and the SDO traffic goes on.
+        let moving: Vec<SystemTime> = {
+            let first_move = frames
+                .iter()
+                .find(|(_, f)| f.id().raw() == 0x201 && f.payload().get(2..6).is_some_and(|p| p != [0, 0, 0, 0]))
+                .expect("an RPDO1 with a target off zero")
+                .0;
+            // Up to the daemon's shutdown, whose last SYNC follows the last cycle's at once.
+            let shutdown = frames
+                .iter()
+                .find(|(t, f)| *t > first_move && f.id().raw() == 0x201 && f.payload().first() == Some(&0x06))
+                .map_or(SystemTime::now(), |(t, _)| *t);
+            frames
+                .iter()
+                .filter(|(t, f)| *t >= first_move && *t < shutdown && f.id().raw() == 0x080)
+                .map(|(t, _)| *t)
+                .collect()
+        };
+        let worst_ms = moving.windows(2).map(|w| (secs(w[0], w[1]) * 1e3 - 4.0).abs()).fold(0.0, f64::max);
+        let sdo_while_moving = frames
+            .iter()
+            .filter(|(t, f)| {
+                *t >= moving[0] && *t <= moving[moving.len() - 1] && (0x581..=0x5FF).contains(&f.id().raw())
+            })
+            .count();
+        assert!(sdo_while_moving > 100, "SDO traffic during the motion: {sdo_while_moving} responses");
+        if virtual_time() {
+            assert!(worst_ms <= 0.05, "a SYNC {worst_ms:.3} ms off its 4 ms period during SDO traffic");
+        }
         let said = err.lines().find(|l| l.contains("drives configured in")).unwrap_or("").to_string();
         figures.push(format!(
             "{n} nodes: bus {:.1} ms from the first NMT reset communication to the last NMT start, {} SDO responses; \
-             daemon: {said}",
+             daemon: {said}; during the motion {} SYNC periods with {sdo_while_moving} SDO responses \
+             ({sdo_during_motion} transfers by the test): worst |period - 4 ms| {worst_ms:.4} ms",
             secs(first_reset, last_start) * 1e3,
-            sdo
+            sdo,
+            moving.len() - 1
         ));
         // No heartbeat before 0x1017 was written; then every 100 ms.
         let hb_before_config = frames
@@ -238,5 +330,82 @@ fn an_sdo_abort_during_configuration_names_the_node_and_nothing_moves() {
     let (code, drives_err) = drives.terminate();
     assert_eq!(code, Some(0), "{drives_err}");
     eprintln!("SDO abort: {}", err.lines().filter(|l| l.contains("abort")).collect::<Vec<_>>().join(" | "));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// SDO download from the test (a commissioning tool) to `node`.
+fn sdo_write(iface: &str, node: u8, index: u16, sub: u8, data: Vec<u8>) {
+    use interpd_canopen::Address;
+    use interpd_canopen::sdo_client::{SdoClient, Step};
+    use socketcan::Socket;
+    let sock = vcan::open(iface, Duration::from_millis(5));
+    let node = cia301::NodeId::new(node).expect("node");
+    let mut client = SdoClient::new(node, 1_000_000);
+    let t0 = Instant::now();
+    let first = client.download(Address::new(index, sub), data, 0).expect("idle");
+    vcan::send(&sock, &first);
+    loop {
+        let now = t0.elapsed().as_micros() as u64;
+        let step = match sock.read_frame() {
+            Ok(f) => interpd_protocol::can_socket::from_socketcan(&f).ok().and_then(|f| client.on_frame(&f, now)),
+            Err(_) => client.poll(now),
+        };
+        match step {
+            Some(Step::Send(f)) => vcan::send(&sock, &f),
+            Some(Step::Downloaded) => return,
+            Some(other) => panic!("SDO write to node {node}: {other:?}"),
+            None => {}
+        }
+    }
+}
+
+/// The supervision of the configured drives while they move: a drive whose heartbeat stops
+/// (0x1017 set to 0 by a commissioning tool) and a drive that sends an EMCY (an RPDO1 of the
+/// wrong length) each end the motion in a controlled stop, the message naming the drive, the
+/// node and the EMCY code's meaning.
+#[test]
+fn a_lost_heartbeat_and_an_emcy_mid_motion_stop_the_motion() {
+    let Some((iface, _bus)) = vcan::bus("a_lost_heartbeat_and_an_emcy_mid_motion_stop_the_motion") else { return };
+    let dir = vcan::temp_dir("can-supervision");
+    let cfg = config(&dir, 3, 4.0, "");
+    for case in ["heartbeat", "emcy"] {
+        let drives = start_drives(&iface, &cfg, &dir);
+        let daemon = Daemon::start(&["--config", cfg.as_str(), "--can", iface.as_str(), "--no-shm"]);
+        let mut client = daemon.client();
+        let until = Instant::now() + SLOW;
+        loop {
+            let st = client.ok("status", Value::Null);
+            let d = st["drives"].as_array().cloned().unwrap_or_default();
+            if d.len() == 3 && d.iter().all(|d| d["state"] == "operation_enabled" && d["configured"] == true) {
+                break;
+            }
+            assert!(Instant::now() < until, "drives not enabled: {st}");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        client.ok("program.load", json!({ "text": "G21 G90\nG1 X40 F3000\nG1 X0\nM30\n" }));
+        client.ok("motion.start", Value::Null);
+        std::thread::sleep(Duration::from_millis(200));
+        let t = Instant::now();
+        match case {
+            "heartbeat" => sdo_write(&iface, 2, 0x1017, 0, vec![0, 0]),
+            _ => vcan::send(
+                &vcan::open(&iface, Duration::from_millis(5)),
+                &Frame::standard(0x203, &[0x0F; 4]).expect("frame"),
+            ),
+        }
+        let st = client.wait_state(&["finished", "idle", "error"], SLOW);
+        let after_s = t.elapsed().as_secs_f64();
+        let why = st["last_error"].as_str().unwrap_or_default().to_string();
+        assert_ne!(st["state"], "finished", "{case}: the motion went on: {st}");
+        match case {
+            "heartbeat" => assert!(why.contains("drive Y (node 2) heartbeat lost"), "{st}"),
+            _ => assert!(why.contains("drive Z (node 3) EMCY 0x8210 PDO not processed due to length error"), "{st}"),
+        }
+        let drive = &st["drives"].as_array().expect("drives")[if case == "heartbeat" { 1 } else { 2 }];
+        eprintln!("{case}: stopped {after_s:.3} s after the cause, state {}: {why}; drive: {drive}", st["state"]);
+        drop(client);
+        let _ = daemon.terminate();
+        let _ = drives.terminate();
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -147,6 +147,17 @@ impl Rx {
             Ok(Message::Emcy { node, emcy }) => match self.shared.node(node) {
                 Some(n) => {
                     n.on_emcy(emcy.error_code);
+                    // An error (not the "error reset" 0x0000) from a drive the master runs
+                    // stops the motion; at rest the supervisor only logs it.
+                    if emcy.error_code != cia301::emcy_code::NO_ERROR && n.commanded_enabled() {
+                        self.shared.push_fault(format!(
+                            "{} EMCY 0x{:04X} {} (error register 0x{:02X})",
+                            n.label(),
+                            emcy.error_code,
+                            cia301::emcy_code::text(emcy.error_code),
+                            emcy.error_register
+                        ));
+                    }
                     let count = n.emcy_count.load(Ordering::Relaxed);
                     if count <= LOGGED_EMCY {
                         let more = if count == LOGGED_EMCY { " (further EMCY only counted)" } else { "" };

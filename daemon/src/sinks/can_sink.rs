@@ -133,6 +133,9 @@ impl Drop for CanSink {
         }
         self.send(&Message::Sync { counter: None });
         for node in &self.shared.nodes {
+            // Not configured for motion any more: the receive thread must not start it again
+            // when its heartbeat says pre-operational.
+            node.configured.store(false, std::sync::atomic::Ordering::Release);
             self.send(&Message::Nmt { command: NmtCommand::EnterPreOperational, target: Some(node.node) });
         }
     }

@@ -60,6 +60,9 @@ struct OBlock {
 #[derive(Debug, Clone)]
 struct Frame {
     name: String,
+    /// An M98 call (Fanuc style): the parameters are shared with the caller, and the body
+    /// runs again while repeats are left.
+    fanuc: Option<(u64, LinePos)>,
     ret: LinePos,
     saved: [f64; CALL_ARGS],
     /// The caller's open blocks.
@@ -110,6 +113,9 @@ impl Flow {
     }
 }
 
+/// What ends the skip over a subprogram's definition.
+const M99: &str = "m99";
+
 fn o_name(name: &str) -> String {
     if name.bytes().all(|b| b.is_ascii_digit()) { format!("o{name}") } else { format!("o<{name}>") }
 }
@@ -118,6 +124,12 @@ impl Interpreter {
     /// A line while skipping: only its O word is read; the line that ends the skip is executed
     /// if the skip says so.
     pub(super) fn skipped_line(&mut self, text: &str, at: Option<&LineAt>, d: &mut Diagnostics) -> Option<LinePos> {
+        if self.flow.skip.as_ref().is_some_and(|s| s.until == [M99]) {
+            if has_m99(text) {
+                self.flow.skip = None;
+            }
+            return None;
+        }
         let o = super::lexer::o_word_only(text, &self.params)?;
         let skip = self.flow.skip.as_ref()?;
         if o.keyword == "sub" && skip.until == ["endsub"] {
@@ -172,6 +184,9 @@ impl Interpreter {
             "break",
             "continue",
         ];
+        if o.keyword.is_empty() {
+            return self.fanuc_label(o, at, d);
+        }
         if !KEYWORDS.contains(&o.keyword.as_str()) {
             let message = if o.keyword.is_empty() {
                 format!("{} needs a keyword (sub, call, if, while, do, repeat …)", o_name(&o.name))
@@ -236,6 +251,10 @@ impl Interpreter {
                     d.error(line, o.keyword_col, format!("{label} takes at most one value"));
                     return None;
                 }
+                if frame.fanuc.is_some() {
+                    d.error(line, o.col, format!("{label} in a subprogram called with M98 (end it with M99)"));
+                    return None;
+                }
                 let frame = self.flow.frames.pop().expect("checked");
                 self.params.leave(&frame.saved);
                 self.params.value_returned = !args.is_empty();
@@ -288,6 +307,7 @@ impl Interpreter {
                 let blocks = std::mem::take(&mut self.flow.blocks);
                 self.flow.frames.push(Frame {
                     name: o.name.clone(),
+                    fanuc: None,
                     ret: at.next.clone(),
                     saved,
                     blocks,
@@ -479,6 +499,109 @@ impl Interpreter {
         }
     }
 
+    /// A bare `O<n>` line: the title of the main program when it comes first, the start of the
+    /// subprogram an M98 call is reading on to, or else the definition of a subprogram (read
+    /// on to its M99), as LinuxCNC 2.9.
+    fn fanuc_label(&mut self, o: &OWord, at: &LineAt, _d: &mut Diagnostics) -> Option<LinePos> {
+        if self.flow.entering.as_deref() == Some(o.name.as_str()) {
+            self.flow.entering = None;
+            self.flow.subs.insert(o.name.clone(), at.next.clone());
+            if let Some((_, body)) = self.flow.frames.last_mut().and_then(|f| f.fanuc.as_mut()) {
+                *body = at.next.clone();
+            }
+            return None;
+        }
+        if self.summary.blocks == 0 && self.flow.frames.is_empty() {
+            return None; // the program's number
+        }
+        self.flow.subs.insert(o.name.clone(), at.next.clone());
+        let label = format!("{} (subprogram)", o_name(&o.name));
+        self.skip(o, &[M99], false, &label, at.here.line);
+        None
+    }
+
+    /// `M98 P<n> [L<k>]`: calls subprogram `O<n>` k times (L0: not at all), sharing the
+    /// parameters. `M99` ends it (or runs it again while repeats are left).
+    pub(super) fn fanuc_call(
+        &mut self,
+        number: f64,
+        repeats: u64,
+        col: u32,
+        at: Option<&LineAt>,
+        d: &mut Diagnostics,
+    ) -> Option<LinePos> {
+        let Some(at) = at else {
+            d.error(self.current_line, col, "M98 is not supported in appended text or MDI");
+            return None;
+        };
+        let line = at.here.line;
+        if repeats == 0 {
+            return None;
+        }
+        let name = format!("{}", number as u64);
+        let max_iter = self.settings.programs.max_loop_iterations;
+        self.flow.steps += 1;
+        if self.flow.steps >= max_iter {
+            d.error(line, col, loop_cap_message(&format!("M98 P{name}"), max_iter));
+            return None;
+        }
+        if self.flow.frames.len() >= MAX_CALL_DEPTH {
+            d.error(line, col, format!("M98 P{name}: calls nested deeper than {MAX_CALL_DEPTH} (endless recursion?)"));
+            return None;
+        }
+        let target = self.flow.subs.get(&name).cloned();
+        let blocks = std::mem::take(&mut self.flow.blocks);
+        self.flow.frames.push(Frame {
+            name: name.clone(),
+            fanuc: Some((repeats - 1, target.clone().unwrap_or_else(|| at.next.clone()))),
+            ret: at.next.clone(),
+            saved: [0.0; CALL_ARGS],
+            blocks,
+            line,
+            col,
+        });
+        if target.is_some() {
+            return target;
+        }
+        if at.here.source.is_some() {
+            d.error(line, col, format!("M98 P{name}: no subprogram O{name} above this line"));
+            return None;
+        }
+        // Read on to the subprogram (it may follow the main program).
+        self.flow.entering = Some(name.clone());
+        let o = OWord { name: name.clone(), col, keyword: String::new(), keyword_col: col, rest_at: 0 };
+        self.skip(&o, &[""], true, &format!("M98 P{name}"), line);
+        if let Some(s) = &mut self.flow.skip {
+            s.missing = Some(format!("M98 P{name}: the program has no subprogram O{name}"));
+        }
+        None
+    }
+
+    /// `M99`: the end of an M98 subprogram.
+    pub(super) fn fanuc_return(&mut self, col: u32, at: Option<&LineAt>, d: &mut Diagnostics) -> Option<LinePos> {
+        let line = at.map_or(self.current_line, |a| a.here.line);
+        let Some(frame) = self.flow.frames.last_mut().filter(|f| f.fanuc.is_some()) else {
+            d.error(line, col, "M99 outside a subprogram called with M98 (an endless main program is not supported)");
+            return None;
+        };
+        let (left, body) = frame.fanuc.as_mut().expect("filtered");
+        if *left > 0 {
+            *left -= 1;
+            let body = body.clone();
+            self.flow.steps += 1;
+            let max_iter = self.settings.programs.max_loop_iterations;
+            if self.flow.steps >= max_iter {
+                d.error(line, col, loop_cap_message("M99", max_iter));
+                return None;
+            }
+            self.flow.blocks.clear();
+            return Some(body);
+        }
+        let frame = self.flow.frames.pop().expect("checked");
+        self.flow.blocks = frame.blocks;
+        Some(frame.ret)
+    }
+
     /// The next turn of the repeat loop on top, or its end (None, the block popped).
     fn next_repeat(&mut self) -> Option<LinePos> {
         let b = self.flow.blocks.last_mut()?;
@@ -576,4 +699,21 @@ fn loop_cap_message(label: &str, max: u64) -> String {
         "{label}: the program's loops and calls have run {max} times ([programs] max_loop_iterations); this loop most \
          likely never ends"
     )
+}
+
+/// Whether a line holds the word M99 (outside comments).
+fn has_m99(text: &str) -> bool {
+    let mut code = String::new();
+    let mut comment = false;
+    for c in text.chars() {
+        match c {
+            '(' => comment = true,
+            ')' => comment = false,
+            ';' if !comment => break,
+            c if !comment && !c.is_whitespace() => code.push(c.to_ascii_uppercase()),
+            _ => {}
+        }
+    }
+    code.match_indices("M99").any(|(i, _)| !code[i + 3..].starts_with(|c: char| c.is_ascii_digit() || c == '.'))
+        && !code.contains("M990")
 }

@@ -403,6 +403,13 @@ impl Interpreter {
             return self.o_word(text, o, at, d);
         }
         let line = lexed.line;
+        if let Some(m) = line.words.iter().find(|w| w.letter == 'M' && (w.value == 98.0 || w.value == 99.0)) {
+            if self.g06.is_some() {
+                self.finish_g06(d);
+            }
+            self.summary.blocks += 1;
+            return self.fanuc_word(&line, m, at, d);
+        }
         if line.percent {
             if self.g06.is_some() {
                 self.finish_g06(d);
@@ -445,6 +452,42 @@ impl Interpreter {
             }
         }
         None
+    }
+
+    /// M98 P<n> L<k> and M99 (Fanuc subprograms, as LinuxCNC 2.9): each in a block of its own.
+    fn fanuc_word(&mut self, line: &Line, m: &Word, at: Option<&LineAt>, d: &mut Diagnostics) -> Option<LinePos> {
+        let line_no = self.current_line;
+        let m98 = m.value == 98.0;
+        let allowed = |c: char| c == 'N' || (m98 && (c == 'P' || c == 'L'));
+        if let Some(w) = line.words.iter().find(|w| !std::ptr::eq(*w, m) && !allowed(w.letter)) {
+            let what = if m98 {
+                "M98 stands in a block of its own (with P and L)"
+            } else {
+                "M99 stands in a block of its own"
+            };
+            d.error(line_no, w.col, what);
+            return None;
+        }
+        if !m98 {
+            return self.fanuc_return(m.col, at, d);
+        }
+        let Some(p) = line.words.iter().find(|w| w.letter == 'P') else {
+            d.error(line_no, m.col, "M98 needs P (the number of the subprogram O<n>)");
+            return None;
+        };
+        if p.value < 0.0 || p.value.fract() != 0.0 {
+            d.error(line_no, p.col, format!("M98: P must be a subprogram number, got {}", p.value));
+            return None;
+        }
+        let repeats = match line.words.iter().find(|w| w.letter == 'L') {
+            None => 1,
+            Some(l) if l.value >= 0.0 && l.value.fract() == 0.0 && l.value <= 1e9 => l.value as u64,
+            Some(l) => {
+                d.error(line_no, l.col, format!("M98: L (repeats) must be a non-negative integer, got {}", l.value));
+                return None;
+            }
+        };
+        self.fanuc_call(p.value, repeats, m.col, at, d)
     }
 
     /// The interpreter's state as the predefined parameters report it (line `line_no`).

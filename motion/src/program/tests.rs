@@ -534,6 +534,22 @@ fn offsets_home_positions_and_machine_coordinates() {
 }
 
 #[test]
+fn fanuc_subprograms_m98_m99_as_linuxcnc() {
+    // LinuxCNC's tests/interp/m98m99/05: the subprogram follows the main program, L repeats
+    // it, parameters are shared with the caller.
+    let p = ok("O7\nF100\n#1 = 0\nM98 P1 L3\nG1 Y#1\nM98 P1 L0\nM30\nO1\nG91 G1 X1\nG90\n#1 = [#1 + 1]\nM99\n");
+    assert_eq!(ends(&p), [[1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [3.0, 0.0, 0.0], [3.0, 3.0, 0.0]]);
+    for (text, want) in [
+        ("M98 L2\n", "t.ngc:1:1: M98 needs P"),
+        ("M98 P5\nM30\n", "t.ngc:1:1: M98 P5: the program has no subprogram O5"),
+        ("G1 X1 F100\nM99\n", "t.ngc:2:1: M99 outside a subprogram called with M98"),
+        ("M98 P1 X1\n", "t.ngc:1:8: M98 stands in a block of its own"),
+    ] {
+        assert!(first_error(text).starts_with(want), "{text}: {}", first_error(text));
+    }
+}
+
+#[test]
 fn canned_cycles_expand_as_linuxcnc() {
     // G81 from Z10 with R2 (LinuxCNC's initial retract mode is G99): rapid over the hole, down
     // to R, feed to the bottom, rapid back to R; the next hole the same from R.

@@ -3,15 +3,17 @@
 //! dwell, G06 spline blocks (Huan), G17/G18/G19, G20/G21, G61/G64 P, G90/G91, F (per
 //! minute), N, M2/M30; spindle, coolant and tool words (M3–M9, S, T) are accepted and counted as
 //! ignored, since interpd interpolates motion only.
+mod cycles;
+mod flow;
+mod offsets;
+
+pub(super) use flow::{LineAt, LinePos};
 
 use super::active::{ActiveCutter, ActiveModal, ActiveTool, CompSide, ModalLog, WORK_SYSTEM_NAMES};
 use super::arc_rule;
 use super::cutter::{Cutter, Piece, Side};
-use super::cycles::{CycleKind, CycleState};
 use super::error::Diagnostics;
-use super::flow::{Flow, LineAt, LinePos};
 use super::lexer::{Line, Word, lex_block};
-use super::offsets::OffsetWord;
 use super::params::{Params, Snapshot};
 use super::{G06_END_MARKER, Summary};
 use crate::Settings;
@@ -20,7 +22,10 @@ use crate::path::{
     AxisVec, Blend, CubicSpan, Feed, Geometry, Helix, MAX_AXES, MIN_CURVATURE_RADIUS_MM, MIN_MOVE_MM, Path, Pause,
     Source, SpanError, spline::natural_tangents,
 };
+use cycles::{CycleKind, CycleState};
+use flow::Flow;
 use interpd_config::{AxisKind, AxisLetter};
+use offsets::OffsetWord;
 use std::cell::Cell;
 use std::f64::consts::PI;
 

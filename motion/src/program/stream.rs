@@ -9,8 +9,8 @@
 
 use super::append::{AppendBuffer, AppendChecker, Appends, Take};
 use super::error::Diagnostics;
-use super::flow::{LineAt, LinePos};
 use super::gcode::Interpreter;
+use super::gcode::{LineAt, LinePos};
 use super::{Format, MAX_LINE_BYTES, ProgramError, ProgramErrors, Summary, table};
 use crate::Settings;
 use crate::path::{AxisVec, Element, MAX_AXES, Path};

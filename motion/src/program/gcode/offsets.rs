@@ -6,10 +6,10 @@
 //! `[work_offsets]` and `offsets.set` give the values it starts with); G59.1 … G59.3 start
 //! at zero.
 
-use super::error::Diagnostics;
-use super::gcode::{Block, Interpreter, Motion};
-use super::lexer::Line;
+use super::{Block, Interpreter, Motion};
 use crate::path::{Feed, Source};
+use crate::program::error::Diagnostics;
+use crate::program::lexer::Line;
 use interpd_config::AxisLetter;
 
 /// The non-modal codes of this module.
@@ -30,7 +30,7 @@ const G30_PARAM: usize = 5181;
 
 impl Interpreter {
     /// G53 is allowed here: G0 or G1, absolute, no cutter compensation.
-    pub(super) fn machine_coordinates_ok(
+    pub(in crate::program) fn machine_coordinates_ok(
         &self,
         col: u32,
         g_motion: &Option<Motion>,
@@ -53,7 +53,7 @@ impl Interpreter {
 
     /// G10, G28, G28.1, G30, G30.1, G52: what they set or where they move.
     #[allow(clippy::too_many_arguments)]
-    pub(super) fn offset_word(
+    pub(in crate::program) fn offset_word(
         &mut self,
         word: OffsetWord,
         col: u32,

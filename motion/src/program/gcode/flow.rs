@@ -13,10 +13,10 @@
 //! one the program has not defined looks for `name.ngc` on `[programs] subroutine_path`,
 //! inside the programs directory.
 
-use super::error::Diagnostics;
-use super::gcode::Interpreter;
-use super::lexer::{OWord, o_args};
-use super::params::CALL_ARGS;
+use super::Interpreter;
+use crate::program::error::Diagnostics;
+use crate::program::lexer::{OWord, o_args};
+use crate::program::params::CALL_ARGS;
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -123,14 +123,19 @@ fn o_name(name: &str) -> String {
 impl Interpreter {
     /// A line while skipping: only its O word is read; the line that ends the skip is executed
     /// if the skip says so.
-    pub(super) fn skipped_line(&mut self, text: &str, at: Option<&LineAt>, d: &mut Diagnostics) -> Option<LinePos> {
+    pub(in crate::program) fn skipped_line(
+        &mut self,
+        text: &str,
+        at: Option<&LineAt>,
+        d: &mut Diagnostics,
+    ) -> Option<LinePos> {
         if self.flow.skip.as_ref().is_some_and(|s| s.until == [M99]) {
             if has_m99(text) {
                 self.flow.skip = None;
             }
             return None;
         }
-        let o = super::lexer::o_word_only(text, &self.params)?;
+        let o = crate::program::lexer::o_word_only(text, &self.params)?;
         let skip = self.flow.skip.as_ref()?;
         if o.keyword == "sub" && skip.until == ["endsub"] {
             // As LinuxCNC: a definition inside a definition is an error where it starts.
@@ -151,7 +156,7 @@ impl Interpreter {
     }
 
     /// Executes an O-word line; a jump is where reading goes on.
-    pub(super) fn o_word(
+    pub(in crate::program) fn o_word(
         &mut self,
         text: &str,
         o: &OWord,
@@ -522,7 +527,7 @@ impl Interpreter {
 
     /// `M98 P<n> [L<k>]`: calls subprogram `O<n>` k times (L0: not at all), sharing the
     /// parameters. `M99` ends it (or runs it again while repeats are left).
-    pub(super) fn fanuc_call(
+    pub(in crate::program) fn fanuc_call(
         &mut self,
         number: f64,
         repeats: u64,
@@ -578,7 +583,12 @@ impl Interpreter {
     }
 
     /// `M99`: the end of an M98 subprogram.
-    pub(super) fn fanuc_return(&mut self, col: u32, at: Option<&LineAt>, d: &mut Diagnostics) -> Option<LinePos> {
+    pub(in crate::program) fn fanuc_return(
+        &mut self,
+        col: u32,
+        at: Option<&LineAt>,
+        d: &mut Diagnostics,
+    ) -> Option<LinePos> {
         let line = at.map_or(self.current_line, |a| a.here.line);
         let Some(frame) = self.flow.frames.last_mut().filter(|f| f.fanuc.is_some()) else {
             d.error(line, col, "M99 outside a subprogram called with M98 (an endless main program is not supported)");
@@ -659,7 +669,7 @@ impl Interpreter {
     }
 
     /// The end of a subroutine file before its `endsub`.
-    pub(super) fn source_ended(&mut self, file: &str, d: &mut Diagnostics) {
+    pub(in crate::program) fn source_ended(&mut self, file: &str, d: &mut Diagnostics) {
         let what = match &self.flow.entering {
             Some(name) => format!("the file {file} defines no sub {}", o_name(name)),
             None => format!("the subroutine file {file} ends before its endsub"),
@@ -670,7 +680,7 @@ impl Interpreter {
     }
 
     /// At the end of the program: control flow left open is an error at its line.
-    pub(super) fn finish_flow(&mut self, d: &mut Diagnostics) {
+    pub(in crate::program) fn finish_flow(&mut self, d: &mut Diagnostics) {
         if let Some(s) = self.flow.skip.take() {
             let wanted = s.until.join(" or ");
             let message = s.missing.unwrap_or_else(|| format!("{}: the program ends before its {wanted}", s.what));

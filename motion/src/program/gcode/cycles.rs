@@ -6,9 +6,9 @@
 //! to it (`cc`: Z in G17, Y in G18, X in G19). Coordinates here are program coordinates in
 //! program units, as in LinuxCNC; the moves are converted at the end.
 
-use super::error::Diagnostics;
-use super::gcode::{Block, Interpreter};
+use super::{Block, Interpreter};
 use crate::path::{Blend, Feed, Source};
+use crate::program::error::Diagnostics;
 use interpd_config::AxisLetter;
 
 /// Which cycle.
@@ -72,7 +72,7 @@ enum Step {
 impl Interpreter {
     /// Executes the cycle `kind` for this block; `same` when the cycle was already the motion
     /// mode (R, Z, P, Q may then be left out).
-    pub(super) fn canned_cycle(
+    pub(in crate::program) fn canned_cycle(
         &mut self,
         kind: CycleKind,
         same: bool,

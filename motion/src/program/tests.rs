@@ -568,6 +568,8 @@ fn canned_cycles_expand_as_linuxcnc() {
         ("G81 X1 Z-1 R1 L0 F100\n", "t.ngc:1:15: G81: L (repeats) must be a positive integer"),
         ("G84 X1 Z-1 R1 F100\n", "t.ngc:1:1: G84 needs a spindle"),
         ("G33 X1 K1\n", "t.ngc:1:1: G33 needs a spindle"),
+        // Found by the fuzzer: 2.5e10 pecks filled 24 GB before the check after the hole.
+        ("G83 X10 Y10 Z-99999999912 R3 Q4 F100\n", "t.ngc:1:1: G83: the cycle makes more than"),
     ] {
         assert!(first_error(text).starts_with(want), "{text}: {}", first_error(text));
     }

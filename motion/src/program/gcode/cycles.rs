@@ -248,6 +248,11 @@ impl Interpreter {
                     let back = PECK_CLEARANCE_MM / unit;
                     let mut depth = r - delta;
                     while depth > cc {
+                        // Checked per peck: a huge depth over a small Q would fill memory
+                        // before the check after the hole.
+                        if steps.len() > MAX_CYCLE_STEPS {
+                            break;
+                        }
                         steps.push(Step::Feed(aa, bb, depth));
                         if kind == CycleKind::G83 {
                             steps.push(Step::Rapid(aa, bb, r));

@@ -7,20 +7,8 @@ use crate::sdo_abort::SdoAbort;
 use interpd_protocol::cia301::{Frame, NodeId};
 use std::fmt;
 
-/// Default SDO server → client COB-ID base: node n answers on 0x580 + n.
-pub const TX_BASE: u16 = 0x580;
-/// Default SDO client → server COB-ID base: node n listens on 0x600 + n.
-pub const RX_BASE: u16 = 0x600;
-
-/// COB-ID on which the master sends requests to `node`.
-pub const fn request_cob(node: NodeId) -> u16 {
-    RX_BASE + node.get() as u16
-}
-
-/// COB-ID on which `node` answers.
-pub const fn response_cob(node: NodeId) -> u16 {
-    TX_BASE + node.get() as u16
-}
+/// The SDO COB-IDs of the predefined connection set (CiA 301), kept with the others.
+pub use interpd_protocol::cia301::cob::{sdo_request as request_cob, sdo_response as response_cob};
 
 /// An object dictionary entry: index and sub-index (the SDO "multiplexer").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]

@@ -247,6 +247,19 @@ pub mod cob {
     pub const RPDO1_BASE: u16 = 0x200;
     /// NMT error control (heartbeat) base: node n sends on 0x700 + n.
     pub const HEARTBEAT_BASE: u16 = 0x700;
+    /// SDO server → client base: node n answers on 0x580 + n.
+    pub const SDO_TX_BASE: u16 = 0x580;
+    /// SDO client → server base: node n listens on 0x600 + n.
+    pub const SDO_RX_BASE: u16 = 0x600;
+
+    /// COB-ID on which a client sends SDO requests to `node`.
+    pub const fn sdo_request(node: NodeId) -> u16 {
+        SDO_RX_BASE + node.get() as u16
+    }
+    /// COB-ID on which `node` answers SDO requests.
+    pub const fn sdo_response(node: NodeId) -> u16 {
+        SDO_TX_BASE + node.get() as u16
+    }
 
     pub const fn emcy(node: NodeId) -> u16 {
         EMCY_BASE + node.get() as u16

@@ -329,18 +329,24 @@ fn scratch_dir(name: &str) -> PathBuf {
     dir
 }
 
+/// The `.ngc` files of a corpus folder, by name.
+fn ngc_names(corpus: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(corpus)
+        .expect("corpus")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".ngc"))
+        .collect();
+    names.sort();
+    names
+}
+
 #[test]
 fn corpus_verdicts_agree_with_linuxcnc() {
     let dir = scratch_dir("corpus");
     require_linuxcnc(&dir);
     let mut cases = Vec::new();
     let corpus = repo_root().join("tests/programs/bad");
-    let mut names: Vec<String> = std::fs::read_dir(&corpus)
-        .expect("corpus")
-        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".ngc"))
-        .collect();
-    names.sort();
+    let names = ngc_names(&corpus);
     for name in names {
         let text = std::fs::read_to_string(corpus.join(&name)).expect("read");
         if text.to_ascii_uppercase().contains("G06") || text.to_ascii_uppercase().contains("LAW ") {
@@ -385,12 +391,7 @@ fn linuxcnc_forms_agree_with_linuxcnc() {
     let dir = scratch_dir("forms");
     require_linuxcnc(&dir);
     let corpus = repo_root().join("tests/programs/linuxcnc");
-    let mut names: Vec<String> = std::fs::read_dir(&corpus)
-        .expect("corpus")
-        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".ngc"))
-        .collect();
-    names.sort();
+    let names = ngc_names(&corpus);
     let mut cases = Vec::new();
     let mut with_tools = Vec::new();
     for name in names {
@@ -1059,12 +1060,7 @@ fn language_corpus_agrees_with_linuxcnc() {
     let dir = scratch_dir("language");
     require_linuxcnc(&dir);
     let corpus = repo_root().join("tests/programs/language");
-    let mut names: Vec<String> = std::fs::read_dir(&corpus)
-        .expect("corpus")
-        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".ngc"))
-        .collect();
-    names.sort();
+    let names = ngc_names(&corpus);
     let mut cases = Vec::new();
     for name in names {
         let text = std::fs::read_to_string(corpus.join(&name)).expect("read");

@@ -30,13 +30,17 @@ pub(super) struct Point {
     /// Closes a window segment.
     pub seg_end: bool,
     /// How far the programmed path runs on along the point's tangent as a straight line,
-    /// behind and ahead of it (mm, up to `STRAIGHT_REACH_MM`; ahead only over the elements
-    /// known): an axis along which the path runs exactly may slide that far and no farther.
+    /// behind and ahead of it (mm, at most `SLIDE_SPACINGS` point spacings; ahead only over
+    /// the elements known): an axis along which the path runs exactly may slide that far and
+    /// no farther.
     pub straight_mm: (f64, f64),
 }
 
-/// The farthest the straight extent of a point is followed, mm (beyond any window).
-const STRAIGHT_REACH_MM: f64 = 100.0;
+/// A point slides along a straight axis-parallel path by at most this many point spacings: as
+/// far as the check after the solve looks for the programmed path around a piece
+/// (`verify::piece_excess`, two spacings), so a piece slid farther is not measured against
+/// the wrong elements; more freedom than a spacing changes nothing a window needs.
+const SLIDE_SPACINGS: f64 = 1.0;
 /// Elements of a straight extent followed at most on each side (CAM output has thousands of
 /// collinear micro-segments only where the conditioner merged them into chords already).
 const STRAIGHT_MAX_ELEMS: usize = 256;
@@ -97,7 +101,7 @@ impl Placer {
             self.tangent = first.t_start;
             self.seg_start_s_mm = first.s0_mm;
             self.started = true;
-            out.push(self.point(elems, self.s_mm, self.elem, false, false));
+            out.push(point(elems, st, self.s_mm, self.elem, false, false));
         }
         // Without the run's end, stay far enough back that a corner at the end of the last
         // element would still be approached with shrinking steps.
@@ -130,7 +134,7 @@ impl Placer {
                 || (long && calm)
                 || run_len >= CALM_GIVE_UP * st.segment_mm
                 || self.seg_points >= 2 * SEGMENT_POINTS;
-            let p = self.point(elems, s_next, elem, vertex, seg_end);
+            let p = point(elems, st, s_next, elem, vertex, seg_end);
             if seg_end {
                 self.seg_start_s_mm = s_next;
                 self.seg_points = 0;
@@ -218,50 +222,48 @@ impl Placer {
 
     /// A point halfway along the programmed path between `a` and `b`: where a piece between
     /// them left the band, one more point holds the QP to the path there.
-    pub(super) fn midpoint(elems: &RunElems, a: &Point, b: &Point) -> Point {
+    pub(super) fn midpoint(elems: &RunElems, st: &StageSettings, a: &Point, b: &Point) -> Point {
         let s_mm = 0.5 * (a.s_mm + b.s_mm);
         let elem = elems.index_at(s_mm, a.elem);
-        Self::point_at(elems, s_mm, elem, false, false)
-    }
-
-    fn point(&self, elems: &RunElems, s_mm: f64, elem: usize, vertex: bool, seg_end: bool) -> Point {
-        Self::point_at(elems, s_mm, elem, vertex, seg_end)
-    }
-
-    fn point_at(elems: &RunElems, s_mm: f64, elem: usize, vertex: bool, seg_end: bool) -> Point {
-        let e = elems.get(elem);
-        let mut d = AxisDerivs::default();
-        e.eval(s_mm, &mut d);
-        let mut tangent = d.d1;
-        if vertex && elem > elems.first_index() {
-            let prev = elems.get(elem - 1);
-            let mut sum = [0.0; MAX_AXES];
-            for k in 0..MAX_AXES {
-                sum[k] = prev.t_end[k] + e.t_start[k];
-            }
-            let norm = sum.iter().map(|x| x * x).sum::<f64>().sqrt();
-            if norm > 1e-9 {
-                tangent = sum.map(|x| x / norm);
-            }
-        }
-        let straight_mm = straight_extent(elems, s_mm, elem, &tangent);
-        Point {
-            s_mm,
-            pos: d.pos,
-            tangent,
-            tol_mm: e.tol_mm,
-            prog_tol_mm: e.prog_tol_mm,
-            elem,
-            vertex,
-            seg_end,
-            straight_mm,
-        }
+        point(elems, st, s_mm, elem, false, false)
     }
 }
 
-/// The straight extent (behind, ahead) of the path through `s_mm` along `tangent`: the lines
-/// around it that run exactly along the tangent. Zero on a curve or a vertex that turns.
-fn straight_extent(elems: &RunElems, s_mm: f64, elem: usize, tangent: &AxisVec) -> (f64, f64) {
+/// The point at `s_mm` on element `elem`.
+fn point(elems: &RunElems, st: &StageSettings, s_mm: f64, elem: usize, vertex: bool, seg_end: bool) -> Point {
+    let e = elems.get(elem);
+    let mut d = AxisDerivs::default();
+    e.eval(s_mm, &mut d);
+    let mut tangent = d.d1;
+    if vertex && elem > elems.first_index() {
+        let prev = elems.get(elem - 1);
+        let mut sum = [0.0; MAX_AXES];
+        for k in 0..MAX_AXES {
+            sum[k] = prev.t_end[k] + e.t_start[k];
+        }
+        let norm = sum.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if norm > 1e-9 {
+            tangent = sum.map(|x| x / norm);
+        }
+    }
+    let straight_mm = straight_extent(elems, s_mm, elem, &tangent, st.spacing_mm * SLIDE_SPACINGS);
+    Point {
+        s_mm,
+        pos: d.pos,
+        tangent,
+        tol_mm: e.tol_mm,
+        prog_tol_mm: e.prog_tol_mm,
+        elem,
+        vertex,
+        seg_end,
+        straight_mm,
+    }
+}
+
+/// The straight extent (behind, ahead) of the path through `s_mm` along `tangent`, up to
+/// `reach_mm` each way: the lines around it that run exactly along the tangent. Zero on a
+/// curve or a vertex that turns.
+fn straight_extent(elems: &RunElems, s_mm: f64, elem: usize, tangent: &AxisVec, reach_mm: f64) -> (f64, f64) {
     let along = |i: usize| {
         let e = elems.get(i);
         matches!(e.element.geometry, crate::path::Geometry::Line(_))
@@ -271,14 +273,22 @@ fn straight_extent(elems: &RunElems, s_mm: f64, elem: usize, tangent: &AxisVec) 
         return (0.0, 0.0);
     }
     let (mut lo, mut hi) = (elem, elem);
-    while lo > elems.first_index() && elem - lo < STRAIGHT_MAX_ELEMS && along(lo - 1) {
+    while lo > elems.first_index()
+        && elem - lo < STRAIGHT_MAX_ELEMS
+        && s_mm - elems.get(lo).s0_mm < reach_mm
+        && along(lo - 1)
+    {
         lo -= 1;
     }
-    while hi + 1 < elems.end() && hi - elem < STRAIGHT_MAX_ELEMS && along(hi + 1) {
+    while hi + 1 < elems.end()
+        && hi - elem < STRAIGHT_MAX_ELEMS
+        && elems.get(hi).s1_mm() - s_mm < reach_mm
+        && along(hi + 1)
+    {
         hi += 1;
     }
-    let back = (s_mm - elems.get(lo).s0_mm).clamp(0.0, STRAIGHT_REACH_MM);
-    let ahead = (elems.get(hi).s1_mm() - s_mm).clamp(0.0, STRAIGHT_REACH_MM);
+    let back = (s_mm - elems.get(lo).s0_mm).clamp(0.0, reach_mm);
+    let ahead = (elems.get(hi).s1_mm() - s_mm).clamp(0.0, reach_mm);
     (back, ahead)
 }
 

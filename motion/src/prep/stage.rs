@@ -390,7 +390,7 @@ impl Prep {
             if refined < REFINE_RETRIES && b.s_mm - a.s_mm >= REFINE_MIN_PER_TOL * a.prog_tol_mm.min(b.prog_tol_mm) {
                 refined += 1;
                 self.stats.refined += 1;
-                run.points.insert(j + 1, Placer::midpoint(&run.elems, &a, &b));
+                run.points.insert(j + 1, Placer::midpoint(&run.elems, &self.st, &a, &b));
                 shrink.insert(j + 1, shrink[j].min(shrink[j + 1]));
                 *last += 1;
                 *commit += 1;

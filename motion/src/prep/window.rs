@@ -40,11 +40,6 @@ pub(super) struct WindowInput<'a> {
 /// Positions may slide this many window lengths along an unconstrained axis (a finite stand-in
 /// for "no bound", which the solver needs).
 const FREE_BAND_WINDOWS: f64 = 1.0;
-/// A point slides along a straight axis-parallel path by at most this many point spacings: as
-/// far as the check after the solve looks for the programmed path around a piece
-/// (`verify::piece_excess`, two spacings), so a piece slid farther is not measured against
-/// the wrong elements; more freedom than a spacing changes nothing a window needs.
-const SLIDE_SPACINGS: f64 = 1.0;
 /// An axis whose points differ by less than this over a window does not move there, mm.
 const STILL_AXIS_MM: f64 = 1e-12;
 
@@ -87,8 +82,9 @@ impl Solvers {
         let free = FREE_BAND_WINDOWS * st.window_mm();
         // (below, above) the programmed position per axis. An axis along which the path runs
         // exactly (Haas 2012, Alg. 3.2: NaN wins) slides along the path, but only as far as
-        // the path stays that straight line: beyond, the point would leave the path (a
-        // plunge along Z slid back past the corner it came round).
+        // the path stays that straight line, at most a spacing (`Point::straight_mm`): beyond,
+        // the point would leave the path (a plunge along Z slid back past the corner it came
+        // round).
         let halfwidths: Vec<[(f64, f64); MAX_AXES]> = shape
             .bounded()
             .map(|j| {
@@ -101,8 +97,7 @@ impl Solvers {
                     } else {
                         let (back, ahead) = p.straight_mm;
                         let (minus, plus) = if p.tangent[k] >= 0.0 { (back, ahead) } else { (ahead, back) };
-                        let slide = free.min(st.spacing_mm * SLIDE_SPACINGS);
-                        (minus.min(slide) * p.tangent[k].abs(), plus.min(slide) * p.tangent[k].abs())
+                        (minus.min(free) * p.tangent[k].abs(), plus.min(free) * p.tangent[k].abs())
                     }
                 })
             })

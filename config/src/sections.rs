@@ -82,6 +82,18 @@ pub enum PrepMode {
     Smooth,
 }
 
+/// How the smoothed points become a continuous path (Haas 2012, §4.5 and §4.6).
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum PrepMethod {
+    /// Quintic Hermite pieces through the QP's points (§4.5): C², exact at the points.
+    #[default]
+    Hermite,
+    /// A weighted least-squares quintic B-spline through the QP's points and derivatives
+    /// (§4.6–4.8): C^`continuity_degree`, approximating.
+    Bspline,
+}
+
 /// `[prep]`: path preparation (tolerance-band smoothing, Haas 2012, §3–4): a windowed per-axis
 /// QP moves the points of the path inside a lateral band, then quintic Hermite pieces join
 /// them C².
@@ -92,9 +104,19 @@ pub struct PrepConfig {
     pub mode: PrepMode,
     /// Lateral tolerance for G64 without P, mm.
     pub tolerance_mm: f64,
-    /// Derivatives per point the QP carries and makes continuous between windows: 2 (x, x′, x″)
-    /// or 3 (x … x‴). The pieces are quintic, C² either way.
+    /// Derivatives per point the QP carries: 2 (x, x′, x″), 3 (x … x‴) or 4 (x … x⁗). Hermite
+    /// pieces are quintic and C² at any degree; the B-spline is C^degree.
     pub continuity_degree: u32,
+    /// How the smoothed points become path pieces (`G64 … Q1` / `Q2` per program).
+    pub method: PrepMethod,
+    /// Weight of x⁗ in the QP objective at continuity degree 4 (Haas 2012, §3.4: 1e-8).
+    pub weight_d4: f64,
+    /// Least-squares weights of x, x′, x″, x‴, x⁗ when the B-spline is fitted to the QP's points
+    /// (Haas 2012, §4.6: 1000, 100, 10, 1 for `lscov`; x⁗ at degree 4 continues the ratio).
+    pub bspline_weights: [f64; 5],
+    /// Multiplicity of the B-spline's inner knots (one at each QP point): the spline is
+    /// C^(5 − m) there; 1 (C⁴) is Haas 2012's spline.
+    pub bspline_knot_multiplicity: u32,
     /// Weights of x, x′, x″, x‴ in the QP objective (Haas 2012, §3.3 and variant 1 of §3.7;
     /// x‴ unused at degree 2), with the derivatives taken with respect to s / `weight_length_mm`. A position
     /// weight pulls the points towards the programmed path.
@@ -130,6 +152,10 @@ impl Default for PrepConfig {
             mode: PrepMode::Exact,
             tolerance_mm: 0.01,
             continuity_degree: 3,
+            method: PrepMethod::Hermite,
+            weight_d4: 1e-8,
+            bspline_weights: [1000.0, 100.0, 10.0, 1.0, 0.1],
+            bspline_knot_multiplicity: 1,
             weights: [0.0, 1e-2, 1e-4, 1e-6],
             weight_length_mm: 50.0,
             segment_mm: 10.0,
@@ -147,13 +173,24 @@ impl Default for PrepConfig {
 impl PrepConfig {
     pub(crate) fn validate(&self, v: &Validator) -> Result<(), ConfigError> {
         v.in_range("prep.tolerance_mm", self.tolerance_mm, 1e-6, 10.0)?;
-        if !(2..=3).contains(&self.continuity_degree) {
-            return Err(v.err("prep.continuity_degree", &format!("must be 2 or 3, got {}", self.continuity_degree)));
+        if !(2..=4).contains(&self.continuity_degree) {
+            return Err(v.err("prep.continuity_degree", &format!("must be 2, 3 or 4, got {}", self.continuity_degree)));
         }
         for (i, w) in self.weights.iter().enumerate() {
             v.non_negative(&format!("prep.weights[{i}]"), *w)?;
         }
-        let used = &self.weights[1..=self.continuity_degree as usize];
+        v.non_negative("prep.weight_d4", self.weight_d4)?;
+        for (i, w) in self.bspline_weights.iter().enumerate() {
+            v.in_range(&format!("prep.bspline_weights[{i}]"), *w, 1e-12, 1e12)?;
+        }
+        if !(1..=3).contains(&self.bspline_knot_multiplicity) {
+            return Err(v.err(
+                "prep.bspline_knot_multiplicity",
+                &format!("must be 1, 2 or 3 (C⁴, C³, C²), got {}", self.bspline_knot_multiplicity),
+            ));
+        }
+        let all = [self.weights[0], self.weights[1], self.weights[2], self.weights[3], self.weight_d4];
+        let used = &all[1..=self.continuity_degree as usize];
         if used.iter().all(|w| *w == 0.0) {
             return Err(v.err("prep.weights", "at least one derivative weight in use must be positive"));
         }
@@ -327,12 +364,21 @@ mod prep_tests {
         assert_eq!(c.prep.continuity_degree, 2);
         assert_eq!(c.prep.window_segments, 3);
         assert_eq!(c.prep.segment_mm, 10.0);
+        assert_eq!(c.prep.method, crate::PrepMethod::Hermite);
+        let c = prep("method = \"bspline\"\ncontinuity_degree = 4\nbspline_knot_multiplicity = 2").unwrap();
+        assert_eq!(c.prep.method, crate::PrepMethod::Bspline);
+        assert_eq!(c.prep.continuity_degree, 4);
+        assert_eq!(c.prep.bspline_knot_multiplicity, 2);
     }
 
     #[test]
     fn bad_values_name_the_key() {
         for (text, key) in [
-            ("continuity_degree = 4", "prep.continuity_degree"),
+            ("continuity_degree = 5", "prep.continuity_degree"),
+            ("method = \"nurbs\"", "prep"),
+            ("bspline_weights = [1.0, 0.0, 1.0, 1.0, 1.0]", "prep.bspline_weights[1]"),
+            ("weight_d4 = -1.0", "prep.weight_d4"),
+            ("bspline_knot_multiplicity = 4", "prep.bspline_knot_multiplicity"),
             ("weights = [0.0, -1.0, 0.0, 0.0]", "prep.weights[1]"),
             ("weights = [1.0, 0.0, 0.0, 5.0]\ncontinuity_degree = 2", "prep.weights"),
             ("window_segments = 0", "prep.window_segments"),

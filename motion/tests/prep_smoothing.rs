@@ -260,3 +260,56 @@ fn g61_elements_pass_through() {
     before.geometry.eval(before.geometry.length_mm(), &mut d);
     assert!((d.pos[0] - 20.0).abs() < 1e-9 && (d.pos[1] - 20.0).abs() < 1e-9);
 }
+
+/// Largest jump of A‴ over the smooth joints of `path`, relative to max(1, |A‴|).
+fn jerk_joint_residual(path: &Path) -> f64 {
+    let (mut l, mut r) = (AxisDerivs::default(), AxisDerivs::default());
+    let mut worst: f64 = 0.0;
+    for w in path.elements.windows(2) {
+        if w[1].joint != JointKind::Smooth {
+            continue;
+        }
+        w[0].geometry.eval(w[0].geometry.length_mm(), &mut l);
+        w[1].geometry.eval(0.0, &mut r);
+        let scale = (0..3).map(|k| l.d3[k].abs()).fold(1.0, f64::max);
+        worst = worst.max((0..3).map(|k| (l.d3[k] - r.d3[k]).abs()).fold(0.0, f64::max) / scale);
+    }
+    worst
+}
+
+#[test]
+fn bspline_method_keeps_the_band_and_joins_at_every_degree() {
+    for degree in [2u32, 3, 4] {
+        let mut config = Settings::default_machine();
+        config.prep.max_corner_deg = 170.0;
+        config.prep.method = interpd_config::PrepMethod::Bspline;
+        config.prep.continuity_degree = degree;
+        for name in SHAPES {
+            let text = repo_file(&format!("examples/{name}.ngc"));
+            let programmed = parse(&text, &config);
+            for tol in [0.01, 0.1] {
+                let prepared =
+                    prepare_path(&config, &parse(&with_mode(&text, &format!("G64 P{tol}"), usize::MAX), &config))
+                        .expect("smoothing");
+                let (smoothed, stats) = (prepared.path, prepared.stats);
+                let dev = max_deviation(&programmed, &smoothed, 2e-3);
+                let ([dp, d1, d2], smooth) = joint_residuals(&smoothed);
+                let d3 = jerk_joint_residual(&smoothed);
+                eprintln!(
+                    "bspline C{degree} {name:>14} P{tol}: max deviation {dev:.6} mm (excess {:+.2e} mm); \
+                     {smooth} smooth joints, max jump A {dp:.1e}, A′ {d1:.1e}, A″ {d2:.1e}, A‴ {d3:.1e} (rel); \
+                     spline windows {}, Hermite instead {}, exact stops {}",
+                    dev - tol,
+                    stats.bspline_windows,
+                    stats.bspline_to_hermite,
+                    stats.fallback_exact
+                );
+                assert!(stats.bspline_windows > 0, "{name} P{tol}: no spline window");
+                assert!(dev <= tol + SLACK_MM, "{name} P{tol}: {dev} mm off the programmed path");
+                assert!(dp < 1e-9 && d1 < 1e-9 && d2 < 1e-7, "{name} P{tol}: joints not C²: {dp:e} {d1:e} {d2:e}");
+                let (a, b) = (programmed.end_position(), smoothed.end_position());
+                assert!((0..3).all(|k| (a[k] - b[k]).abs() < 1e-9), "{name}: ends at {b:?}, not {a:?}");
+            }
+        }
+    }
+}

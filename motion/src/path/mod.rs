@@ -150,7 +150,12 @@ pub struct Source {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Blend {
     Exact,
-    Tolerance { tol_mm: f64 },
+    /// Smoothing within `tol_mm` of the programmed path; `method` turns the smoothed points into
+    /// pieces (`[prep] method`, or `G64 … Q1` / `Q2`).
+    Tolerance {
+        tol_mm: f64,
+        method: interpd_config::PrepMethod,
+    },
 }
 
 /// One element of a path with its place and attributes.

@@ -183,7 +183,7 @@ mod tests {
             joint: JointKind::Smooth,
             dwell_before_s: 0.0,
             pause_before: None,
-            blend: Blend::Tolerance { tol_mm: 0.01 },
+            blend: Blend::Tolerance { tol_mm: 0.01, method: interpd_config::PrepMethod::Hermite },
         }
     }
 

@@ -14,6 +14,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod band;
+mod bspline;
 mod condition;
 mod elements;
 mod pieces;

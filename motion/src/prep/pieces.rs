@@ -5,7 +5,7 @@
 //! by the interval, which avoids the ill-conditioned monomial solve of eq. 4.21.
 
 use super::elements::RunElem;
-use super::window::State;
+use super::window::{STATE_LEVELS, State};
 use crate::path::{AxisDerivs, Geometry, HermiteEnd, Line, MAX_AXES, QuinticSpan, SpanError};
 
 /// The piece between two smoothed points `delta_tau` apart in τ: derivatives per τ become
@@ -27,9 +27,10 @@ pub(super) fn smoothed(a: &State, b: &State, delta_tau: f64, linear: &[bool]) ->
 pub(super) fn programmed_state(e: &RunElem, s_mm: f64, spacing_mm: f64) -> State {
     let mut d = AxisDerivs::default();
     e.eval(s_mm, &mut d);
-    let mut st = [[0.0; 4]; MAX_AXES];
+    let mut st = [[0.0; STATE_LEVELS]; MAX_AXES];
     for k in 0..MAX_AXES {
-        st[k] = [d.pos[k], d.d1[k] * spacing_mm, d.d2[k] * spacing_mm.powi(2), d.d3[k] * spacing_mm.powi(3)];
+        // x⁗ of the programmed path is not evaluated: 0 (only x … x″ of it are ever fixed).
+        st[k] = [d.pos[k], d.d1[k] * spacing_mm, d.d2[k] * spacing_mm.powi(2), d.d3[k] * spacing_mm.powi(3), 0.0];
     }
     st
 }

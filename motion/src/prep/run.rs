@@ -34,6 +34,9 @@ pub(super) struct Run {
     /// State at `points[0]` and how many of its levels are fixed for the next window.
     pub state: State,
     pub left_levels: usize,
+    /// Levels of `state` the B-spline method keeps at the next window's start: the spline's
+    /// continuity + 1 after a spline window, else `left_levels`.
+    pub spline_levels: usize,
     pub end: RunEnd,
     /// Joint of the next piece emitted (Start or Corner after a stop, else Smooth).
     pub next_joint: JointKind,
@@ -60,6 +63,7 @@ impl Run {
             points: Vec::new(),
             state,
             left_levels,
+            spline_levels: left_levels,
             end: RunEnd::Open,
             next_joint: joint,
             dwell_s,
@@ -104,6 +108,7 @@ impl Run {
         self.points.drain(..c);
         self.state = state;
         self.left_levels = left_levels;
+        self.spline_levels = left_levels;
         let s_keep = self.points[0].s_mm - 4.0 * spacing_mm;
         let keep = self.elems.index_at(s_keep, self.points[0].elem);
         self.elems.drop_before(keep.min(self.points[0].elem));

@@ -1,7 +1,7 @@
 //! The `[prep]` configuration turned into what the stage computes with.
 
 use crate::Settings;
-use interpd_config::AxisKind;
+use interpd_config::{AxisKind, PrepMethod};
 
 /// First point spacing next to a corner, in units of the corner's tolerance; the spacing then
 /// doubles away from the corner up to `point_spacing_mm`.
@@ -25,6 +25,12 @@ pub(super) struct StageSettings {
     pub max_solve_s: f64,
     pub linear: Vec<bool>,
     pub n_axes: usize,
+    /// How the points become pieces (Hermite or B-spline, `prep.method`).
+    pub method: PrepMethod,
+    /// B-spline: inner knot multiplicity (the spline is C^(5 − m)).
+    pub bspline_multiplicity: usize,
+    /// B-spline: least-squares weights of x … x⁗.
+    pub bspline_weights: [f64; 5],
 }
 
 impl StageSettings {
@@ -33,7 +39,8 @@ impl StageSettings {
         let levels = p.continuity_degree as usize + 1;
         // A derivative of order k in σ = s/L is (L/h)^k times the one in τ = s/h.
         let ratio = p.weight_length_mm / p.point_spacing_mm;
-        let mut weights_tau: Vec<f64> = (0..levels).map(|k| p.weights[k] * ratio.powi(2 * k as i32)).collect();
+        let all = [p.weights[0], p.weights[1], p.weights[2], p.weights[3], p.weight_d4];
+        let mut weights_tau: Vec<f64> = (0..levels).map(|k| all[k] * ratio.powi(2 * k as i32)).collect();
         let max = weights_tau.iter().copied().fold(0.0, f64::max);
         weights_tau.iter_mut().for_each(|w| *w /= max);
         Self {
@@ -49,6 +56,9 @@ impl StageSettings {
             max_solve_s: p.max_solve_ms * 1e-3,
             linear: settings.axes.iter().map(|a| a.kind == AxisKind::Linear).collect(),
             n_axes: settings.axes.len(),
+            method: p.method,
+            bspline_multiplicity: p.bspline_knot_multiplicity as usize,
+            bspline_weights: p.bspline_weights,
         }
     }
 

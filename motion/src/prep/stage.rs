@@ -7,6 +7,7 @@
 //! looser end, and finally to an exact stop and the programmed path for that segment; each
 //! fallback is logged and counted. G61 elements pass through unchanged.
 
+use super::bspline;
 use super::condition::{Conditioned, Conditioner};
 use super::elements::{RunElem, angle_between};
 use super::pieces;
@@ -17,12 +18,13 @@ use super::settings::StageSettings;
 use super::simplify;
 use super::stats::PrepStats;
 use super::verify;
-use super::window::{RightEnd, Solution, Solvers, State, WindowInput};
+use super::window::{RightEnd, STATE_LEVELS, Solution, Solvers, State, WindowInput};
 use crate::Settings;
 use crate::path::{
     AxisDerivs, AxisVec, Blend, Element, Geometry, JointKind, Line, MAX_AXES, Pause, QuinticSpan, SpanError,
     classify_joint,
 };
+use interpd_config::PrepMethod;
 use std::collections::VecDeque;
 use std::time::Instant;
 
@@ -57,6 +59,10 @@ pub enum PrepFailure {
     #[error("cannot follow the programmed element exactly: {0:?}")]
     ExactPart(SpanError),
 }
+
+/// The B-spline's state at a window's committed point and the levels the next window keeps
+/// (`None`: the window's pieces are Hermite pieces, the QP's state holds).
+type SplineEnd = Option<(State, usize)>;
 
 /// Which rung of the fallback ladder a window attempt is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -112,7 +118,7 @@ impl Prep {
     /// The tolerance of an element the stage smooths, `None` for one it passes through.
     fn g64_tol(&self, e: &Element) -> Option<f64> {
         match e.blend {
-            Blend::Tolerance { tol_mm } if self.smoothable(e) => Some(tol_mm),
+            Blend::Tolerance { tol_mm, .. } if self.smoothable(e) => Some(tol_mm),
             _ => None,
         }
     }
@@ -302,12 +308,15 @@ impl Prep {
                 commit_on_failure += usize::from(commit_on_failure >= at);
             }
             match result {
-                Ok((pieces, sol)) => {
+                Ok((pieces, sol, spline_end)) => {
                     self.count_rung(rung, w_last);
                     self.emit_pieces(pieces, commit);
-                    let state = sol.states[commit];
+                    let state = spline_end.map_or(sol.states[commit], |(s, _)| s);
                     let run = self.run.as_mut().expect("open run");
                     run.commit_to(commit, state, 3.min(self.st.levels), self.st.spacing_mm);
+                    if let Some((_, levels)) = spline_end {
+                        run.spline_levels = levels;
+                    }
                     self.stats.windows += 1;
                     return Ok(());
                 }
@@ -349,7 +358,7 @@ impl Prep {
         right: RightEnd,
         commit: &mut usize,
         inserted: &mut Vec<usize>,
-    ) -> Result<(Vec<QuinticSpan>, Solution), QpFailure> {
+    ) -> Result<(Vec<QuinticSpan>, Solution, SplineEnd), QpFailure> {
         let mut shrink = vec![1.0; *last + 1];
         let (mut narrowed, mut refined) = (0, 0);
         loop {
@@ -379,8 +388,19 @@ impl Prep {
                 }
             };
             self.stats.iterations += u64::from(sol.iterations);
-            let j = match check_pieces(run, &self.st, &mut self.stats, &sol, *commit) {
-                Ok(pieces) => return Ok((pieces, sol)),
+            let checked = match window_method(run, self.st.method) {
+                PrepMethod::Hermite => check_pieces(run, &self.st, &mut self.stats, &sol, *commit).map(|p| (p, None)),
+                PrepMethod::Bspline => {
+                    let can_refine = |j: usize| {
+                        let (a, b) = (&run.points[j], &run.points[j + 1]);
+                        refined < REFINE_RETRIES
+                            && b.s_mm - a.s_mm >= REFINE_MIN_PER_TOL * a.prog_tol_mm.min(b.prog_tol_mm)
+                    };
+                    check_spline(run, &self.st, &mut self.stats, &sol, *commit, right, can_refine)
+                }
+            };
+            let j = match checked {
+                Ok((pieces, spline_end)) => return Ok((pieces, sol, spline_end)),
                 Err(j) => j,
             };
             let run = self.run.as_mut().expect("open run");
@@ -611,6 +631,72 @@ fn check_pieces(
     Ok(out)
 }
 
+/// The method of the window starting at the run's committed point: that of the element there
+/// (`G64 … Q1` / `Q2`, or `[prep] method`).
+fn window_method(run: &Run, default: PrepMethod) -> PrepMethod {
+    match run.elems.get(run.points[0].elem).element.blend {
+        Blend::Tolerance { method, .. } => method,
+        Blend::Exact => default,
+    }
+}
+
+/// The B-spline method's pieces of `points[..=commit]` and the spline's state at the commit
+/// point (with the levels the next window keeps), or the index of the first piece outside the
+/// tolerance. Where the spline cannot be fitted, or a span leaves the band and may not be
+/// refined (`can_refine`), the window's Hermite pieces are taken instead if they keep the band
+/// (`stats.bspline_to_hermite`).
+fn check_spline(
+    run: &Run,
+    st: &StageSettings,
+    stats: &mut PrepStats,
+    sol: &Solution,
+    commit: usize,
+    right: RightEnd,
+    can_refine: impl Fn(usize) -> bool,
+) -> Result<(Vec<QuinticSpan>, SplineEnd), usize> {
+    let p = &run.points;
+    let n = sol.states.len();
+    let u: Vec<f64> = p[..n].iter().map(|q| (q.s_mm - p[0].s_mm) / st.spacing_mm).collect();
+    let failed = match bspline::window_pieces(st, &u, &sol.states, &run.state, run.spline_levels, right, commit) {
+        Ok(sp) => {
+            let (mut bad, mut worst) = (None, f64::NEG_INFINITY);
+            for (j, piece) in sp.pieces.iter().enumerate() {
+                let (dev, excess) =
+                    verify::piece_excess(piece, &p[j], &p[j + 1], &run.elems, &run.programmed, st.spacing_mm);
+                stats.max_deviation_mm = stats.max_deviation_mm.max(dev);
+                if excess > 0.0 {
+                    bad = Some(j);
+                    break;
+                }
+                worst = worst.max(excess);
+            }
+            match bad {
+                None => {
+                    stats.max_excess_mm = stats.max_excess_mm.max(worst);
+                    stats.bspline_windows += 1;
+                    return Ok((sp.pieces, Some((sp.end, sp.levels))));
+                }
+                Some(j) if can_refine(j) => return Err(j),
+                Some(j) => Some(j),
+            }
+        }
+        Err(f) => {
+            tracing::debug!(?f, s_mm = p[0].s_mm, "no B-spline for the window");
+            None
+        }
+    };
+    let pieces = check_pieces(run, st, stats, sol, commit);
+    match (pieces, failed) {
+        (Ok(pieces), _) => {
+            stats.bspline_to_hermite += 1;
+            tracing::debug!(s_mm = p[0].s_mm, "B-spline window: Hermite pieces instead");
+            Ok((pieces, None))
+        }
+        (Err(j), Some(k)) => Err(j.min(k)),
+        (Err(j), None) => Err(j),
+    }
+}
+
 /// State in τ at the start of a programmed element.
 fn start_state(e: &Element, spacing_mm: f64) -> State {
     state_at(&e.geometry, 0.0, spacing_mm)
@@ -624,9 +710,9 @@ fn end_state(e: &Element, spacing_mm: f64) -> State {
 fn state_at(g: &Geometry, s_mm: f64, h: f64) -> State {
     let mut d = AxisDerivs::default();
     g.eval(s_mm, &mut d);
-    let mut st = [[0.0; 4]; MAX_AXES];
+    let mut st = [[0.0; STATE_LEVELS]; MAX_AXES];
     for k in 0..MAX_AXES {
-        st[k] = [d.pos[k], d.d1[k] * h, d.d2[k] * h * h, d.d3[k] * h * h * h];
+        st[k] = [d.pos[k], d.d1[k] * h, d.d2[k] * h * h, d.d3[k] * h * h * h, 0.0];
     }
     st
 }

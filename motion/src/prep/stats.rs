@@ -44,6 +44,11 @@ pub struct PrepStats {
     pub infeasible: u64,
     pub slow: u64,
     pub numerical: u64,
+    /// B-spline method: windows committed as spline spans.
+    pub bspline_windows: u64,
+    /// B-spline method: windows whose spline could not be fitted or left the band after the
+    /// refinements, committed as Hermite pieces instead.
+    pub bspline_to_hermite: u64,
     /// Largest distance of a checked sample to the programmed path, mm.
     pub max_deviation_mm: f64,
     /// Largest (distance − tolerance) over the checked samples, mm (≤ 0: inside).

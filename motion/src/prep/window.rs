@@ -8,8 +8,11 @@ use super::settings::StageSettings;
 use crate::path::MAX_AXES;
 use std::collections::HashMap;
 
-/// Position and derivatives per axis in τ = s / point_spacing_mm (level 0 = position).
-pub(super) type State = [[f64; 4]; MAX_AXES];
+/// Position and derivatives per axis in τ = s / point_spacing_mm (level 0 = position; levels
+/// beyond the continuity degree stay 0, x⁗ is carried for the B-spline method).
+pub(super) type State = [[f64; STATE_LEVELS]; MAX_AXES];
+/// Levels a state holds: x … x⁗ (continuity degree 4).
+pub(super) const STATE_LEVELS: usize = 5;
 
 /// How the window ends.
 // The join state is copied once per run end; boxing it would cost more than it saves.
@@ -102,7 +105,7 @@ impl Solvers {
                 })
             })
             .collect();
-        let mut sol = Solution { states: vec![[[0.0; 4]; MAX_AXES]; n], iterations: 0 };
+        let mut sol = Solution { states: vec![[[0.0; STATE_LEVELS]; MAX_AXES]; n], iterations: 0 };
         for k in 0..MAX_AXES {
             if !active[k] {
                 // A still axis stays where it is.

@@ -145,6 +145,8 @@ pub(crate) struct Interpreter {
     g06: Option<G06Block>,
     pub(super) pending_dwell_s: f64,
     default_tol_mm: f64,
+    /// Smoothing method of G64 without Q (`[prep] method`).
+    default_method: interpd_config::PrepMethod,
     pub path: Path,
     pub summary: Summary,
     ended: bool,
@@ -228,7 +230,9 @@ fn unused_word_message(letter: char) -> String {
         // Tool length compensation (G43) would consume H.
         'H' => "H word with no G43 to use it".into(),
         'D' => "D word with no G41/G42 (or G41.1/G42.1) to use it".into(),
-        'Q' => "Q word with no G-code that uses it (G64 Q, the naive-CAM tolerance, is not supported)".into(),
+        'Q' => "Q word with no G-code that uses it (G64 Q1 / Q2 select the smoothing method; LinuxCNC's \
+                 naive-CAM tolerance Q is not supported)"
+            .into(),
         _ => format!("{letter} word with no G-code that uses it"),
     }
 }
@@ -239,7 +243,9 @@ impl Interpreter {
     pub(super) fn initial_modal(settings: &Settings, pos: AxisVec) -> Modal {
         let blend = match settings.prep.mode {
             interpd_config::PrepMode::Exact => Blend::Exact,
-            interpd_config::PrepMode::Smooth => Blend::Tolerance { tol_mm: settings.prep.tolerance_mm },
+            interpd_config::PrepMode::Smooth => {
+                Blend::Tolerance { tol_mm: settings.prep.tolerance_mm, method: settings.prep.method }
+            }
         };
         Modal {
             motion: None,
@@ -280,6 +286,7 @@ impl Interpreter {
             g06: None,
             pending_dwell_s: 0.0,
             default_tol_mm: settings.prep.tolerance_mm,
+            default_method: settings.prep.method,
             path: Path::new(settings.axis_names(), [0.0; MAX_AXES]),
             summary: Summary::default(),
             ended: false,
@@ -671,7 +678,26 @@ impl Interpreter {
                         Some(p) => p.value * self.modal.unit_mm,
                         None => self.default_tol_mm,
                     };
-                    self.modal.blend = Blend::Tolerance { tol_mm: tol };
+                    // Q selects the method for this program (an interpd word: LinuxCNC's G64 Q,
+                    // the naive-CAM tolerance, is not supported).
+                    let method = match block.get('Q') {
+                        None => self.default_method,
+                        Some(q) if q.value == 1.0 => interpd_config::PrepMethod::Hermite,
+                        Some(q) if q.value == 2.0 => interpd_config::PrepMethod::Bspline,
+                        Some(q) => {
+                            d.error(
+                                line_no,
+                                q.col,
+                                format!(
+                                    "G64 Q selects the smoothing method, Q1 Hermite or Q2 B-spline, got Q{} \
+                                     (LinuxCNC's naive-CAM tolerance Q is not supported)",
+                                    q.value
+                                ),
+                            );
+                            return;
+                        }
+                    };
+                    self.modal.blend = Blend::Tolerance { tol_mm: tol, method };
                 }
             }
         }

@@ -174,11 +174,12 @@ fn every_word_is_used_or_an_error() {
         ("G1 X1 F100 P2\n", "t.ngc:1:12: P is only valid with G4, G64 or in G06 spline data"),
         (
             "F100 Q1\n",
-            "t.ngc:1:6: Q word with no G-code that uses it (G64 Q, the naive-CAM tolerance, is not supported)",
+            "t.ngc:1:6: Q word with no G-code that uses it (G64 Q1 / Q2 select the smoothing method; LinuxCNC's naive-CAM tolerance Q is not supported)",
         ),
         (
             "G64 P0.1 Q0.01\n",
-            "t.ngc:1:10: Q word with no G-code that uses it (G64 Q, the naive-CAM tolerance, is not supported)",
+            "t.ngc:1:10: G64 Q selects the smoothing method, Q1 Hermite or Q2 B-spline, got Q0.01 (LinuxCNC's \
+             naive-CAM tolerance Q is not supported)",
         ),
         ("G0 X1 D2\n", "t.ngc:1:7: D word with no G41/G42 (or G41.1/G42.1) to use it"),
         ("G0 X1 L2\n", "t.ngc:1:7: L word with no G-code that uses it"),
@@ -196,6 +197,18 @@ fn every_word_is_used_or_an_error() {
     for (text, expect) in cases {
         assert_eq!(first_error(text), expect, "program:\n{text}");
     }
+}
+
+#[test]
+fn g64_q_selects_the_smoothing_method() {
+    use crate::path::Blend;
+    use interpd_config::PrepMethod;
+    let p = ok("G64 P0.1 Q2\nG1 X1 F100\nG64 P0.05 Q1\nG1 X2\nG64\nG1 X3\n");
+    let blends: Vec<Blend> = p.path.elements.iter().map(|e| e.blend).collect();
+    assert_eq!(blends[0], Blend::Tolerance { tol_mm: 0.1, method: PrepMethod::Bspline });
+    assert_eq!(blends[1], Blend::Tolerance { tol_mm: 0.05, method: PrepMethod::Hermite });
+    // G64 without Q: the [prep] default.
+    assert!(matches!(blends[2], Blend::Tolerance { method: PrepMethod::Hermite, .. }));
 }
 
 #[test]

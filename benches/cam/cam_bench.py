@@ -43,6 +43,9 @@ import numpy as np
 
 ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
 MACHINE = os.path.join(ROOT, "config", "machines", "xyz.toml")
+# `interpd plan` arguments that choose the machine file (--machine: e.g. one with
+# `[prep] method = "bspline"`; the limits checked are that file's).
+MACHINE_ARGS = []
 TOL_MM = 0.01
 PERIOD_MS = 0.25
 
@@ -125,7 +128,7 @@ def run(binary, name, program, tmp, fd_limits, optimum):
     nodes = os.path.join(tmp, f"{name}.nodes.json")
     t0 = time.time()
     r = subprocess.run([binary, "plan", program, "--json", "--period-ms", str(PERIOD_MS), "--out", csv,
-                        "--export-nodes", nodes], capture_output=True, text=True)
+                        "--export-nodes", nodes] + MACHINE_ARGS, capture_output=True, text=True)
     wall = time.time() - t0
     if r.returncode != 0:
         return {"error": (r.stdout + r.stderr).strip().splitlines()[-1:]}
@@ -168,7 +171,7 @@ def plan_memory(binary, program):
     """Peak RSS (MB, GNU time's %M: the process's own, not the forking Python's) and the
     --json figures of `interpd plan PROGRAM --json`: smoothing + planning against the motion
     time, and the same with the reading of the program counted too."""
-    r = subprocess.run(["/usr/bin/time", "-f", "%M", binary, "plan", program, "--json"], capture_output=True,
+    r = subprocess.run(["/usr/bin/time", "-f", "%M", binary, "plan", program, "--json"] + MACHINE_ARGS, capture_output=True,
                        text=True)
     if r.returncode != 0:
         return {"error": r.stderr.strip().splitlines()[-1:]}
@@ -247,7 +250,13 @@ def main():
     ap.add_argument("--quick", action="store_true", help="a tenth of the moves")
     ap.add_argument("--only", nargs="*", help="program names to run")
     ap.add_argument("--repeat", type=int, default=3, help="runs per program of the memory section (best taken)")
+    ap.add_argument("--machine", help="machine file for interpd plan (default: config/machines/xyz.toml, "
+                    "the built-in default)")
     args = ap.parse_args()
+    if args.machine:
+        global MACHINE
+        MACHINE = os.path.abspath(args.machine)
+        MACHINE_ARGS.extend(["--machine", MACHINE])
     fd_limits = load_module("benches/robustness/fd_limits.py", "fd_limits")
     optimum = os.path.join(ROOT, "benches", "reference", "optimum.py")
     bins = [("this", args.binary)] + ([("baseline", args.baseline)] if args.baseline else [])

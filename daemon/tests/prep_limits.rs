@@ -130,3 +130,66 @@ fn dense_slice_is_5x_faster_smoothed_and_keeps_the_limits() {
     assert!(t_e >= 5.0 * t_s, "smoothing must make the dense program ≥ 5x faster: {t_s} vs {t_e}");
     assert!(v <= 1.001 && a <= 1.001 && j <= 1.02, "vel {v:.5} acc {a:.5} jerk {j:.5}");
 }
+
+/// Largest distance of the setpoints (CSV rows) from the programmed path of `text`, X/Y, mm.
+fn setpoint_distance(rows: &[Vec<f64>], text: &str) -> f64 {
+    use interpd_motion::path::AxisDerivs;
+    let settings = interpd_motion::Settings::from(&Config::default_machine());
+    let path = interpd_motion::program::parse(text, "p.ngc", &settings).expect("parses").path;
+    let mut pts: Vec<(f64, f64)> = Vec::new();
+    let mut d = AxisDerivs::default();
+    for e in &path.elements {
+        let len = e.geometry.length_mm();
+        // 0.05 mm chords: a sag of 0.016 µm on the 20 mm arcs of the shapes.
+        let n = (len / 0.05).ceil().max(1.0) as usize;
+        for i in 0..=n {
+            e.geometry.eval(len * i as f64 / n as f64, &mut d);
+            pts.push((d.pos[0], d.pos[1]));
+        }
+    }
+    rows.iter()
+        .map(|r| {
+            let (x, y) = (r[5], r[6]);
+            pts.windows(2)
+                .map(|w| {
+                    let ((ax, ay), (bx, by)) = (w[0], w[1]);
+                    let (dx, dy) = (bx - ax, by - ay);
+                    let l2 = dx * dx + dy * dy;
+                    let t = if l2 > 0.0 { (((x - ax) * dx + (y - ay) * dy) / l2).clamp(0.0, 1.0) } else { 0.0 };
+                    (x - ax - t * dx).hypot(y - ay - t * dy)
+                })
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn bspline_method_keeps_the_band_and_the_axis_limits() {
+    let cfg = Config::default_machine();
+    for name in ["corner_90", "line_arc_line"] {
+        let source = repo_file(&format!("examples/{name}.ngc"));
+        for degree in [2, 3, 4] {
+            for tol in ["0.01", "0.1"] {
+                // The method chosen in the program (G64 Q2); the degree in the machine file.
+                let text = with_mode(&source, &format!("G64 P{tol} Q2"), usize::MAX);
+                let machine =
+                    format!("{}\n[prep]\ncontinuity_degree = {degree}\n", interpd::config::DEFAULT_MACHINE_TOML);
+                let (rows, json) = plan(&format!("{name}-bs{degree}-{tol}"), &text, Some(0.25), Some(&machine));
+                let [v, a, j] = fd_ratios(&rows, &cfg);
+                let dev = setpoint_distance(&rows, &source);
+                let stats = &json["prep"]["stats"];
+                eprintln!(
+                    "{name:>14} B-spline {degree} P{tol}: {:.4} s; setpoints {dev:.6} mm from the path; finite \
+                     differences vel {v:.4} acc {a:.4} jerk {j:.4}; spline windows {}, Hermite instead {}",
+                    json["duration_s"].as_f64().unwrap(),
+                    stats["bspline_windows"],
+                    stats["bspline_to_hermite"]
+                );
+                assert!(stats["bspline_windows"].as_u64().unwrap() > 0, "{name}: the B-spline was not used");
+                let tol_mm: f64 = tol.parse().unwrap();
+                assert!(dev <= tol_mm + 1e-3, "{name} B-spline {degree} P{tol}: {dev} mm off the path");
+                assert!(v <= 1.001 && a <= 1.001 && j <= 1.02, "{name} P{tol}: vel {v:.5} acc {a:.5} jerk {j:.5}");
+            }
+        }
+    }
+}

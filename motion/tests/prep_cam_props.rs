@@ -317,4 +317,24 @@ proptest! {
         let case = format!("{pieces:?} tol {tol_mm} noise {noise_share} dup {dup_every} F{feed}");
         smooth_and_plan(&machine(), &text, tol_mm, &case)?;
     }
+
+    /// The same programs through the weighted B-spline method (Haas 2012, §4.6) at continuity
+    /// degree 2, 3 or 4: the spline approximates, so the band is what its check and fallbacks
+    /// must keep.
+    #[test]
+    fn noisy_cam_programs_through_the_bspline_keep_the_band_and_the_limits(
+        pieces in prop::collection::vec(piece(), 1..6),
+        tol_mm in 0.005..0.05f64,
+        noise_share in 0.0..0.2f64,
+        dup_every in 50usize..400,
+        feed in 600.0..12000.0f64,
+        degree in 2u32..=4,
+    ) {
+        let text = program_text(&pieces, tol_mm, noise_share * tol_mm, dup_every, feed);
+        let case = format!("B-spline C{degree}: {pieces:?} tol {tol_mm} noise {noise_share} dup {dup_every} F{feed}");
+        let mut cfg = machine();
+        cfg.prep.method = interpd_config::PrepMethod::Bspline;
+        cfg.prep.continuity_degree = degree;
+        smooth_and_plan(&cfg, &text, tol_mm, &case)?;
+    }
 }

@@ -109,6 +109,9 @@ pub struct PrepConfig {
     pub continuity_degree: u32,
     /// How the smoothed points become path pieces (`G64 … Q1` / `Q2` per program).
     pub method: PrepMethod,
+    /// Continuity of the Hermite pieces: 2 (quintic from x … x″, Haas 2012, §4.5), 3 (degree 7
+    /// from x … x‴) or 4 (degree 9 from x … x⁗); at most `continuity_degree`.
+    pub hermite_continuity: u32,
     /// Weight of x⁗ in the QP objective at continuity degree 4 (Haas 2012, §3.4: 1e-8).
     pub weight_d4: f64,
     /// Least-squares weights of x, x′, x″, x‴, x⁗ when the B-spline is fitted to the QP's points
@@ -154,6 +157,7 @@ impl Default for PrepConfig {
             continuity_degree: 3,
             method: PrepMethod::Hermite,
             weight_d4: 1e-8,
+            hermite_continuity: 2,
             bspline_weights: [1000.0, 100.0, 10.0, 1.0, 0.1],
             bspline_knot_multiplicity: 1,
             weights: [0.0, 1e-2, 1e-4, 1e-6],
@@ -182,6 +186,15 @@ impl PrepConfig {
         v.non_negative("prep.weight_d4", self.weight_d4)?;
         for (i, w) in self.bspline_weights.iter().enumerate() {
             v.in_range(&format!("prep.bspline_weights[{i}]"), *w, 1e-12, 1e12)?;
+        }
+        if !(2..=self.continuity_degree).contains(&self.hermite_continuity) {
+            return Err(v.err(
+                "prep.hermite_continuity",
+                &format!(
+                    "must lie in 2..=continuity_degree ({}): the pieces need the QP's derivatives, got {}",
+                    self.continuity_degree, self.hermite_continuity
+                ),
+            ));
         }
         if !(1..=3).contains(&self.bspline_knot_multiplicity) {
             return Err(v.err(
@@ -379,6 +392,8 @@ mod prep_tests {
             ("bspline_weights = [1.0, 0.0, 1.0, 1.0, 1.0]", "prep.bspline_weights[1]"),
             ("weight_d4 = -1.0", "prep.weight_d4"),
             ("bspline_knot_multiplicity = 4", "prep.bspline_knot_multiplicity"),
+            ("hermite_continuity = 4", "prep.hermite_continuity"),
+            ("hermite_continuity = 1", "prep.hermite_continuity"),
             ("weights = [0.0, -1.0, 0.0, 0.0]", "prep.weights[1]"),
             ("weights = [1.0, 0.0, 0.0, 5.0]\ncontinuity_degree = 2", "prep.weights"),
             ("window_segments = 0", "prep.window_segments"),

@@ -198,21 +198,30 @@ fn main() {
         let programmed = program::parse(&source, "bench.ngc", &base).expect("parses").path;
         let reference = Reference::new(&programmed);
         let mut rows = Vec::new();
-        let mut variants: Vec<(Option<PrepMethod>, u32)> = vec![(None, 0)];
+        // (method, QP degree, Hermite pieces' continuity): Haas's Hermite is C² at every degree;
+        // "Hermite C3/C4" are the degree-7/9 pieces.
+        let mut variants: Vec<(Option<PrepMethod>, u32, u32)> = vec![(None, 0, 2)];
         for method in [PrepMethod::Hermite, PrepMethod::Bspline] {
             for degree in [2, 3, 4] {
-                variants.push((Some(method), degree));
+                variants.push((Some(method), degree, 2));
             }
         }
-        for (method, degree) in variants {
+        variants.push((Some(PrepMethod::Hermite), 3, 3));
+        variants.push((Some(PrepMethod::Hermite), 4, 4));
+        for (method, degree, hermite) in variants {
             let mut settings = Settings::from(&config);
             let (word, label) = match method {
                 None => ("G61".to_string(), "G61".to_string()),
                 Some(m) => {
                     settings.prep.method = m;
                     settings.prep.continuity_degree = degree;
-                    let name = if m == PrepMethod::Hermite { "Hermite" } else { "B-spline" };
-                    (format!("G64 P{tol}"), format!("{name} {degree}"))
+                    settings.prep.hermite_continuity = hermite;
+                    let name = match m {
+                        PrepMethod::Hermite if hermite > 2 => "Hermite C",
+                        PrepMethod::Hermite => "Hermite ",
+                        PrepMethod::Bspline => "B-spline ",
+                    };
+                    (format!("G64 P{tol}"), format!("{name}{degree}"))
                 }
             };
             let path = program::parse(&with_mode(&source, &word), "bench.ngc", &settings).expect("parses").path;
@@ -250,7 +259,8 @@ fn plot(file: &str, plant: &str, tol: f64, panels: &[(String, Vec<Row>)]) -> Res
     let root = BitMapBackend::new(file, (1200, 500 * panels.len() as u32)).into_drawing_area();
     root.fill(&WHITE)?;
     let areas = root.split_evenly((panels.len(), 1));
-    let colours = [BLACK, BLUE, CYAN, GREEN, RED, MAGENTA, RGBColor(255, 140, 0)];
+    let colours =
+        [BLACK, BLUE, CYAN, GREEN, RED, MAGENTA, RGBColor(255, 140, 0), RGBColor(128, 128, 128), RGBColor(128, 0, 0)];
     for ((shape, rows), area) in panels.iter().zip(areas) {
         let t_max = rows.iter().flat_map(|r| r.figures.trace.last().map(|p| p.0)).fold(0.0, f64::max);
         let e_max = rows.iter().map(|r| r.figures.excitation_max_mm * 1e3).fold(1e-3, f64::max);

@@ -164,6 +164,34 @@ fn setpoint_distance(rows: &[Vec<f64>], text: &str) -> f64 {
 }
 
 #[test]
+fn hermite_pieces_of_degree_7_and_9_keep_the_band_and_the_axis_limits() {
+    let cfg = Config::default_machine();
+    for name in ["corner_90", "line_arc_line"] {
+        let source = repo_file(&format!("examples/{name}.ngc"));
+        for degree in [3, 4] {
+            for tol in ["0.01", "0.1"] {
+                let text = with_mode(&source, &format!("G64 P{tol}"), usize::MAX);
+                let machine = format!(
+                    "{}\n[prep]\ncontinuity_degree = {degree}\nhermite_continuity = {degree}\n",
+                    interpd::config::DEFAULT_MACHINE_TOML
+                );
+                let (rows, json) = plan(&format!("{name}-h{degree}-{tol}"), &text, Some(0.25), Some(&machine));
+                let [v, a, j] = fd_ratios(&rows, &cfg);
+                let dev = setpoint_distance(&rows, &source);
+                eprintln!(
+                    "{name:>14} Hermite C{degree} P{tol}: {:.4} s; setpoints {dev:.6} mm from the path; finite \
+                     differences vel {v:.4} acc {a:.4} jerk {j:.4}",
+                    json["duration_s"].as_f64().unwrap(),
+                );
+                let tol_mm: f64 = tol.parse().unwrap();
+                assert!(dev <= tol_mm + 1e-3, "{name} Hermite C{degree} P{tol}: {dev} mm off the path");
+                assert!(v <= 1.001 && a <= 1.001 && j <= 1.02, "{name} P{tol}: vel {v:.5} acc {a:.5} jerk {j:.5}");
+            }
+        }
+    }
+}
+
+#[test]
 fn bspline_method_keeps_the_band_and_the_axis_limits() {
     let cfg = Config::default_machine();
     for name in ["corner_90", "line_arc_line"] {

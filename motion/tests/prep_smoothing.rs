@@ -313,3 +313,40 @@ fn bspline_method_keeps_the_band_and_joins_at_every_degree() {
         }
     }
 }
+
+#[test]
+fn hermite_pieces_of_degree_7_and_9_keep_the_band_and_join_c3() {
+    for (degree, hermite) in [(3u32, 3u32), (4, 3), (4, 4)] {
+        let mut config = Settings::default_machine();
+        config.prep.max_corner_deg = 170.0;
+        config.prep.continuity_degree = degree;
+        config.prep.hermite_continuity = hermite;
+        for name in SHAPES {
+            let text = repo_file(&format!("examples/{name}.ngc"));
+            let programmed = parse(&text, &config);
+            for tol in [0.01, 0.1] {
+                let prepared =
+                    prepare_path(&config, &parse(&with_mode(&text, &format!("G64 P{tol}"), usize::MAX), &config))
+                        .expect("smoothing");
+                let (smoothed, stats) = (prepared.path, prepared.stats);
+                let dev = max_deviation(&programmed, &smoothed, 2e-3);
+                let ([dp, d1, d2], smooth) = joint_residuals(&smoothed);
+                let d3 = jerk_joint_residual(&smoothed);
+                eprintln!(
+                    "Hermite C{hermite} (QP {degree}) {name:>14} P{tol}: max deviation {dev:.6} mm (excess {:+.2e} mm); \
+                     {smooth} smooth joints, max jump A {dp:.1e}, A′ {d1:.1e}, A″ {d2:.1e}, A‴ {d3:.1e} (rel); \
+                     refined {}, exact stops {}",
+                    dev - tol,
+                    stats.refined,
+                    stats.fallback_exact
+                );
+                assert!(dev <= tol + SLACK_MM, "{name} P{tol}: {dev} mm off the programmed path");
+                assert!(dp < 1e-9 && d1 < 1e-9 && d2 < 1e-7, "{name} P{tol}: joints not C²: {dp:e} {d1:e} {d2:e}");
+                // C³ wherever the pieces join each other (an exact stop's parts rejoin C²).
+                if stats.fallback_exact == 0 {
+                    assert!(d3 < 1e-9, "{name} P{tol}: A‴ jumps by {d3:e} (rel) at a joint");
+                }
+            }
+        }
+    }
+}

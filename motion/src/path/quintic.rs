@@ -10,7 +10,13 @@ pub(crate) struct HermiteEnd {
     pub pos: AxisVec,
     pub d1: AxisVec,
     pub d2: AxisVec,
+    /// Third and fourth derivative, used by the degree-7 and degree-9 pieces only.
+    pub d3: AxisVec,
+    pub d4: AxisVec,
 }
+
+/// Coefficients a piece holds: up to degree 9 (x … x⁗ at both ends).
+const MAX_COEF: usize = 10;
 
 /// Quintic Hermite piece between two smoothed points (Haas 2012, §4.5, eq. 4.17–4.21, as a full
 /// quintic: the printed eq. 4.21 stops at t⁴): per axis the degree-5 polynomial in t ∈ [0, 1]
@@ -19,8 +25,10 @@ pub(crate) struct HermiteEnd {
 /// arc length s like [`super::CubicSpan`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct QuinticSpan {
-    /// `P(t) = Σᵢ c[k][i] tⁱ` per axis k.
-    c: [[f64; 6]; MAX_AXES],
+    /// `P(t) = Σᵢ c[k][i] tⁱ` per axis k (i < `n_coef`).
+    c: [[f64; MAX_COEF]; MAX_AXES],
+    /// 6 for a quintic; 8 or 10 for the degree-7 / degree-9 Hermite pieces of higher continuity.
+    n_coef: usize,
     linear: [bool; MAX_AXES],
     table: ArcLengthTable,
 }
@@ -39,7 +47,7 @@ impl QuinticSpan {
     /// and second derivative at both ends); derivatives are per unit t. Axes flagged in `linear`
     /// define the arc length.
     pub(crate) fn hermite(a: &HermiteEnd, b: &HermiteEnd, linear: &[bool]) -> Result<Self, SpanError> {
-        let mut c = [[0.0; 6]; MAX_AXES];
+        let mut c = [[0.0; MAX_COEF]; MAX_AXES];
         for (k, ck) in c.iter_mut().enumerate() {
             ck[0] = a.pos[k];
             ck[1] = a.d1[k];
@@ -49,11 +57,51 @@ impl QuinticSpan {
                 ck[3 + i] = row[0] * r[0] + row[1] * r[1] + row[2] * r[2];
             }
         }
+        Self::from_coefficients(c, 6, linear)
+    }
+
+    /// The Hermite piece of degree 2L − 1 that matches the first L = `levels` (3, 4 or 5) of
+    /// x, x′, x″, x‴, x⁗ at both ends (per unit t): C^(L − 1) between pieces built from the same
+    /// end data. `levels` = 3 is [`Self::hermite`].
+    pub(crate) fn hermite_levels(
+        a: &HermiteEnd,
+        b: &HermiteEnd,
+        levels: usize,
+        linear: &[bool],
+    ) -> Result<Self, SpanError> {
+        if levels <= 3 {
+            return Self::hermite(a, b, linear);
+        }
+        let l = levels.min(5);
+        let n = 2 * l;
+        // (k!/(k − m)!) for the m-th derivative of tᵏ at t = 1.
+        let falling = |k: usize, m: usize| -> f64 { (0..m).map(|i| (k - i) as f64).product() };
+        let fact = |m: usize| -> f64 { (1..=m).map(|i| i as f64).product() };
+        // The end-condition matrix of the upper coefficients c_l … c_{2l−1}, inverted once.
+        let m = nalgebra::DMatrix::from_fn(l, l, |r, i| falling(l + i, r));
+        let inv = m.try_inverse().ok_or(SpanError::ZeroTangent)?;
+        let mut c = [[0.0; MAX_COEF]; MAX_AXES];
+        for (k, ck) in c.iter_mut().enumerate() {
+            let da = [a.pos[k], a.d1[k], a.d2[k], a.d3[k], a.d4[k]];
+            let db = [b.pos[k], b.d1[k], b.d2[k], b.d3[k], b.d4[k]];
+            for j in 0..l {
+                ck[j] = da[j] / fact(j);
+            }
+            let r: Vec<f64> =
+                (0..l).map(|row| db[row] - (row..l).map(|j| ck[j] * falling(j, row)).sum::<f64>()).collect();
+            for i in 0..l {
+                ck[l + i] = (0..l).map(|row| inv[(i, row)] * r[row]).sum();
+            }
+        }
+        Self::from_coefficients(c, n, linear)
+    }
+
+    fn from_coefficients(c: [[f64; MAX_COEF]; MAX_AXES], n_coef: usize, linear: &[bool]) -> Result<Self, SpanError> {
         let mut mask = [false; MAX_AXES];
         for (k, m) in mask.iter_mut().enumerate() {
             *m = linear.get(k).copied().unwrap_or(false);
         }
-        let speed = |t: f64| speed_of(&c, &mask, t);
+        let speed = |t: f64| speed_of(&c, n_coef, &mask, t);
         let table = ArcLengthTable::build(&speed);
         let len = table.length();
         if !len.is_finite() || len <= 0.0 {
@@ -62,7 +110,7 @@ impl QuinticSpan {
         if min_speed(&speed) < CUSP_REL_TOL * len {
             return Err(SpanError::ZeroTangent);
         }
-        Ok(Self { c, linear: mask, table })
+        Ok(Self { c, n_coef, linear: mask, table })
     }
 
     pub(crate) fn length_mm(&self) -> f64 {
@@ -73,14 +121,14 @@ impl QuinticSpan {
     pub(crate) fn point_at_t(&self, t: f64) -> AxisVec {
         let mut p = [0.0; MAX_AXES];
         for (k, pk) in p.iter_mut().enumerate() {
-            *pk = horner(&self.c[k], t);
+            *pk = horner(&self.c[k], self.n_coef, t);
         }
         p
     }
 
     /// Piece parameter at arc length `s`.
     pub(crate) fn t_at(&self, s: f64) -> f64 {
-        self.table.u_of_s(&|t| speed_of(&self.c, &self.linear, t), s)
+        self.table.u_of_s(&|t| speed_of(&self.c, self.n_coef, &self.linear, t), s)
     }
 
     pub(crate) fn eval(&self, s: f64, out: &mut AxisDerivs) {
@@ -93,10 +141,16 @@ impl QuinticSpan {
         let (mut p1, mut p2, mut p3) = ([0.0; MAX_AXES], [0.0; MAX_AXES], [0.0; MAX_AXES]);
         for k in 0..MAX_AXES {
             let c = &self.c[k];
-            out.pos[k] = horner(c, t);
-            p1[k] = (((5.0 * c[5] * t + 4.0 * c[4]) * t + 3.0 * c[3]) * t + 2.0 * c[2]) * t + c[1];
-            p2[k] = ((20.0 * c[5] * t + 12.0 * c[4]) * t + 6.0 * c[3]) * t + 2.0 * c[2];
-            p3[k] = (60.0 * c[5] * t + 24.0 * c[4]) * t + 6.0 * c[3];
+            out.pos[k] = horner(c, self.n_coef, t);
+            if self.n_coef == 6 {
+                p1[k] = (((5.0 * c[5] * t + 4.0 * c[4]) * t + 3.0 * c[3]) * t + 2.0 * c[2]) * t + c[1];
+                p2[k] = ((20.0 * c[5] * t + 12.0 * c[4]) * t + 6.0 * c[3]) * t + 2.0 * c[2];
+                p3[k] = (60.0 * c[5] * t + 24.0 * c[4]) * t + 6.0 * c[3];
+            } else {
+                p1[k] = derivative(c, self.n_coef, 1, t);
+                p2[k] = derivative(c, self.n_coef, 2, t);
+                p3[k] = derivative(c, self.n_coef, 3, t);
+            }
         }
         arclength::reparameterize(&p1, &p2, &p3, &self.linear, MAX_AXES, out);
     }
@@ -126,16 +180,33 @@ fn min_speed(speed: &impl Fn(f64) -> f64) -> f64 {
     best
 }
 
-fn horner(c: &[f64; 6], t: f64) -> f64 {
-    ((((c[5] * t + c[4]) * t + c[3]) * t + c[2]) * t + c[1]) * t + c[0]
+fn horner(c: &[f64; MAX_COEF], n_coef: usize, t: f64) -> f64 {
+    if n_coef == 6 {
+        return ((((c[5] * t + c[4]) * t + c[3]) * t + c[2]) * t + c[1]) * t + c[0];
+    }
+    c[..n_coef].iter().rev().fold(0.0, |acc, &ci| acc * t + ci)
 }
 
-fn speed_of(c: &[[f64; 6]; MAX_AXES], linear: &[bool; MAX_AXES], t: f64) -> f64 {
+/// The `m`-th derivative of Σ cᵢ tⁱ (i < n_coef) at t, by Horner.
+fn derivative(c: &[f64; MAX_COEF], n_coef: usize, m: usize, t: f64) -> f64 {
+    let mut acc = 0.0;
+    for i in (m..n_coef).rev() {
+        let f: f64 = (0..m).map(|j| (i - j) as f64).product();
+        acc = acc * t + f * c[i];
+    }
+    acc
+}
+
+fn speed_of(c: &[[f64; MAX_COEF]; MAX_AXES], n_coef: usize, linear: &[bool; MAX_AXES], t: f64) -> f64 {
     let mut sq = 0.0;
     for k in 0..MAX_AXES {
         if linear[k] {
             let ck = &c[k];
-            let d = (((5.0 * ck[5] * t + 4.0 * ck[4]) * t + 3.0 * ck[3]) * t + 2.0 * ck[2]) * t + ck[1];
+            let d = if n_coef == 6 {
+                (((5.0 * ck[5] * t + 4.0 * ck[4]) * t + 3.0 * ck[3]) * t + 2.0 * ck[2]) * t + ck[1]
+            } else {
+                derivative(ck, n_coef, 1, t)
+            };
             sq += d * d;
         }
     }
@@ -165,11 +236,11 @@ mod tests {
         let h = 1e-4;
         for k in 0..3 {
             let c = &q.c[k];
-            assert!((horner(c, 0.0) - a.pos[k]).abs() < 1e-14);
-            assert!((horner(c, 1.0) - b.pos[k]).abs() < 1e-13);
+            assert!((horner(c, 6, 0.0) - a.pos[k]).abs() < 1e-14);
+            assert!((horner(c, 6, 1.0) - b.pos[k]).abs() < 1e-13);
             // Central differences of P at the ends against the data.
-            let d1 = |t: f64| (horner(c, t + h) - horner(c, t - h)) / (2.0 * h);
-            let d2 = |t: f64| (horner(c, t + h) - 2.0 * horner(c, t) + horner(c, t - h)) / (h * h);
+            let d1 = |t: f64| (horner(c, 6, t + h) - horner(c, 6, t - h)) / (2.0 * h);
+            let d2 = |t: f64| (horner(c, 6, t + h) - 2.0 * horner(c, 6, t) + horner(c, 6, t - h)) / (h * h);
             assert!((d1(0.0) - a.d1[k]).abs() < 1e-6 && (d1(1.0) - b.d1[k]).abs() < 1e-6);
             assert!((d2(0.0) - a.d2[k]).abs() < 1e-5 && (d2(1.0) - b.d2[k]).abs() < 1e-5);
         }
@@ -217,6 +288,37 @@ mod tests {
             assert!((l.d1[k] - r.d1[k]).abs() < 1e-12);
             assert!((l.d2[k] - r.d2[k]).abs() < 1e-10, "{} vs {}", l.d2[k], r.d2[k]);
         }
+    }
+
+    #[test]
+    fn higher_degree_pieces_match_their_end_data_and_finite_differences() {
+        let mut a = end([0.0, 0.0, 0.0], [3.0, 0.5, 0.0], [0.0, 2.0, 1.0]);
+        let mut b = end([4.0, 2.0, 0.5], [1.0, 3.0, 0.2], [-2.0, 0.5, 0.0]);
+        a.d3[..3].copy_from_slice(&[1.0, -2.0, 0.5]);
+        b.d3[..3].copy_from_slice(&[-1.0, 0.0, 2.0]);
+        a.d4[..3].copy_from_slice(&[3.0, 1.0, 0.0]);
+        b.d4[..3].copy_from_slice(&[0.0, -4.0, 1.0]);
+        for levels in [4, 5] {
+            let q = QuinticSpan::hermite_levels(&a, &b, levels, &LIN).unwrap();
+            assert_eq!(q.n_coef, 2 * levels);
+            for k in 0..3 {
+                let da = [a.pos[k], a.d1[k], a.d2[k], a.d3[k], a.d4[k]];
+                let db = [b.pos[k], b.d1[k], b.d2[k], b.d3[k], b.d4[k]];
+                for m in 0..levels {
+                    let (v0, v1) = if m == 0 {
+                        (horner(&q.c[k], q.n_coef, 0.0), horner(&q.c[k], q.n_coef, 1.0))
+                    } else {
+                        (derivative(&q.c[k], q.n_coef, m, 0.0), derivative(&q.c[k], q.n_coef, m, 1.0))
+                    };
+                    assert!((v0 - da[m]).abs() < 1e-9 && (v1 - db[m]).abs() < 1e-9, "levels {levels} axis {k} m {m}");
+                }
+            }
+            let e = max_fd_error(&Geometry::Quintic(Box::new(q)), 3, 40);
+            assert!(e < 1e-6, "relative FD error {e}");
+        }
+        // Three levels is the quintic itself, bit for bit.
+        let q3 = QuinticSpan::hermite_levels(&a, &b, 3, &LIN).unwrap();
+        assert_eq!(q3, QuinticSpan::hermite(&a, &b, &LIN).unwrap());
     }
 
     #[test]

@@ -9,18 +9,34 @@ use super::window::{STATE_LEVELS, State};
 use crate::path::{AxisDerivs, Geometry, HermiteEnd, Line, MAX_AXES, QuinticSpan, SpanError};
 
 /// The piece between two smoothed points `delta_tau` apart in τ: derivatives per τ become
-/// derivatives per t by the factors Δ and Δ².
+/// derivatives per t by the factors Δ, Δ², ….
 pub(super) fn smoothed(a: &State, b: &State, delta_tau: f64, linear: &[bool]) -> Result<QuinticSpan, SpanError> {
+    smoothed_levels(a, b, delta_tau, 3, linear)
+}
+
+/// The Hermite piece matching the first `levels` of each state (3: quintic, C²; 4: degree 7,
+/// C³; 5: degree 9, C⁴).
+pub(super) fn smoothed_levels(
+    a: &State,
+    b: &State,
+    delta_tau: f64,
+    levels: usize,
+    linear: &[bool],
+) -> Result<QuinticSpan, SpanError> {
     let end = |s: &State| {
         let mut e = HermiteEnd::default();
         for k in 0..MAX_AXES {
             e.pos[k] = s[k][0];
             e.d1[k] = delta_tau * s[k][1];
             e.d2[k] = delta_tau * delta_tau * s[k][2];
+            if levels > 3 {
+                e.d3[k] = delta_tau.powi(3) * s[k][3];
+                e.d4[k] = delta_tau.powi(4) * s[k][4];
+            }
         }
         e
     };
-    QuinticSpan::hermite(&end(a), &end(b), linear)
+    QuinticSpan::hermite_levels(&end(a), &end(b), levels, linear)
 }
 
 /// State in τ of the programmed path at `s_mm` of `e` (position, A′h, A″h², A‴h³).

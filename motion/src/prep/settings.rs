@@ -27,6 +27,8 @@ pub(super) struct StageSettings {
     pub n_axes: usize,
     /// How the points become pieces (Hermite or B-spline, `prep.method`).
     pub method: PrepMethod,
+    /// Hermite: levels each piece matches at its ends (continuity + 1: 3, 4 or 5).
+    pub hermite_levels: usize,
     /// B-spline: inner knot multiplicity (the spline is C^(5 − m)).
     pub bspline_multiplicity: usize,
     /// B-spline: least-squares weights of x … x⁗.
@@ -57,6 +59,7 @@ impl StageSettings {
             linear: settings.axes.iter().map(|a| a.kind == AxisKind::Linear).collect(),
             n_axes: settings.axes.len(),
             method: p.method,
+            hermite_levels: p.hermite_continuity as usize + 1,
             bspline_multiplicity: p.bspline_knot_multiplicity as usize,
             bspline_weights: p.bspline_weights,
         }

@@ -313,7 +313,9 @@ impl Prep {
                     self.emit_pieces(pieces, commit);
                     let state = spline_end.map_or(sol.states[commit], |(s, _)| s);
                     let run = self.run.as_mut().expect("open run");
-                    run.commit_to(commit, state, 3.min(self.st.levels), self.st.spacing_mm);
+                    // Hermite pieces of higher continuity need the QP's next window to start on
+                    // x‴ (and x⁗) too.
+                    run.commit_to(commit, state, self.st.hermite_levels.min(self.st.levels), self.st.spacing_mm);
                     if let Some((_, levels)) = spline_end {
                         run.spline_levels = levels;
                     }
@@ -619,7 +621,8 @@ fn check_pieces(
     let mut out = Vec::with_capacity(commit);
     for j in 0..commit {
         let delta = (p[j + 1].s_mm - p[j].s_mm) / st.spacing_mm;
-        let piece = pieces::smoothed(&sol.states[j], &sol.states[j + 1], delta, &st.linear).map_err(|_| j)?;
+        let piece = pieces::smoothed_levels(&sol.states[j], &sol.states[j + 1], delta, st.hermite_levels, &st.linear)
+            .map_err(|_| j)?;
         let (dev, excess) = verify::piece_excess(&piece, &p[j], &p[j + 1], &run.elems, &run.programmed, st.spacing_mm);
         stats.max_deviation_mm = stats.max_deviation_mm.max(dev);
         if excess > 0.0 {

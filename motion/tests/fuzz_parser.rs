@@ -141,6 +141,23 @@ const TOKENS: &[&str] = &[
     "G53",
     "G93",
     "M0",
+    // LinuxCNC's splines.
+    "G5",
+    "G5.1",
+    "G5.2",
+    "G5.3",
+    "G5.2 P1 L4\nX1 Y1 P1\nX2 Y0 P2\nX3 Y1 P1\nG5.3\n",
+    "G5 X1 Y1 I1 J1 P-1 Q1",
+    // Polar coordinates.
+    "@",
+    "^",
+    "@1 ^45",
+    // Modal state, spindle orientation, tool number.
+    "M70",
+    "M72",
+    "M73",
+    "M19 R45",
+    "M61 Q1",
 ];
 
 fn corpus() -> Vec<(String, String)> {

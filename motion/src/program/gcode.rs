@@ -3,9 +3,11 @@
 //! dwell, G06 spline blocks (Huan), G17/G18/G19, G20/G21, G61/G64 P, G90/G91, F (per
 //! minute), N, M2/M30; spindle, coolant and tool words (M3–M9, S, T) are accepted and counted as
 //! ignored, since interpd interpolates motion only.
+mod context;
 mod cycles;
 mod flow;
 mod offsets;
+mod spline;
 
 pub(super) use flow::{LineAt, LinePos};
 
@@ -22,10 +24,12 @@ use crate::path::{
     AxisVec, Blend, CubicSpan, Feed, Geometry, Helix, MAX_AXES, MIN_CURVATURE_RADIUS_MM, MIN_MOVE_MM, Path, Pause,
     Source, SpanError, spline::natural_tangents,
 };
+use context::Contexts;
 use cycles::{CycleKind, CycleState};
 use flow::Flow;
 use interpd_config::{AxisKind, AxisLetter};
 use offsets::OffsetWord;
+use spline::{SplineKind, SplineState};
 use std::cell::Cell;
 use std::f64::consts::PI;
 
@@ -48,6 +52,8 @@ pub(super) enum Motion {
     ArcCcw,
     /// A canned cycle (G73, G81 … G89).
     Cycle(CycleKind),
+    /// G5, G5.1, G5.2 (LinuxCNC's splines).
+    Spline(SplineKind),
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -170,6 +176,10 @@ pub(crate) struct Interpreter {
     pub(super) flow: Flow,
     /// Canned cycle state.
     pub(super) cycle: CycleState,
+    /// G5 … G5.3 state (the open NURBS).
+    spline: SplineState,
+    /// Modal states M70/M73 saved, by call level.
+    contexts: Contexts,
     /// The block being executed moves in machine coordinates (G53).
     block_g53: bool,
     /// The line being read.
@@ -218,9 +228,23 @@ impl<'l> Block<'l> {
     }
 }
 
-/// One bit per letter A–Z (the lexer upper-cases letters).
+/// One bit per letter A–Z (the lexer upper-cases letters) and the polar words `@` and `^`.
 fn letter_bit(letter: char) -> u32 {
-    1 << ((letter as u32).wrapping_sub('A' as u32) % 26)
+    match letter {
+        POLAR_RADIUS => 1 << 26,
+        POLAR_ANGLE => 1 << 27,
+        _ => 1 << ((letter as u32).wrapping_sub('A' as u32) % 26),
+    }
+}
+
+/// LinuxCNC's polar coordinate words: the radius and the angle (degrees) of the XY target
+/// about the program origin.
+pub(super) const POLAR_RADIUS: char = '@';
+pub(super) const POLAR_ANGLE: char = '^';
+
+/// A word that gives a target: an axis word or a polar one.
+pub(super) fn is_target_word(letter: char) -> bool {
+    AxisLetter::from_char(letter).is_some() || letter == POLAR_RADIUS || letter == POLAR_ANGLE
 }
 
 /// Why a word that no code of its block uses is refused.
@@ -300,6 +324,8 @@ impl Interpreter {
             params: Params::default(),
             flow: Flow::default(),
             cycle: CycleState::default(),
+            spline: SplineState::default(),
+            contexts: Contexts::default(),
             block_g53: false,
             current_line: 0,
         }
@@ -537,6 +563,7 @@ impl Interpreter {
                 CycleKind::G85 => 850.0,
                 CycleKind::G89 => 890.0,
             },
+            Some(Motion::Spline(k)) => k.motion_code(),
         };
         snap.plane_code = match m.plane {
             Plane::Xy => 170.0,
@@ -757,8 +784,26 @@ impl Interpreter {
         if let Some(m) = g.motion {
             self.modal.motion = Some(m);
         }
+        if let Some(col) = g.nurbs_end {
+            let source = Source { line: line_no, block: block_no };
+            self.nurbs_end(col, block, source, d);
+            return;
+        }
+        if let Some(Motion::Spline(kind)) = self.modal.motion {
+            // As LinuxCNC: a block in the mode runs it when it names the code or has axis words.
+            if g.motion.is_some() || line.words.iter().any(|w| is_target_word(w.letter)) {
+                let source = Source { line: line_no, block: block_no };
+                self.spline_block(kind, previous_motion != Some(Motion::Spline(kind)), block, source, d);
+            }
+            if kind != SplineKind::Nurbs {
+                // LinuxCNC 2.9's `convert_spline` leaves the motion mode as it was: G5 and G5.1
+                // act in their own block only.
+                self.modal.motion = previous_motion;
+            }
+            return;
+        }
 
-        let has_axis = line.words.iter().any(|w| AxisLetter::from_char(w.letter).is_some());
+        let has_axis = line.words.iter().any(|w| is_target_word(w.letter));
         if let Some(Motion::Cycle(kind)) = self.modal.motion {
             if has_axis {
                 let source = Source { line: line_no, block: block_no };
@@ -786,7 +831,7 @@ impl Interpreter {
             return;
         }
         let Some(motion) = self.modal.motion else {
-            let w = line.words.iter().find(|w| AxisLetter::from_char(w.letter).is_some()).expect("has axis");
+            let w = line.words.iter().find(|w| is_target_word(w.letter)).expect("has axis");
             d.error(line_no, w.col, "axis word without a motion mode: program G0, G1, G2 or G3 first");
             return;
         };
@@ -838,7 +883,7 @@ impl Interpreter {
                 };
                 self.arc_move(block, target, motion == Motion::ArcCcw, Feed::Programmed { mm_per_s: f }, source, d);
             }
-            Motion::Cycle(_) => unreachable!("cycles are executed above"),
+            Motion::Cycle(_) | Motion::Spline(_) => unreachable!("cycles and splines are executed above"),
         }
     }
 
@@ -892,11 +937,17 @@ impl Interpreter {
                             d.error(line, col, format!("{name} needs D (the tool diameter)"));
                             return false;
                         };
-                        if dw.value < 0.0 || !dw.value.is_finite() {
-                            d.error(line, dw.col, format!("tool diameter D must not be negative, got {}", dw.value));
+                        if !dw.value.is_finite() {
+                            d.error(line, dw.col, format!("tool diameter D is not a finite number, got {}", dw.value));
                             return false;
                         }
                         dw.value * self.modal.unit_mm / 2.0
+                    };
+                    // As LinuxCNC: a negative diameter compensates on the other side.
+                    let (side, radius_mm) = if radius_mm < 0.0 {
+                        (if side == Side::Left { Side::Right } else { Side::Left }, -radius_mm)
+                    } else {
+                        (side, radius_mm)
                     };
                     let ((pl, _), (ql, _)) = self.modal.plane.axes();
                     let (Some(p), Some(q)) = (self.settings.axis_index(pl), self.settings.axis_index(ql)) else {
@@ -1120,6 +1171,22 @@ impl Interpreter {
                     g.spline = true;
                     "G06"
                 }),
+                50 => (0, {
+                    g.motion = Some(Motion::Spline(SplineKind::Cubic));
+                    "G5"
+                }),
+                51 => (0, {
+                    g.motion = Some(Motion::Spline(SplineKind::Quadratic));
+                    "G5.1"
+                }),
+                52 => (0, {
+                    g.motion = Some(Motion::Spline(SplineKind::Nurbs));
+                    "G5.2"
+                }),
+                53 => (1, {
+                    g.nurbs_end = Some(w.col);
+                    "G5.3"
+                }),
                 40 => (1, {
                     g.dwell = true;
                     "G4"
@@ -1312,8 +1379,8 @@ impl Interpreter {
     }
 
     fn read_m_words(&mut self, block: &Block, d: &mut Diagnostics) -> bool {
-        // Modal groups: program end, spindle, tool change, coolant.
-        let mut groups: [Option<i64>; 4] = [None; 4];
+        // Modal groups: program end, spindle, tool change, coolant, modal state (M70–M73).
+        let mut groups: [Option<i64>; 5] = [None; 5];
         let mut pause = None;
         for w in block.words.iter().filter(|w| w.letter == 'M') {
             let code = w.value as i64;
@@ -1328,8 +1395,28 @@ impl Interpreter {
                     0
                 }
                 3..=5 if w.value.fract() == 0.0 => 1,
+                19 if w.value.fract() == 0.0 => {
+                    if !self.spindle_orientation(block, w, d) {
+                        return false;
+                    }
+                    1
+                }
                 6 if w.value.fract() == 0.0 => 2,
+                61 if w.value.fract() == 0.0 => {
+                    // M61 Q<n>: tool n is in the spindle, without a tool change (LinuxCNC's).
+                    let Some(q) = block.get('Q') else {
+                        d.error(block.line, w.col, "M61 needs Q (the number of the tool in the spindle)");
+                        return false;
+                    };
+                    if q.value < 0.0 || q.value.fract() != 0.0 || q.value > f64::from(u32::MAX) {
+                        d.error(block.line, q.col, format!("M61: Q must be a tool number, got {}", q.value));
+                        return false;
+                    }
+                    self.modal.tool = Some(q.value as u32);
+                    2
+                }
                 7..=9 if w.value.fract() == 0.0 => 3,
+                70..=73 if w.value.fract() == 0.0 => 4,
                 _ => {
                     d.error(
                         block.line,
@@ -1348,7 +1435,12 @@ impl Interpreter {
                 return false;
             }
             groups[group] = Some(code);
-            if group == 0 && matches!(code, 2 | 30) {
+            if group == 4 {
+                // Before the block's G-codes, as LinuxCNC's `convert_m` comes before them.
+                if !self.modal_context(code, w.col, block.line, d) {
+                    return false;
+                }
+            } else if group == 0 && matches!(code, 2 | 30) {
                 self.ended = true;
                 self.summary.program_end = true;
             } else if group == 0 {
@@ -1360,6 +1452,27 @@ impl Interpreter {
             }
         }
         block.consume('M');
+        true
+    }
+
+    /// M19 (spindle orientation, `R` angle, `Q` timeout, `P` direction 0 … 2): accepted and
+    /// ignored like the other spindle words, its words checked as LinuxCNC checks them.
+    fn spindle_orientation(&self, block: &Block, m: &Word, d: &mut Diagnostics) -> bool {
+        let r = block.get('R');
+        if let Some(r) = r {
+            if block.words.iter().any(|w| w.letter == 'G' && w.value == 64.0) {
+                d.error(block.line, r.col, "R is ambiguous in a block with G64 and M19: put them on separate lines");
+                return false;
+            }
+        }
+        block.get('Q');
+        if let Some(p) = block.get('P') {
+            if p.value.fract() != 0.0 || !(0.0..=2.0).contains(&p.value) {
+                d.error(block.line, p.col, format!("M19: P must be 0, 1 or 2, got {}", p.value));
+                return false;
+            }
+        }
+        let _ = m;
         true
     }
 
@@ -1394,6 +1507,19 @@ impl Interpreter {
     pub(super) fn target(&self, block: &Block, d: &mut Diagnostics) -> Option<AxisVec> {
         let mut target = self.modal.pos;
         let mut ok = true;
+        if let Some((xk, yk, x, y)) = self.polar_target(block, d)? {
+            for (k, v) in [(xk, x), (yk, y)] {
+                target[k] = v * self.modal.unit_mm + self.program_offset(k);
+                if !target[k].is_finite() {
+                    d.error(block.line, block.words[0].col, "the polar target is not a finite number");
+                    return None;
+                }
+                if let Some(msg) = self.travel_violation(k, target[k]) {
+                    d.error(block.line, block.words[0].col, msg);
+                    ok = false;
+                }
+            }
+        }
         for w in block.words {
             let Some(letter) = AxisLetter::from_char(w.letter) else { continue };
             block.consume(w.letter);
@@ -1426,6 +1552,53 @@ impl Interpreter {
             }
         }
         ok.then_some(target)
+    }
+
+    /// The XY target the polar words `@` `^` of the block give, in program coordinates and
+    /// units, as LinuxCNC's `find_ends`: in G90 about the program origin (a missing word keeps
+    /// the current point's radius or angle), in G91 the radius and angle added to the current
+    /// point's. `Some(None)` without polar words; `None` after an error.
+    pub(super) fn polar_target(&self, block: &Block, d: &mut Diagnostics) -> Option<Option<(usize, usize, f64, f64)>> {
+        let radius = block.get(POLAR_RADIUS);
+        let angle = block.get(POLAR_ANGLE);
+        let Some(first) = radius.or(angle) else { return Some(None) };
+        let line = block.line;
+        let refuse = |d: &mut Diagnostics, msg: &str| {
+            d.error(line, first.col, msg);
+            None
+        };
+        if self.modal.plane != Plane::Xy {
+            return refuse(d, "polar coordinates (@ ^) are only valid in the XY plane (G17)");
+        }
+        if self.block_g53 {
+            return refuse(d, "polar coordinates (@ ^) cannot be used with G53");
+        }
+        if let Some(w) = block.words.iter().find(|w| w.letter == 'X' || w.letter == 'Y') {
+            d.error(line, w.col, format!("{} and polar coordinates (@ ^) in one block", w.letter));
+            return None;
+        }
+        let (Some(xk), Some(yk)) = (self.settings.axis_index(AxisLetter::X), self.settings.axis_index(AxisLetter::Y))
+        else {
+            return refuse(d, "polar coordinates (@ ^) need axes X and Y on this machine");
+        };
+        let unit = self.modal.unit_mm;
+        let cx = (self.modal.pos[xk] - self.program_offset(xk)) / unit;
+        let cy = (self.modal.pos[yk] - self.program_offset(yk)) / unit;
+        let at_origin = cx == 0.0 && cy == 0.0;
+        let (x, y) = if self.modal.absolute {
+            if angle.is_none() && at_origin {
+                return refuse(d, "polar coordinates at the origin need the angle ^");
+            }
+            let r = radius.map_or(cx.hypot(cy), |w| w.value);
+            let theta = angle.map_or(cy.atan2(cx), |w| w.value.to_radians());
+            (r * theta.cos(), r * theta.sin())
+        } else {
+            if at_origin {
+                return refuse(d, "incremental polar coordinates (G91) are indeterminate at the origin");
+            }
+            polar_increment(cx, cy, radius.map(|w| w.value), angle.map(|w| w.value))
+        };
+        Some(Some((xk, yk, x, y)))
     }
 
     pub(super) fn travel_violation(&self, k: usize, value: f64) -> Option<String> {
@@ -1927,12 +2100,31 @@ struct GWords {
     offset_word: Option<(OffsetWord, u32)>,
     /// G98 (false) or G99 (true).
     retract_r: Option<bool>,
+    /// G5.3 (the end of a NURBS), with the column of the word.
+    nurbs_end: Option<u32>,
 }
 
 /// A line of G06 spline data: only X Y Z P Q R (and N) words.
 fn is_span_line(line: &Line) -> bool {
     line.words.iter().any(|w| matches!(w.letter, 'X' | 'Y' | 'Z' | 'P' | 'Q' | 'R'))
         && line.words.iter().all(|w| !matches!(w.letter, 'G' | 'M' | 'F'))
+}
+
+/// (x, y) moved by `radius` along its radius and then turned by `angle_deg` about the origin,
+/// as LinuxCNC's G91 polar words (the radius first, each only if given).
+pub(super) fn polar_increment(x: f64, y: f64, radius: Option<f64>, angle_deg: Option<f64>) -> (f64, f64) {
+    let (mut x, mut y) = (x, y);
+    if let Some(dr) = radius {
+        let theta = y.atan2(x);
+        let r = y.hypot(x) + dr;
+        (x, y) = (r * theta.cos(), r * theta.sin());
+    }
+    if let Some(da) = angle_deg {
+        let theta = y.atan2(x) + da.to_radians();
+        let r = y.hypot(x);
+        (x, y) = (r * theta.cos(), r * theta.sin());
+    }
+    (x, y)
 }
 
 /// Signed sweep from s to e about c: positive counter-clockwise. A full circle if `full`.

@@ -242,7 +242,8 @@ pub(super) fn lex_block(text: &str, params: &Params) -> Result<Lexed, LexError> 
                 line.semicolon_col = Some(here);
                 break;
             }
-            c if c.is_ascii_alphabetic() => {
+            // `@` and `^`: LinuxCNC's polar radius and angle, words like the letters.
+            c if c.is_ascii_alphabetic() || c == '@' || c == '^' => {
                 let letter = c.to_ascii_uppercase();
                 if letter == 'O' {
                     // An O word opens a control-flow line whose keywords are no words; only a

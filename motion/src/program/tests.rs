@@ -150,7 +150,8 @@ fn error_positions() {
         ("F100\nG3 X0 I5 P1.5\n", "t.ngc:2:10: P (turns of the arc) must be an integer, got 1.5"),
         ("F100\nG3 X0 I5 P0\n", "t.ngc:2:10: P (turns of the arc) must be 1 or more, got 0"),
         ("F100\nG3 R5\n", "t.ngc:2:4: R without an arc end point"),
-        ("G41.1 D-1\n", "t.ngc:1:7: tool diameter D must not be negative, got -1"),
+        ("M61\n", "t.ngc:1:1: M61 needs Q (the number of the tool in the spindle)"),
+        ("M19 P3\n", "t.ngc:1:5: M19: P must be 0, 1 or 2, got 3"),
         ("G0 G1 X1\n", "t.ngc:1:4: G1 conflicts with G0 in the same block (same modal group)"),
         ("F100\nG06 I1 J0 K0\nX1 Y0 Z0 P1 Q0 R0\n", "t.ngc:3:18: G06 span must end with ';'"),
         ("F100\nG06 I1\n", "t.ngc:2:1: unterminated G06 block: no spline spans ('X.. Y.. Z.. P.. Q.. R..;') follow"),
@@ -586,4 +587,83 @@ fn canned_cycles_expand_as_linuxcnc() {
     ] {
         assert!(first_error(text).starts_with(want), "{text}: {}", first_error(text));
     }
+}
+
+#[test]
+fn nurbs_runs_as_linuxcncs_chords_to_the_last_control_point() {
+    // 5 control points (the start point counts): 75 steps of the parameter, the last control
+    // point at the end; the current point moves only at G5.3.
+    let p = ok("G0 X0 Y0 Z1\nF600\nG5.2 P1 L3\nX0 Y1 P1\nX2 Y2 P1\nX2 Y0 P1\nX0 Y0 P2\nG5.3\nG1 X3\n");
+    let chords = p.path.elements.len() - 2;
+    assert!((74..=75).contains(&chords), "{chords} chords");
+    assert!(close(end_at(&p, chords), [0.0, 0.0, 1.0]));
+    assert!(close(end(&p), [3.0, 0.0, 1.0]));
+    // G91: control points relative to the start point (the current point does not move).
+    let q = ok("G0 X1 Y1\nF600\nG91 G5.2 X1 Y0 P1\nX1 Y1 P1\nG5.3\n");
+    assert!(close(end(&q), [2.0, 2.0, 0.0]));
+}
+
+#[test]
+fn g5_cubics_chain_by_the_implicit_derivative() {
+    // The second G5 without I J starts along minus the first one's P Q: a symmetric S.
+    let p = ok("G0 X0 Y0\nF600\nG5 X10 Y0 I2 J5 P-2 Q5\nG5 X20 Y0 P-2 Q-5\nX30\n");
+    assert!(close(end(&p), [30.0, 0.0, 0.0]));
+    // G5 acts in its own block (LinuxCNC 2.9): the X30 after it is a G0.
+    assert_eq!(p.path.elements.last().map(|e| e.feed), Some(Feed::Rapid));
+    // The curve is a Bézier cubic: at the middle of the first one y = 3/4·5.
+    let mid = end_at(&p, 29);
+    assert!((mid[0] - 5.0).abs() < 1e-9 && (mid[1] - 3.75).abs() < 1e-9, "{mid:?}");
+    assert!(first_error("F600\nG5 X1 Y1 I1\n").contains("G5: give both I and J"));
+    assert!(first_error("F600\nG5 X1 Y1 I1 J1\n").contains("G5 needs both P and Q"));
+    assert!(first_error("F600\nG18 G5.1 X1 Z1 I1 K1\n").contains("XY plane"));
+    assert!(first_error("F600\nG5.2 X1 Y1 P1 Z3\n").contains("X and Y only"));
+    assert!(first_error("F600\nG5.2 X1 P1\n").contains("needs both X and Y"));
+    assert!(first_error("F600\nG5.2 X1 Y1\n").contains("positive weight P"));
+    assert!(first_error("G5.2 X1 Y1 P1\n").contains("without feed"));
+}
+
+#[test]
+fn polar_words_give_xy_about_the_program_origin() {
+    // G90: radius and angle about the origin of the work system (G55 here, X10 Y0).
+    let p = ok("G10 L2 P2 X10 Y0\nG55 G0 @2 ^90\nG1 ^180 F600\n@3\n");
+    assert!(close(end_at(&p, 0), [10.0, 2.0, 0.0]));
+    assert!(close(end_at(&p, 1), [8.0, 0.0, 0.0]));
+    assert!(close(end(&p), [7.0, 0.0, 0.0]));
+    // G91: added to the current point's radius and angle.
+    let q = ok("G0 X1 Y0\nG91 G0 ^90\n@1\n");
+    assert!(close(end(&q), [0.0, 2.0, 0.0]));
+    // A bolt circle as LinuxCNC's hole-circle.ngc drills it: six holes 60° apart.
+    let c = ok("G20 G0 X1.5 Y0 Z0\nG91 G81 R.1 Z-.5 ^60 L6 F10\n");
+    assert!(close(end(&c), [1.5 * 25.4, 0.0, 0.1 * 25.4]), "{:?}", end(&c));
+    assert!(first_error("G0 X1 @2\n").contains("X and polar coordinates"));
+    assert!(first_error("G18 G0 @2 ^3\n").contains("XY plane"));
+    assert!(first_error("G0 @2\n").contains("need the angle"));
+}
+
+#[test]
+fn m70_m72_and_m73_restore_the_modal_state() {
+    // M70 … M72 around a subroutine that switches to G20 G91: the X10 after it is absolute mm.
+    let p = ok("o<s> sub\nG20 G91 F5\nG1 X1\no<s> endsub\nG21 G90 F600\nM70\no<s> call\nM72\nG1 X10\n");
+    assert!(close(end(&p), [10.0, 0.0, 0.0]));
+    assert_eq!(p.path.elements.last().map(|e| e.feed), Some(Feed::Programmed { mm_per_s: 10.0 }));
+    // M73 in the subroutine restores at its return.
+    let q = ok("o<s> sub\nM73\nG20 G91\nG1 X1\no<s> endsub\nG21 G90 F600\no<s> call\nG1 X10\n");
+    assert!(close(end(&q), [10.0, 0.0, 0.0]));
+    assert!(first_error("M72\n").contains("M72 without a state saved"));
+    // M71 forgets the state.
+    assert!(first_error("M70\nM71\nM72\n").contains("M72 without"));
+}
+
+#[test]
+fn a_negative_diameter_compensates_on_the_other_side() {
+    let body = "G0 X-10 Y-5\nG1 X0 Y-5 F600\nX20\nY10\nG40 X30 Y20\n";
+    let a = ok(&format!("G41.1 D-4\n{body}"));
+    let b = ok(&format!("G42.1 D4\n{body}"));
+    assert_eq!(a.path.elements.len(), b.path.elements.len());
+    for i in 0..a.path.elements.len() {
+        assert!(close(end_at(&a, i), end_at(&b, i)));
+    }
+    // M61 puts a tool in the spindle without a change: G43 without H uses it.
+    let t = ok("M61 Q1\nG43\nG0 Z0\n");
+    assert_eq!(t.summary.tools.iter().copied().collect::<Vec<_>>(), vec![1]);
 }

@@ -6,7 +6,7 @@
 //! to it (`cc`: Z in G17, Y in G18, X in G19). Coordinates here are program coordinates in
 //! program units, as in LinuxCNC; the moves are converted at the end.
 
-use super::{Block, Interpreter};
+use super::{Block, Interpreter, POLAR_ANGLE, POLAR_RADIUS, polar_increment};
 use crate::path::{Blend, Feed, Source};
 use crate::program::error::Diagnostics;
 use interpd_config::AxisLetter;
@@ -137,6 +137,18 @@ impl Interpreter {
         let (cur_a, cur_b, cur_c) = (prog(self, idx[0]), prog(self, idx[1]), prog(self, idx[2]));
         let word = |c: char| block.get(c);
         let (wa, wb, wc) = (word(letters[0].as_char()), word(letters[1].as_char()), word(letters[2].as_char()));
+        // LinuxCNC's polar words (`convert_cycle_xy`): in G17 only, in place of X and Y.
+        let (radius_w, angle_w) = (word(POLAR_RADIUS), word(POLAR_ANGLE));
+        if let Some(pw) = radius_w.or(angle_w) {
+            if letters[2] != AxisLetter::Z {
+                d.error(line, pw.col, "polar coordinates (@ ^) are only valid in the XY plane (G17)");
+                return;
+            }
+            if let Some(w) = wa.or(wb) {
+                d.error(line, w.col, format!("{} and polar coordinates (@ ^) in one block", w.letter));
+                return;
+            }
+        }
         let r_word = word('R');
         let l_word = word('L');
         let r_given = match r_word {
@@ -201,7 +213,12 @@ impl Interpreter {
             0.0
         };
         let old_c = *self.cycle.il.get_or_insert(cur_c);
-        let (mut aa, mut bb, a_inc, b_inc, r, cc) = if self.modal.absolute {
+        let (mut aa, mut bb, a_inc, b_inc, r, cc) = if self.modal.absolute && (radius_w.is_some() || angle_w.is_some())
+        {
+            let radius = radius_w.map_or(cur_a.hypot(cur_b), |w| w.value);
+            let theta = angle_w.map_or(cur_b.atan2(cur_a), |w| w.value.to_radians());
+            (radius * theta.cos(), radius * theta.sin(), 0.0, 0.0, r_given, z_given)
+        } else if self.modal.absolute {
             (wa.map_or(cur_a, |w| w.value), wb.map_or(cur_b, |w| w.value), 0.0, 0.0, r_given, z_given)
         } else {
             let r = r_given + old_c;
@@ -223,9 +240,27 @@ impl Interpreter {
             cur_c = r;
         }
         let clear = if self.cycle.retract_r { r } else { old_c };
+        // G91: the polar increments apply at every repeat (LinuxCNC's `CYCLE_MACRO`; a zero
+        // one is none).
+        let polar_inc = if self.modal.absolute {
+            (None, None)
+        } else {
+            (radius_w.map(|w| w.value).filter(|v| *v != 0.0), angle_w.map(|w| w.value).filter(|v| *v != 0.0))
+        };
         for rep in 0..repeats {
             aa += a_inc;
             bb += b_inc;
+            if polar_inc.0.is_some() || polar_inc.1.is_some() {
+                if aa == 0.0 && bb == 0.0 {
+                    d.error(
+                        line,
+                        col0,
+                        format!("{name}: incremental polar coordinates (G91) are indeterminate at the origin"),
+                    );
+                    return;
+                }
+                (aa, bb) = polar_increment(aa, bb, polar_inc.0, polar_inc.1);
+            }
             if rep == 0 && cur_c > r {
                 steps.push(Step::Rapid(aa, bb, cur_c));
                 steps.push(Step::Rapid(aa, bb, r));

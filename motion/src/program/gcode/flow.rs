@@ -261,6 +261,7 @@ impl Interpreter {
                     return None;
                 }
                 let frame = self.flow.frames.pop().expect("checked");
+                self.leave_context_level(self.flow.depth() + 1, line, o.col, d);
                 self.params.leave(&frame.saved);
                 self.params.value_returned = !args.is_empty();
                 self.params.value = args.first().copied().unwrap_or(0.0);
@@ -608,6 +609,7 @@ impl Interpreter {
             return Some(body);
         }
         let frame = self.flow.frames.pop().expect("checked");
+        self.leave_context_level(self.flow.depth() + 1, line, col, d);
         self.flow.blocks = frame.blocks;
         Some(frame.ret)
     }

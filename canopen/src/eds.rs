@@ -30,6 +30,9 @@ pub struct Eds {
     pub product_code: u32,
     pub revision: u32,
     pub product_name: String,
+    /// The entries a DCF gives a `ParameterValue` (the configured values a master writes at
+    /// boot), in index and sub-index order. Empty for a plain EDS.
+    pub parameters: Vec<Address>,
 }
 
 /// Reads `text` for node `node`.
@@ -68,6 +71,14 @@ pub fn parse(text: &str, node: NodeId) -> Result<Eds, EdsError> {
         }
     }
     let mut od = ObjectDictionary::default();
+    let mut parameters = Vec::new();
+    let mut add = |od: &mut ObjectDictionary, at: Address, s: &Section| -> Result<(), EdsError> {
+        if s.get("ParameterValue").is_some_and(|v| !v.text.is_empty()) {
+            parameters.push(at);
+        }
+        od.insert(at, entry(s, node)?);
+        Ok(())
+    };
     for &(index, pos) in &listed {
         let name = format!("{index:04X}");
         let s = ini
@@ -78,7 +89,7 @@ pub fn parse(text: &str, node: NodeId) -> Result<Eds, EdsError> {
             None => 7,
         };
         match object_type {
-            7 => od.insert(Address::new(index, 0), entry(s, node)?),
+            7 => add(&mut od, Address::new(index, 0), s)?,
             8 | 9 => {
                 let sub_number = s.get("SubNumber").ok_or_else(|| err(s.pos, format!("[{name}] has no SubNumber")))?;
                 let n = int(sub_number, node)?;
@@ -89,7 +100,7 @@ pub fn parse(text: &str, node: NodeId) -> Result<Eds, EdsError> {
                     let sub_index = u8::from_str_radix(digits, 16).map_err(|_| {
                         err(sub.pos, format!("[{}]: sub-index {digits:?} is not hexadecimal", sub.name))
                     })?;
-                    od.insert(Address::new(index, sub_index), entry(sub, node)?);
+                    add(&mut od, Address::new(index, sub_index), sub)?;
                     found += 1;
                 }
                 if found != n {
@@ -111,7 +122,8 @@ pub fn parse(text: &str, node: NodeId) -> Result<Eds, EdsError> {
             return Err(err(s.pos, format!("[{}] is not listed in any of the ...Objects sections", s.name)));
         }
     }
-    Ok(Eds { od, vendor_id, product_code, revision, product_name })
+    parameters.sort();
+    Ok(Eds { od, vendor_id, product_code, revision, product_name, parameters })
 }
 
 fn entry(s: &Section, node: NodeId) -> Result<Entry, EdsError> {
@@ -197,6 +209,7 @@ mod tests {
         let eds = parse(&text, node()).unwrap();
         assert_eq!((eds.vendor_id, eds.product_code), (0x10, 0x402));
         assert_eq!(eds.od.int(Address::new(0x1017, 0)), Some(0), "ParameterValue wins");
+        assert_eq!(eds.parameters, vec![Address::new(0x1017, 0)], "the DCF's configured values");
         assert_eq!(eds.od.u32(Address::new(0x1400, 1)), Some(0x203));
     }
 

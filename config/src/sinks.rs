@@ -18,6 +18,7 @@
 //! [sinks.can.node.2]                 # what node 2 must be (default: the simulated drive)
 //! vendor_id = 0x0000_0000
 //! product_code = 0x0000_0402
+//! sdo = [{ index = 0x6065, sub = 0, type = "u32", value = 20000 }]   # written at boot
 //! eds = "drives/servo.eds"           # or its identity from an EDS/DCF ([DeviceInfo])
 //! ```
 
@@ -39,8 +40,37 @@ pub struct CanNodeConfig {
     /// Expected 0x1018:2; default: the EDS's `ProductNumber`, else the simulated drive's.
     pub product_code: Option<u32>,
     /// An EDS or DCF of the device, read by the master at start-up (a relative path is taken
-    /// from the daemon's working directory).
+    /// from the daemon's working directory). A DCF's `ParameterValue`s are written at boot.
     pub eds: Option<String>,
+    /// Objects the master writes at boot, after the DCF's values and before NMT start, in this
+    /// order: `sdo = [{ index = 0x6065, sub = 0, type = "u32", value = 20000 }]`.
+    pub sdo: Vec<CanSdoValue>,
+}
+
+/// One value of `[sinks.can.node.N] sdo`. `type` is one of bool, u8, u16, u32, u64, i8, i16,
+/// i32, i64, string, bytes (hex); the master checks it with the value at start-up.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CanSdoValue {
+    pub index: u16,
+    #[serde(default)]
+    pub sub: u8,
+    #[serde(rename = "type")]
+    pub ty: String,
+    pub value: toml::Value,
+}
+
+impl CanSdoValue {
+    /// The value as text for the type's parser: an integer in decimal, a string as it is, a
+    /// boolean as 1 or 0.
+    pub fn value_text(&self) -> Result<String, String> {
+        match &self.value {
+            toml::Value::Integer(i) => Ok(i.to_string()),
+            toml::Value::String(s) => Ok(s.clone()),
+            toml::Value::Boolean(b) => Ok(if *b { "1" } else { "0" }.into()),
+            other => Err(format!("expected an integer, a string or a boolean, got {other}")),
+        }
+    }
 }
 
 /// `[sinks]`.

@@ -7,10 +7,12 @@
 //! - [`Status`] and [`Event`] are the result of `status` and the payloads of `subscribe`;
 //!   [`DriveStatus`] is one CAN drive in `status.drives`.
 
+pub mod drives;
 pub mod params;
 pub mod status;
 pub mod tooling;
 
+pub use drives::{ResetDrive, ResetParams, ResetResult, SdoReadParams, SdoResult, SdoType, SdoWriteParams};
 pub use params::{AppendParams, JogMode, JogParams, LawParams, LoadParams, MdiParams, MoveToParams, OverrideParams};
 pub use status::{
     CutterMode, CutterStatus, CycleStats, DriveStatus, LookaheadStatus, ManualStatus, MdiModal, Percentiles,
@@ -49,6 +51,12 @@ pub mod codes {
     /// `program.append`: the program buffer cannot take the text now (`data` holds
     /// `buffered_bytes` and `limit_bytes`); send it again when the motion has used some.
     pub const BUFFER_FULL: i32 = -32006;
+    /// `drives.sdo_read`, `drives.sdo_write`, `drives.reset`: the drive refused or did not
+    /// answer (the message names the node, the object and the SDO abort code with its meaning;
+    /// `data.abort_code` holds the code).
+    pub const DRIVE_COMMAND_FAILED: i32 = -32007;
+    /// `drives.*`: the daemon runs no CAN master (`interpd run --can IFACE`), or has no such node.
+    pub const NO_SUCH_DRIVE: i32 = -32008;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -76,10 +84,13 @@ pub enum Method {
     ToolsSet,
     OffsetsGet,
     OffsetsSet,
+    DrivesSdoRead,
+    DrivesSdoWrite,
+    DrivesReset,
 }
 
 impl Method {
-    pub const ALL: [Method; 18] = [
+    pub const ALL: [Method; 21] = [
         Method::ProgramLoad,
         Method::ProgramAppend,
         Method::MotionStart,
@@ -98,6 +109,9 @@ impl Method {
         Method::ToolsSet,
         Method::OffsetsGet,
         Method::OffsetsSet,
+        Method::DrivesSdoRead,
+        Method::DrivesSdoWrite,
+        Method::DrivesReset,
     ];
 
     /// The wire name, e.g. `"motion.start"`.
@@ -121,6 +135,9 @@ impl Method {
             Method::ToolsSet => "tools.set",
             Method::OffsetsGet => "offsets.get",
             Method::OffsetsSet => "offsets.set",
+            Method::DrivesSdoRead => "drives.sdo_read",
+            Method::DrivesSdoWrite => "drives.sdo_write",
+            Method::DrivesReset => "drives.reset",
         }
     }
 
@@ -181,6 +198,9 @@ pub enum Call {
     ToolsSet(ToolTable),
     OffsetsGet,
     OffsetsSet(WorkOffsets),
+    DrivesSdoRead(SdoReadParams),
+    DrivesSdoWrite(SdoWriteParams),
+    DrivesReset(ResetParams),
 }
 
 impl Call {
@@ -199,6 +219,9 @@ impl Call {
             Method::Mdi => Call::Mdi(MdiParams::parse(params)?),
             Method::ToolsSet => Call::ToolsSet(ToolTable::parse(params)?),
             Method::OffsetsSet => Call::OffsetsSet(WorkOffsets::parse(params)?),
+            Method::DrivesSdoRead => Call::DrivesSdoRead(SdoReadParams::parse(params)?),
+            Method::DrivesSdoWrite => Call::DrivesSdoWrite(SdoWriteParams::parse(params)?),
+            Method::DrivesReset => Call::DrivesReset(ResetParams::parse(params)?),
             Method::ToolsGet => params::none(m, params).map(|()| Call::ToolsGet)?,
             Method::OffsetsGet => params::none(m, params).map(|()| Call::OffsetsGet)?,
             Method::MotionJogStop => params::none(m, params).map(|()| Call::MotionJogStop)?,
@@ -231,6 +254,9 @@ impl Call {
             Call::ToolsSet(_) => Method::ToolsSet,
             Call::OffsetsGet => Method::OffsetsGet,
             Call::OffsetsSet(_) => Method::OffsetsSet,
+            Call::DrivesSdoRead(_) => Method::DrivesSdoRead,
+            Call::DrivesSdoWrite(_) => Method::DrivesSdoWrite,
+            Call::DrivesReset(_) => Method::DrivesReset,
         }
     }
 }

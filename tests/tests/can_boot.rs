@@ -413,3 +413,147 @@ fn a_lost_heartbeat_and_an_emcy_mid_motion_stop_the_motion() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `interpd can …` against the daemon's control socket: (exit code, stdout, stderr).
+fn cli(socket: &Path, args: &[&str]) -> (Option<i32>, String, String) {
+    let out = Command::new(interpd_e2e::binary("interpd"))
+        .arg("can")
+        .args(args)
+        .arg("--socket")
+        .arg(socket)
+        .output()
+        .expect("run interpd can");
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// Commissioning through the daemon: `drives.sdo_read`/`drives.sdo_write` (expedited and
+/// segmented, typed values, aborts named with their code and meaning, refused while motion
+/// runs), the same through `interpd can sdo`, the values of `[sinks.can.node.N] sdo` and of a
+/// DCF written at boot, and `drives.reset` of a drive put in Fault (NMT pre-operational while
+/// enabled): the fault stays until the reset, which takes the drive back to Operation enabled.
+#[test]
+fn commissioning_over_the_control_api_and_the_command_line() {
+    let Some((iface, _bus)) = vcan::bus("commissioning_over_the_control_api_and_the_command_line") else { return };
+    let dir = vcan::temp_dir("can-commissioning");
+    // Node 3's DCF: the simulated drive's EDS with a configured following error window.
+    let eds = include_str!("../../sim-plant/eds/interpd-sim-drive.eds");
+    let dcf = eds.replacen("[6065]\n", "[6065]\nParameterValue=54321\n", 1);
+    assert_ne!(dcf, eds, "the EDS has a [6065] section");
+    std::fs::write(dir.join("node3.dcf"), dcf).expect("write DCF");
+    let cfg = config(
+        &dir,
+        3,
+        4.0,
+        &format!(
+            "[sinks.can.node.2]\nsdo = [{{ index = 0x6065, sub = 0, type = \"u32\", value = 77777 }}]\n\
+             [sinks.can.node.3]\neds = \"{}\"\n",
+            dir.join("node3.dcf").display()
+        ),
+    );
+    let drives = start_drives(&iface, &cfg, &dir);
+    let daemon = Daemon::start(&["--config", cfg.as_str(), "--can", iface.as_str(), "--no-shm"]);
+    let mut client = daemon.client();
+    let wait_enabled = |client: &mut interpd_e2e::daemon::Client| {
+        let until = Instant::now() + SLOW;
+        loop {
+            let st = client.ok("status", Value::Null);
+            let d = st["drives"].as_array().cloned().unwrap_or_default();
+            if d.len() == 3 && d.iter().all(|d| d["state"] == "operation_enabled") {
+                return st;
+            }
+            assert!(Instant::now() < until, "drives not enabled: {st}");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    };
+    wait_enabled(&mut client);
+    let read = |client: &mut interpd_e2e::daemon::Client, node: u8, index: &str, sub: u8, ty: &str| {
+        client.ok("drives.sdo_read", json!({"node": node, "index": index, "sub": sub, "type": ty}))
+    };
+    // Written at boot: the node table (node 2) and the DCF's ParameterValue (node 3).
+    assert_eq!(read(&mut client, 2, "0x6065", 0, "u32")["value"], 77777);
+    assert_eq!(read(&mut client, 3, "0x6065", 0, "u32")["value"], 54321);
+    assert_eq!(read(&mut client, 1, "0x6065", 0, "u32")["value"], 100000, "node 1 keeps its default");
+    let r = read(&mut client, 2, "0x1018", 2, "u32");
+    assert_eq!((r["value"].clone(), r["data"].clone()), (json!(0x402), json!("02040000")), "{r}");
+    assert_eq!(read(&mut client, 1, "0x1008", 0, "string")["value"], "interpd sim drive", "segmented upload");
+    assert_eq!(read(&mut client, 1, "0x6061", 0, "i8")["value"], 8);
+    client.ok("drives.sdo_write", json!({"node": 1, "index": "0x6065", "type": "u32", "value": 20000}));
+    assert_eq!(read(&mut client, 1, "0x6065", 0, "u32")["value"], 20000);
+    // Refusals: the drive's abort with its code and meaning, in the status too.
+    let e = client.call("drives.sdo_write", json!({"node": 2, "index": "0x1018", "sub": 1, "type": "u32", "value": 5}));
+    assert_eq!(e["error"]["code"], -32007, "{e}");
+    assert_eq!(e["error"]["data"]["abort_code"], "0x06010002", "{e}");
+    let msg = e["error"]["message"].as_str().unwrap_or_default().to_string();
+    assert!(msg.contains("drive Y (node 2): node 2: SDO download (write) of 0x1018:1 refused by the drive: abort 0x06010002: attempt to write a read-only object"), "{msg}");
+    let e = client.call("drives.sdo_read", json!({"node": 2, "index": "0x2000"}));
+    assert!(e["error"]["message"].as_str().unwrap_or_default().contains("abort 0x06020000"), "{e}");
+    let st = client.ok("status", Value::Null);
+    assert!(st["drives"][1]["last_sdo_error"].as_str().unwrap_or_default().contains("abort 0x06020000"), "{st}");
+    let e = client.call("drives.sdo_read", json!({"node": 9, "index": "0x1000"}));
+    assert_eq!(e["error"]["code"], -32008, "{e}");
+    // The command line, through the daemon.
+    let (code, out, err) = cli(&daemon.socket, &["sdo", "read", "1", "0x6065", "0", "--type", "u32"]);
+    assert_eq!((code, out.trim()), (Some(0), "20000"), "{err}");
+    let (code, _, err) = cli(&daemon.socket, &["sdo", "write", "3", "0x6065", "0", "60000", "--type", "u32"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(read(&mut client, 3, "0x6065", 0, "u32")["value"], 60000);
+    let (code, _, err) = cli(&daemon.socket, &["sdo", "write", "3", "0x1000", "0", "1", "--type", "u32"]);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("abort 0x06010002: attempt to write a read-only object"), "{err}");
+    // Not while motion runs.
+    client.ok("program.load", json!({ "text": "G21 G90\nG1 X20 F3000\nG1 X0\nM30\n" }));
+    client.ok("motion.start", Value::Null);
+    let e = client.call("drives.sdo_read", json!({"node": 1, "index": "0x6061"}));
+    assert_eq!(e["error"]["code"], -32002, "{e}");
+    assert_eq!(client.wait_state(&["finished", "error"], SLOW)["state"], "finished");
+    // A drive in Fault: NMT pre-operational while enabled (the drive's EMCY 0x8100). The master
+    // starts it again but leaves the fault to the operator.
+    vcan::send(&vcan::open(&iface, Duration::from_millis(5)), &Frame::standard(0x000, &[0x80, 3]).expect("NMT"));
+    let until = Instant::now() + SLOW;
+    while client.ok("status", Value::Null)["drives"][2]["state"] != "fault" {
+        assert!(Instant::now() < until, "drive Z did not fault");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    std::thread::sleep(Duration::from_millis(600));
+    let st = client.ok("status", Value::Null);
+    assert_eq!(st["drives"][2]["state"], "fault", "a fault stays until drives.reset: {st}");
+    client.ok("program.load", json!({ "text": "G21 G90\nG1 X5 F3000\nM30\n" }));
+    let e = client.call("motion.start", Value::Null);
+    assert_eq!(e["error"]["code"], -32005, "{e}");
+    let (code, out, err) = cli(&daemon.socket, &["reset"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(out.contains("drive Z (node 3): fault -> operation_enabled"), "{out}");
+    wait_enabled(&mut client);
+    client.ok("motion.start", Value::Null);
+    assert_eq!(client.wait_state(&["finished", "error"], SLOW)["state"], "finished");
+    eprintln!("commissioning: {msg} | reset: {}", out.trim());
+    drop(client);
+    let (code, err) = daemon.terminate();
+    assert_eq!(code, Some(0), "{err}");
+    let _ = drives.terminate();
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A DCF value the drive refuses: the start is refused naming the node, the object and the
+/// abort, and nothing moves.
+#[test]
+fn a_refused_configured_value_names_node_index_and_sub() {
+    let Some((iface, _bus)) = vcan::bus("a_refused_configured_value_names_node_index_and_sub") else { return };
+    let dir = vcan::temp_dir("can-value-abort");
+    let cfg =
+        config(&dir, 3, 4.0, "[sinks.can.node.2]\nsdo = [{ index = 0x6041, sub = 0, type = \"u16\", value = 1 }]\n");
+    let err = refused_start(&iface, &cfg, &dir);
+    assert!(
+        err.contains(
+            "drive Y (node 2): node 2: [sinks.can.node.2] sdo[0] (0x6041:0): node 2: SDO download (write) of 0x6041:0 \
+             refused by the drive: abort 0x06010002: attempt to write a read-only object"
+        ),
+        "{err}"
+    );
+    eprintln!("value abort: {}", err.lines().filter(|l| l.contains("abort")).collect::<Vec<_>>().join(" | "));
+    let _ = std::fs::remove_dir_all(&dir);
+}

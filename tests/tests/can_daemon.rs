@@ -9,7 +9,7 @@
 //!   setpoints; the daemon's candump log holds the same setpoints as the bus, on the path;
 //! - SIGKILL of the daemon mid-motion: every drive's SYNC watchdog trips (EMCY 0x8100) before a
 //!   fourth SYNC would have been due, the drives ramp to a stop in Fault, and a new daemon
-//!   takes them over (fault reset, enable) at the position where they stopped;
+//!   takes them over at the position where they stopped (`drives.reset`, then enable);
 //! - malformed and unexpected frames (wrong DLCs, unknown COB-IDs, remote and 29-bit frames,
 //!   bad values, EMCY storms) are counted by both sides and neither stops working;
 //! - `interpd replay` sends a candump log with its timing, and the capture of the replay
@@ -676,9 +676,31 @@ fn a_new_daemon_takes_over_faulted_drives_where_they_stand() {
     drop(client);
     let _ = first.kill();
     std::thread::sleep(Duration::from_millis(300));
-    // The second one adopts their positions, resets the fault and enables them.
+    // The second one adopts their positions; they stay in Fault (the master does not
+    // acknowledge a fault on its own) until drives.reset, then it enables them.
     let second = start_daemon(&iface, &cfg, None);
     let mut client = second.client();
+    let until = std::time::Instant::now() + SLOW;
+    while !client.ok("status", Value::Null)["drives"]
+        .as_array()
+        .is_some_and(|d| d.iter().all(|d| d["state"] == "fault"))
+    {
+        assert!(std::time::Instant::now() < until, "the drives are not in Fault");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    std::thread::sleep(Duration::from_millis(300));
+    let st = client.ok("status", Value::Null);
+    assert!(st["drives"].as_array().expect("drives").iter().all(|d| d["state"] == "fault"), "latched: {st}");
+    let refused = client.call("motion.start", Value::Null);
+    assert_eq!(refused["error"]["code"], -32002, "nothing loaded, and the drives in Fault: {refused}");
+    let reset = client.ok("drives.reset", Value::Null);
+    let reset = reset["drives"].as_array().expect("reset drives").clone();
+    assert_eq!(reset.len(), 3, "{reset:?}");
+    for d in &reset {
+        assert_eq!(d["state_before"], "fault", "{d}");
+        assert_ne!(d["state"], "fault", "{d}");
+    }
+    eprintln!("drives.reset: {reset:?}");
     let st = wait_enabled(&mut client);
     let position: Vec<f64> = st["position"].as_array().expect("position").iter().filter_map(Value::as_f64).collect();
     for (p, want) in position.iter().zip([3.0, -2.0, 1.0]) {

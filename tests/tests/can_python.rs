@@ -72,6 +72,15 @@ fn python_canopen_drives_are_configured_and_follow_every_setpoint() {
         assert!(Instant::now() < until, "the Python drives were not enabled: {st}\n{}", read_log());
         std::thread::sleep(Duration::from_millis(20));
     }
+    // Commissioning through the daemon against python-canopen's SDO server: its mode display
+    // (as the master configured it), the device name (segmented), a write and its read-back.
+    let read = |client: &mut interpd_e2e::daemon::Client, index: &str, ty: &str| {
+        client.ok("drives.sdo_read", json!({"node": 2, "index": index, "type": ty}))["value"].clone()
+    };
+    assert_eq!(read(&mut client, "0x6061", "i8"), json!(8));
+    assert_eq!(read(&mut client, "0x1008", "string"), json!("interpd sim drive"));
+    client.ok("drives.sdo_write", json!({"node": 2, "index": "0x6065", "type": "u32", "value": 123456}));
+    assert_eq!(read(&mut client, "0x6065", "u32"), json!(123456));
     client.ok("program.load", json!({ "text": "G21 G90\nG1 X12 Y-7 Z3 F6000\nG1 X-4 Y5 Z-2\nG1 X0 Y0 Z0\nM30\n" }));
     client.ok("motion.start", Value::Null);
     let st = client.wait_state(&["finished", "error"], SLOW);

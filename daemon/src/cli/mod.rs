@@ -1,5 +1,6 @@
 //! Subcommands of `interpd`.
 
+mod can;
 mod check;
 mod demo;
 mod law;
@@ -60,6 +61,9 @@ pub enum Command {
     /// Record the shared-memory streams (setpoints, feedback) to MCAP until SIGINT/SIGTERM or
     /// `--duration-s`.
     Record(record::RecordArgs),
+    /// Commissioning of the CAN drives: `sdo read|write` (one SDO transfer, through the daemon or
+    /// directly on the bus with --can) and `reset` (fault reset, through the daemon).
+    Can(can::CanArgs),
 }
 
 pub fn run(cli: Cli) -> Result<(), CliError> {
@@ -74,6 +78,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Command::Law(args) => law::run(&args),
         Command::Otg(args) => otg::run(&args),
         Command::Record(args) => record::run(&args),
+        Command::Can(args) => can::run(&args),
     }
 }
 

@@ -2,8 +2,10 @@
 //! requests, notifications, batches), the calls into [`Motion`], and the error codes of its
 //! refusals.
 
-use super::errors::{AppendError, LawError, LoadError, ManualError, NotAllowed, ResumeError, StartError};
+use super::errors::{AppendError, DriveError, LawError, LoadError, ManualError, NotAllowed, ResumeError, StartError};
 use super::motion::{Motion, ProgramSource};
+use crate::sinks::drive_command::{DriveCommandError, SdoOp};
+use interpd_canopen::Address;
 use interpd_protocol::api::{self, Ack, Call, Event, LoadParams, OverrideResult, Subscribed, codes};
 use interpd_protocol::jsonrpc::{self, ErrorObject, Id, Incoming, Invalid, Request, Response};
 use serde::Serialize;
@@ -183,6 +185,16 @@ impl Context {
             Call::OffsetsSet(offsets) => {
                 motion.set_offsets(offsets).map_err(ErrorObject::from).and_then(|o| to_value(&o))
             }
+            Call::DrivesSdoRead(p) => {
+                let data = motion.drive_sdo(method, p.node, SdoOp::Read(Address::new(p.index, p.sub)))?;
+                to_value(&api::SdoResult::new(p.node, p.index, p.sub, &data, p.ty))
+            }
+            Call::DrivesSdoWrite(p) => {
+                motion.drive_sdo(method, p.node, SdoOp::Write(Address::new(p.index, p.sub), p.data.clone()))?;
+                tracing::info!(conn = session.id, node = p.node, index = p.index, sub = p.sub, "SDO write");
+                to_value(&api::SdoResult::new(p.node, p.index, p.sub, &p.data, Some(p.ty)))
+            }
+            Call::DrivesReset(p) => to_value(&api::ResetResult { drives: motion.drive_reset(&p.nodes)? }),
             Call::FeedOverride(p) => {
                 let Ok(()) = motion.set_override(p.factor);
                 tracing::info!(conn = session.id, factor = p.factor, "feed override");
@@ -227,6 +239,26 @@ impl From<NotAllowed> for ErrorObject {
     fn from(e: NotAllowed) -> ErrorObject {
         ErrorObject::new(codes::NOT_ALLOWED, e.to_string())
             .with_data(serde_json::json!({ "state": e.state, "action": e.action }))
+    }
+}
+
+impl From<DriveError> for ErrorObject {
+    fn from(e: DriveError) -> ErrorObject {
+        match e {
+            DriveError::NotAllowed(e) => e.into(),
+            DriveError::Drive(d) => match &d {
+                DriveCommandError::NoMaster | DriveCommandError::UnknownNode { .. } => {
+                    ErrorObject::new(codes::NO_SUCH_DRIVE, d.to_string())
+                }
+                DriveCommandError::Sdo { abort_code, .. } => {
+                    ErrorObject::new(codes::DRIVE_COMMAND_FAILED, d.to_string())
+                        .with_data(serde_json::json!({ "abort_code": abort_code.map(|c| format!("0x{c:08X}")) }))
+                }
+                DriveCommandError::Reset(_) | DriveCommandError::Stopped(_) => {
+                    ErrorObject::new(codes::DRIVE_COMMAND_FAILED, d.to_string())
+                }
+            },
+        }
     }
 }
 

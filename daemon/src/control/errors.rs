@@ -12,6 +12,7 @@
 //! of the service.
 
 use crate::sinks::DrivesNotReady;
+use crate::sinks::drive_command::DriveCommandError;
 use interpd_motion::law::program::LawBlockError;
 use interpd_motion::prep::PrepError;
 use interpd_motion::program::ProgramErrors;
@@ -25,6 +26,18 @@ use std::path::PathBuf;
 pub struct NotAllowed {
     pub state: State,
     pub action: Method,
+}
+
+/// `drives.sdo_read`, `drives.sdo_write`, `drives.reset` refused or failed.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum DriveError {
+    /// Something moves (−32002): commissioning happens at rest.
+    #[error(transparent)]
+    NotAllowed(#[from] NotAllowed),
+    /// No CAN master or no such node (−32008), or the drive refused or did not answer
+    /// (−32007, `data.abort_code` with the SDO abort code).
+    #[error(transparent)]
+    Drive(#[from] DriveCommandError),
 }
 
 /// `program.load` refused or failed.
@@ -223,6 +236,10 @@ pub fn hint(action: Method, state: State) -> &'static str {
         }
         (MotionJog | MotionMoveTo | Mdi, Holding) => {
             "a held MDI block or return move comes first: call motion.resume or motion.stop"
+        }
+        (DrivesSdoRead | DrivesSdoWrite | DrivesReset, _) => {
+            "drive commissioning runs while nothing moves: wait for state idle or finished (motion.stop ends a held or \
+             running motion)"
         }
         (Mdi, Jogging) => "a manual motion runs; end it with motion.jog_stop and wait for the jog_done event",
         _ => "check the state with status",

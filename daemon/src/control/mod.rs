@@ -40,8 +40,8 @@ mod shared;
 mod socket;
 
 pub use errors::{
-    AppendError, LawError, LawProgramError, LoadError, ManualError, NotAllowed, ProgramPathError, ResumeError,
-    StartError,
+    AppendError, DriveError, LawError, LawProgramError, LoadError, ManualError, NotAllowed, ProgramPathError,
+    ResumeError, StartError,
 };
 pub use motion::{Motion, ProgramSource};
 pub use server::{ControlServer, ControlServerBuilder, ServerError, ServerStats};

@@ -4,10 +4,11 @@
 //! operation's error type in [`super::errors`]) into a JSON-RPC error object. Parameters
 //! arrive already checked: types, presence, and the override range 0.0..=2.0.
 
-use super::errors::{AppendError, LawError, LoadError, ManualError, NotAllowed, ResumeError, StartError};
+use super::errors::{AppendError, DriveError, LawError, LoadError, ManualError, NotAllowed, ResumeError, StartError};
+use crate::sinks::drive_command::{DriveCommandError, SdoOp};
 use interpd_protocol::api::{
-    AppendParams, AppendResult, Event, JogParams, LawResult, MdiParams, MdiResult, MoveToParams, MoveToResult,
-    ProgramInfo, Status, ToolTable, WorkOffsets,
+    AppendParams, AppendResult, Event, JogParams, LawResult, MdiParams, MdiResult, Method, MoveToParams, MoveToResult,
+    ProgramInfo, ResetDrive, Status, ToolTable, WorkOffsets,
 };
 use std::convert::Infallible;
 use std::path::PathBuf;
@@ -109,4 +110,19 @@ pub trait Motion: Send + Sync + 'static {
     /// Replaces the systems given (`offsets.set`) for programs loaded after the call; an axis
     /// the machine does not have is refused.
     fn set_offsets(&self, offsets: WorkOffsets) -> Result<WorkOffsets, ManualError>;
+
+    /// One SDO transfer with CAN drive `node` (`drives.sdo_read`, `drives.sdo_write` as
+    /// `method`): the bytes read (none for a write). Refused unless the machine is idle or
+    /// finished; the default: no drives.
+    fn drive_sdo(&self, method: Method, node: u8, op: SdoOp) -> Result<Vec<u8>, DriveError> {
+        let _ = (method, node, op);
+        Err(DriveCommandError::NoMaster.into())
+    }
+
+    /// Fault reset of the CAN drives `nodes` (none: every drive in Fault), `drives.reset`.
+    /// Allowed where [`Motion::drive_sdo`] is.
+    fn drive_reset(&self, nodes: &[u8]) -> Result<Vec<ResetDrive>, DriveError> {
+        let _ = nodes;
+        Err(DriveCommandError::NoMaster.into())
+    }
 }

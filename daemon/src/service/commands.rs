@@ -9,14 +9,17 @@ use super::manual::{ManualGoal, ManualPart, ManualPlanError};
 use super::state::{Control, Loaded, OVERRIDE_HOLD_BELOW, RunKind};
 use super::{SUBSCRIBER_CAPACITY, ServiceCore, lock};
 use crate::control::{
-    AppendError, LawError, LoadError, ManualError, Motion, NotAllowed, ProgramSource, ResumeError, StartError,
+    AppendError, DriveError, LawError, LoadError, ManualError, Motion, NotAllowed, ProgramSource, ResumeError,
+    StartError,
 };
+use crate::sinks::drive_command::{DriveCommandError, SdoOp};
 use crossbeam::channel::{self, Receiver};
 use interpd_motion::path::MAX_AXES;
 use interpd_motion::program::{self, AppendError as MotionAppendError, ModalState};
 use interpd_protocol::api::{
     AppendParams, AppendResult, Event, JogMode, JogParams, LawResult, ManualStatus, MdiModal, MdiParams, MdiResult,
-    Method, MoveToParams, MoveToResult, ProgramBuffer, ProgramInfo, State, Status, ToolLength, ToolTable, WorkOffsets,
+    Method, MoveToParams, MoveToResult, ProgramBuffer, ProgramInfo, ResetDrive, State, Status, ToolLength, ToolTable,
+    WorkOffsets,
 };
 use interpd_protocol::shm::flags;
 use std::collections::BTreeMap;
@@ -140,6 +143,16 @@ impl ServiceCore {
         let _ = self.shared.feeder.send(FeederCommand::DebugStall { after_s, for_s });
     }
 
+    /// The drive monitor, if the machine stands (idle or finished): commissioning commands
+    /// must not change a drive under a running motion.
+    fn drives_at_rest(&self, action: Method) -> Result<std::sync::Arc<dyn crate::sinks::DriveMonitor>, DriveError> {
+        let state = lock(&self.shared.control).state;
+        if !matches!(state, State::Idle | State::Finished) {
+            return Err(NotAllowed { state, action }.into());
+        }
+        Ok(self.shared.drives.clone().ok_or(DriveCommandError::NoMaster)?)
+    }
+
     /// Waits until the state is one of `states` or `timeout` passes; returns the state.
     pub fn wait_for(&self, states: &[State], timeout: Duration) -> State {
         let until = Instant::now() + timeout;
@@ -154,6 +167,16 @@ impl ServiceCore {
 }
 
 impl Motion for ServiceCore {
+    fn drive_sdo(&self, method: Method, node: u8, op: SdoOp) -> Result<Vec<u8>, DriveError> {
+        let drives = self.drives_at_rest(method)?;
+        Ok(drives.sdo(node, op)?)
+    }
+
+    fn drive_reset(&self, nodes: &[u8]) -> Result<Vec<ResetDrive>, DriveError> {
+        let drives = self.drives_at_rest(Method::DrivesReset)?;
+        Ok(drives.reset(nodes)?)
+    }
+
     fn tools(&self) -> ToolTable {
         self.tool_table()
     }

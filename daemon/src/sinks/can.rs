@@ -64,6 +64,16 @@ impl DriveMonitor for BusShared {
     fn take_fault(&self) -> Option<String> {
         BusShared::take_fault(self)
     }
+    fn sdo(
+        &self,
+        node: u8,
+        op: super::drive_command::SdoOp,
+    ) -> Result<Vec<u8>, super::drive_command::DriveCommandError> {
+        self.sdo_command(node, op)
+    }
+    fn reset(&self, nodes: &[u8]) -> super::drive_command::ResetOutcome {
+        self.reset_command(nodes)
+    }
 }
 
 impl CanMaster {
@@ -104,9 +114,12 @@ impl CanMaster {
         let ids: Vec<NodeId> = nodes.iter().map(|n| n.node).collect();
         let plan = BootPlan::from_config(config, &ids).map_err(setup)?;
 
-        let shared = Arc::new(BusShared::new(iface.clone(), nodes, can));
-        let stop = Arc::new(AtomicBool::new(false));
+        let mut bus = BusShared::new(iface.clone(), nodes, can);
+        bus.cycle_ns = (config.cycle_s() * 1e9) as u64;
         let (boot_tx, boot_rx) = std::sync::mpsc::channel::<BootInput>();
+        *bus.requests.get_mut().unwrap_or_else(|p| p.into_inner()) = Some(boot_tx.clone());
+        let shared = Arc::new(bus);
+        let stop = Arc::new(AtomicBool::new(false));
         let (s2, stop2) = (shared.clone(), stop.clone());
         let rx = std::thread::Builder::new()
             .name("interpd-can-rx".into())

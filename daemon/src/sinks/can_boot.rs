@@ -6,14 +6,23 @@
 //! a wrong identity or a refused SDO transfer, naming the node; a node that does not answer
 //! the reset at all is configured when it boots (its boot-up message), as is a node that
 //! reboots later (its configuration is gone with the reset).
+//!
+//! The thread also serves the commissioning transfers of `drives.sdo_read` and
+//! `drives.sdo_write` ([`SdoRequest`]), one at a time, between configuration rounds: it owns
+//! the master's SDO channel to every node, so they never overlap a configuration transfer.
 
 use super::can_state::BusShared;
+use super::drive_command::SdoOp;
 use crate::rt::clock;
+use interpd_canopen::Address;
 use interpd_canopen::boot::{BootError, CspSetup, NodeBoot, Op, csp_ops};
 use interpd_canopen::eds;
+use interpd_canopen::sdo_client::{SdoClient, SdoError, Step};
+use interpd_protocol::api::SdoType;
 use interpd_protocol::can_socket::to_socketcan;
 use interpd_protocol::cia301::{Frame, NodeId};
 use socketcan::{CanSocket, Socket};
+use std::collections::VecDeque;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender};
@@ -26,6 +35,16 @@ pub enum BootInput {
     Frame(Frame),
     /// A node sent its boot-up message: it is not (or no longer) configured.
     Rebooted(usize),
+    /// A commissioning transfer (`drives.sdo_read`, `drives.sdo_write`).
+    Sdo(SdoRequest),
+}
+
+/// One commissioning transfer with the node of axis `index`; the outcome goes to `reply`.
+#[derive(Debug, Clone)]
+pub struct SdoRequest {
+    pub index: usize,
+    pub op: SdoOp,
+    pub reply: Sender<Result<Vec<u8>, SdoError>>,
 }
 
 /// How one round of configuration went.
@@ -48,21 +67,27 @@ pub struct BootPlan {
 
 impl BootPlan {
     /// The CSP configuration of every node from `[sinks.can]`: the identity from
-    /// `[sinks.can.node.N]` (or its EDS's `[DeviceInfo]`, or the simulated drive's).
+    /// `[sinks.can.node.N]` (or its EDS's `[DeviceInfo]`, or the simulated drive's), then the
+    /// DCF's `ParameterValue`s and the node's `sdo` values.
     pub fn from_config(config: &interpd_config::Config, nodes: &[NodeId]) -> Result<BootPlan, String> {
         let can = &config.sinks.can;
         let mut ops = Vec::with_capacity(nodes.len());
         for &node in nodes {
             let c = can.node_config(node.get());
+            let mut extra = Vec::new();
             let from_eds = match &c.eds {
                 Some(path) => {
                     let text = std::fs::read_to_string(path)
                         .map_err(|e| format!("sinks.can.node.{node}.eds: cannot read {path}: {e}"))?;
                     let e = eds::parse(&text, node).map_err(|e| format!("sinks.can.node.{node}.eds: {path}: {e}"))?;
+                    extra.extend(dcf_values(&e, path));
                     Some((e.vendor_id, e.product_code))
                 }
                 None => None,
             };
+            for (k, v) in c.sdo.iter().enumerate() {
+                extra.push(table_value(node, k, v)?);
+            }
             let (eds_vendor, eds_product) = from_eds
                 .unwrap_or((interpd_config::sinks::SIM_DRIVE_VENDOR_ID, interpd_config::sinks::SIM_DRIVE_PRODUCT_CODE));
             let setup = CspSetup {
@@ -70,7 +95,7 @@ impl BootPlan {
                 product_code: c.product_code.unwrap_or(eds_product),
                 cycle_us: (config.cycle_s() * 1e6).round() as u32,
                 heartbeat_ms: can.heartbeat_producer_ms as u16,
-                extra: Vec::new(),
+                extra,
             };
             ops.push(csp_ops(node, &setup));
         }
@@ -80,6 +105,44 @@ impl BootPlan {
             boot_timeout_us: (can.boot_timeout_ms.max(100.0) * 1e3) as u64,
         })
     }
+}
+
+/// Whether the master writes `index` itself for CSP (PDOs, SYNC, cycle, heartbeat, mode,
+/// interpolation period): a DCF's value there would be overwritten or, for a mapping written
+/// while its PDO is valid, refused.
+fn master_owned(index: u16) -> bool {
+    matches!(index, 0x1005 | 0x1006 | 0x1017 | 0x1400..=0x1BFF | 0x6060 | 0x60C2)
+}
+
+/// The downloads of a DCF's `ParameterValue`s: writable entries, in index order, except the
+/// objects the master configures itself.
+fn dcf_values(e: &eds::Eds, path: &str) -> Vec<Op> {
+    e.parameters
+        .iter()
+        .filter_map(|&at| {
+            let entry = e.od.entry(at)?;
+            if !entry.access.writable() || master_owned(at.index) {
+                tracing::debug!("CAN: {path}: ParameterValue of {at} not written (read-only or set by the master)");
+                return None;
+            }
+            Some(Op::Write {
+                at,
+                data: entry.value.clone(),
+                what: format!("{path} ParameterValue {} ({at})", entry.name),
+            })
+        })
+        .collect()
+}
+
+/// One `[sinks.can.node.N] sdo` entry as a download, its type and value checked.
+fn table_value(node: NodeId, k: usize, v: &interpd_config::sinks::CanSdoValue) -> Result<Op, String> {
+    let key = format!("sinks.can.node.{node}.sdo[{k}]");
+    let ty = SdoType::from_name(&v.ty)
+        .ok_or_else(|| format!("{key}.type: unknown type {:?}; expected one of {}", v.ty, SdoType::names()))?;
+    let text = v.value_text().map_err(|e| format!("{key}.value: {e}"))?;
+    let data = ty.encode(&serde_json::Value::String(text)).map_err(|e| format!("{key}.value: {e}"))?;
+    let at = Address::new(v.index, v.sub);
+    Ok(Op::Write { at, data, what: format!("[sinks.can.node.{node}] sdo[{k}] ({at})") })
 }
 
 fn now_us() -> u64 {
@@ -97,26 +160,37 @@ pub fn run(
     stop: Arc<AtomicBool>,
 ) {
     let all: Vec<usize> = (0..shared.nodes.len()).collect();
-    let mut booted = Vec::new();
-    let first = configure(&socket, &shared, &plan, &all, &inputs, &stop, true, &mut booted);
+    let mut wait = Waiting::default();
+    let first = configure(&socket, &shared, &plan, &all, &inputs, &stop, true, &mut wait);
     let ok = first.is_ok();
     let _ = started.send(first);
     if !ok {
         return;
     }
     while !stop.load(Ordering::Acquire) {
-        let next = match booted.pop() {
+        // A node to configure comes before a commissioning transfer: it may be its target.
+        let next = match wait.booted.pop() {
             Some(i) => Some(i),
-            None => match inputs.recv_timeout(Duration::from_millis(50)) {
-                Ok(BootInput::Rebooted(i)) => Some(i),
-                Ok(BootInput::Frame(_)) | Err(RecvTimeoutError::Timeout) => None,
-                Err(RecvTimeoutError::Disconnected) => return,
+            None => match wait.requests.pop_front() {
+                Some(req) => {
+                    serve(&socket, &shared, &plan, req, &inputs, &stop, &mut wait);
+                    continue;
+                }
+                None => match inputs.recv_timeout(Duration::from_millis(50)) {
+                    Ok(BootInput::Rebooted(i)) => Some(i),
+                    Ok(BootInput::Sdo(req)) => {
+                        wait.requests.push_back(req);
+                        None
+                    }
+                    Ok(BootInput::Frame(_)) | Err(RecvTimeoutError::Timeout) => None,
+                    Err(RecvTimeoutError::Disconnected) => return,
+                },
             },
         };
         let Some(i) = next else { continue };
         let n = &shared.nodes[i];
         tracing::warn!("CAN: {} booted: configuring it", n.label());
-        match configure(&socket, &shared, &plan, &[i], &inputs, &stop, false, &mut booted) {
+        match configure(&socket, &shared, &plan, &[i], &inputs, &stop, false, &mut wait) {
             Ok(r) if r.nodes == 1 => tracing::info!("CAN: {} configured in {:.1} ms", n.label(), r.elapsed_ms),
             Ok(_) => {}
             Err(e) => shared.push_fault(e),
@@ -124,9 +198,97 @@ pub fn run(
     }
 }
 
+/// What arrives while the thread is busy with a round or a transfer, for afterwards.
+#[derive(Debug, Default)]
+struct Waiting {
+    /// Nodes that booted (to configure).
+    booted: Vec<usize>,
+    /// Commissioning transfers, in their order.
+    requests: VecDeque<SdoRequest>,
+}
+
+impl Waiting {
+    /// Keeps an input that is not for the work in progress.
+    fn keep(&mut self, input: BootInput) {
+        match input {
+            BootInput::Rebooted(i) if !self.booted.contains(&i) => self.booted.push(i),
+            BootInput::Sdo(req) => self.requests.push_back(req),
+            BootInput::Rebooted(_) | BootInput::Frame(_) => {}
+        }
+    }
+}
+
+/// One commissioning transfer: its frames go out on the boot socket, the node's SDO responses
+/// come from the receive thread; the outcome (the abort code and its meaning on failure) goes
+/// to the requester and a failure into the node's `last_sdo_error`.
+#[allow(clippy::too_many_arguments)]
+fn serve(
+    socket: &CanSocket,
+    shared: &BusShared,
+    plan: &BootPlan,
+    req: SdoRequest,
+    inputs: &Receiver<BootInput>,
+    stop: &AtomicBool,
+    wait: &mut Waiting,
+) {
+    let n = &shared.nodes[req.index];
+    let mut client = SdoClient::new(n.node, plan.sdo_timeout_us);
+    let mut out = Vec::new();
+    let started = match &req.op {
+        SdoOp::Read(at) => client.upload(*at, now_us()),
+        SdoOp::Write(at, data) => client.download(*at, data.clone(), now_us()),
+    };
+    let result = match started {
+        Err(e) => Err(e),
+        Ok(first) => {
+            out.push(first);
+            send_all(socket, shared, &mut out);
+            loop {
+                if stop.load(Ordering::Acquire) {
+                    return;
+                }
+                let now = now_us();
+                let deadline = client.deadline_us().unwrap_or(now);
+                let step =
+                    match inputs.recv_timeout(Duration::from_micros(deadline.saturating_sub(now).clamp(100, 50_000))) {
+                        Ok(BootInput::Frame(f)) => client.on_frame(&f, now_us()),
+                        Ok(other) => {
+                            wait.keep(other);
+                            None
+                        }
+                        Err(RecvTimeoutError::Timeout) => client.poll(now_us()),
+                        Err(RecvTimeoutError::Disconnected) => return,
+                    };
+                match step {
+                    None => {}
+                    Some(Step::Send(f)) => {
+                        out.push(f);
+                        send_all(socket, shared, &mut out);
+                    }
+                    Some(Step::Uploaded(data)) => break Ok(data),
+                    Some(Step::Downloaded) => break Ok(Vec::new()),
+                    Some(Step::Failed { error, abort }) => {
+                        out.extend(abort);
+                        send_all(socket, shared, &mut out);
+                        break Err(error);
+                    }
+                }
+            }
+        }
+    };
+    match &result {
+        Ok(data) => tracing::info!("CAN: {}: commissioning {:?}: done ({} bytes)", n.label(), req.op, data.len()),
+        Err(e) => {
+            tracing::warn!("CAN: {}: commissioning: {e}", n.label());
+            *n.last_sdo_error.lock().unwrap_or_else(|p| p.into_inner()) = Some(e.to_string());
+        }
+    }
+    let _ = req.reply.send(result);
+}
+
 /// Boots the nodes `which` side by side; the first failure ends the round with its message,
 /// except a node that does not answer the reset: it is left to its boot-up message. Nodes that
-/// boot meanwhile and are not in this round go to `booted`.
+/// boot meanwhile and are not in this round, and commissioning requests, go to `wait`.
 /// `reset`: begin with NMT reset communication (a node that has just booted skips it).
 #[allow(clippy::too_many_arguments)]
 fn configure(
@@ -137,7 +299,7 @@ fn configure(
     inputs: &Receiver<BootInput>,
     stop: &AtomicBool,
     reset: bool,
-    booted: &mut Vec<usize>,
+    wait: &mut Waiting,
 ) -> Result<BootReport, String> {
     /// Marks the nodes of a round as being configured, until the round ends however it ends.
     struct Configuring<'a>(&'a BusShared, &'a [usize]);
@@ -180,7 +342,13 @@ fn configure(
                 silent += 1;
                 Ok(())
             }
-            Err(e) => Err(format!("{}: {e}", shared.nodes[*i].label())),
+            Err(e) => {
+                if let BootError::Sdo { error, .. } = &e {
+                    *shared.nodes[*i].last_sdo_error.lock().unwrap_or_else(|p| p.into_inner()) =
+                        Some(error.to_string());
+                }
+                Err(format!("{}: {e}", shared.nodes[*i].label()))
+            }
         }
     };
     for k in 0..boots.len() {
@@ -196,15 +364,13 @@ fn configure(
         }
         let now = now_us();
         let next = pending.iter().filter_map(|&k| boots[k].1.deadline_us()).min().unwrap_or(now + 50_000);
-        let wait = Duration::from_micros(next.saturating_sub(now).clamp(100, 50_000));
-        let frame = match inputs.recv_timeout(wait) {
+        let timeout = Duration::from_micros(next.saturating_sub(now).clamp(100, 50_000));
+        let frame = match inputs.recv_timeout(timeout) {
             Ok(BootInput::Frame(f)) => Some(f),
             // A node of this round that boots is answered by the boot-up frame its boot waits
-            // for; another one is configured afterwards.
-            Ok(BootInput::Rebooted(i)) => {
-                if !booted.contains(&i) {
-                    booted.push(i);
-                }
+            // for; another one is configured afterwards, as a commissioning request is served.
+            Ok(other @ (BootInput::Rebooted(_) | BootInput::Sdo(_))) => {
+                wait.keep(other);
                 None
             }
             Err(RecvTimeoutError::Timeout) => None,

@@ -7,9 +7,11 @@
 //! allocates, locks or logs.
 //!
 //! Controlwords: a drive in Operation enabled keeps ENABLE_OPERATION. Other drives are moved
-//! one step per cycle toward Operation enabled (shutdown → switch on → enable operation, fault
-//! reset from Fault) only while the machine stands and the drive's position actual lies within
-//! the enable window of the setpoint (so enabling cannot make it jump). During motion a drive
+//! one step per cycle toward Operation enabled (shutdown → switch on → enable operation) only
+//! while the machine stands and the drive's position actual lies within the enable window of
+//! the setpoint (so enabling cannot make it jump). A drive in Fault stays there until
+//! `drives.reset` asks for its fault reset (the rising edge of bit 7, at standstill): a fault
+//! is acknowledged by the operator, never by the master on its own. During motion a drive
 //! that is not enabled gets QUICK_STOP: the master never re-enables a drive in mid-motion.
 
 use super::can_state::BusShared;
@@ -75,6 +77,14 @@ impl CanSink {
         };
         if state == PowerState::OperationEnabled {
             return controlword::ENABLE_OPERATION;
+        }
+        if standing && state == PowerState::Fault {
+            // Fault → Switch on disabled moves nothing, so the reset needs no enable window.
+            return if n.fault_reset.load(Ordering::Acquire) {
+                controlword_toward_enabled(state, self.last_cw[i])
+            } else {
+                controlword::DISABLE_VOLTAGE
+            };
         }
         let off = (i64::from(n.position_actual()) - i64::from(target)).unsigned_abs();
         if standing && off <= u64::from(self.shared.enable_window) {

@@ -50,6 +50,13 @@ pub struct NodeShared {
     /// The boot thread is configuring the node now (its boot-up messages are answers to its
     /// own reset, not reboots).
     pub configuring: AtomicBool,
+    /// `drives.reset` asks for a fault reset of this drive: the real-time sink sends the
+    /// rising edge of controlword bit 7 while the drive is in Fault (without it, a drive in
+    /// Fault stays there).
+    pub fault_reset: AtomicBool,
+    /// The last failed SDO transfer with the node (configuration or commissioning), as text.
+    /// Not touched by the real-time thread.
+    pub last_sdo_error: Mutex<Option<String>>,
 }
 
 impl NodeShared {
@@ -74,6 +81,8 @@ impl NodeShared {
             heartbeat_lost: AtomicBool::new(false),
             configured: AtomicBool::new(false),
             configuring: AtomicBool::new(false),
+            fault_reset: AtomicBool::new(false),
+            last_sdo_error: Mutex::new(None),
         }
     }
 
@@ -171,6 +180,7 @@ impl NodeShared {
             last_emcy_code: self.last_emcy_code().map(|c| format!("0x{c:04X}")),
             last_emcy_text: self.last_emcy_code().map(|c| interpd_protocol::cia301::emcy_code::text(c).to_string()),
             configured: self.configured.load(Ordering::Relaxed),
+            last_sdo_error: self.last_sdo_error.lock().unwrap_or_else(|e| e.into_inner()).clone(),
         }
     }
 
@@ -263,6 +273,10 @@ pub struct BusShared {
     pub heartbeat_timeout_ns: u64,
     pub enable_window: u32,
     pub tx_fail_cycles: u64,
+    /// The boot thread's inbox, for commissioning requests (`None` until it runs).
+    pub requests: Mutex<Option<std::sync::mpsc::Sender<super::can_boot::BootInput>>>,
+    /// The SYNC period, for how long a fault reset may take.
+    pub cycle_ns: u64,
     faults: Mutex<VecDeque<String>>,
 }
 
@@ -276,6 +290,8 @@ impl BusShared {
             heartbeat_timeout_ns: (config.heartbeat_timeout_ms * 1e6) as u64,
             enable_window: config.enable_window_increments,
             tx_fail_cycles: u64::from(config.tx_fail_cycles),
+            requests: Mutex::new(None),
+            cycle_ns: 4_000_000,
             faults: Mutex::new(VecDeque::new()),
         }
     }

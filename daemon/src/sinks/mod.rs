@@ -6,13 +6,16 @@
 
 pub mod can;
 mod can_boot;
+mod can_command;
 mod can_log;
 mod can_rx;
 mod can_sink;
 mod can_state;
 pub mod deferred;
+pub mod drive_command;
 pub mod shm;
 
+use drive_command::{DriveCommandError, ResetOutcome, SdoOp};
 use interpd_protocol::api::DriveStatus;
 use interpd_protocol::cia402::PowerState;
 use interpd_protocol::shm::Setpoints;
@@ -49,6 +52,18 @@ pub trait DriveMonitor: Send + Sync {
     /// The oldest fault not yet taken (a drive left Operation enabled, a heartbeat was lost,
     /// the bus failed): the service stops the machine on it.
     fn take_fault(&self) -> Option<String>;
+    /// One SDO transfer with drive `node` (commissioning); the bytes read, or none for a write.
+    /// The caller has checked that nothing moves.
+    fn sdo(&self, node: u8, op: SdoOp) -> Result<Vec<u8>, DriveCommandError> {
+        let _ = (node, op);
+        Err(DriveCommandError::NoMaster)
+    }
+    /// Fault reset (controlword bit 7, rising edge) of the drives `nodes` (none: every drive in
+    /// Fault), then back toward Operation enabled; waits until they have left Fault.
+    fn reset(&self, nodes: &[u8]) -> ResetOutcome {
+        let _ = nodes;
+        Err(DriveCommandError::NoMaster)
+    }
 }
 
 /// Why motion may not start: every drive that is not ready, and a bus that does not receive.

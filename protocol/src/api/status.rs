@@ -157,6 +157,10 @@ pub struct DriveStatus {
     /// last boot-up message.
     #[serde(default)]
     pub configured: bool,
+    /// The last failed SDO transfer with the node (its configuration at boot, or
+    /// `drives.sdo_read`/`drives.sdo_write`): node, object, abort code and its meaning.
+    #[serde(default)]
+    pub last_sdo_error: Option<String>,
 }
 
 /// The result of `status`.

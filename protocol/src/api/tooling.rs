@@ -45,11 +45,15 @@ pub struct WorkOffsets {
     pub offsets: BTreeMap<String, BTreeMap<String, f64>>,
 }
 
-fn refuse(method: Method, param: &str, detail: &str) -> ErrorObject {
+pub(super) fn refuse(method: Method, param: &str, detail: &str) -> ErrorObject {
     invalid_params(method, Some(param), detail)
 }
 
-fn members<T: serde::de::DeserializeOwned>(method: Method, params: Params, example: &str) -> Result<T, ErrorObject> {
+pub(super) fn members<T: serde::de::DeserializeOwned>(
+    method: Method,
+    params: Params,
+    example: &str,
+) -> Result<T, ErrorObject> {
     let map = match params {
         Params::Named(map) => map,
         _ => return Err(invalid_params(method, None, &format!("{method} takes named parameters such as {example}"))),

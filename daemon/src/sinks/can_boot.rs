@@ -410,3 +410,69 @@ fn send_all(socket: &CanSocket, shared: &BusShared, out: &mut Vec<Frame>) {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plan(extra: &str) -> Result<BootPlan, String> {
+        let text = format!("{}\n{extra}", interpd_config::DEFAULT_MACHINE_TOML);
+        let config = interpd_config::Config::from_toml_str(&text, "test").map_err(|e| e.to_string())?;
+        let nodes: Vec<NodeId> = (1..=3).map(|n| NodeId::new(n).expect("node")).collect();
+        BootPlan::from_config(&config, &nodes)
+    }
+
+    fn writes(ops: &[Op]) -> Vec<(Address, Vec<u8>, String)> {
+        ops.iter()
+            .filter_map(|op| match op {
+                Op::Write { at, data, what } => Some((*at, data.clone(), what.clone())),
+                _ => None,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn node_values_are_written_before_the_heartbeat_and_checked_naming_the_key() {
+        let p = plan("[sinks.can.node.2]\nsdo = [{ index = 0x6065, type = \"u32\", value = 20000 }, { index = 0x2001, sub = 3, type = \"i8\", value = \"-5\" }]\n")
+            .expect("plan");
+        let w = writes(&p.ops[1]);
+        let at = |a: Address| w.iter().position(|(x, _, _)| *x == a).expect("written");
+        assert_eq!(w[at(Address::new(0x6065, 0))].1, vec![0x20, 0x4E, 0, 0]);
+        assert_eq!(w[at(Address::new(0x2001, 3))].1, vec![0xFB]);
+        assert!(w[at(Address::new(0x2001, 3))].2.contains("[sinks.can.node.2] sdo[1] (0x2001:3)"));
+        assert!(at(Address::new(0x6065, 0)) < at(Address::new(0x2001, 3)), "in the table's order");
+        assert!(at(Address::new(0x2001, 3)) < at(Address::new(0x1017, 0)), "before the heartbeat");
+        assert!(writes(&p.ops[0]).iter().all(|(a, _, _)| a.index != 0x6065), "node 1 has no values");
+        let e =
+            plan("[sinks.can.node.3]\nsdo = [{ index = 0x6060, type = \"u8\", value = 300 }]\n").err().expect("range");
+        assert_eq!(e, "sinks.can.node.3.sdo[0].value: 300 is out of range for u8 (0 to 255)");
+        let e =
+            plan("[sinks.can.node.3]\nsdo = [{ index = 0x6060, type = \"f32\", value = 1 }]\n").err().expect("type");
+        assert!(e.starts_with("sinks.can.node.3.sdo[0].type: unknown type \"f32\""), "{e}");
+        let e =
+            plan("[sinks.can.node.3]\nsdo = [{ index = 0x6060, type = \"u8\", value = 1.5 }]\n").err().expect("float");
+        assert!(e.starts_with("sinks.can.node.3.sdo[0].value: expected an integer"), "{e}");
+    }
+
+    #[test]
+    fn a_dcf_gives_its_writable_values_except_the_masters_own() {
+        let dir = std::env::temp_dir().join(format!("interpd-dcf-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let eds = include_str!("../../../sim-plant/eds/interpd-sim-drive.eds");
+        let dcf = eds
+            .replacen("[6065]\n", "[6065]\nParameterValue=54321\n", 1)
+            .replacen("[1017]\n", "[1017]\nParameterValue=7\n", 1)
+            .replacen("[6041]\n", "[6041]\nParameterValue=1\n", 1);
+        let path = dir.join("n1.dcf");
+        std::fs::write(&path, dcf).expect("write");
+        let p = plan(&format!("[sinks.can.node.1]\neds = \"{}\"\n", path.display())).expect("plan");
+        let dcf_writes: Vec<_> =
+            writes(&p.ops[0]).into_iter().filter(|(_, _, what)| what.contains("ParameterValue")).collect();
+        assert_eq!(dcf_writes.len(), 1, "0x6041 is read-only, 0x1017 the master's: {dcf_writes:?}");
+        assert_eq!(
+            (dcf_writes[0].0, dcf_writes[0].1.clone()),
+            (Address::new(0x6065, 0), 54321u32.to_le_bytes().to_vec())
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

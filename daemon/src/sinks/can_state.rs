@@ -396,6 +396,14 @@ mod tests {
         assert!(!e.contains("node 1"), "{e}");
         assert!(e.contains("drive Y (node 2) is in state Switch on disabled (statusword 0x0250)"), "{e}");
         assert!(e.contains("500 increments from the setpoint"), "{e}");
+        s.nodes[1].on_tpdo(0x0208, 0, now);
+        let e = s.ready_for_motion().unwrap_err().to_string();
+        assert!(
+            e.contains(
+                "is in state Fault (statusword 0x0208), not Operation enabled (a fault stays until drives.reset"
+            ),
+            "{e}"
+        );
         s.nodes[1].on_tpdo(0x1237, 500, now);
         assert_eq!(s.ready_for_motion(), Ok(()));
         s.nodes[1].heartbeat_lost.store(true, Ordering::Relaxed);

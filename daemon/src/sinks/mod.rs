@@ -111,8 +111,9 @@ pub enum NotReady {
     HeartbeatLost,
     /// In another CiA 402 state; the master enables it only within the enable window.
     #[error(
-        "is in state {state} (statusword 0x{statusword:04X}), not Operation enabled{}",
-        OutsideWindow(outside_window)
+        "is in state {state} (statusword 0x{statusword:04X}), not Operation enabled{}{}",
+        OutsideWindow(outside_window),
+        if *state == PowerState::Fault { " (a fault stays until drives.reset acknowledges it)" } else { "" }
     )]
     NotEnabled { state: PowerState, statusword: u16, outside_window: Option<EnableWindow> },
     #[error("reports an undefined statusword 0x{0:04X}")]

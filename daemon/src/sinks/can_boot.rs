@@ -17,35 +17,17 @@ use crate::rt::clock;
 use interpd_canopen::Address;
 use interpd_canopen::boot::{BootError, CspSetup, NodeBoot, Op, csp_ops};
 use interpd_canopen::eds;
-use interpd_canopen::sdo_client::{SdoClient, SdoError, Step};
+use interpd_canopen::sdo_client::{SdoClient, Step};
 use interpd_protocol::api::SdoType;
 use interpd_protocol::can_socket::to_socketcan;
 use interpd_protocol::cia301::{Frame, NodeId};
 use socketcan::{CanSocket, Socket};
+pub use super::can_inbox::{BootInput, SdoRequest};
 use std::collections::VecDeque;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender};
 use std::time::Duration;
-
-/// What the receive thread hands the boot thread.
-#[derive(Debug, Clone)]
-pub enum BootInput {
-    /// An SDO response or a heartbeat of a configured node.
-    Frame(Frame),
-    /// A node sent its boot-up message: it is not (or no longer) configured.
-    Rebooted(usize),
-    /// A commissioning transfer (`drives.sdo_read`, `drives.sdo_write`).
-    Sdo(SdoRequest),
-}
-
-/// One commissioning transfer with the node of axis `index`; the outcome goes to `reply`.
-#[derive(Debug, Clone)]
-pub struct SdoRequest {
-    pub index: usize,
-    pub op: SdoOp,
-    pub reply: Sender<Result<Vec<u8>, SdoError>>,
-}
 
 /// How one round of configuration went.
 #[derive(Debug, Clone, PartialEq)]

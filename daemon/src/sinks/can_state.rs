@@ -274,7 +274,7 @@ pub struct BusShared {
     pub enable_window: u32,
     pub tx_fail_cycles: u64,
     /// The boot thread's inbox, for commissioning requests (`None` until it runs).
-    pub requests: Mutex<Option<std::sync::mpsc::Sender<super::can_boot::BootInput>>>,
+    pub requests: Mutex<Option<std::sync::mpsc::Sender<super::can_inbox::BootInput>>>,
     /// The SYNC period, for how long a fault reset may take.
     pub cycle_ns: u64,
     faults: Mutex<VecDeque<String>>,

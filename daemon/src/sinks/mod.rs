@@ -7,6 +7,7 @@
 pub mod can;
 mod can_boot;
 mod can_command;
+mod can_inbox;
 mod can_log;
 mod can_rx;
 mod can_sink;

@@ -11,6 +11,7 @@
 //! `drives.sdo_write` ([`SdoRequest`]), one at a time, between configuration rounds: it owns
 //! the master's SDO channel to every node, so they never overlap a configuration transfer.
 
+pub use super::can_inbox::{BootInput, SdoRequest};
 use super::can_state::BusShared;
 use super::drive_command::SdoOp;
 use crate::rt::clock;
@@ -22,7 +23,6 @@ use interpd_protocol::api::SdoType;
 use interpd_protocol::can_socket::to_socketcan;
 use interpd_protocol::cia301::{Frame, NodeId};
 use socketcan::{CanSocket, Socket};
-pub use super::can_inbox::{BootInput, SdoRequest};
 use std::collections::VecDeque;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -25,4 +25,3 @@ pub struct SdoRequest {
     pub op: SdoOp,
     pub reply: Sender<Result<Vec<u8>, SdoError>>,
 }
-

@@ -346,6 +346,7 @@ pub(super) fn sample_element(
     }
     let j_path = lim.min_jerk();
     let a_path = lim.min_acc();
+    let cruise = cruise_ramp_mm(e, feed, a_path, j_path, lim, params);
     // Profiled at the first step, whose length sets the profile's resolution.
     let mut sharpness: Option<Option<Sharpness>> = None;
     let mut s = 0.0;
@@ -356,11 +357,12 @@ pub(super) fn sample_element(
             // `d` holds the geometry at s: evaluated there above, or by `push_interior`.
             table_step(e, &d, feed, from_start, to_end, j_path, a_path, lim, params)
         } else {
-            step_at(e, s, &mut d, feed, from_start, to_end, j_path, a_path, lim, params)
+            step_at(e, s, &mut d, feed, from_start, to_end, j_path, a_path, cruise, lim, params)
         };
         // Look at the far end of the step too, so a step does not jump into a sharp region.
         if s + ds < len && !own_samples {
-            let ds2 = step_at(e, s + ds, &mut d, feed, from_start + ds, to_end - ds, j_path, a_path, lim, params);
+            let ds2 =
+                step_at(e, s + ds, &mut d, feed, from_start + ds, to_end - ds, j_path, a_path, cruise, lim, params);
             ds = ds.min(ds2.max(0.5 * ds));
         }
         // And the sharpest point the step covers (splines and tables can turn tightly in a
@@ -603,6 +605,7 @@ fn step_at(
     to_end_mm: f64,
     j_path: f64,
     a_path: f64,
+    cruise_ramp: Option<f64>,
     lim: &Limits,
     params: &SamplingParams,
 ) -> f64 {
@@ -616,10 +619,58 @@ fn step_at(
     // The speed-based spacing stops at min_step_mm; the geometry-based one may go below it,
     // down to GEOMETRY_MIN_STEP_MM, so tight features are resolved and not stepped over.
     let ds_geometry = ds.max(GEOMETRY_MIN_STEP_MM);
-    let ds_speed =
+    let mut ds_speed =
         if v_nom.is_finite() { (v_nom * params.max_interval_s).max(params.min_step_mm) } else { f64::INFINITY };
-    ds_geometry.min(ds_speed).min(stop_grading_step(from_start_mm, to_end_mm, params))
+    if let Some(ramp_mm) = cruise_ramp {
+        let inside_mm = s.min(e.geometry.length_mm() - s) - ramp_mm;
+        ds_speed = ds_speed.max(CRUISE_GRADING * inside_mm);
+    }
+    // At a feed so low that its whole stop is shorter than `min_step_mm` (F10 on a stiff
+    // machine: 2 nm), the grading goes on below it, to a quarter of that stop.
+    let floor = params.min_step_mm.min(0.25 * super::stop_distance_mm(v_nom, a_path, j_path)).max(GEOMETRY_MIN_STEP_MM);
+    ds_geometry.min(ds_speed).min((STOP_GRADING * from_start_mm.min(to_end_mm).max(0.0)).max(floor))
 }
+
+/// Where an element's velocity bound is its feed all along (a line, or an arc whose curvature
+/// keeps every axis' limits above the feed, on linear axes), the motion can change speed only
+/// near its ends, within the distance it needs to stop from the feed (`ramp`, returned); in
+/// between it cruises, and a time step of `max_interval_ms` would only add nodes: at F1 on a
+/// 3 m arc, 10⁸ of them. There the steps grow with the distance from that ramp
+/// (`CRUISE_GRADING`, as near a stop) up to the geometric ones. `None` where the bound varies
+/// along the element.
+fn cruise_ramp_mm(
+    e: &Element,
+    feed: f64,
+    a_path: f64,
+    j_path: f64,
+    lim: &Limits,
+    params: &SamplingParams,
+) -> Option<f64> {
+    if !feed.is_finite() || !params.linear.iter().all(|&l| l) {
+        return None;
+    }
+    if !matches!(e.geometry, crate::path::Geometry::Line(_) | crate::path::Geometry::Helix(_)) {
+        return None;
+    }
+    // Along a line or helix of linear axes |A′| = 1 and ‖A″‖, ‖A‴‖ are constant: bounds of
+    // every axis' |A′_k|, |A″_k|, |A‴_k| anywhere on it.
+    let mut mid = AxisDerivs::default();
+    e.geometry.eval(0.5 * e.geometry.length_mm(), &mut mid);
+    let norm = |x: &[f64]| x[..lim.n_axes].iter().map(|v| v * v).sum::<f64>().sqrt();
+    let (d2, d3) = (norm(&mid.d2), norm(&mid.d3));
+    for k in 0..lim.n_axes {
+        let a = lim.acc_max[k].min(-lim.acc_min[k]);
+        let bound = lim.vel[k].min((a / d2).sqrt()).min((lim.jerk[k] / d3).cbrt());
+        if feed > bound {
+            return None;
+        }
+    }
+    Some(super::stop_distance_mm(feed, a_path, j_path))
+}
+
+/// Largest step in a cruise, as a share of the distance from the ramp at either end of the
+/// element (`cruise_ramp_mm`).
+const CRUISE_GRADING: f64 = 0.5;
 
 /// Near a stop the nodes are graded geometrically: a step at most `STOP_GRADING` times the
 /// distance to the stop. Leaving or approaching rest, the time from the stop grows only as

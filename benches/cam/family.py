@@ -34,6 +34,10 @@ jerk limit relaxes the problem, so it is a lower bound of any jerk-limited motio
 curve, up to the discretisation. It is computed on the curve the program was sampled from,
 never on interpd's nodes. A path smoothed inside the band may be shorter than the curve (a
 loop below the tolerance cut), so a ratio below 1 is possible there.
+
+The jerk-limited bound (`axis_jerk_bound`): per axis, the moves between its reversals, each at
+that axis' velocity, acceleration and jerk limit with velocity 0 at both reversals; the largest
+sum over the axes. Also independent of interpd, weak on curves, close on rasters.
 """
 import argparse
 import json
@@ -344,6 +348,75 @@ def acc_only_bound(points, limits, feed_mm_s):
     return float(t.sum()), float(s[-1])
 
 
+def reversal_time_s(d_mm, vmax, amax, jmax):
+    """Shortest time one axis needs to move `d_mm` between two of its reversals: velocity 0 at
+    both ends (an extremum of the axis), acceleration free there, |v| <= vmax, |a| <= amax,
+    |j| <= jmax. The optimum is symmetric: acceleration a0 held for t1 (a0 = amax, or less where
+    the move is short), jerk -jmax for 2 a0 / jmax to -a0, -a0 held for t1; a cruise at vmax
+    in the middle where the peak would exceed it."""
+    if d_mm <= 0.0:
+        return 0.0
+
+    def reach(a0, t1):
+        # Displacement and peak velocity of the profile without cruise.
+        t2 = 2.0 * a0 / jmax
+        v1 = a0 * t1
+        return v1 * (t1 + t2) + a0 * t2 * t2 / 2.0 - jmax * t2 ** 3 / 6.0, v1 + a0 * a0 / (2.0 * jmax)
+
+    # The profile that just reaches vmax at its peak, and the distance it covers.
+    if vmax >= amax * amax / (2.0 * jmax):
+        a_c, t1_c = amax, (vmax - amax * amax / (2.0 * jmax)) / amax
+    else:
+        a_c, t1_c = math.sqrt(2.0 * jmax * vmax), 0.0
+    d_c, _ = reach(a_c, t1_c)
+    if d_mm >= d_c:
+        return 2.0 * t1_c + 2.0 * a_c / jmax + (d_mm - d_c) / vmax
+    # Shorter: bisect on the total time T (the displacement grows with it).
+    def d_of(t_total):
+        a0 = min(amax, jmax * t_total / 2.0)
+        t1 = (t_total - 2.0 * a0 / jmax) / 2.0
+        return reach(a0, t1)[0]
+    lo, hi = 0.0, 2.0 * t1_c + 2.0 * a_c / jmax
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if d_of(mid) < d_mm:
+            lo = mid
+        else:
+            hi = mid
+    return hi
+
+
+def axis_jerk_bound(points, limits, tol_mm):
+    """A jerk-limited lower bound of the motion time along `points` that nothing of interpd's
+    computes: per axis, the moves between its reversals (extrema, counted only where the axis
+    goes back by more than 2 x tol, so a reversal the smoothing may cut inside the band is not
+    one), each shortened by 2 x tol and taken at the axis' own velocity, acceleration and jerk
+    limits with velocity 0 at each reversal (`reversal_time_s`); the motion takes at least the
+    largest sum over the axes. Weak on curved paths (it ignores the coupling of the axes),
+    close to the motion where one axis reverses at every U-turn: what the jerk limit costs that
+    the acceleration-only bound does not see."""
+    best = 0.0
+    for k, (vmax, amax, jmax) in enumerate(limits):
+        x = points[:, k]
+        # Extrema with a hysteresis of 2 x tol: `cand` is the running extreme of the current
+        # direction, kept as a reversal once the axis has gone back from it by more than that.
+        ext, cand, direction = [x[0]], x[0], 0
+        for xi in x[1:]:
+            if direction == 0:
+                if abs(xi - x[0]) > 2.0 * tol_mm:
+                    direction, cand = (1 if xi > x[0] else -1), xi
+            elif (xi - cand) * direction > 0:
+                cand = xi
+            elif abs(xi - cand) > 2.0 * tol_mm:
+                ext.append(cand)
+                direction, cand = -direction, xi
+        if direction != 0:
+            ext.append(cand)
+        total = sum(reversal_time_s(abs(b - a) - 2.0 * tol_mm, vmax, amax, jmax) for a, b in zip(ext, ext[1:]))
+        best = max(best, total)
+    return best
+
+
 def a_range_at(x1, x2, b, amax):
     lo, hi = -math.inf, math.inf
     for k in range(3):
@@ -420,6 +493,7 @@ def write(dirname, seed, count, step, machine, kinds):
             desc["bound_s"] = None
         else:
             desc["bound_s"], desc["length_mm"] = acc_only_bound(ref, limits, desc["feed_mm_min"] / 60.0)
+        desc["jerk_bound_s"] = axis_jerk_bound(ref, limits, TOL_MM)
         np.save(base + ".curve.npy", ref)
         with open(base + ".json", "w") as f:
             json.dump(desc, f, indent=1)

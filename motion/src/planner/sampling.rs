@@ -625,9 +625,12 @@ fn step_at(
         let inside_mm = s.min(e.geometry.length_mm() - s) - ramp_mm;
         ds_speed = ds_speed.max(CRUISE_GRADING * inside_mm);
     }
-    // At a feed so low that its whole stop is shorter than `min_step_mm` (F10 on a stiff
-    // machine: 2 nm), the grading goes on below it, to a quarter of that stop.
-    let floor = params.min_step_mm.min(0.25 * super::stop_distance_mm(v_nom, a_path, j_path)).max(GEOMETRY_MIN_STEP_MM);
+    // At a feed so low that its whole stop is shorter than `min_step_mm` (F1 on a stiff
+    // machine: 10 nm), the grading goes on below it, to a quarter of that stop; at any
+    // usual feed the stop is far longer and `min_step_mm` is the floor.
+    let v_cruise = flat_velocity_bound(&g, lim).min(feed);
+    let floor =
+        params.min_step_mm.min(0.25 * super::stop_distance_mm(v_cruise, a_path, j_path)).max(GEOMETRY_MIN_STEP_MM);
     ds_geometry.min(ds_speed).min((STOP_GRADING * from_start_mm.min(to_end_mm).max(0.0)).max(floor))
 }
 

@@ -14,137 +14,21 @@
 //! PREP_METHODS_TOL=0.01 PREP_METHODS_PLANT=schneider-stiff cargo bench -p interpd --bench prep_methods
 //! ```
 
+// Shared with `prep_plant`, which builds its reference from the corners it names.
+#[path = "common/haas_plant.rs"]
+#[allow(dead_code)]
+mod haas_plant;
+
+use haas_plant::{Figures, Reference, repo_file, simulate, with_mode};
 use interpd::config::Config;
 use interpd_config::PrepMethod;
 use interpd_motion::Settings;
-use interpd_motion::path::{AxisDerivs, Path};
-use interpd_motion::planner::Planner;
-use interpd_motion::planner::profile::{Cursor, duration_s};
 use interpd_motion::prep::{PrepStats, prepare_path};
 use interpd_motion::program;
 use plotters::prelude::*;
-use sim_plant::{AxisTarget, Plant};
 use std::io::Write;
 
 static FONT: &[u8] = include_bytes!("../../sim-plant/assets/DejaVuSans.ttf");
-
-fn repo_file(name: &str) -> String {
-    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(name);
-    std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
-}
-
-/// The program with `word` before its first G1 block.
-fn with_mode(text: &str, word: &str) -> String {
-    let mut out = String::new();
-    let mut inserted = false;
-    for line in text.lines() {
-        if !inserted && line.starts_with("G1") {
-            out.push_str(word);
-            out.push('\n');
-            inserted = true;
-        }
-        out.push_str(line);
-        out.push('\n');
-    }
-    out
-}
-
-/// The programmed path as a fine polyline in X, Y (chord sag on the GKG's 20 mm arc at this
-/// step: 0.05² / (8 · 20) mm = 0.016 µm).
-struct Reference {
-    pts: Vec<(f64, f64)>,
-}
-
-const REFERENCE_STEP_MM: f64 = 0.05;
-
-impl Reference {
-    fn new(path: &Path) -> Self {
-        let mut d = AxisDerivs::default();
-        let mut pts = Vec::new();
-        let mut s0 = 0.0;
-        for e in &path.elements {
-            let len = e.geometry.length_mm();
-            let n = (len / REFERENCE_STEP_MM).ceil().max(1.0) as usize;
-            for i in 0..=n {
-                e.geometry.eval(len * i as f64 / n as f64, &mut d);
-                pts.push((d.pos[0], d.pos[1]));
-            }
-            s0 += len;
-        }
-        let _ = s0;
-        Self { pts }
-    }
-
-    fn distance(&self, x: f64, y: f64) -> f64 {
-        self.pts
-            .windows(2)
-            .map(|w| {
-                let ((ax, ay), (bx, by)) = (w[0], w[1]);
-                let (dx, dy) = (bx - ax, by - ay);
-                let l2 = dx * dx + dy * dy;
-                let t = if l2 > 0.0 { (((x - ax) * dx + (y - ay) * dy) / l2).clamp(0.0, 1.0) } else { 0.0 };
-                (x - ax - t * dx).hypot(y - ay - t * dy)
-            })
-            .fold(f64::INFINITY, f64::min)
-    }
-}
-
-/// Settling time simulated after the motion ends, s.
-const SETTLE_S: f64 = 0.2;
-
-struct Figures {
-    duration_s: f64,
-    setpoint_max_mm: f64,
-    load_max_mm: f64,
-    excitation_max_mm: f64,
-    excitation_rms_mm: f64,
-    /// (t, excitation) per cycle, for the plot.
-    trace: Vec<(f64, f64)>,
-}
-
-fn simulate(config: &Config, path: &Path, reference: &Reference) -> Figures {
-    let (segments, _) = Planner::plan_path(&Settings::from(config), path).expect("plans");
-    let duration = duration_s(&segments);
-    let mut plant = Plant::from_config(config).expect("plant");
-    let n = path.n_axes;
-    let cycle = config.cycle_s();
-    let mut cursor = Cursor::default();
-    let mut d = AxisDerivs::default();
-    let (mut sp_max, mut load_max, mut ex_max, mut ex_sq, mut count) = (0.0f64, 0.0f64, 0.0f64, 0.0, 0usize);
-    let steps = ((duration + SETTLE_S) / cycle).ceil() as usize;
-    let mut targets = vec![AxisTarget::default(); n];
-    let mut trace = Vec::with_capacity(steps + 1);
-    for k in 0..=steps {
-        let t = k as f64 * cycle;
-        let Some(sample) = cursor.sample(&segments, t) else { break };
-        let st = sample.state;
-        if sample.at_start {
-            path.eval(st.s_mm, &mut d)
-        } else {
-            path.eval_left(st.s_mm, &mut d)
-        }
-        for (i, tg) in targets.iter_mut().enumerate() {
-            *tg = AxisTarget { pos: d.pos[i], vel: d.d1[i] * st.v, acc: d.d2[i] * st.v * st.v + d.d1[i] * st.a };
-        }
-        let out = plant.advance_to((t * 1e9).round() as u64, &targets).expect("plant step");
-        let sp = reference.distance(d.pos[0], d.pos[1]);
-        let load = reference.distance(out[0].load_pos, out[1].load_pos);
-        sp_max = sp_max.max(sp);
-        load_max = load_max.max(load);
-        ex_max = ex_max.max((load - sp).abs());
-        ex_sq += (load - sp) * (load - sp);
-        count += 1;
-        trace.push((t, load - sp));
-    }
-    Figures {
-        duration_s: duration,
-        setpoint_max_mm: sp_max,
-        load_max_mm: load_max,
-        excitation_max_mm: ex_max,
-        excitation_rms_mm: (ex_sq / count.max(1) as f64).sqrt(),
-        trace,
-    }
-}
 
 /// Haas 2012, Table 4.8: path time (s) at degree 2, 3, 4 on the Siemens VNCK.
 fn thesis_time_s(shape: &str, method: Option<PrepMethod>, degree: u32) -> Option<f64> {

@@ -8,101 +8,17 @@
 //! cargo bench -p interpd --bench prep_plant
 //! ```
 
+// Shared with `prep_methods`, which also uses its trace and its reference from a path.
+#[path = "common/haas_plant.rs"]
+#[allow(dead_code)]
+mod haas_plant;
+
+use haas_plant::{Reference, repo_file, simulate, with_mode};
 use interpd::config::Config;
 use interpd_motion::Settings;
-use interpd_motion::path::{AxisDerivs, Path};
-use interpd_motion::planner::Planner;
-use interpd_motion::planner::profile::{Cursor, duration_s};
 use interpd_motion::prep::prepare_path;
 use interpd_motion::program;
-use sim_plant::{AxisTarget, Plant};
 use std::io::Write;
-
-fn repo_file(name: &str) -> String {
-    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(name);
-    std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
-}
-
-/// The program with `word` before its first G1 block.
-fn with_mode(text: &str, word: &str) -> String {
-    let mut out = String::new();
-    let mut inserted = false;
-    for line in text.lines() {
-        if !inserted && line.starts_with("G1") {
-            out.push_str(word);
-            out.push('\n');
-            inserted = true;
-        }
-        out.push_str(line);
-        out.push('\n');
-    }
-    out
-}
-
-/// Distance of (x, y) to the programmed polyline (these shapes are lines only).
-fn distance(corners: &[(f64, f64)], x: f64, y: f64) -> f64 {
-    corners
-        .windows(2)
-        .map(|w| {
-            let ((ax, ay), (bx, by)) = (w[0], w[1]);
-            let (dx, dy) = (bx - ax, by - ay);
-            let t = (((x - ax) * dx + (y - ay) * dy) / (dx * dx + dy * dy)).clamp(0.0, 1.0);
-            (x - ax - t * dx).hypot(y - ay - t * dy)
-        })
-        .fold(f64::INFINITY, f64::min)
-}
-
-/// Settling time simulated after the motion ends, s.
-const SETTLE_S: f64 = 0.2;
-
-struct Figures {
-    duration_s: f64,
-    setpoint_max_mm: f64,
-    load_max_mm: f64,
-    excitation_max_mm: f64,
-    excitation_rms_mm: f64,
-}
-
-fn simulate(config: &Config, path: &Path, corners: &[(f64, f64)]) -> Figures {
-    let (segments, _) = Planner::plan_path(&Settings::from(config), path).expect("plans");
-    let duration = duration_s(&segments);
-    let mut plant = Plant::from_config(config).expect("plant");
-    let n = path.n_axes;
-    let cycle = config.cycle_s();
-    let mut cursor = Cursor::default();
-    let mut d = AxisDerivs::default();
-    let (mut sp_max, mut load_max, mut ex_max, mut ex_sq, mut count) = (0.0f64, 0.0f64, 0.0f64, 0.0, 0usize);
-    let steps = ((duration + SETTLE_S) / cycle).ceil() as usize;
-    let mut targets = vec![AxisTarget::default(); n];
-    for k in 0..=steps {
-        let t = k as f64 * cycle;
-        let Some(sample) = cursor.sample(&segments, t) else { break };
-        let st = sample.state;
-        if sample.at_start {
-            path.eval(st.s_mm, &mut d)
-        } else {
-            path.eval_left(st.s_mm, &mut d)
-        }
-        for (i, tg) in targets.iter_mut().enumerate() {
-            *tg = AxisTarget { pos: d.pos[i], vel: d.d1[i] * st.v, acc: d.d2[i] * st.v * st.v + d.d1[i] * st.a };
-        }
-        let out = plant.advance_to((t * 1e9).round() as u64, &targets).expect("plant step");
-        let sp = distance(corners, d.pos[0], d.pos[1]);
-        let load = distance(corners, out[0].load_pos, out[1].load_pos);
-        sp_max = sp_max.max(sp);
-        load_max = load_max.max(load);
-        ex_max = ex_max.max((load - sp).abs());
-        ex_sq += (load - sp) * (load - sp);
-        count += 1;
-    }
-    Figures {
-        duration_s: duration,
-        setpoint_max_mm: sp_max,
-        load_max_mm: load_max,
-        excitation_max_mm: ex_max,
-        excitation_rms_mm: (ex_sq / count.max(1) as f64).sqrt(),
-    }
-}
 
 fn main() {
     let text = format!(
@@ -124,7 +40,7 @@ fn main() {
             let path =
                 program::parse(&with_mode(&source, mode), "bench.ngc", &Settings::from(&config)).expect("parses").path;
             let path = prepare_path(&Settings::from(&config), &path).expect("smoothing").path;
-            let f = simulate(&config, &path, corners);
+            let f = simulate(&config, &path, &Reference::from_points(corners));
             writeln!(
                 out,
                 "{name:>10} {mode:<9}: {:.4} s; lateral deviation max: setpoints {:.4} mm, TCP {:.4} mm; \

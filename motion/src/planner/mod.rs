@@ -100,18 +100,6 @@ pub fn block_work_bound_units(nodes: usize) -> u64 {
 /// (`Planner::brake_along_stop`).
 const STOP_TAKEN_WHOLE_MAX_INTERVALS: usize = 4;
 
-/// A horizon is full once it holds this many stops from its fastest velocity bound
-/// (`Planner::horizon_full`): the hand-over state's own stop and room for the motion beyond it.
-const HORIZON_STOPS: f64 = 3.0;
-
-/// Distance of the time-optimal stop from velocity `v` (acceleration 0) with path acceleration
-/// up to `acc` and jerk up to `jerk`: v·√(v/J) where the stop never reaches `acc`
-/// (v ≤ A²/J), else v²/(2A) + vA/(2J). With the smallest axis limits as the path's, it is at
-/// least the stop of a straight move along any axis.
-pub(super) fn stop_distance_mm(v: f64, acc: f64, jerk: f64) -> f64 {
-    if v * jerk <= acc * acc { v * (v / jerk).sqrt() } else { v * v / (2.0 * acc) + v * acc / (2.0 * jerk) }
-}
-
 /// Nodes a forced stop keeps from the block's ends (`Planner::force_stop`): a profile from
 /// rest to rest takes at least three constant-jerk intervals.
 const STOP_CLEARANCE_NODES: usize = 3;
@@ -143,10 +131,6 @@ pub struct Planner {
     t_now_s: f64,
     /// Node count at the last plan (replan only after the horizon grew enough).
     planned_len: usize,
-    /// The highest velocity the motion can reach in the horizon (`reach_top`), and the one it
-    /// can reach at the last node, for `horizon_full`.
-    reach_top_mm_s: f64,
-    reach_mm_s: f64,
     /// A feasible profile from the start whose velocity floors the bounds (`resume`).
     vbar_floor: Vec<Segment>,
     /// The rest of the last horizon's plan from the hand-over node to where it came to rest
@@ -182,8 +166,6 @@ impl Planner {
             start_moving: false,
             t_now_s: 0.0,
             planned_len: 0,
-            reach_top_mm_s: 0.0,
-            reach_mm_s: 0.0,
             vbar_floor: Vec::new(),
             retained_stop: Vec::new(),
             out: Vec::new(),
@@ -218,33 +200,16 @@ impl Planner {
             return Ok(std::mem::take(&mut self.out));
         }
         let complete = self.end_sampled;
+        let ahead_mm = self.nodes[self.nodes.len() - 1].s_mm - self.nodes[0].s_mm;
+        let ahead_n = self.nodes.len();
+        let enough = ahead_mm >= self.lookahead_mm || ahead_n >= self.lookahead_samples;
         // Replan when the program is complete, or when the horizon is full and has grown by a
         // quarter since the last plan (so each node is planned a bounded number of times).
         let grown = self.nodes.len() >= self.planned_len + self.planned_len / 4 + 16;
-        if complete || (grown && self.horizon_full()) {
+        if complete || (enough && grown) {
             self.plan_horizon(complete)?;
         }
         Ok(std::mem::take(&mut self.out))
-    }
-
-    /// Whether the horizon reaches far enough to plan: `lookahead_mm` or `lookahead_samples`
-    /// ahead of the hand-over node, or `HORIZON_STOPS` × the distance the motion needs to stop
-    /// from the highest velocity the motion can reach in it (linear axes only), whichever is shorter. What a plan hands on never
-    /// depends on the stop assumed at the horizon's end (`BlockPlan::final_before`), so a
-    /// horizon longer than the stop from the fastest state it allows changes only how much one
-    /// plan hands on, not the motion; but every plan's work grows with it. On dense nodes
-    /// where the bound is low (noisy CAM data at a few mm/s), this keeps a plan to a few
-    /// hundred nodes instead of the tens of thousands in `lookahead_mm`.
-    fn horizon_full(&self) -> bool {
-        let ahead_mm = self.nodes[self.nodes.len() - 1].s_mm - self.nodes[0].s_mm;
-        if ahead_mm >= self.lookahead_mm || self.nodes.len() >= self.lookahead_samples {
-            return true;
-        }
-        // With rotary axes a path of mm can turn them by many degrees per mm, and the path
-        // brakes slower than any axis: no bound from the axes' limits, the look-ahead decides.
-        self.params.linear.iter().all(|&l| l)
-            && ahead_mm
-                >= HORIZON_STOPS * stop_distance_mm(self.reach_top_mm_s, self.lim.min_acc(), self.lim.min_jerk())
     }
 
     /// Plans the horizon now, however short, when elements came since the last plan: for a
@@ -338,7 +303,6 @@ impl Planner {
                 &mut self.nodes,
             );
             self.stats.nodes += (self.nodes.len() - count_before) as u64;
-            self.reach_top(count_before);
             self.refine_vbar(count_before.saturating_sub(1));
             if !self.vbar_floor.is_empty() {
                 resume::raise_to_floor(&mut self.nodes[count_before.saturating_sub(1)..], &self.vbar_floor);
@@ -355,22 +319,6 @@ impl Planner {
                 self.refine_vbar(self.nodes.len().saturating_sub(2));
             }
             self.end_sampled = true;
-        }
-    }
-
-    /// Raises `reach_top_mm_s` by the nodes `from..`: the velocity reachable from the start
-    /// state under their bounds with the highest path acceleration any straight move has (the
-    /// axes' limits along the diagonal), b_{i+1} ≤ b_i + 2Δs·a (the forward pass of the
-    /// acceleration-only problem, Kopp et al.'s v̄ as the ceiling). An upper bound of the
-    /// motion's velocity there: a high bound that no stretch is long enough to reach does not
-    /// lengthen the horizon.
-    fn reach_top(&mut self, from: usize) {
-        let a_hi = self.lim.acc_max[..self.lim.n_axes].iter().map(|a| a * a).sum::<f64>().sqrt();
-        for i in from.max(1)..self.nodes.len() {
-            let ds = self.nodes[i].s_mm - self.nodes[i - 1].s_mm;
-            let b = self.reach_mm_s * self.reach_mm_s + 2.0 * a_hi * ds;
-            self.reach_mm_s = b.sqrt().min(self.nodes[i].vbar_mm_s.max(0.0));
-            self.reach_top_mm_s = self.reach_top_mm_s.max(self.reach_mm_s);
         }
     }
 
@@ -549,8 +497,6 @@ impl Planner {
         }
         self.start = state;
         self.planned_len = self.nodes.len();
-        (self.reach_mm_s, self.reach_top_mm_s) = (state.0, state.0);
-        self.reach_top(1);
         if complete && self.nodes.len() == 1 {
             let end = &self.nodes[0];
             if end.dwell_s > 0.0 {

@@ -38,7 +38,6 @@ impl Planner {
         let mut p = Planner::new(settings);
         p.vbar_floor = floor;
         p.start = (v_mm_s, a_mm_s2);
-        (p.reach_mm_s, p.reach_top_mm_s) = (v_mm_s, v_mm_s);
         p.start_moving = v_mm_s > STANDSTILL_V_MM_S || a_mm_s2.abs() > STANDSTILL_A_MM_S2;
         if p.start_moving {
             // Sampling is dense near stops (where the motion is slow); the start is none.

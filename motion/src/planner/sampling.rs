@@ -629,8 +629,7 @@ fn step_at(
     // machine: 10 nm), the grading goes on below it, to a quarter of that stop; at any
     // usual feed the stop is far longer and `min_step_mm` is the floor.
     let v_cruise = flat_velocity_bound(&g, lim).min(feed);
-    let floor =
-        params.min_step_mm.min(0.25 * super::stop_distance_mm(v_cruise, a_path, j_path)).max(GEOMETRY_MIN_STEP_MM);
+    let floor = params.min_step_mm.min(0.25 * stop_distance_mm(v_cruise, a_path, j_path)).max(GEOMETRY_MIN_STEP_MM);
     ds_geometry.min(ds_speed).min((STOP_GRADING * from_start_mm.min(to_end_mm).max(0.0)).max(floor))
 }
 
@@ -668,7 +667,14 @@ fn cruise_ramp_mm(
             return None;
         }
     }
-    Some(super::stop_distance_mm(feed, a_path, j_path))
+    Some(stop_distance_mm(feed, a_path, j_path))
+}
+
+/// Distance of the time-optimal stop from velocity `v` (acceleration 0) with path acceleration
+/// up to `acc` and jerk up to `jerk`: v·√(v/J) where the stop never reaches `acc`
+/// (v ≤ A²/J), else v²/(2A) + vA/(2J).
+fn stop_distance_mm(v: f64, acc: f64, jerk: f64) -> f64 {
+    if v * jerk <= acc * acc { v * (v / jerk).sqrt() } else { v * v / (2.0 * acc) + v * acc / (2.0 * jerk) }
 }
 
 /// Largest step in a cruise, as a share of the distance from the ramp at either end of the

@@ -207,14 +207,14 @@ fn a_horizon_without_continuation_brakes_along_the_stop_it_was_handed() {
     assert!(t_online <= 1.02 * t_whole, "online {t_online} s, whole {t_whole} s ({stats:?})");
 }
 
-/// Online with a 20 mm look-ahead on a dense spline on the tight test machine, a horizon's
+/// Online with a 60 mm look-ahead on a dense spline on the tight test machine, a horizon's
 /// backward branch from its (virtual) end at rest runs into a dead end its viability ramps do
 /// not foresee, and backing off leads back into it. The branch from the block end tries caps
 /// before giving up (`branch::build_envelope`), and the program plans without a stop.
 #[test]
 fn a_backward_branch_from_rest_that_runs_into_a_dead_end_is_capped() {
     let (tight, path) = tight_spline(10_000);
-    let (segs, _, stats) = plan_online_stats(&tight, &path, 20.0);
+    let (segs, _, stats) = plan_online_stats(&tight, &path, 60.0);
     check_covers(&segs, path.length_mm());
     assert!(stats.work.end_caps > 0, "the case no longer needs the cap: {stats:?}");
     assert!(stats.horizon_stops == 0, "{stats:?}");
@@ -246,10 +246,7 @@ fn online_planning_matches_whole_program() {
         let (online, handovers) = plan_online(c, &prog.path, lookahead);
         let (tw, to) = (profile::duration_s(&whole), profile::duration_s(&online));
         assert!(handovers > 3, "{name}: only {handovers} hand-overs: the look-ahead did not bound the horizon");
-        // The horizon ends where it holds a few stops from its fastest bound (`horizon_full`),
-        // so its blocks and the repairs they keep differ from the whole program's: online may
-        // be faster, but never notably slower.
-        assert!(to <= 1.005 * tw && to >= 0.98 * tw, "{name}: online {to} s vs whole {tw} s");
+        assert!((to - tw).abs() <= 0.005 * tw, "{name}: online {to} s vs whole {tw} s");
         check_continuity(&online);
         let end = online.last().unwrap();
         assert!((end.s1_mm() - prog.path.length_mm()).abs() < 1e-6);
@@ -576,12 +573,7 @@ fn a_block_whose_repairs_do_not_converge_stops_at_the_bad_node() {
     let (segs, _, stats) = plan_online_stats(&cfg, &path, cfg.planner.lookahead_mm);
     block::TEST_GIVE_UPS.with(|c| c.set(1));
     let (whole, whole_stats) = Planner::plan_path(&cfg, &path).expect("plan");
-    // Online, a block that gives up at the start of a horizon brakes along the stop the last
-    // horizon handed over instead (`Planner::brake_along_stop`).
-    assert!(
-        stats.forced_stops + stats.horizon_brakes >= 1 && whole_stats.forced_stops >= 1,
-        "{stats:?} {whole_stats:?}"
-    );
+    assert!(stats.forced_stops >= 1 && whole_stats.forced_stops >= 1, "{stats:?} {whole_stats:?}");
     for s in [&segs, &whole] {
         check_covers(s, path.length_mm());
         let [v, a, j] = profile::limit_ratios(&path, s, &cfg, 2.5e-4);

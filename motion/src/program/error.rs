@@ -47,15 +47,23 @@ pub(crate) const MAX_ERRORS: usize = 100;
 pub(crate) struct Diagnostics {
     file: String,
     pub errors: Vec<ProgramError>,
+    /// Errors found, repeats at one place included: what ends the reading.
+    found: usize,
 }
 
 impl Diagnostics {
     pub(super) fn new(file: &str) -> Self {
-        Self { file: file.to_string(), errors: Vec::new() }
+        Self { file: file.to_string(), errors: Vec::new(), found: 0 }
     }
 
+    /// Records an error, unless one was already recorded at the same place: a loop body or a
+    /// subroutine executed again repeats its errors, and copies of one line would hide the
+    /// others. Repeats still count towards [`MAX_ERRORS`], so such a loop ends the reading as
+    /// soon as before.
     pub(super) fn error(&mut self, line: u32, col: u32, message: impl Into<String>) {
-        if self.errors.len() < MAX_ERRORS {
+        self.found += 1;
+        let seen = self.errors.iter().any(|e| e.line == line && e.col == col && e.file == self.file);
+        if !seen && self.errors.len() < MAX_ERRORS {
             self.errors.push(ProgramError { file: self.file.clone(), line, col, message: message.into() });
         }
     }
@@ -72,8 +80,13 @@ impl Diagnostics {
         &self.file
     }
 
+    /// Errors found so far, repeats at one place included.
+    pub(super) fn found(&self) -> usize {
+        self.found
+    }
+
     pub(super) fn full(&self) -> bool {
-        self.errors.len() >= MAX_ERRORS
+        self.found >= MAX_ERRORS
     }
 }
 
@@ -83,4 +96,29 @@ pub(crate) fn fmt_num(v: f64) -> String {
     let s = format!("{v:.4}");
     let s = s.trim_end_matches('0').trim_end_matches('.');
     if s == "-0" { "0".to_string() } else { s.to_string() }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_error_repeated_at_one_place_is_reported_once() {
+        let mut d = Diagnostics::new("loop.ngc");
+        for k in 0..50 {
+            d.error(10, 6, format!("X target {k} is outside the travel range"));
+        }
+        d.error(12, 1, "another");
+        d.set_file("sub.ngc");
+        d.error(10, 6, "the same place in another file");
+        let places: Vec<String> = d.errors.iter().map(|e| format!("{}:{}:{}", e.file, e.line, e.col)).collect();
+        assert_eq!(places, ["loop.ngc:10:6", "loop.ngc:12:1", "sub.ngc:10:6"]);
+        assert!(d.errors[0].message.starts_with("X target 0 "), "the first one is kept");
+        assert!(!d.full());
+        for _ in 0..48 {
+            d.error(10, 6, "again");
+        }
+        assert!(d.full(), "repeats end the reading after {MAX_ERRORS} errors found");
+        assert_eq!(d.errors.len(), 3);
+    }
 }

@@ -611,13 +611,13 @@ impl Interpreter {
     /// Executes one block; then every word must have been consumed by it.
     fn block(&mut self, line: &Line, line_no: u32, d: &mut Diagnostics) {
         let block = Block::new(&line.words, line_no);
-        let errors_before = d.errors.len();
+        let errors_before = d.found();
         self.block_pause = None;
         self.execute(&block, line, d);
         if let Some(p) = self.block_pause.take() {
             self.pending_pause = Some(p);
         }
-        if d.errors.len() == errors_before {
+        if d.found() == errors_before {
             if let Some(w) = block.unconsumed() {
                 d.error(line_no, w.col, unused_word_message(w.letter));
             }

@@ -274,12 +274,17 @@ fn spline_setpoints_lie_on_the_hermite_spans() {
 /// Runs `interpd plan` on a program text and machine text written to temporary files:
 /// (exit code, stdout, stderr).
 fn plan_raw(name: &str, program: &str, machine: Option<&str>) -> (i32, String, String) {
+    plan_raw_with(name, program, machine, &[])
+}
+
+/// [`plan_raw`] with further `interpd plan` arguments.
+fn plan_raw_with(name: &str, program: &str, machine: Option<&str>, extra: &[&str]) -> (i32, String, String) {
     let dir = std::env::temp_dir().join(format!("interpd-plan-bad-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
     let prog = dir.join("p.ngc");
     std::fs::write(&prog, program).expect("write program");
     let mut cmd = Command::new(binary("interpd"));
-    cmd.arg("plan").arg(&prog).arg("--json");
+    cmd.arg("plan").arg(&prog).arg("--json").args(extra);
     if let Some(m) = machine {
         let file = dir.join("m.toml");
         std::fs::write(&file, m).expect("write machine");
@@ -292,6 +297,30 @@ fn plan_raw(name: &str, program: &str, machine: Option<&str>) -> (i32, String, S
         String::from_utf8_lossy(&out.stdout).into_owned(),
         String::from_utf8_lossy(&out.stderr).into_owned(),
     )
+}
+
+/// `[prep] max_solve_ms` is the daemon's wall-clock guard on a window solve; `interpd plan`
+/// applies it only with `--timed-solves`, so that a plan does not depend on the host's load. A
+/// limit of 0 ms sends every window to the fallback when applied, and changes nothing when not.
+#[test]
+fn plan_applies_the_solve_time_limit_only_when_asked() {
+    let machine = std::fs::read_to_string(repo_root().join("config/machines/xyz.toml")).expect("xyz.toml")
+        + "\n[prep]\nmax_solve_ms = 0.0\n";
+    let program = "G64 P0.01\nG1 X10 F3000\nG1 X10 Y10\nG1 X20 Y10\nG1 X20 Y20\n";
+    let slow = |extra: &[&str]| {
+        let (code, out, err) = plan_raw_with("timed", program, Some(&machine), extra);
+        assert_eq!(code, 0, "stderr: {err}");
+        let json: serde_json::Value = serde_json::from_str(&out).expect("json");
+        (
+            json["prep"]["stats"]["slow"].as_u64().expect("slow"),
+            json["prep"]["stats"]["windows"].as_u64().expect("windows"),
+        )
+    };
+    let (untimed, windows) = slow(&[]);
+    assert!(windows > 0, "the program is smoothed");
+    assert_eq!(untimed, 0, "no window solve is timed without --timed-solves");
+    let (timed, _) = slow(&["--timed-solves"]);
+    assert!(timed > 0, "with --timed-solves a limit of 0 ms stops the window solves");
 }
 
 #[test]

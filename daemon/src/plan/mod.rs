@@ -47,7 +47,16 @@ pub struct PlanArgs {
     /// --plant=VALUE. The plant runs in the binary interpd-sim beside interpd.
     #[arg(long, num_args = 0..=1, default_missing_value = "", value_name = "PRESET|FILE")]
     pub plant: Option<String>,
+    /// Apply `[prep] max_solve_ms`, the wall-clock limit of a window solve, as the daemon does.
+    /// Without it `plan` lifts that limit (to its largest value, 100 s), so that what it plans
+    /// does not depend on how busy the computer is.
+    #[arg(long)]
+    pub timed_solves: bool,
 }
+
+/// `[prep] max_solve_ms` of a plan without `--timed-solves`: the largest the configuration
+/// allows, so that no window solve reaches it.
+const UNTIMED_SOLVE_MS: f64 = 1e5;
 
 /// The machine a plan runs on and its sampling period.
 #[derive(Debug)]
@@ -65,6 +74,11 @@ impl Setup {
                 return Err(PlanError::Lookahead(l));
             }
             config.planner.lookahead_mm = l;
+        }
+        // Offline nothing waits for a window solve; the daemon's time limit would only make the
+        // plan depend on the host's load (a solve slowed by other processes takes a fallback).
+        if !args.timed_solves {
+            config.prep.max_solve_ms = UNTIMED_SOLVE_MS;
         }
         let period_s = match args.period_ms {
             Some(p) if p.is_finite() && p >= 0.01 => p * 1e-3,

@@ -14,12 +14,18 @@
 //! tx_fail_cycles = 3                 # cycles with failed sends in a row before a controlled stop
 //! heartbeat_producer_ms = 100        # 0x1017 the master writes into every drive
 //! sdo_timeout_ms = 1000              # one SDO answer may take this long
+//! home_order = ["Z", "X", "Y"]       # machine.home homes the axes in this order (default: all, [[axis]] order)
+//! homing_timeout_ms = 30000          # one axis's homing may take this long
+//! require_homing = false             # true: motion.start, jog, move-to and MDI wait for machine.home
 //!
 //! [sinks.can.node.2]                 # what node 2 must be (default: the simulated drive)
 //! vendor_id = 0x0000_0000
 //! product_code = 0x0000_0402
 //! sdo = [{ index = 0x6065, sub = 0, type = "u32", value = 20000 }]   # written at boot
 //! eds = "drives/servo.eds"           # or its identity from an EDS/DCF ([DeviceInfo])
+//! homing = { method = 3, speed_switch = 10.0, speed_zero = 1.0, acceleration = 100.0, offset = 0.0 }
+//! sim_home_switch = 12.5             # sim-plant only: the drive's home switch is active above this
+//! sim_index_pitch = 5.0              # sim-plant only: an index pulse every this many units
 //! ```
 
 use crate::{AxisConfig, ConfigError, Validator};
@@ -32,7 +38,7 @@ pub const SIM_DRIVE_VENDOR_ID: u32 = 0;
 pub const SIM_DRIVE_PRODUCT_CODE: u32 = 0x402;
 
 /// `[sinks.can.node.N]`: what the master expects node N to be.
-#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct CanNodeConfig {
     /// Expected 0x1018:1; default: the EDS's `VendorNumber`, else the simulated drive's.
@@ -45,6 +51,56 @@ pub struct CanNodeConfig {
     /// Objects the master writes at boot, after the DCF's values and before NMT start, in this
     /// order: `sdo = [{ index = 0x6065, sub = 0, type = "u32", value = 20000 }]`.
     pub sdo: Vec<CanSdoValue>,
+    /// How `machine.home` homes this node (CiA 402 homing mode 6).
+    pub homing: CanHomingConfig,
+    /// The simulated drive only (`sim-plant --source can:`): its home switch is active at axis
+    /// positions at or above this (plant coordinates, axis units); none: the axis has no
+    /// home switch, so a switch method ends at the travel's end with a homing error.
+    pub sim_home_switch: Option<f64>,
+    /// The simulated drive only: the distance between two index pulses of its encoder (one
+    /// revolution), axis units; the pulses lie at whole multiples of it (plant coordinates).
+    pub sim_index_pitch: f64,
+}
+
+/// Default index pulse spacing of the simulated drive: a 5 mm ball screw's revolution.
+pub const DEFAULT_SIM_INDEX_PITCH: f64 = 5.0;
+
+impl Default for CanNodeConfig {
+    fn default() -> Self {
+        Self {
+            vendor_id: None,
+            product_code: None,
+            eds: None,
+            sdo: Vec::new(),
+            homing: CanHomingConfig::default(),
+            sim_home_switch: None,
+            sim_index_pitch: DEFAULT_SIM_INDEX_PITCH,
+        }
+    }
+}
+
+/// `[sinks.can.node.N] homing`: the CiA 402 homing parameters the master writes before it
+/// homes the node, in axis units (converted with the node's `increments_per_unit`).
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct CanHomingConfig {
+    /// 0x6098: the homing method (CiA 402-2; 35 and 37: the current position is home; 3, 4:
+    /// home switch and index pulse).
+    pub method: i8,
+    /// 0x6099:1: speed during the search for the switch, axis units/s.
+    pub speed_switch: f64,
+    /// 0x6099:2: speed during the search for zero (the index pulse), axis units/s.
+    pub speed_zero: f64,
+    /// 0x609A: homing acceleration, axis units/s².
+    pub acceleration: f64,
+    /// 0x607C: the position the drive reports at the home position, axis units.
+    pub offset: f64,
+}
+
+impl Default for CanHomingConfig {
+    fn default() -> Self {
+        Self { method: 37, speed_switch: 10.0, speed_zero: 1.0, acceleration: 100.0, offset: 0.0 }
+    }
 }
 
 /// One value of `[sinks.can.node.N] sdo`. `type` is one of bool, u8, u16, u32, u64, i8, i16,
@@ -125,6 +181,13 @@ pub struct CanConfig {
     pub sdo_timeout_ms: f64,
     /// Per node (the key is the node-ID): the identity the master checks at boot.
     pub node: BTreeMap<String, CanNodeConfig>,
+    /// The axes (by name) `machine.home` homes, one after the other; empty: every axis in
+    /// `[[axis]]` order.
+    pub home_order: Vec<String>,
+    /// Longest time one axis's homing may take (from the start bit to "homing attained"), ms.
+    pub homing_timeout_ms: f64,
+    /// Motion (`motion.start`, jog, move-to, MDI) is refused until every axis is homed.
+    pub require_homing: bool,
 }
 
 /// Default scale: 10 000 increments per mm (0.1 µm resolution), as the EDS's 0x608F/0x6092.
@@ -143,6 +206,9 @@ impl Default for CanConfig {
             heartbeat_producer_ms: 100,
             sdo_timeout_ms: 1000.0,
             node: BTreeMap::new(),
+            home_order: Vec::new(),
+            homing_timeout_ms: 30_000.0,
+            require_homing: false,
         }
     }
 }
@@ -170,6 +236,14 @@ impl CanConfig {
     /// `[sinks.can.node.N]` of node `id` (the defaults when the table is absent).
     pub fn node_config(&self, id: u8) -> CanNodeConfig {
         self.node.get(&id.to_string()).cloned().unwrap_or_default()
+    }
+
+    /// The axes (indices into `[[axis]]`) in the order `machine.home` homes them.
+    pub fn home_axes(&self, axes: &[AxisConfig]) -> Vec<usize> {
+        if self.home_order.is_empty() {
+            return (0..axes.len()).collect();
+        }
+        self.home_order.iter().filter_map(|name| axes.iter().position(|a| a.name.to_string() == *name)).collect()
     }
 
     /// Checks an interface name as Linux accepts it (1–15 printable characters, no `/`, no
@@ -259,6 +333,57 @@ impl CanConfig {
                     &format!("sinks.can.node.{key}"),
                     &format!("is not the node-ID of a configured axis (the node-IDs are {ids:?})"),
                 ));
+            }
+        }
+        for (i, name) in self.home_order.iter().enumerate() {
+            let key = format!("sinks.can.home_order[{i}]");
+            let names: Vec<String> = axes.iter().map(|a| a.name.to_string()).collect();
+            if !names.contains(name) {
+                return Err(v.err(&key, &format!("{name:?} is not an axis (the axes are {names:?})")));
+            }
+            if self.home_order[..i].contains(name) {
+                return Err(v.err(&key, &format!("axis {name} is named twice")));
+            }
+        }
+        v.in_range("sinks.can.homing_timeout_ms", self.homing_timeout_ms, 100.0, 3_600_000.0)?;
+        for (key, node) in &self.node {
+            let h = &node.homing;
+            let scale = key
+                .parse::<u8>()
+                .ok()
+                .and_then(|id| ids.iter().position(|&o| o == id))
+                .map_or(DEFAULT_INCREMENTS_PER_UNIT, |i| self.scales(n)[i].abs());
+            for (what, value, unsigned) in [
+                ("speed_switch", h.speed_switch, true),
+                ("speed_zero", h.speed_zero, true),
+                ("acceleration", h.acceleration, true),
+                ("offset", h.offset, false),
+            ] {
+                let k = format!("sinks.can.node.{key}.homing.{what}");
+                let inc = value * scale;
+                let ok = value.is_finite()
+                    && if unsigned { value > 0.0 && inc <= u32::MAX as f64 } else { inc.abs() <= i32::MAX as f64 };
+                if !ok {
+                    let range = if unsigned {
+                        "positive and at most u32::MAX increments"
+                    } else {
+                        "within the i32 range of increments"
+                    };
+                    return Err(v.err(&k, &format!("must be {range} ({scale} increments per unit), got {value}")));
+                }
+            }
+            if let Some(s) = node.sim_home_switch {
+                if !s.is_finite() {
+                    return Err(
+                        v.err(&format!("sinks.can.node.{key}.sim_home_switch"), &format!("must be finite, got {s}"))
+                    );
+                }
+            }
+            let p = node.sim_index_pitch;
+            if !(p.is_finite() && p > 0.0) {
+                return Err(
+                    v.err(&format!("sinks.can.node.{key}.sim_index_pitch"), &format!("must be positive, got {p}"))
+                );
             }
         }
         if !(1..=1000).contains(&self.tx_fail_cycles) {

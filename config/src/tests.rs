@@ -183,6 +183,12 @@ fn can_section_errors_name_the_key() {
         ("heartbeat_producer_ms = 500", "sinks.can.heartbeat_producer_ms", "not below heartbeat_timeout_ms"),
         ("sdo_timeout_ms = 0.0", "sinks.can.sdo_timeout_ms", "[1, 60000]"),
         ("node.7 = { vendor_id = 1 }", "sinks.can.node.7", "not the node-ID of a configured axis"),
+        ("home_order = [\"Q\"]", "sinks.can.home_order[0]", "is not an axis"),
+        ("home_order = [\"X\", \"X\"]", "sinks.can.home_order[1]", "named twice"),
+        ("homing_timeout_ms = 10.0", "sinks.can.homing_timeout_ms", "[100, 3600000]"),
+        ("node.2 = { homing = { speed_zero = 0.0 } }", "sinks.can.node.2.homing.speed_zero", "positive"),
+        ("node.2 = { homing = { offset = 1e6 } }", "sinks.can.node.2.homing.offset", "i32 range"),
+        ("node.1 = { sim_index_pitch = -1.0 }", "sinks.can.node.1.sim_index_pitch", "positive"),
     ];
     for (line, key, what) in cases {
         let e = err_text(&format!("[machine]\n{two}\n[sinks.can]\n{line}\n"));
@@ -193,6 +199,18 @@ fn can_section_errors_name_the_key() {
     let ok = parse(&format!("[machine]\n{AXIS_X}\n[sinks.can.node.1]\nproduct_code = 0x1234\n")).unwrap();
     assert_eq!(ok.sinks.can.node_config(1).product_code, Some(0x1234));
     assert_eq!(ok.sinks.can.node_config(2), Default::default());
+    let two_axes = format!("{AXIS_X}\n{}", AXIS_X.replace("\"X\"", "\"Y\""));
+    let homing = parse(&format!(
+        "[machine]\n{two_axes}\n[sinks.can]\nhome_order = [\"Y\"]\nrequire_homing = true\n[sinks.can.node.2]\n\
+         homing = {{ method = 3, speed_switch = 20.0, offset = -2.0 }}\nsim_home_switch = 12.5\n"
+    ))
+    .unwrap();
+    assert_eq!(homing.sinks.can.home_axes(&homing.axes), [1]);
+    assert!(homing.sinks.can.require_homing);
+    let h = homing.sinks.can.node_config(2).homing;
+    assert_eq!((h.method, h.speed_switch, h.speed_zero, h.offset), (3, 20.0, 1.0, -2.0));
+    assert_eq!(homing.sinks.can.node_config(2).sim_home_switch, Some(12.5));
+    assert_eq!(ok.sinks.can.home_axes(&ok.axes), [0], "default: every axis in [[axis]] order");
 }
 
 #[test]

@@ -28,6 +28,8 @@ pub mod controlword {
     pub const ENABLE_OPERATION_BIT: u16 = 1 << 3;
     pub const FAULT_RESET_BIT: u16 = 1 << 7;
     pub const HALT_BIT: u16 = 1 << 8;
+    /// Homing mode (0x6060 = 6): the rising edge starts homing.
+    pub const HOMING_START_BIT: u16 = 1 << 4;
 
     /// Transitions 2, 6, 8 → Ready to switch on.
     pub const SHUTDOWN: u16 = 0x0006;
@@ -109,6 +111,10 @@ pub mod statusword {
     pub const CSP_FOLLOWING_BIT: u16 = 1 << 12;
     /// CSP: following error.
     pub const CSP_FOLLOWING_ERROR_BIT: u16 = 1 << 13;
+    /// Homing mode: homing attained (the same bit as CSP's "following").
+    pub const HOMING_ATTAINED_BIT: u16 = 1 << 12;
+    /// Homing mode: homing error (the same bit as CSP's "following error").
+    pub const HOMING_ERROR_BIT: u16 = 1 << 13;
 }
 
 /// The statusword mask/value table of CiA 402-2 table 31, one row per state.

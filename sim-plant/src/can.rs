@@ -12,6 +12,7 @@
 //! position actual, the motor encoder, stays still while the load may swing out.
 
 use crate::PlantError;
+use crate::can_homing::AxisSensors;
 use crate::can_node::{DriveNode, Motion, NodeParams, NodeStats};
 use crate::metrics::Metrics;
 use crate::plant::{AxisTarget, Plant};
@@ -128,7 +129,14 @@ pub fn run(
     for (i, (id, k)) in can.node_ids(n).into_iter().zip(can.scales(n)).enumerate() {
         let node = NodeId::new(id).ok_or_else(|| PlantError::Input(format!("sinks.can.nodes[{i}]: {id}")))?;
         let scale = Scale::new(k).map_err(|e| PlantError::Input(format!("sinks.can.increments_per_unit[{i}]: {e}")))?;
-        let p = NodeParams { node, scale, cycle_us, quick_stop_dec: config.axes[i].max_acc_per_s2 };
+        let axis = &config.axes[i];
+        let node_config = can.node_config(id);
+        let sensors = AxisSensors {
+            home_switch: node_config.sim_home_switch,
+            index_pitch: node_config.sim_index_pitch,
+            travel: (axis.min_pos, axis.max_pos),
+        };
+        let p = NodeParams { node, scale, cycle_us, quick_stop_dec: axis.max_acc_per_s2, sensors };
         let (drive, boot) = DriveNode::boot(p, positions[i])
             .map_err(|e| PlantError::Input(format!("the drive's EDS (sim-plant/eds/interpd-sim-drive.eds): {e}")))?;
         bus.nodes.push(drive);

@@ -3,16 +3,18 @@
 //! defines (CiA 402's default at power-on: RPDO1 = controlword, TPDO1 = statusword), the
 //! heartbeat producer of 0x1017 (off at power-on), the power drive system state machine on the
 //! statusword, cyclic synchronous position once 0x6060 = 8 (target position applied on SYNC),
-//! EMCY on faults, the SYNC watchdog and the quick-stop ramp. Pure logic with explicit times:
+//! EMCY on faults, the SYNC watchdog and the quick-stop ramp, and homing mode 6
+//! ([`crate::can_homing`]), after which the drive reports positions relative to its home. Pure logic with explicit times:
 //! the bus loop ([`crate::can`]) feeds it frames and ticks, it returns the frames to send and
 //! the position its axis is to follow.
 
+use crate::can_homing::{AxisSensors, Homing, HomingParams, HomingState};
 use crate::can_od::{self, DriveDictionary};
 use interpd_canopen::eds::EdsError;
 use interpd_canopen::sdo_frame::request_cob;
 use interpd_canopen::sdo_server::SdoServer;
 use interpd_protocol::cia301::{Emcy, Frame, Message, NmtCommand, NmtState, NodeId, emcy_code, error_register};
-use interpd_protocol::cia402::{PowerState, PowerStateMachine, Scale, statusword};
+use interpd_protocol::cia402::{PowerState, PowerStateMachine, Scale, controlword, statusword};
 
 /// EDS 0x1015 (inhibit time EMCY, 100 µs units): at most one EMCY per node per 10 ms.
 pub const EMCY_INHIBIT_US: u64 = 10_000;
@@ -22,6 +24,8 @@ pub const FOLLOWING_ERROR_WINDOW: i64 = 100_000;
 pub const WATCHDOG_CYCLES: u64 = 3;
 /// Mode of operation 0x6060 for cyclic synchronous position.
 pub const MODE_CSP: i128 = 8;
+/// Mode of operation 0x6060 for homing.
+pub const MODE_HOMING: i128 = 6;
 /// Vendor byte 0 of EMCY 0x8100 (communication): why.
 pub mod comm_fault {
     /// No SYNC for [`super::WATCHDOG_CYCLES`] cycles.
@@ -51,6 +55,8 @@ pub struct NodeParams {
     pub cycle_us: u64,
     /// Quick-stop deceleration, axis units/s² (the axis's max_acc).
     pub quick_stop_dec: f64,
+    /// The home switch, index pulses and travel of the axis, for homing.
+    pub sensors: AxisSensors,
 }
 
 /// Counters of one node.
@@ -91,6 +97,16 @@ pub struct DriveNode {
     last_sync_us: Option<u64>,
     last_emcy_us: Option<u64>,
     error_register: u8,
+    /// The homing run of mode 6 (kept after it ends: the axis stands or stops under it).
+    homing: Option<Homing>,
+    /// The last homing run's outcome: attained, failed (None: not started or running).
+    homing_attained: bool,
+    homing_error: bool,
+    /// Controlword bit 4 at the last SYNC (homing starts on its rising edge).
+    homing_bit: bool,
+    /// The drive's position minus the plant's, axis units: 0 until homing sets the home
+    /// position to the home offset 0x607C. A reset node loses it (an incremental encoder).
+    frame_offset: f64,
     pub stats: NodeStats,
 }
 
@@ -113,6 +129,11 @@ impl DriveNode {
             last_sync_us: None,
             last_emcy_us: None,
             error_register: 0,
+            homing: None,
+            homing_attained: false,
+            homing_error: false,
+            homing_bit: false,
+            frame_offset: 0.0,
             stats: NodeStats::default(),
         };
         Ok((node, Message::Heartbeat { node: p.node, state: NmtState::BootUp }.encode()))
@@ -157,10 +178,27 @@ impl DriveNode {
         if voltage {
             sw |= statusword::VOLTAGE_ENABLED_BIT;
         }
-        if self.motion == Motion::Follow {
+        let mode = self.od.int(can_od::MODES_DISPLAY);
+        if mode == MODE_CSP && self.motion == Motion::Follow {
             sw |= statusword::CSP_FOLLOWING_BIT;
         }
+        if mode == MODE_HOMING {
+            if !self.homing.as_ref().is_some_and(Homing::is_moving) {
+                sw |= statusword::TARGET_REACHED_BIT;
+            }
+            if self.homing_attained {
+                sw |= statusword::HOMING_ATTAINED_BIT;
+            }
+            if self.homing_error {
+                sw |= statusword::HOMING_ERROR_BIT;
+            }
+        }
         sw
+    }
+
+    /// The drive's position minus the plant's (axis units): set by homing.
+    pub fn frame_offset(&self) -> f64 {
+        self.frame_offset
     }
 
     /// The heartbeat if it is due at `now_us` (producer time 0x1017; none while it is 0).
@@ -217,6 +255,11 @@ impl DriveNode {
                 self.power = PowerStateMachine::new(PowerState::NotReadyToSwitchOn.on_init_complete());
                 self.motion = Motion::Hold;
                 self.error_register = 0;
+                // The incremental encoder's reference is gone with the power.
+                self.frame_offset = 0.0;
+                self.homing = None;
+                self.homing_attained = false;
+                self.homing_error = false;
             } else {
                 self.od.reset_communication();
             }
@@ -273,11 +316,51 @@ impl DriveNode {
             self.power.apply(self.od.int(can_od::CONTROLWORD) as u16);
         }
         let state = self.power.state();
-        let csp = self.od.int(can_od::MODES_DISPLAY) == MODE_CSP;
+        let mode = self.od.int(can_od::MODES_DISPLAY);
+        let csp = mode == MODE_CSP;
+        let bit4 = self.rpdo_seen && self.od.int(can_od::CONTROLWORD) as u16 & controlword::HOMING_START_BIT != 0;
+        let start_homing = bit4 && !self.homing_bit;
+        self.homing_bit = bit4;
+        if !(state == PowerState::OperationEnabled && mode == MODE_HOMING) {
+            self.homing = None;
+        }
         match (state, self.motion) {
+            (PowerState::OperationEnabled, _) if mode == MODE_HOMING => {
+                if start_homing {
+                    self.homing = Some(Homing::start(self.homing_params(), &self.p.sensors, self.target));
+                    self.homing_attained = false;
+                    self.homing_error = false;
+                } else if !bit4 {
+                    if let Some(h) = self.homing.as_mut() {
+                        h.halt();
+                    }
+                }
+                self.motion = Motion::Follow;
+                self.prev_target = self.target;
+                if let Some(h) = self.homing.as_mut() {
+                    let st = h.step(self.p.cycle_us as f64 * 1e-6);
+                    self.target = h.position();
+                    match st {
+                        HomingState::Running => {}
+                        HomingState::Attained { home } => {
+                            if !self.homing_attained {
+                                let offset = self.p.scale.to_units(self.od.int(can_od::HOME_OFFSET) as i32);
+                                self.frame_offset = offset - home;
+                                self.homing_attained = true;
+                            }
+                        }
+                        HomingState::Failed(e) => {
+                            if !self.homing_error {
+                                tracing::warn!("node {}: homing error: {e:?}", self.p.node);
+                            }
+                            self.homing_error = true;
+                        }
+                    }
+                }
+            }
             (PowerState::OperationEnabled, _) if csp => {
                 let target = if self.rpdo_seen {
-                    self.p.scale.to_units(self.od.int(can_od::TARGET_POSITION) as i32)
+                    self.p.scale.to_units(self.od.int(can_od::TARGET_POSITION) as i32) - self.frame_offset
                 } else {
                     self.target
                 };
@@ -299,7 +382,7 @@ impl DriveNode {
             // power stage holds the axis where it was commanded.
             _ => self.motion = Motion::Hold,
         }
-        let position_actual = self.increments(actual);
+        let position_actual = self.increments(actual + self.frame_offset);
         self.od.set(can_od::STATUSWORD, i128::from(self.statusword()));
         self.od.set(can_od::POSITION_ACTUAL, i128::from(position_actual));
         self.send_tpdo(out);
@@ -319,6 +402,18 @@ impl DriveNode {
                 out.push(f);
             }
             self.last_tpdo = Some(data);
+        }
+    }
+
+    /// The homing parameters of 0x6098, 0x6099 and 0x609A in axis units.
+    fn homing_params(&self) -> HomingParams {
+        let k = self.p.scale.increments_per_unit().abs();
+        let units = |at| self.od.int(at) as f64 / k;
+        HomingParams {
+            method: self.od.int(can_od::HOMING_METHOD) as i8,
+            speed_switch: units(can_od::HOMING_SPEED_SWITCH),
+            speed_zero: units(can_od::HOMING_SPEED_ZERO),
+            acceleration: units(can_od::HOMING_ACCELERATION),
         }
     }
 
@@ -438,6 +533,7 @@ mod tests {
             scale: Scale::new(10_000.0).unwrap(),
             cycle_us: CYCLE_US,
             quick_stop_dec: 1000.0,
+            sensors: AxisSensors { home_switch: Some(12.5), index_pitch: 5.0, travel: (-100.0, 100.0) },
         }
     }
 
@@ -517,6 +613,87 @@ mod tests {
         assert_eq!(PowerState::from_statusword(pdo.statusword), Some(PowerState::OperationEnabled));
         assert!(pdo.statusword & statusword::CSP_FOLLOWING_BIT != 0);
         (n, t)
+    }
+
+    /// An expedited SDO download to the node; panics unless confirmed.
+    fn sdo_write(n: &mut DriveNode, index: u16, sub: u8, data: &[u8]) {
+        let ccs = 0x23 | ((4 - data.len() as u8) << 2);
+        let mut payload = [ccs, index as u8, (index >> 8) as u8, sub, 0, 0, 0, 0];
+        payload[4..4 + data.len()].copy_from_slice(data);
+        let mut out = Vec::new();
+        n.on_sdo(&payload, &mut out);
+        assert_eq!(out.len(), 1);
+        assert_eq!(out[0].payload()[0], 0x60, "0x{index:04X}:{sub} refused: {:02X?}", out[0].payload());
+    }
+
+    /// Homes the enabled node with `method` (the plant follows the target exactly); returns the
+    /// statusword and position actual when homing ended, and the cycles it took.
+    fn home(n: &mut DriveNode, t: &mut u64, method: u8, offset_increments: i32) -> (u16, i32, usize) {
+        sdo_write(n, 0x607C, 0, &offset_increments.to_le_bytes());
+        sdo_write(n, 0x6098, 0, &[method]);
+        sdo_write(n, 0x6099, 1, &100_000u32.to_le_bytes());
+        sdo_write(n, 0x6099, 2, &10_000u32.to_le_bytes());
+        sdo_write(n, 0x609A, 0, &1_000_000u32.to_le_bytes());
+        sdo_write(n, 0x6060, 0, &[6]);
+        let mut out = Vec::new();
+        for k in 1..100_000 {
+            *t += CYCLE_US;
+            let cw = controlword::ENABLE_OPERATION | controlword::HOMING_START_BIT;
+            n.on_rpdo(&rpdo(cw, 0.0), *t, &mut out);
+            let actual = n.target();
+            n.on_sync(actual, *t, &mut out);
+            let pdo = last_tpdo(&out);
+            out.clear();
+            let done = statusword::HOMING_ATTAINED_BIT | statusword::HOMING_ERROR_BIT;
+            if k > 1 && pdo.statusword & done != 0 {
+                return (pdo.statusword, pdo.position_actual, k);
+            }
+        }
+        panic!("homing does not end");
+    }
+
+    #[test]
+    fn homing_on_the_index_below_the_switch_sets_the_home_offset_there() {
+        let (mut n, mut t) = enabled();
+        let (sw, pos, cycles) = home(&mut n, &mut t, 3, -20_000);
+        assert_eq!(sw & 0x3400, statusword::HOMING_ATTAINED_BIT | statusword::TARGET_REACHED_BIT, "{sw:04X}");
+        assert_eq!(pos, -20_000, "the home offset at the home position");
+        assert_eq!(n.target(), 10.0, "the first index pulse below the switch edge at 12.5");
+        assert!(cycles > 300, "the search moved: {cycles} cycles");
+        // Back in CSP the drive takes targets in its homed frame: no jump.
+        sdo_write(&mut n, 0x6060, 0, &[8]);
+        let mut out = Vec::new();
+        t += CYCLE_US;
+        n.on_rpdo(&rpdo(controlword::ENABLE_OPERATION, -2.0), t, &mut out);
+        n.on_sync(10.0, t, &mut out);
+        assert_eq!((n.target(), last_tpdo(&out).position_actual), (10.0, -20_000));
+        // A reset node forgets the home.
+        n.on_nmt(NmtCommand::ResetNode, t, &mut out);
+        assert_eq!(n.frame_offset(), 0.0);
+    }
+
+    #[test]
+    fn homing_on_the_current_position_and_a_homing_error() {
+        let (mut n, mut t) = enabled();
+        let (sw, pos, cycles) = home(&mut n, &mut t, 37, 5_000);
+        assert_eq!(sw & 0x3400, statusword::HOMING_ATTAINED_BIT | statusword::TARGET_REACHED_BIT, "{sw:04X}");
+        assert_eq!((pos, n.target(), cycles), (5_000, 0.0, 2));
+        let mut p = params();
+        p.sensors.home_switch = None;
+        let (mut n, _) = DriveNode::boot(p, 0.0).unwrap();
+        let (result, _) = run_boot(&mut n, csp_ops(p.node, &setup()), 0);
+        result.unwrap();
+        let mut out = Vec::new();
+        let mut t = 0;
+        for cw in [controlword::SHUTDOWN, controlword::SWITCH_ON, controlword::ENABLE_OPERATION] {
+            t += CYCLE_US;
+            n.on_rpdo(&rpdo(cw, 0.0), t, &mut out);
+            n.on_sync(0.0, t, &mut out);
+        }
+        let (sw, _, _) = home(&mut n, &mut t, 4, 0);
+        assert_eq!(sw & 0x3000, statusword::HOMING_ERROR_BIT, "{sw:04X}");
+        assert!(n.target() > 100.0, "stopped beyond the travel's end: {}", n.target());
+        assert_eq!(n.power_state(), PowerState::OperationEnabled);
     }
 
     #[test]

@@ -25,8 +25,13 @@ pub const POSITION_ACTUAL: Address = Address::new(0x6064, 0);
 pub const TARGET_POSITION: Address = Address::new(0x607A, 0);
 pub const ERROR_CODE: Address = Address::new(0x603F, 0);
 pub const ERROR_REGISTER: Address = Address::new(0x1001, 0);
-/// Modes of operation this drive supports (0x6502): none (0) and CSP (8).
-pub const SUPPORTED_MODES: [i128; 2] = [0, 8];
+pub const HOME_OFFSET: Address = Address::new(0x607C, 0);
+pub const HOMING_METHOD: Address = Address::new(0x6098, 0);
+pub const HOMING_SPEED_SWITCH: Address = Address::new(0x6099, 1);
+pub const HOMING_SPEED_ZERO: Address = Address::new(0x6099, 2);
+pub const HOMING_ACCELERATION: Address = Address::new(0x609A, 0);
+/// Modes of operation this drive supports (0x6502): none (0), homing (6) and CSP (8).
+pub const SUPPORTED_MODES: [i128; 3] = [0, 6, 8];
 /// Bit 31 of a PDO COB-ID: the PDO does not exist (disabled).
 const COB_INVALID: u32 = 1 << 31;
 
@@ -266,8 +271,10 @@ mod tests {
         assert_eq!(d.apply_rpdo(&[0x0F, 0]), Err(6));
         d.apply_rpdo(&[0x0F, 0, 0xFE, 0xFF, 0xFF, 0xFF]).unwrap();
         assert_eq!((d.int(CONTROLWORD), d.int(TARGET_POSITION)), (0x0F, -2));
-        // Modes: CSP only; the display follows.
+        // Modes: homing and CSP only; the display follows.
         assert_eq!(w(&mut d, 0x6060, 0, &[1]), Err(SdoAbort::InvalidValue));
+        w(&mut d, 0x6060, 0, &[6]).unwrap();
+        assert_eq!(d.int(MODES_DISPLAY), 6);
         w(&mut d, 0x6060, 0, &[8]).unwrap();
         assert_eq!(d.int(MODES_DISPLAY), 8);
         // Reset communication restores the default mapping, not the mode.

@@ -52,6 +52,7 @@
 pub mod analysis;
 pub mod axis;
 pub mod can;
+pub mod can_homing;
 pub mod can_node;
 pub mod can_od;
 pub mod discretize;

@@ -51,7 +51,10 @@ def main(path):
         (0x6061, "Modes of operation display", datatypes.INTEGER8, "ro", 0),
         (0x6064, "Position actual value", datatypes.INTEGER32, "ro", None),
         (0x607A, "Target position", datatypes.INTEGER32, "rww", None),
-        (0x6502, "Supported drive modes", datatypes.UNSIGNED32, "ro", 0x80),
+        (0x6502, "Supported drive modes", datatypes.UNSIGNED32, "ro", 0xA0),
+        (0x607C, "Home offset", datatypes.INTEGER32, "rw", 0),
+        (0x6098, "Homing method", datatypes.INTEGER8, "rw", 37),
+        (0x609A, "Homing acceleration", datatypes.UNSIGNED32, "rw", None),
     ]
     for index, name, dtype, access, dflt in expect_vars:
         if index not in od:
@@ -69,6 +72,8 @@ def main(path):
     # Device type: profile 402 in the low word, servo drive (0x0002) in the high word.
     check(default(0x1000) & 0xFFFF == 402, "0x1000: device profile is not 402")
     check(default(0x6502) & 0x80, "0x6502: CSP (bit 7) not supported")
+    check(default(0x6502) & 0x20, "0x6502: homing (bit 5) not supported")
+    check([s for s in od[0x6099].subindices] == [0, 1, 2], f"0x6099: sub-indices {list(od[0x6099].subindices)}")
     ident = od[0x1018]
     check([s for s in ident.subindices] == [0, 1, 2, 3, 4], f"0x1018: sub-indices {list(ident.subindices)}")
     check(default(0x60C2, 1) == 4 and default(0x60C2, 2) == -3, "0x60C2: interpolation period is not 4 ms (4 x 10^-3 s)")

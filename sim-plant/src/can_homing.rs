@@ -162,6 +162,11 @@ impl Homing {
         !matches!(self.phase, Phase::Attained | Phase::Error | Phase::Halt) || self.vel != 0.0
     }
 
+    /// Whether the run has found the home position and commands it.
+    pub fn is_attained(&self) -> bool {
+        self.phase == Phase::Attained
+    }
+
     fn fail(&mut self, e: HomingError) {
         self.error = Some(e);
         self.phase = Phase::Error;

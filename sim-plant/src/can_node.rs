@@ -26,6 +26,9 @@ pub const WATCHDOG_CYCLES: u64 = 3;
 pub const MODE_CSP: i128 = 8;
 /// Mode of operation 0x6060 for homing.
 pub const MODE_HOMING: i128 = 6;
+/// Homing is attained once the axis's position actual lies this close to the home position
+/// (increments; 1 µm at the default scale), as a drive's position window 0x6067 would say.
+pub const HOME_WINDOW_INCREMENTS: i64 = 10;
 /// Vendor byte 0 of EMCY 0x8100 (communication): why.
 pub mod comm_fault {
     /// No SYNC for [`super::WATCHDOG_CYCLES`] cycles.
@@ -183,7 +186,9 @@ impl DriveNode {
             sw |= statusword::CSP_FOLLOWING_BIT;
         }
         if mode == MODE_HOMING {
-            if !self.homing.as_ref().is_some_and(Homing::is_moving) {
+            let run = self.homing.as_ref();
+            let settling = run.is_some_and(Homing::is_attained) && !self.homing_attained;
+            if !run.is_some_and(Homing::is_moving) && !settling {
                 sw |= statusword::TARGET_REACHED_BIT;
             }
             if self.homing_attained {
@@ -343,7 +348,8 @@ impl DriveNode {
                     match st {
                         HomingState::Running => {}
                         HomingState::Attained { home } => {
-                            if !self.homing_attained {
+                            let off = i64::from(self.increments(actual)) - i64::from(self.increments(home));
+                            if !self.homing_attained && off.abs() <= HOME_WINDOW_INCREMENTS {
                                 let offset = self.p.scale.to_units(self.od.int(can_od::HOME_OFFSET) as i32);
                                 self.frame_offset = offset - home;
                                 self.homing_attained = true;

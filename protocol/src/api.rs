@@ -12,7 +12,9 @@ pub mod params;
 pub mod status;
 pub mod tooling;
 
-pub use drives::{ResetDrive, ResetParams, ResetResult, SdoReadParams, SdoResult, SdoType, SdoWriteParams};
+pub use drives::{
+    HomeResult, HomedAxis, ResetDrive, ResetParams, ResetResult, SdoReadParams, SdoResult, SdoType, SdoWriteParams,
+};
 pub use params::{AppendParams, JogMode, JogParams, LawParams, LoadParams, MdiParams, MoveToParams, OverrideParams};
 pub use status::{
     CutterMode, CutterStatus, CycleStats, DriveStatus, LookaheadStatus, ManualStatus, MdiModal, Percentiles,
@@ -87,10 +89,11 @@ pub enum Method {
     DrivesSdoRead,
     DrivesSdoWrite,
     DrivesReset,
+    MachineHome,
 }
 
 impl Method {
-    pub const ALL: [Method; 21] = [
+    pub const ALL: [Method; 22] = [
         Method::ProgramLoad,
         Method::ProgramAppend,
         Method::MotionStart,
@@ -112,6 +115,7 @@ impl Method {
         Method::DrivesSdoRead,
         Method::DrivesSdoWrite,
         Method::DrivesReset,
+        Method::MachineHome,
     ];
 
     /// The wire name, e.g. `"motion.start"`.
@@ -138,6 +142,7 @@ impl Method {
             Method::DrivesSdoRead => "drives.sdo_read",
             Method::DrivesSdoWrite => "drives.sdo_write",
             Method::DrivesReset => "drives.reset",
+            Method::MachineHome => "machine.home",
         }
     }
 
@@ -201,6 +206,7 @@ pub enum Call {
     DrivesSdoRead(SdoReadParams),
     DrivesSdoWrite(SdoWriteParams),
     DrivesReset(ResetParams),
+    MachineHome,
 }
 
 impl Call {
@@ -231,6 +237,7 @@ impl Call {
             Method::MotionStop => params::none(m, params).map(|()| Call::MotionStop)?,
             Method::Status => params::none(m, params).map(|()| Call::Status)?,
             Method::Subscribe => params::none(m, params).map(|()| Call::Subscribe)?,
+            Method::MachineHome => params::none(m, params).map(|()| Call::MachineHome)?,
         })
     }
 
@@ -257,6 +264,7 @@ impl Call {
             Call::DrivesSdoRead(_) => Method::DrivesSdoRead,
             Call::DrivesSdoWrite(_) => Method::DrivesSdoWrite,
             Call::DrivesReset(_) => Method::DrivesReset,
+            Call::MachineHome => Method::MachineHome,
         }
     }
 }

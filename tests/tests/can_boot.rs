@@ -557,3 +557,181 @@ fn a_refused_configured_value_names_node_index_and_sub() {
     eprintln!("value abort: {}", err.lines().filter(|l| l.contains("abort")).collect::<Vec<_>>().join(" | "));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Waits until every drive is in Operation enabled and configured.
+fn await_enabled(client: &mut interpd_e2e::daemon::Client, n: usize) {
+    let until = Instant::now() + SLOW;
+    loop {
+        let st = client.ok("status", Value::Null);
+        let d = st["drives"].as_array().cloned().unwrap_or_default();
+        if d.len() == n && d.iter().all(|d| d["state"] == "operation_enabled" && d["configured"] == true) {
+            return;
+        }
+        assert!(Instant::now() < until, "drives not enabled: {st}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// The TPDO1s of `node` in the capture: (time, statusword, position actual).
+fn tpdos(frames: &[(SystemTime, Frame)], node: u32) -> Vec<(SystemTime, u16, i32)> {
+    frames
+        .iter()
+        .filter(|(_, f)| f.id().raw() == 0x180 + node && f.payload().len() == 6)
+        .map(|(t, f)| {
+            let p = f.payload();
+            (*t, u16::from_le_bytes([p[0], p[1]]), i32::from_le_bytes([p[2], p[3], p[4], p[5]]))
+        })
+        .collect()
+}
+
+/// `machine.home` with `[sinks.can] require_homing`: motion is refused before it; the axes
+/// home in `home_order` through CiA 402 homing mode 6 on the simulated drives, X on its home
+/// switch and index pulse (method 3), Y on its current position (37), Z on the index above
+/// its switch from the switch's active side (method 4); each then reports its home offset, the
+/// setpoints take the drives' positions, and a program runs from there. On the bus, X's last
+/// position in the old reference before "homing attained" is the index pulse below its switch.
+#[test]
+fn machine_home_homes_every_axis_then_motion_may_start() {
+    let Some((iface, _bus)) = vcan::bus("machine_home_homes_every_axis_then_motion_may_start") else { return };
+    let dir = vcan::temp_dir("can-home");
+    let extra = "require_homing = true\nhome_order = [\"Z\", \"X\", \"Y\"]\nhoming_timeout_ms = 20000\n\
+        [sinks.can.node.1]\nhoming = { method = 3, speed_switch = 20.0, speed_zero = 2.0, acceleration = 200.0, offset = -2.0 }\n\
+        sim_home_switch = 12.5\nsim_index_pitch = 5.0\n\
+        [sinks.can.node.2]\nhoming = { method = 37, offset = 7.5 }\n\
+        [sinks.can.node.3]\nhoming = { method = 4, speed_switch = 20.0, speed_zero = 2.0, acceleration = 200.0, offset = 1.0 }\n\
+        sim_home_switch = -3.2\nsim_index_pitch = 2.0\n";
+    let cfg = config(&dir, 3, 4.0, extra);
+    let drives = start_drives(&iface, &cfg, &dir);
+    let capture = Capture::start(&iface);
+    let daemon = Daemon::start(&["--config", cfg.as_str(), "--can", iface.as_str(), "--no-shm"]);
+    let mut client = daemon.client();
+    await_enabled(&mut client, 3);
+    let st = client.ok("status", Value::Null);
+    assert_eq!(st["homed"], false, "{st}");
+    client.ok("program.load", json!({ "text": "G21 G90\nG1 X5 Y10 Z3 F3000\nM30\n" }));
+    let refused = client.call("motion.start", Value::Null);
+    assert_eq!(refused["error"]["code"], -32005, "{refused}");
+    let why = refused["error"]["message"].as_str().unwrap_or_default();
+    assert!(why.contains("drive X (node 1) is not homed ([sinks.can] require_homing"), "{refused}");
+    let t = Instant::now();
+    let homed = client.ok("machine.home", Value::Null);
+    let home_s = t.elapsed().as_secs_f64();
+    let axes = homed["axes"].as_array().expect("axes").clone();
+    let order: Vec<&str> = axes.iter().map(|a| a["axis"].as_str().unwrap_or("")).collect();
+    assert_eq!(order, ["Z", "X", "Y"], "{homed}");
+    for (a, (offset, method)) in axes.iter().zip([(1.0, 4), (-2.0, 3), (7.5, 37)]) {
+        let at = a["position_units"].as_f64().expect("position");
+        assert!((at - offset).abs() <= 1e-3, "{} stands at {at}, not its home offset {offset}: {homed}", a["axis"]);
+        assert_eq!(a["method"], method, "{homed}");
+    }
+    let st = client.ok("status", Value::Null);
+    assert_eq!(st["homed"], true, "{st}");
+    let position: Vec<f64> = st["position"].as_array().expect("position").iter().filter_map(Value::as_f64).collect();
+    for (p, want) in position.iter().zip([-2.0, 7.5, 1.0]) {
+        assert!((p - want).abs() <= 1e-3, "the setpoints took the drives' positions: {position:?}");
+    }
+    for d in st["drives"].as_array().expect("drives") {
+        assert_eq!((&d["homed"], &d["state"]), (&json!(true), &json!("operation_enabled")), "{d}");
+    }
+    // Motion from the homed positions.
+    client.ok("motion.start", Value::Null);
+    let st = client.wait_state(&["finished", "error"], SLOW);
+    assert_eq!(st["state"], "finished", "{st}");
+    // The drives settle on the program's end a few cycles after the setpoints.
+    let until = Instant::now() + Duration::from_secs(5);
+    loop {
+        let st = client.ok("status", Value::Null);
+        let at: Vec<f64> = st["drives"]
+            .as_array()
+            .expect("drives")
+            .iter()
+            .filter_map(|d| d["position_actual_units"].as_f64())
+            .collect();
+        if at.iter().zip([5.0, 10.0, 3.0]).all(|(p, want)| (p - want).abs() <= 1e-3) {
+            break;
+        }
+        assert!(Instant::now() < until, "the drives at the program's end: {at:?}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    drop(client);
+    let (code, err) = daemon.terminate();
+    assert_eq!(code, Some(0), "{err}");
+    let frames = capture.finish();
+    let _ = drives.terminate();
+    // X on the bus: the RPDO1 with bit 4, then homing until bit 12 with bit 10; the last
+    // position before it (the old reference) is the index pulse at 10 mm below the switch
+    // edge at 12.5 mm, and the search went through the edge.
+    let start = frames
+        .iter()
+        .find(|(_, f)| f.id().raw() == 0x201 && f.payload().first().is_some_and(|b| b & 0x10 != 0))
+        .expect("an RPDO1 with bit 4 to node 1")
+        .0;
+    let x: Vec<(SystemTime, u16, i32)> = tpdos(&frames, 1).into_iter().filter(|(t, _, _)| *t > start).collect();
+    let done = x.iter().position(|(_, sw, _)| sw & 0x1400 == 0x1400).expect("homing attained on the bus");
+    let (found, highest) = (x[done - 1].2, x[..done].iter().map(|p| p.2).max().unwrap_or(0));
+    assert!((found - 100_000).abs() <= 50, "X found home at {found} increments, not the index at 100 000");
+    assert!(highest > 125_000, "X's search went through the switch edge: {highest}");
+    assert!((x[done].2 + 20_000).abs() <= 50, "X reports its home offset −2 mm: {}", x[done].2);
+    eprintln!(
+        "homing: machine.home took {home_s:.3} s (wall); X found the index at {found} increments (highest {highest}), \
+         then reports {}; in {:.3} s of bus time; {homed}",
+        x[done].2,
+        secs(start, x[done].0)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A homing error: Y (homed first) has no home switch, so method 3 runs to the end of its
+/// travel; the drive reports bit 13, `machine.home` fails naming the drive, the node and the
+/// method, Y's setpoint takes the position where it stopped, X and Z never move, nothing is
+/// homed and motion stays refused.
+#[test]
+fn a_homing_error_is_reported_and_nothing_else_moves() {
+    let Some((iface, _bus)) = vcan::bus("a_homing_error_is_reported_and_nothing_else_moves") else { return };
+    let dir = vcan::temp_dir("can-home-error");
+    let extra = "require_homing = true\nhome_order = [\"Y\", \"X\", \"Z\"]\n\
+        [sinks.can.node.2]\nhoming = { method = 3, speed_switch = 50.0, speed_zero = 2.0, acceleration = 500.0 }\n";
+    let cfg = config(&dir, 3, 4.0, extra);
+    // A short travel: the search reaches its end after a second.
+    let text = std::fs::read_to_string(&cfg)
+        .expect("config")
+        .replace("min = -1000.0\nmax = 1000.0", "min = -50.0\nmax = 50.0");
+    std::fs::write(&cfg, text).expect("config");
+    let drives = start_drives(&iface, &cfg, &dir);
+    let capture = Capture::start(&iface);
+    let daemon = Daemon::start(&["--config", cfg.as_str(), "--can", iface.as_str(), "--no-shm"]);
+    let mut client = daemon.client();
+    await_enabled(&mut client, 3);
+    let failed = client.call("machine.home", Value::Null);
+    assert_eq!(failed["error"]["code"], -32007, "{failed}");
+    let why = failed["error"]["message"].as_str().unwrap_or_default().to_string();
+    assert!(
+        why.contains("drive Y (node 2): homing method 3: the drive reports a homing error (statusword"),
+        "{failed}"
+    );
+    let st = client.ok("status", Value::Null);
+    assert_eq!(st["homed"], false, "{st}");
+    let y = st["drives"][1]["position_actual_units"].as_f64().expect("Y");
+    assert!(y > 50.0 && y < 55.0, "Y stopped just beyond its travel: {y}");
+    assert!((st["position"][1].as_f64().unwrap_or(0.0) - y).abs() < 1e-3, "Y's setpoint took its position: {st}");
+    client.ok("program.load", json!({ "text": "G21 G90\nG1 X5 F3000\nM30\n" }));
+    let refused = client.call("motion.start", Value::Null);
+    assert!(refused["error"]["message"].as_str().unwrap_or_default().contains("is not homed"), "{refused}");
+    drop(client);
+    let (code, err) = daemon.terminate();
+    assert_eq!(code, Some(0), "{err}");
+    let frames = capture.finish();
+    let _ = drives.terminate();
+    for node in [1, 3] {
+        let moved = tpdos(&frames, node).iter().map(|p| p.2.abs()).max().unwrap_or(0);
+        assert!(moved <= 1, "node {node} moved during the homing of node 2: {moved} increments");
+        assert!(
+            !frames
+                .iter()
+                .any(|(_, f)| f.id().raw() == 0x200 + node && f.payload().first().is_some_and(|b| b & 0x10 != 0)),
+            "node {node} got the homing start bit"
+        );
+    }
+    eprintln!("homing error: {why}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -195,6 +195,11 @@ impl Context {
                 to_value(&api::SdoResult::new(p.node, p.index, p.sub, &p.data, Some(p.ty)))
             }
             Call::DrivesReset(p) => to_value(&api::ResetResult { drives: motion.drive_reset(&p.nodes)? }),
+            Call::MachineHome => {
+                let axes = motion.machine_home()?;
+                tracing::info!(conn = session.id, axes = axes.len(), "machine homed");
+                to_value(&api::HomeResult { axes })
+            }
             Call::FeedOverride(p) => {
                 let Ok(()) = motion.set_override(p.factor);
                 tracing::info!(conn = session.id, factor = p.factor, "feed override");
@@ -254,7 +259,7 @@ impl From<DriveError> for ErrorObject {
                     ErrorObject::new(codes::DRIVE_COMMAND_FAILED, d.to_string())
                         .with_data(serde_json::json!({ "abort_code": abort_code.map(|c| format!("0x{c:08X}")) }))
                 }
-                DriveCommandError::Reset(_) | DriveCommandError::Stopped(_) => {
+                DriveCommandError::Reset(_) | DriveCommandError::Stopped(_) | DriveCommandError::Homing(_) => {
                     ErrorObject::new(codes::DRIVE_COMMAND_FAILED, d.to_string())
                 }
             },

@@ -28,7 +28,7 @@ pub struct NotAllowed {
     pub action: Method,
 }
 
-/// `drives.sdo_read`, `drives.sdo_write`, `drives.reset` refused or failed.
+/// `drives.sdo_read`, `drives.sdo_write`, `drives.reset`, `machine.home` refused or failed.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum DriveError {
     /// Something moves (−32002): commissioning happens at rest.
@@ -236,6 +236,9 @@ pub fn hint(action: Method, state: State) -> &'static str {
         }
         (MotionJog | MotionMoveTo | Mdi, Holding) => {
             "a held MDI block or return move comes first: call motion.resume or motion.stop"
+        }
+        (MachineHome, _) => {
+            "homing runs while nothing moves: wait for state idle or finished (motion.stop ends a held or running motion)"
         }
         (DrivesSdoRead | DrivesSdoWrite | DrivesReset, _) => {
             "drive commissioning runs while nothing moves: wait for state idle or finished (motion.stop ends a held or \

@@ -7,8 +7,8 @@
 use super::errors::{AppendError, DriveError, LawError, LoadError, ManualError, NotAllowed, ResumeError, StartError};
 use crate::sinks::drive_command::{DriveCommandError, SdoOp};
 use interpd_protocol::api::{
-    AppendParams, AppendResult, Event, JogParams, LawResult, MdiParams, MdiResult, Method, MoveToParams, MoveToResult,
-    ProgramInfo, ResetDrive, Status, ToolTable, WorkOffsets,
+    AppendParams, AppendResult, Event, HomedAxis, JogParams, LawResult, MdiParams, MdiResult, Method, MoveToParams,
+    MoveToResult, ProgramInfo, ResetDrive, Status, ToolTable, WorkOffsets,
 };
 use std::convert::Infallible;
 use std::path::PathBuf;
@@ -123,6 +123,12 @@ pub trait Motion: Send + Sync + 'static {
     /// Allowed where [`Motion::drive_sdo`] is.
     fn drive_reset(&self, nodes: &[u8]) -> Result<Vec<ResetDrive>, DriveError> {
         let _ = nodes;
+        Err(DriveCommandError::NoMaster.into())
+    }
+
+    /// Homes the CAN drives in the configured order (`machine.home`). Allowed where
+    /// [`Motion::drive_sdo`] is.
+    fn machine_home(&self) -> Result<Vec<HomedAxis>, DriveError> {
         Err(DriveCommandError::NoMaster.into())
     }
 }

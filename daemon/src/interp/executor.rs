@@ -131,6 +131,17 @@ impl Executor {
         &self.rest
     }
 
+    /// At rest: axis `axis` stands at `pos` from now on, without motion (homing gave its drive
+    /// a new reference; the machine did not move). Returns false, changing nothing, unless
+    /// the executor stands.
+    pub fn rest_at(&mut self, axis: usize, pos: f64) -> bool {
+        if self.phase != Phase::Standing || axis >= self.n_axes {
+            return false;
+        }
+        self.rest.pos[axis] = pos;
+        true
+    }
+
     /// Computes the setpoint of cycle `cycle` (`dt_s` after the previous one) into `out`.
     pub fn step(&mut self, cycle: u64, dt_s: f64, io: &Io, out: &mut Setpoints) {
         match self.phase {

@@ -17,9 +17,9 @@ use crossbeam::channel::{self, Receiver};
 use interpd_motion::path::MAX_AXES;
 use interpd_motion::program::{self, AppendError as MotionAppendError, ModalState};
 use interpd_protocol::api::{
-    AppendParams, AppendResult, Event, JogMode, JogParams, LawResult, ManualStatus, MdiModal, MdiParams, MdiResult,
-    Method, MoveToParams, MoveToResult, ProgramBuffer, ProgramInfo, ResetDrive, State, Status, ToolLength, ToolTable,
-    WorkOffsets,
+    AppendParams, AppendResult, Event, HomedAxis, JogMode, JogParams, LawResult, ManualStatus, MdiModal, MdiParams,
+    MdiResult, Method, MoveToParams, MoveToResult, ProgramBuffer, ProgramInfo, ResetDrive, State, Status, ToolLength,
+    ToolTable, WorkOffsets,
 };
 use interpd_protocol::shm::flags;
 use std::collections::BTreeMap;
@@ -153,6 +153,26 @@ impl ServiceCore {
         Ok(self.shared.drives.clone().ok_or(DriveCommandError::NoMaster)?)
     }
 
+    /// Moves axis `axis`'s setpoint to `pos` at rest (homing): the real-time thread takes the
+    /// request at its next standing cycle; returns once the setpoint shows it.
+    fn reposition_at_rest(&self, axis: usize, pos: f64) -> Result<(), String> {
+        const WAIT: Duration = Duration::from_secs(2);
+        let shared = &self.shared;
+        shared.reposition.request(axis, pos);
+        let until = Instant::now() + WAIT;
+        let cycle = Duration::from_secs_f64(shared.config.cycle_s());
+        while shared.reposition.is_pending() || shared.live.load().pos[axis] != pos {
+            if Instant::now() >= until {
+                shared.reposition.clear();
+                return Err(format!("the machine did not stand within {} s", WAIT.as_secs()));
+            }
+            std::thread::sleep(cycle);
+        }
+        // One more cycle: the sinks have sent the new setpoint.
+        std::thread::sleep(2 * cycle);
+        Ok(())
+    }
+
     /// Waits until the state is one of `states` or `timeout` passes; returns the state.
     pub fn wait_for(&self, states: &[State], timeout: Duration) -> State {
         let until = Instant::now() + timeout;
@@ -175,6 +195,12 @@ impl Motion for ServiceCore {
     fn drive_reset(&self, nodes: &[u8]) -> Result<Vec<ResetDrive>, DriveError> {
         let drives = self.drives_at_rest(Method::DrivesReset)?;
         Ok(drives.reset(nodes)?)
+    }
+
+    fn machine_home(&self) -> Result<Vec<HomedAxis>, DriveError> {
+        let drives = self.drives_at_rest(Method::MachineHome)?;
+        let reposition = |axis: usize, pos: f64| self.reposition_at_rest(axis, pos);
+        Ok(drives.home(&reposition)?)
     }
 
     fn tools(&self) -> ToolTable {
@@ -384,6 +410,7 @@ impl Motion for ServiceCore {
             axes: shared.config.axis_names(),
             position: live.pos[..n].to_vec(),
             drives: shared.drives.as_ref().map(|d| d.drives()).unwrap_or_default(),
+            homed: shared.drives.as_ref().and_then(|d| d.homed()),
             can_bus: shared.drives.as_ref().and_then(|d| d.bus()),
             manual: ctl.manual.clone(),
             mdi: ctl.mdi_modal.as_ref().map(|m| MdiModal {

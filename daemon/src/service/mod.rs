@@ -23,6 +23,7 @@ pub mod manual;
 pub mod modal_track;
 pub mod otg_motion;
 pub mod programs;
+mod reposition;
 mod rt_loop;
 mod state;
 mod supervisor;
@@ -142,6 +143,8 @@ struct Shared {
     modal: Arc<Mutex<modal_track::ModalTrack>>,
     /// How the look-ahead thread keeps up (it writes, `status` reads).
     lookahead: Arc<feeder::LookaheadHealth>,
+    /// An axis's setpoint moved at rest (homing), for the real-time thread.
+    reposition: reposition::Reposition,
 }
 
 impl Shared {
@@ -266,6 +269,7 @@ impl Service {
             })),
             modal: feeder.modal_track(),
             lookahead: feeder.health(),
+            reposition: reposition::Reposition::default(),
         });
         let thread_err = |what: &'static str| move |source| StartupError::Thread { what, source };
 

@@ -1,7 +1,8 @@
 //! The real-time thread: its scheduling, then the loop over the executor and the sinks.
 //!
 //! The body of the cycle (the closure given to [`rt::run_loop`]) runs under the real-time
-//! contract of [`crate::interp`]: it reads two atomic flags, steps the executor, hands the
+//! contract of [`crate::interp`]: it reads three atomic flags (hold, stop, a reposition at
+//! rest after homing), steps the executor, hands the
 //! setpoint to each sink and stores it for `status`. It never allocates, locks, blocks or logs
 //! (daemon/tests/rt_no_alloc.rs proves the allocation part).
 
@@ -67,6 +68,12 @@ pub(super) fn run(
             stop: shared.stop.load(Ordering::Relaxed),
             epoch_floor: Epoch::from_number(shared.epoch_floor.load(Ordering::SeqCst)),
         };
+        if let Some((axis, pos)) = shared.reposition.pending() {
+            // Only at rest: a moving axis keeps its path (the request waits).
+            if executor.rest_at(axis, pos) {
+                shared.reposition.clear();
+            }
+        }
         executor.step(cycle, dt_s, &io, &mut sp);
         sp.cycle = cycle;
         sp.time_ns = deadline_ns;

@@ -74,6 +74,12 @@ impl DriveMonitor for BusShared {
     fn reset(&self, nodes: &[u8]) -> super::drive_command::ResetOutcome {
         self.reset_command(nodes)
     }
+    fn home(&self, reposition: super::drive_command::Reposition) -> super::drive_command::HomeOutcome {
+        self.home_command(reposition)
+    }
+    fn homed(&self) -> Option<bool> {
+        Some(self.nodes.iter().all(|n| n.homed.load(Ordering::Acquire)))
+    }
 }
 
 impl CanMaster {
@@ -89,7 +95,9 @@ impl CanMaster {
             let node =
                 NodeId::new(id).ok_or_else(|| setup(format!("sinks.can.nodes[{i}]: node-ID {id} is not 1..=127")))?;
             let scale = Scale::new(k).map_err(|e| setup(format!("sinks.can.increments_per_unit[{i}]: {e}")))?;
-            nodes.push(NodeShared::new(i, config.axes[i].name.to_string(), node, scale));
+            let mut shared = NodeShared::new(i, config.axes[i].name.to_string(), node, scale);
+            shared.homing_params = can.node_config(id).homing;
+            nodes.push(shared);
         }
         let open = |what: &str| {
             CanSocket::open(&iface).map_err(|e| {
@@ -116,6 +124,7 @@ impl CanMaster {
 
         let mut bus = BusShared::new(iface.clone(), nodes, can);
         bus.cycle_ns = (config.cycle_s() * 1e9) as u64;
+        bus.home_order = can.home_axes(&config.axes);
         let (boot_tx, boot_rx) = std::sync::mpsc::channel::<BootInput>();
         *bus.requests.get_mut().unwrap_or_else(|p| p.into_inner()) = Some(boot_tx.clone());
         let shared = Arc::new(bus);

@@ -13,6 +13,8 @@
 //! `drives.reset` asks for its fault reset (the rising edge of bit 7, at standstill): a fault
 //! is acknowledged by the operator, never by the master on its own. During motion a drive
 //! that is not enabled gets QUICK_STOP: the master never re-enables a drive in mid-motion.
+//! While `machine.home` homes a drive (at rest), its controlword carries bit 4, homing
+//! operation start.
 
 use super::can_state::BusShared;
 use super::{SetpointSink, SinkError};
@@ -76,6 +78,10 @@ impl CanSink {
             return controlword::DISABLE_VOLTAGE;
         };
         if state == PowerState::OperationEnabled {
+            // Homing mode: bit 4 starts the homing operation (machine.home, at rest).
+            if standing && n.homing_start.load(Ordering::Acquire) {
+                return controlword::ENABLE_OPERATION | controlword::HOMING_START_BIT;
+            }
             return controlword::ENABLE_OPERATION;
         }
         if standing && state == PowerState::Fault {

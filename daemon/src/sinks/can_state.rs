@@ -57,6 +57,15 @@ pub struct NodeShared {
     /// The last failed SDO transfer with the node (configuration or commissioning), as text.
     /// Not touched by the real-time thread.
     pub last_sdo_error: Mutex<Option<String>>,
+    /// `machine.home` asks for controlword bit 4 (homing operation start) while the drive is
+    /// in Operation enabled.
+    pub homing_start: AtomicBool,
+    /// `machine.home` is homing this drive (motion may not start).
+    pub homing: AtomicBool,
+    /// Homed, and not booted again or out of NMT operational since.
+    pub homed: AtomicBool,
+    /// `[sinks.can.node.N] homing`.
+    pub homing_params: interpd_config::sinks::CanHomingConfig,
 }
 
 impl NodeShared {
@@ -83,6 +92,10 @@ impl NodeShared {
             configuring: AtomicBool::new(false),
             fault_reset: AtomicBool::new(false),
             last_sdo_error: Mutex::new(None),
+            homing_start: AtomicBool::new(false),
+            homing: AtomicBool::new(false),
+            homed: AtomicBool::new(false),
+            homing_params: interpd_config::sinks::CanHomingConfig::default(),
         }
     }
 
@@ -132,6 +145,10 @@ impl NodeShared {
     }
 
     pub fn on_heartbeat(&self, state: NmtState, now_ns: u64) {
+        if state != NmtState::Operational {
+            // Booted again, or stopped or pre-operational: its reference is not to be trusted.
+            self.homed.store(false, Ordering::Release);
+        }
         self.nmt.store(u32::from(state.code()) | VALID, Ordering::Release);
         self.last_heartbeat_ns.store(now_ns, Ordering::Release);
         self.heartbeat_count.fetch_add(1, Ordering::Relaxed);
@@ -181,6 +198,7 @@ impl NodeShared {
             last_emcy_text: self.last_emcy_code().map(|c| interpd_protocol::cia301::emcy_code::text(c).to_string()),
             configured: self.configured.load(Ordering::Relaxed),
             last_sdo_error: self.last_sdo_error.lock().unwrap_or_else(|e| e.into_inner()).clone(),
+            homed: self.homed.load(Ordering::Acquire),
         }
     }
 
@@ -277,6 +295,12 @@ pub struct BusShared {
     pub requests: Mutex<Option<std::sync::mpsc::Sender<super::can_inbox::BootInput>>>,
     /// The SYNC period, for how long a fault reset may take.
     pub cycle_ns: u64,
+    /// The nodes (indices into `nodes`) in the order `machine.home` homes them.
+    pub home_order: Vec<usize>,
+    /// Longest homing of one axis.
+    pub homing_timeout_ns: u64,
+    /// Motion waits until every drive is homed.
+    pub require_homing: bool,
     faults: Mutex<VecDeque<String>>,
 }
 
@@ -292,6 +316,9 @@ impl BusShared {
             tx_fail_cycles: u64::from(config.tx_fail_cycles),
             requests: Mutex::new(None),
             cycle_ns: 4_000_000,
+            home_order: Vec::new(),
+            homing_timeout_ns: (config.homing_timeout_ms * 1e6) as u64,
+            require_homing: config.require_homing,
             faults: Mutex::new(VecDeque::new()),
         }
     }
@@ -336,6 +363,9 @@ impl BusShared {
 
     fn not_ready(&self, n: &NodeShared, now: u64) -> Option<NotReady> {
         let Some(sw) = n.statusword() else { return Some(NotReady::NoAnswer) };
+        if n.homing.load(Ordering::Acquire) {
+            return Some(NotReady::Homing);
+        }
         let stale = |t: Option<u64>| t.is_some_and(|t| now.saturating_sub(t) > self.heartbeat_timeout_ns);
         if stale(n.last_tpdo_ns()) {
             let silent_ms = now.saturating_sub(n.last_tpdo_ns().unwrap_or(0)) as f64 * 1e-6;
@@ -345,6 +375,9 @@ impl BusShared {
             return Some(NotReady::HeartbeatLost);
         }
         match PowerState::from_statusword(sw) {
+            Some(PowerState::OperationEnabled) if self.require_homing && !n.homed.load(Ordering::Acquire) => {
+                Some(NotReady::NotHomed)
+            }
             Some(PowerState::OperationEnabled) => None,
             Some(state) => {
                 let off = i64::from(n.position_actual()) - i64::from(n.target());

@@ -4,7 +4,7 @@
 //! node, so a commissioning transfer never overlaps a configuration transfer to the same node.
 
 use interpd_canopen::Address;
-use interpd_protocol::api::ResetDrive;
+use interpd_protocol::api::{HomedAxis, ResetDrive};
 
 /// One SDO transfer with one node.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -38,6 +38,10 @@ pub enum DriveCommandError {
     /// A drive stayed in Fault (or another state) after the fault reset.
     #[error("{0}")]
     Reset(String),
+    /// Homing failed: the message names the drive, the node and the method, and what went
+    /// wrong (homing error bit, timeout, a refused mode).
+    #[error("{0}")]
+    Homing(String),
     /// The master's boot thread is gone (the daemon is stopping).
     #[error("the CAN master is stopping: {0}")]
     Stopped(String),
@@ -45,3 +49,11 @@ pub enum DriveCommandError {
 
 /// What `drives.reset` did.
 pub type ResetOutcome = Result<Vec<ResetDrive>, DriveCommandError>;
+
+/// What `machine.home` did.
+pub type HomeOutcome = Result<Vec<HomedAxis>, DriveCommandError>;
+
+/// Moves the setpoint of axis `axis` to `position` (axis units) at rest without motion: after
+/// homing, the drive's position has a new reference while the machine stands where it stood.
+/// Returns when the real-time sink sends the new position, or why it could not.
+pub type Reposition<'a> = &'a (dyn Fn(usize, f64) -> Result<(), String> + Sync);

@@ -7,6 +7,7 @@
 pub mod can;
 mod can_boot;
 mod can_command;
+mod can_homing;
 mod can_inbox;
 mod can_log;
 mod can_rx;
@@ -16,7 +17,7 @@ pub mod deferred;
 pub mod drive_command;
 pub mod shm;
 
-use drive_command::{DriveCommandError, ResetOutcome, SdoOp};
+use drive_command::{DriveCommandError, HomeOutcome, Reposition, ResetOutcome, SdoOp};
 use interpd_protocol::api::DriveStatus;
 use interpd_protocol::cia402::PowerState;
 use interpd_protocol::shm::Setpoints;
@@ -64,6 +65,17 @@ pub trait DriveMonitor: Send + Sync {
     fn reset(&self, nodes: &[u8]) -> ResetOutcome {
         let _ = nodes;
         Err(DriveCommandError::NoMaster)
+    }
+    /// Homes the drives in the configured order (CiA 402 homing mode), each axis's setpoint
+    /// moved onto its drive's new position by `reposition` before the drive returns to CSP.
+    /// The caller has checked that nothing moves.
+    fn home(&self, reposition: Reposition) -> HomeOutcome {
+        let _ = reposition;
+        Err(DriveCommandError::NoMaster)
+    }
+    /// Whether every drive is homed (`None`: no drives).
+    fn homed(&self) -> Option<bool> {
+        None
     }
 }
 
@@ -119,6 +131,10 @@ pub enum NotReady {
     NotEnabled { state: PowerState, statusword: u16, outside_window: Option<EnableWindow> },
     #[error("reports an undefined statusword 0x{0:04X}")]
     UndefinedStatusword(u16),
+    #[error("is homing (machine.home runs)")]
+    Homing,
+    #[error("is not homed ([sinks.can] require_homing: call machine.home first)")]
+    NotHomed,
 }
 
 /// A drive's position actual too far from the setpoint for the master to enable it.

@@ -325,6 +325,27 @@ pub struct ResetResult {
     pub drives: Vec<ResetDrive>,
 }
 
+/// One axis in the result of `machine.home`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HomedAxis {
+    pub axis: String,
+    pub node: u8,
+    /// The homing method (0x6098).
+    pub method: i8,
+    /// Where the drive stands after homing (its position actual, the home offset at the home
+    /// position), increments and axis units; the axis's setpoint is now this position.
+    pub position_actual: i32,
+    pub position_units: f64,
+    /// Time from the start bit to "homing attained", s.
+    pub duration_s: f64,
+}
+
+/// Result of `machine.home`: every axis homed, in the order homed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HomeResult {
+    pub axes: Vec<HomedAxis>,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

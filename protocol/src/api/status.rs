@@ -161,6 +161,10 @@ pub struct DriveStatus {
     /// `drives.sdo_read`/`drives.sdo_write`): node, object, abort code and its meaning.
     #[serde(default)]
     pub last_sdo_error: Option<String>,
+    /// `machine.home` homed the drive, and it has not booted again or left NMT operational
+    /// since.
+    #[serde(default)]
+    pub homed: bool,
 }
 
 /// The result of `status`.
@@ -194,6 +198,8 @@ pub struct Status {
     pub position: Vec<f64>,
     /// CAN drives, one per axis when the CAN sink runs (empty otherwise).
     pub drives: Vec<DriveStatus>,
+    /// Every CAN drive is homed (`machine.home`); `null` without CAN drives.
+    pub homed: Option<bool>,
     /// CAN bus counters of the master (frames sent and received, malformed frames by kind,
     /// send failures by errno class, error frames, candump log records); absent without CAN.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -327,6 +333,7 @@ impl Default for Status {
             axes: Vec::new(),
             position: Vec::new(),
             drives: Vec::new(),
+            homed: None,
             can_bus: None,
             manual: None,
             mdi: None,

@@ -233,7 +233,7 @@ fn drive_status_on_the_wire() {
             "position_actual": 0, "position_actual_units": 0.0, "target_position": 0, "controlword": null,
             "tpdo_count": 0, "last_tpdo_ms_ago": null, "last_heartbeat_ms_ago": null, "heartbeat_lost": false,
             "emcy_count": 0, "last_emcy_code": "0x8100", "last_emcy_text": null, "configured": false,
-            "last_sdo_error": null,
+            "last_sdo_error": null, "homed": false,
         })
     );
     assert_eq!(serde_json::from_value::<DriveStatus>(v).expect("de"), d);

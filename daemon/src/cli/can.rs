@@ -7,6 +7,8 @@
 //!   answers. With `--can IFACE` they talk to the node directly on the bus, for a bus without
 //!   a daemon (CiA 301 allows one client per SDO channel: never beside a running master).
 //! - `interpd can reset [NODE…]`: `drives.reset` (fault reset) through the daemon.
+//! - `interpd can home`: `machine.home` (CiA 402 homing of every axis in `home_order`) through
+//!   the daemon.
 //!
 //! A read prints the value (as `--type`, else the bytes in hex) on stdout; an SDO abort is
 //! exit 1 with the node, the object and the abort code with its meaning.
@@ -47,6 +49,8 @@ pub enum CanCommand {
         /// Node-IDs; none: every drive in Fault.
         nodes: Vec<u8>,
     },
+    /// Home every axis of `[sinks.can] home_order` (CiA 402 homing mode), one line per axis.
+    Home,
 }
 
 #[derive(Debug, clap::Subcommand)]
@@ -140,6 +144,21 @@ pub fn run(args: &CanArgs) -> Result<(), CliError> {
             out(&format!("node {} {} = {value} ({})", at.node, addr(at), ty.name()))?;
             Ok(())
         }
+        CanCommand::Home => {
+            let r = call(args, "machine.home", json!({}))?;
+            for a in r["axes"].as_array().cloned().unwrap_or_default() {
+                out(&format!(
+                    "drive {} (node {}): homed with method {} in {:.3} s, position {} ({} increments)",
+                    a["axis"].as_str().unwrap_or("?"),
+                    a["node"],
+                    a["method"],
+                    a["duration_s"].as_f64().unwrap_or(0.0),
+                    a["position_units"],
+                    a["position_actual"]
+                ))?;
+            }
+            Ok(())
+        }
         CanCommand::Reset { nodes } => {
             let r = call(args, "drives.reset", json!({ "nodes": nodes }))?;
             let drives = r["drives"].as_array().cloned().unwrap_or_default();
@@ -185,7 +204,9 @@ fn call(args: &CanArgs, method: &str, params: Value) -> Result<Value, CliError> 
         ))
     })?;
     let io = |e: std::io::Error| CliError::Failure(format!("control socket {}: {e}", path.display()));
-    s.set_read_timeout(Some(Duration::from_secs(60))).map_err(io)?;
+    // Homing takes as long as the axes need (the daemon bounds each by homing_timeout_ms).
+    let timeout = (method != "machine.home").then_some(Duration::from_secs(60));
+    s.set_read_timeout(timeout).map_err(io)?;
     let mut reader = BufReader::new(s.try_clone().map_err(io)?);
     let mut writer = s;
     writeln!(writer, "{}", json!({"jsonrpc": "2.0", "id": 1, "method": method, "params": params})).map_err(io)?;

@@ -501,7 +501,10 @@ fn sigkill_mid_motion_every_drive_quick_stops_within_three_cycles() {
         std::thread::sleep(Duration::from_millis(10));
     }
     drop(client);
+    let t_signal = SystemTime::now();
     let _ = daemon.kill();
+    // After the kill has been reaped: the killed daemon's exit (the kernel's teardown of its
+    // locked memory) is over.
     let t_kill = SystemTime::now();
     // Let the watchdogs trip and the ramps run out (0.25 s at these speeds and decelerations).
     let nodes = nodes();
@@ -561,7 +564,15 @@ fn sigkill_mid_motion_every_drive_quick_stops_within_three_cycles() {
     let (code, drives_err) = drives.terminate();
     assert_eq!(code, Some(0), "{drives_err}");
     assert_eq!(drives_err.matches("1 watchdog trips").count(), nodes.len(), "{drives_err}");
-    eprintln!("SIGKILL: {}", report.join("; "));
+    eprintln!(
+        "SIGKILL: sent {:.3} cycles after the last SYNC, the daemon reaped after {:.3}; {}",
+        secs_between(last_sync, t_signal) / cycle_s,
+        secs_between(last_sync, t_kill) / cycle_s,
+        report.join("; ")
+    );
+    // The drives' own view: how long after their last SYNC each watchdog tripped.
+    let trips: Vec<&str> = drives_err.lines().filter(|l| l.contains("no SYNC for")).collect();
+    eprintln!("SIGKILL, the drives' trip times: {}", trips.join(" | "));
     let _ = std::fs::remove_dir_all(&dir);
 }
 

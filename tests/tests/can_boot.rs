@@ -672,6 +672,36 @@ fn machine_home_homes_every_axis_then_motion_may_start() {
     assert!((found - 100_000).abs() <= 50, "X found home at {found} increments, not the index at 100 000");
     assert!(highest > 125_000, "X's search went through the switch edge: {highest}");
     assert!((x[done].2 + 20_000).abs() <= 50, "X reports its home offset −2 mm: {}", x[done].2);
+    // The homing of Y (method 37) on the bus, annotated: its SDO transfers, and of its PDOs
+    // each one that differs from the one before.
+    let y_first = frames
+        .iter()
+        .find(|(_, f)| f.id().raw() == 0x602 && f.payload().get(1..3) == Some(&[0x7C, 0x60]))
+        .expect("Y's home offset written")
+        .0;
+    let mut text = Vec::new();
+    let mut last_pdo = [Vec::new(), Vec::new()];
+    for (t, f) in frames.iter().filter(|(t, _)| *t >= y_first) {
+        let id = f.id().raw();
+        let pdo = match id {
+            0x202 => Some(0),
+            0x182 => Some(1),
+            0x602 | 0x582 => None,
+            _ => continue,
+        };
+        if let Some(k) = pdo {
+            if last_pdo[k] == f.payload() {
+                continue;
+            }
+            last_pdo[k] = f.payload().to_vec();
+        }
+        text.push(line(y_first, *t, f));
+        let back_in_csp = id == 0x582 && f.payload().get(1..5) == Some(&[0x61, 0x60, 0, 8]);
+        if back_in_csp || text.len() > 60 {
+            break;
+        }
+    }
+    eprintln!("homing of Y (node 2, method 37) on the bus:\n{}", text.join("\n"));
     eprintln!(
         "homing: machine.home took {home_s:.3} s (wall); X found the index at {found} increments (highest {highest}), \
          then reports {}; in {:.3} s of bus time; {homed}",

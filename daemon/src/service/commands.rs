@@ -154,21 +154,21 @@ impl ServiceCore {
     }
 
     /// Moves axis `axis`'s setpoint to `pos` at rest (homing): the real-time thread takes the
-    /// request at its next standing cycle; returns once the setpoint shows it.
+    /// request at its next standing cycle; returns once the sinks have sent it.
     fn reposition_at_rest(&self, axis: usize, pos: f64) -> Result<(), String> {
         const WAIT: Duration = Duration::from_secs(2);
         let shared = &self.shared;
         shared.reposition.request(axis, pos);
         let until = Instant::now() + WAIT;
         let cycle = Duration::from_secs_f64(shared.config.cycle_s());
-        while shared.reposition.is_pending() || shared.live.load().pos[axis] != pos {
+        while shared.reposition.is_pending() {
             if Instant::now() >= until {
                 shared.reposition.clear();
                 return Err(format!("the machine did not stand within {} s", WAIT.as_secs()));
             }
             std::thread::sleep(cycle);
         }
-        // One more cycle: the sinks have sent the new setpoint.
+        // Two more cycles: the cycle that took it has published it to every sink.
         std::thread::sleep(2 * cycle);
         Ok(())
     }

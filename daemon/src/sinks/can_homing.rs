@@ -41,13 +41,24 @@ impl BusShared {
     /// Homes every drive of `home_order`; see the module comment.
     pub fn home_command(&self, reposition: Reposition) -> HomeOutcome {
         let mut done = Vec::with_capacity(self.home_order.len());
+        // Motion stays refused from the first axis to the last, also between two axes.
+        for &i in &self.home_order {
+            self.nodes[i].homing.store(true, Ordering::Release);
+        }
+        let result = self.home_all(reposition, &mut done);
+        for &i in &self.home_order {
+            self.nodes[i].homing_start.store(false, Ordering::Release);
+            self.nodes[i].homing.store(false, Ordering::Release);
+        }
+        result.map(|()| done)
+    }
+
+    fn home_all(&self, reposition: Reposition, done: &mut Vec<HomedAxis>) -> Result<(), DriveCommandError> {
         for &i in &self.home_order {
             let n = &self.nodes[i];
-            n.homing.store(true, Ordering::Release);
             n.homed.store(false, Ordering::Release);
             let result = self.home_one(n, reposition);
             n.homing_start.store(false, Ordering::Release);
-            n.homing.store(false, Ordering::Release);
             match result {
                 Ok(axis) => {
                     n.homed.store(true, Ordering::Release);
@@ -67,7 +78,7 @@ impl BusShared {
                 }
             }
         }
-        Ok(done)
+        Ok(())
     }
 
     fn home_one(&self, n: &NodeShared, reposition: Reposition) -> Result<HomedAxis, DriveCommandError> {
@@ -94,7 +105,11 @@ impl BusShared {
         for (at, data) in writes {
             self.sdo_command(n.node.get(), SdoOp::Write(at, data))?;
         }
-        self.set_mode(n, MODE_HOMING).map_err(|e| fail(e.to_string()))?;
+        if let Err(e) = self.set_mode(n, MODE_HOMING) {
+            // Whatever the drive took, it must follow the setpoint again (it stands at it).
+            let back = self.set_mode(n, MODE_CSP).err().map(|b| format!("; back to CSP failed too: {b}"));
+            return Err(fail(format!("{e}{}", back.unwrap_or_default())));
+        }
         let t0 = clock::now_ns();
         n.homing_start.store(true, Ordering::Release);
         let outcome = self.await_homing(n);

@@ -444,6 +444,33 @@ mod tests {
     }
 
     #[test]
+    fn homing_and_require_homing_gate_motion_and_a_reboot_forgets_the_home() {
+        let mut s = shared();
+        s.require_homing = true;
+        let now = clock::now_ns();
+        for n in &s.nodes {
+            n.on_tpdo(0x1237, 0, now);
+            n.on_heartbeat(NmtState::Operational, now);
+        }
+        let e = s.ready_for_motion().unwrap_err().to_string();
+        assert!(e.contains("drive X (node 1) is not homed ([sinks.can] require_homing"), "{e}");
+        s.nodes[0].homing.store(true, Ordering::Release);
+        let e = s.ready_for_motion().unwrap_err().to_string();
+        assert!(e.contains("drive X (node 1) is homing (machine.home runs)"), "{e}");
+        s.nodes[0].homing.store(false, Ordering::Release);
+        for n in &s.nodes {
+            n.homed.store(true, Ordering::Release);
+        }
+        assert_eq!(s.ready_for_motion(), Ok(()));
+        assert!(s.drives_report().iter().all(|d| d.homed));
+        // Booted again (or pre-operational): the drive's reference is gone.
+        s.nodes[1].on_heartbeat(NmtState::BootUp, now);
+        assert!(!s.nodes[1].homed.load(Ordering::Acquire));
+        let e = s.ready_for_motion().unwrap_err().to_string();
+        assert!(e.contains("drive Y (node 2) is not homed"), "{e}");
+    }
+
+    #[test]
     fn reports_and_faults() {
         let s = shared();
         s.nodes[0].on_emcy(0x8100);

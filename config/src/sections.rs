@@ -30,6 +30,11 @@ pub struct PlannerConfig {
     /// this time, ms. The default keeps sampled jerk within the limit down to 0.1 ms sampling;
     /// smoothing (G64) removes the jump instead.
     pub curvature_jump_ms: f64,
+    /// On smoothed (G64) pieces, a sampling step the cubic interpolation of the limit checks
+    /// would split is kept where the quintic one describes it (docs/planner.md, section 8):
+    /// about a third of the nodes on tight smoothed CAM paths. `false` keeps the cubic
+    /// interpolation everywhere.
+    pub quintic_checks: bool,
 }
 
 impl Default for PlannerConfig {
@@ -44,6 +49,7 @@ impl Default for PlannerConfig {
             limit_fraction: 0.995,
             rapid_feed_mm_s: None,
             curvature_jump_ms: 0.002,
+            quintic_checks: true,
         }
     }
 }

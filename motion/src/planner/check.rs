@@ -4,9 +4,11 @@
 //! samples. The paper checks the nodes only; between them the axis jerk varies while the path
 //! jerk is constant.
 //!
-//! Between the nodes the geometry is interpolated from the node data: A′ and A″ by cubic
-//! Hermite (their derivatives A″, A‴ are known at both ends), A‴ linearly. The sampling keeps
-//! intervals short enough that this is accurate to well inside the limit headroom.
+//! Between the nodes the geometry is interpolated from the node data: on smoothed pieces A′ by
+//! the quintic Hermite that matches A′, A″ and A‴ at both ends, A″ and A‴ as its derivatives
+//! ([`HermiteBasis`]); elsewhere A′ and A″ by cubic Hermite (their derivatives A″, A‴ are known
+//! at both ends), A‴ linearly ([`CubicBasis`]). The sampling keeps intervals short enough that
+//! this is accurate to well inside the limit headroom.
 
 use super::interval::Interval;
 use super::limits::Limits;
@@ -37,7 +39,8 @@ fn check_fractions(g: &IntervalGeom) -> &'static [f64] {
 pub(super) fn geom_at(g: &IntervalGeom, sigma: f64, k: usize) -> (f64, f64, f64) {
     match g.span {
         Some(p) => span_at(g, p, &span_powers(g, sigma), k),
-        None => hermite_at(g, &HermiteBasis::at(sigma), k),
+        None if g.quintic => hermite_at(g, &HermiteBasis::at(sigma, g.ds_mm), k),
+        None => cubic_at(g, &CubicBasis::at(sigma), k),
     }
 }
 
@@ -51,29 +54,34 @@ pub(super) fn node_geom_at(g: &IntervalGeom, sigma: f64, n_axes: usize) -> NodeG
             let powers = span_powers(g, sigma);
             (0..n_axes).for_each(|k| put(k, span_at(g, p, &powers, k)));
         }
-        None => {
-            let h = HermiteBasis::at(sigma);
+        None if g.quintic => {
+            let h = HermiteBasis::at(sigma, g.ds_mm);
             (0..n_axes).for_each(|k| put(k, hermite_at(g, &h, k)));
+        }
+        None => {
+            let h = CubicBasis::at(sigma);
+            (0..n_axes).for_each(|k| put(k, cubic_at(g, &h, k)));
         }
     }
     ng
 }
 
-/// The cubic Hermite basis at fraction σ, shared by the axes of one point.
+/// The cubic Hermite basis at fraction σ, shared by the axes of one point (every interval
+/// but the smoothed pieces' steps that need the quintic one: see [`IntervalGeom::quintic`]).
 #[derive(Clone, Copy)]
-struct HermiteBasis {
-    sigma: f64,
-    h00: f64,
-    h10: f64,
-    h01: f64,
-    h11: f64,
+pub(super) struct CubicBasis {
+    pub sigma: f64,
+    pub h00: f64,
+    pub h10: f64,
+    pub h01: f64,
+    pub h11: f64,
 }
 
-impl HermiteBasis {
+impl CubicBasis {
     #[inline(always)]
-    fn at(sigma: f64) -> Self {
+    pub(super) fn at(sigma: f64) -> Self {
         let (s2, s3) = (sigma * sigma, sigma * sigma * sigma);
-        HermiteBasis {
+        CubicBasis {
             sigma,
             h00: 2.0 * s3 - 3.0 * s2 + 1.0,
             h10: s3 - 2.0 * s2 + sigma,
@@ -86,11 +94,79 @@ impl HermiteBasis {
 /// The geometry of axis `k` interpolated from the nodes: A′ and A″ by cubic Hermite (their
 /// derivatives are known at both ends), A‴ linearly.
 #[inline(always)]
-fn hermite_at(g: &IntervalGeom, h: &HermiteBasis, k: usize) -> (f64, f64, f64) {
+fn cubic_at(g: &IntervalGeom, h: &CubicBasis, k: usize) -> (f64, f64, f64) {
     let (a, b, sg, ds) = (g.start, g.end, g.sign, g.ds_mm);
     let d1 = sg * (h.h00 * a.d1[k] + h.h01 * b.d1[k]) + ds * (h.h10 * a.d2[k] + h.h11 * b.d2[k]);
     let d2 = h.h00 * a.d2[k] + h.h01 * b.d2[k] + sg * ds * (h.h10 * a.d3[k] + h.h11 * b.d3[k]);
     let d3 = sg * ((1.0 - h.sigma) * a.d3[k] + h.sigma * b.d3[k]);
+    (d1, d2, d3)
+}
+
+/// The quintic Hermite basis at fraction σ of an interval `ds` long, shared by the axes of one
+/// point (on steps of smoothed pieces: see [`IntervalGeom::quintic`]). A′ is the quintic that
+/// matches A′, A″ and A‴ at both nodes (in traversal order: P, Q, R per node); A″ and A‴ are
+/// its first and second derivatives in s. So the three stay consistent (A″ = dA′/ds, A‴ =
+/// dA″/ds), and the errors are O(ds⁶), O(ds⁵), O(ds⁴) where a cubic Hermite A′ with a linear A‴
+/// leaves A‴ off by O(ds²): that error, weighed by v³, set the node spacing on tight smoothed
+/// curves (the sampling halves a step until the interpolated geometry misses the element's own
+/// by 1e-3 of a limit).
+///
+/// Weights, with D = P₁ − P₀:
+/// - `d1`: of P₀, P₁, Q₀, Q₁, R₀, R₁;
+/// - `d2`, `d3`: of D, Q₀, Q₁, R₀, R₁.
+#[derive(Clone, Copy)]
+pub(super) struct HermiteBasis {
+    pub d1: [f64; 6],
+    pub d2: [f64; 5],
+    pub d3: [f64; 5],
+}
+
+impl HermiteBasis {
+    #[inline(always)]
+    pub(super) fn at(sigma: f64, ds: f64) -> Self {
+        let (s, s2, s3) = (sigma, sigma * sigma, sigma * sigma * sigma);
+        let (s4, s5) = (s2 * s2, s2 * s3);
+        // H5 (P₁), H1 (Q₀), H4 (Q₁), H2 (R₀), H3 (R₁); H0 = 1 − H5, so H0′ = −H5′.
+        let h5 = 10.0 * s3 - 15.0 * s4 + 6.0 * s5;
+        let h1 = s - 6.0 * s3 + 8.0 * s4 - 3.0 * s5;
+        let h4 = -4.0 * s3 + 7.0 * s4 - 3.0 * s5;
+        let h2 = 0.5 * s2 - 1.5 * s3 + 1.5 * s4 - 0.5 * s5;
+        let h3 = 0.5 * s3 - s4 + 0.5 * s5;
+        let h5p = 30.0 * s2 - 60.0 * s3 + 30.0 * s4;
+        let h1p = 1.0 - 18.0 * s2 + 32.0 * s3 - 15.0 * s4;
+        let h4p = -12.0 * s2 + 28.0 * s3 - 15.0 * s4;
+        let h2p = s - 4.5 * s2 + 6.0 * s3 - 2.5 * s4;
+        let h3p = 1.5 * s2 - 4.0 * s3 + 2.5 * s4;
+        let h5pp = 60.0 * s - 180.0 * s2 + 120.0 * s3;
+        let h1pp = -36.0 * s + 96.0 * s2 - 60.0 * s3;
+        let h4pp = -24.0 * s + 84.0 * s2 - 60.0 * s3;
+        let h2pp = 1.0 - 9.0 * s + 18.0 * s2 - 10.0 * s3;
+        let h3pp = 3.0 * s - 12.0 * s2 + 10.0 * s3;
+        // A zero-length interval has one geometry: D = 0 there, and its weight is moot.
+        let inv = if ds > 0.0 { 1.0 / ds } else { 0.0 };
+        HermiteBasis {
+            d1: [1.0 - h5, h5, ds * h1, ds * h4, ds * ds * h2, ds * ds * h3],
+            d2: [h5p * inv, h1p, h4p, ds * h2p, ds * h3p],
+            d3: [h5pp * inv * inv, h1pp * inv, h4pp * inv, h2pp, h3pp],
+        }
+    }
+}
+
+/// The geometry of axis `k` interpolated from the nodes by the quintic Hermite A′ of
+/// [`HermiteBasis`]. The sums run in the order `lanes` runs them, so both give the same bits.
+#[inline(always)]
+fn hermite_at(g: &IntervalGeom, h: &HermiteBasis, k: usize) -> (f64, f64, f64) {
+    let (a, b, sg) = (g.start, g.end, g.sign);
+    let (p0, p1) = (sg * a.d1[k], sg * b.d1[k]);
+    let (q0, q1) = (a.d2[k], b.d2[k]);
+    let (r0, r1) = (sg * a.d3[k], sg * b.d3[k]);
+    let d = p1 - p0;
+    let w = &h.d1;
+    let d1 = w[0] * p0 + w[1] * p1 + w[2] * q0 + w[3] * q1 + w[4] * r0 + w[5] * r1;
+    let w = &h.d2;
+    let d2 = w[0] * d + w[1] * q0 + w[2] * q1 + w[3] * r0 + w[4] * r1;
+    let w = &h.d3;
+    let d3 = w[0] * d + w[1] * q0 + w[2] * q1 + w[3] * r0 + w[4] * r1;
     (d1, d2, d3)
 }
 
@@ -266,8 +342,10 @@ fn point_violation_lanes(g: &IntervalGeom, sigma: f64, v: f64, a: f64, j: f64, l
         lanes::at_node(g, g.end, v, a, j, lim)
     } else if let Some(p) = g.span {
         lanes::on_span(g, p, &span_powers(g, sigma), v, a, j, lim)
+    } else if g.quintic {
+        lanes::interpolated_quintic(g, &HermiteBasis::at(sigma, g.ds_mm), v, a, j, lim)
     } else {
-        let h = HermiteBasis::at(sigma);
+        let h = CubicBasis::at(sigma);
         lanes::interpolated(g, [h.h00, h.h10, h.h01, h.h11], sigma, v, a, j, lim)
     }
 }
@@ -284,9 +362,12 @@ fn point_violation_scalar(g: &IntervalGeom, sigma: f64, v: f64, a: f64, j: f64, 
     } else if let Some(p) = g.span {
         let powers = span_powers(g, sigma);
         axes_violation(v, a, j, lim, |k| span_at(g, p, &powers, k))
-    } else {
-        let h = HermiteBasis::at(sigma);
+    } else if g.quintic {
+        let h = HermiteBasis::at(sigma, g.ds_mm);
         axes_violation(v, a, j, lim, |k| hermite_at(g, &h, k))
+    } else {
+        let h = CubicBasis::at(sigma);
+        axes_violation(v, a, j, lim, |k| cubic_at(g, &h, k))
     }
 }
 
@@ -493,7 +574,7 @@ mod tests {
     #[test]
     fn line_velocity_limit() {
         let g = line_geom();
-        let ig = IntervalGeom { start: &g, end: &g, ds_mm: 1.0, sign: 1.0, span: None };
+        let ig = IntervalGeom { start: &g, end: &g, ds_mm: 1.0, sign: 1.0, span: None, quintic: false };
         // 0.8·v ≤ 100 → v ≤ 125
         let ok = Interval::through(124.0, 0.0, 1.0, 124.0).unwrap();
         assert!(violation(&ok, &ig, &lim()) <= 0.0);
@@ -552,7 +633,7 @@ mod tests {
             let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
             let (v, a, j) = (60.0 * (next() + 1.0), 2000.0 * next(), 20_000.0 * next());
             let ((jlo, jhi), (alo, ahi)) = (jerk_range(&g, sign, v, a, &l), acc_range(&g, sign, v, &l));
-            let ig = IntervalGeom { start: &g, end: &g, ds_mm: 1.0, sign, span: None };
+            let ig = IntervalGeom { start: &g, end: &g, ds_mm: 1.0, sign, span: None, quintic: false };
             let got = [jlo, jhi, alo, ahi, point_violation(&ig, 0.0, v, a, j, &l)];
             let want = reference(&g, sign, v, a, j, &l);
             assert_eq!(got.map(f64::to_bits), want.map(f64::to_bits), "{g:?} sign {sign} v {v} a {a} j {j}");
@@ -572,7 +653,7 @@ mod tests {
         use proptest::test_runner::{RngAlgorithm, TestRng};
         let mut rng = TestRng::deterministic_rng(RngAlgorithm::ChaCha);
         let mut next = || (rng.next_u64() >> 11) as f64 * 2f64.powi(-52) - 1.0;
-        let mut compared = [0usize; 4];
+        let mut compared = [0usize; 5];
         for i in 0..40_000 {
             let mut l = lim();
             l.n_axes = 1 + i % MAX_AXES;
@@ -596,7 +677,14 @@ mod tests {
             }
             let span = SpanPoly::from_position(&c, MAX_AXES, 0.5, false);
             let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
-            let ig = IntervalGeom { start: &g0, end: &g1, ds_mm: 0.5, sign, span: (i % 3 == 0).then_some(&span) };
+            let ig = IntervalGeom {
+                start: &g0,
+                end: &g1,
+                ds_mm: 0.5,
+                sign,
+                span: (i % 3 == 0).then_some(&span),
+                quintic: i % 4 == 1,
+            };
             let sigma = match i % 7 {
                 0 => 0.0,
                 1 => 1.0,
@@ -608,6 +696,8 @@ mod tests {
                 0
             } else if ig.span.is_some() {
                 1
+            } else if ig.quintic {
+                3
             } else {
                 2
             };
@@ -618,10 +708,44 @@ mod tests {
                 // SAFETY: the CPU has AVX (detected just above).
                 let avx = unsafe { point_violation_avx(&ig, sigma, v, a, j, &l) };
                 assert_eq!(avx.to_bits(), want, "case {i}, AVX");
-                compared[3] += 1;
+                compared[4] += 1;
             }
         }
-        assert!(compared[..3].iter().all(|&n| n > 5_000), "nodes, spans, interpolated: {compared:?}");
+        assert!(compared[..4].iter().all(|&n| n > 3_000), "nodes, spans, cubic, quintic: {compared:?}");
+    }
+
+    /// The quintic scheme is exact for a quintic A′ (A″, A‴ its derivatives) in either
+    /// direction, where the cubic scheme's linear A‴ is not.
+    #[test]
+    fn the_quintic_scheme_reproduces_a_quintic_tangent() {
+        // A′(s) = Σ c_i s^i on one axis, its derivatives, over an interval of 0.3 mm from s0.
+        let c = [0.3, -1.2, 40.0, -350.0, 900.0, -2500.0];
+        let at = |s: f64| {
+            let d1: f64 = (0..6).map(|i| c[i] * s.powi(i as i32)).sum();
+            let d2: f64 = (1..6).map(|i| i as f64 * c[i] * s.powi(i as i32 - 1)).sum();
+            let d3: f64 = (2..6).map(|i| (i * (i - 1)) as f64 * c[i] * s.powi(i as i32 - 2)).sum();
+            let mut g = NodeGeom::default();
+            (g.d1[0], g.d2[0], g.d3[0]) = (d1, d2, d3);
+            g
+        };
+        let (s0, ds) = (0.1, 0.3);
+        let (g0, g1) = (at(s0), at(s0 + ds));
+        for sign in [1.0, -1.0] {
+            let (start, end) = if sign > 0.0 { (&g0, &g1) } else { (&g1, &g0) };
+            for sigma in [0.1, 0.25, 0.5, 0.8] {
+                let quintic = IntervalGeom { start, end, ds_mm: ds, sign, span: None, quintic: true };
+                let cubic = IntervalGeom { quintic: false, ..quintic };
+                let s = if sign > 0.0 { s0 + sigma * ds } else { s0 + ds - sigma * ds };
+                let want = at(s);
+                let want = (sign * want.d1[0], want.d2[0], sign * want.d3[0]);
+                let got = geom_at(&quintic, sigma, 0);
+                for (x, y) in [(got.0, want.0), (got.1, want.1), (got.2, want.2)] {
+                    assert!((x - y).abs() <= 1e-9 * (1.0 + y.abs()), "σ {sigma} sign {sign}: {got:?} vs {want:?}");
+                }
+                let off = (geom_at(&cubic, sigma, 0).2 - want.2).abs();
+                assert!(off > 1.0, "σ {sigma}: the cubic scheme's A‴ is off by only {off}");
+            }
+        }
     }
 
     /// The term [`violation_term`] names has, alone, the value of the whole violation, bit for
@@ -648,7 +772,14 @@ mod tests {
             }
             let span = SpanPoly::from_position(&c, MAX_AXES, 2.0, i % 3 == 0);
             let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
-            let ig = IntervalGeom { start: &g0, end: &g1, ds_mm: 0.5, sign, span: (i % 4 < 2).then_some(&span) };
+            let ig = IntervalGeom {
+                start: &g0,
+                end: &g1,
+                ds_mm: 0.5,
+                sign,
+                span: (i % 4 < 2).then_some(&span),
+                quintic: false,
+            };
             let Some(iv) = Interval::through(60.0 * (next() + 1.0), 2000.0 * next(), 0.5, 60.0 * (next() + 1.0)) else {
                 continue;
             };

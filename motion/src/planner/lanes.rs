@@ -10,6 +10,7 @@
 //! The axes go in chunks of four that may overlap (five axes: 0–3 and 1–4), which the maximum
 //! does not mind; with fewer than four axes the lanes past the last axis are left out.
 
+use super::check::HermiteBasis;
 use super::limits::Limits;
 use super::node::{IntervalGeom, NodeGeom, SpanPoly};
 use crate::path::MAX_AXES;
@@ -178,7 +179,7 @@ impl Source for OnSpan<'_> {
 }
 
 /// Interpolated between the nodes with the cubic Hermite basis (h00, h10, h01, h11) at σ
-/// (`check::hermite_at`).
+/// (`check::cubic_at`).
 #[inline(always)]
 pub(super) fn interpolated(g: &IntervalGeom, h: [f64; 4], sigma: f64, v: f64, a: f64, j: f64, lim: &Limits) -> f64 {
     let src = Hermite {
@@ -216,5 +217,44 @@ impl Source for Hermite<'_> {
         let d2 = add(mix(&s.d2, &e.d2, h00, h01), mul(self.sign_ds, mix(&s.d3, &e.d3, h10, h11)));
         let d3 = mul(self.sign, mix(&s.d3, &e.d3, self.linear[0], self.linear[1]));
         (d1, d2, d3)
+    }
+}
+
+/// Interpolated between the nodes with the quintic Hermite basis of `check::HermiteBasis`
+/// (`check::hermite_at`, whose sums run in the same order).
+#[inline(always)]
+pub(super) fn interpolated_quintic(g: &IntervalGeom, h: &HermiteBasis, v: f64, a: f64, j: f64, lim: &Limits) -> f64 {
+    let src = Quintic { start: g.start, end: g.end, h, sign: splat(g.sign) };
+    axes_violation(v, a, j, lim, &src)
+}
+
+struct Quintic<'a> {
+    start: &'a NodeGeom,
+    end: &'a NodeGeom,
+    h: &'a HermiteBasis,
+    sign: Lanes,
+}
+
+impl Source for Quintic<'_> {
+    #[inline(always)]
+    fn chunk(&self, k: usize) -> Geom4 {
+        let (s, e) = (self.start, self.end);
+        let (p0, p1) = (mul(self.sign, load(&s.d1, k)), mul(self.sign, load(&e.d1, k)));
+        let (q0, q1) = (load(&s.d2, k), load(&e.d2, k));
+        let (r0, r1) = (mul(self.sign, load(&s.d3, k)), mul(self.sign, load(&e.d3, k)));
+        let d = zip(p1, p0, |x, y| x - y);
+        let w = |x: f64| splat(x);
+        let h = self.h;
+        let d1 = add(
+            add(
+                add(add(add(mul(w(h.d1[0]), p0), mul(w(h.d1[1]), p1)), mul(w(h.d1[2]), q0)), mul(w(h.d1[3]), q1)),
+                mul(w(h.d1[4]), r0),
+            ),
+            mul(w(h.d1[5]), r1),
+        );
+        let sum5 = |c: &[f64; 5]| {
+            add(add(add(add(mul(w(c[0]), d), mul(w(c[1]), q0)), mul(w(c[2]), q1)), mul(w(c[3]), r0)), mul(w(c[4]), r1))
+        };
+        (d1, sum5(&h.d2), sum5(&h.d3))
     }
 }

@@ -132,6 +132,9 @@ pub(super) struct IntervalGeom<'a> {
     pub sign: f64,
     /// The exact geometry between the nodes where the path has one as a polynomial.
     pub span: Option<&'a SpanPoly>,
+    /// Without `span`: interpolate with the quintic Hermite A′ (`check::HermiteBasis`, smoothed
+    /// pieces) rather than the cubic one with a linear A‴ (`check::CubicBasis`).
+    pub quintic: bool,
 }
 
 impl IntervalGeom<'_> {
@@ -170,6 +173,9 @@ pub(crate) struct Node {
     pub reach_bound: bool,
     /// The exact geometry of the interval to the next node, where it is a polynomial in s.
     pub span: Option<Arc<SpanPoly>>,
+    /// The interval to the next node lies on a smoothed piece: its checks interpolate the
+    /// geometry with the quintic Hermite A′ ([`IntervalGeom::quintic`]).
+    pub quintic: bool,
 }
 
 #[cfg(test)]
@@ -189,6 +195,7 @@ impl Node {
             line: 1,
             reach_bound: false,
             span: None,
+            quintic: false,
         }
     }
 }

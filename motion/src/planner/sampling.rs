@@ -27,6 +27,8 @@ pub(super) struct SamplingParams {
     pub curvature_jump_s: f64,
     pub rapid_feed_mm_s: f64,
     pub linear: Vec<bool>,
+    /// `[planner] quintic_checks`.
+    pub quintic_checks: bool,
 }
 
 impl SamplingParams {
@@ -41,6 +43,7 @@ impl SamplingParams {
             curvature_jump_s: p.curvature_jump_ms * 1e-3,
             rapid_feed_mm_s: p.rapid_feed_mm_s.unwrap_or(f64::INFINITY),
             linear: settings.axes.iter().map(|a| a.kind == AxisKind::Linear).collect(),
+            quintic_checks: p.quintic_checks,
         }
     }
 }
@@ -331,6 +334,7 @@ pub(super) fn sample_element(
         line: e.source.line,
         reach_bound: false,
         span: None,
+        quintic: false,
     });
 
     // A straight line between two stops is planned in closed form (`scurve`): its interior
@@ -380,20 +384,30 @@ pub(super) fn sample_element(
         // interpolate it (`check::geom_at`), so the step halves until the interpolation
         // error, weighed at the fastest motion possible there, is a small share of a limit.
         // (Not for a path table: its checks evaluate the exact geometry, see `attach_spans`.)
+        // On a smoothed piece, where the cubic scheme would need a shorter step, the quintic
+        // one is taken if it holds at this step (`is_quintic`).
+        let mut quintic = false;
         if !matches!(e.geometry, crate::path::Geometry::Line(_)) && e.geometry.as_septic().is_none() {
+            let may_quintic = params.quintic_checks && is_quintic(e);
             for _ in 0..INTERP_HALVINGS {
                 let h = ds.min(len - s);
-                if h <= GEOMETRY_MIN_STEP_MM || interpolation_error(e, s, h, feed, lim) <= INTERP_ERROR_TOL {
+                if h <= GEOMETRY_MIN_STEP_MM || interpolation_error(e, s, h, feed, false, lim) <= INTERP_ERROR_TOL {
+                    break;
+                }
+                if may_quintic && interpolation_error(e, s, h, feed, true, lim) <= INTERP_ERROR_TOL {
+                    quintic = true;
                     break;
                 }
                 ds *= 0.5;
             }
         }
+        out.last_mut().expect("the node at s").quintic = quintic;
         let remaining = len - s;
         if remaining <= 1.5 * ds {
             if remaining > ds {
                 // Two equal steps instead of a long one followed by a sliver.
                 push_interior(e, s + 0.5 * remaining, &mut d, feed, lim, out);
+                out.last_mut().expect("just pushed").quintic = quintic;
             }
             break;
         }
@@ -465,7 +479,7 @@ fn attach_spans(e: &Element, nodes: &mut [Node], element_end: &ElementEnd, feed:
             let m = node_geom_at(&on_piece(start, &end, ds_mm, &poly), 0.5, lim.n_axes);
             let m_flat = flat_velocity_bound(&m, lim);
             let v = flats.0.max(flats.1).max(m_flat).min(feed);
-            let error = interpolation_error_at(ds_mm, (start, &end), &m, v, lim);
+            let error = interpolation_error_at(ds_mm, (start, &end), (0.5, &m), v, false, lim);
             poly.set_interpolable(error <= INTERP_ERROR_TOL);
             // The interior's acceleration-only bound lowers the nodes' only below both.
             let needed_below = node.vbar_mm_s.min(end_vbar);
@@ -479,7 +493,7 @@ fn attach_spans(e: &Element, nodes: &mut [Node], element_end: &ElementEnd, feed:
 
 /// The interval from geometry `start` to `end`, `ds_mm` long, on its exact piece `poly`.
 fn on_piece<'a>(start: &'a NodeGeom, end: &'a NodeGeom, ds_mm: f64, poly: &'a SpanPoly) -> IntervalGeom<'a> {
-    IntervalGeom { start, end, ds_mm, sign: 1.0, span: Some(poly) }
+    IntervalGeom { start, end, ds_mm, sign: 1.0, span: Some(poly), quintic: false }
 }
 
 /// Halvings of a step at most for the interpolation error (a factor of 2⁻¹² in length).
@@ -489,20 +503,31 @@ const INTERP_HALVINGS: usize = 12;
 const INTERP_ERROR_TOL: f64 = 1e-3;
 
 /// How far the geometry the limit checks interpolate between nodes at `s` and `s + h` misses
-/// the element's own at the middle, as the largest share of an axis limit it can cost (see
-/// [`interpolation_error_at`]), weighed at the highest flat v̄ of the ends and the middle.
-fn interpolation_error(e: &Element, s: f64, h: f64, feed: f64, lim: &Limits) -> f64 {
-    let (a, m, b) = (geom_at(e, s), geom_at(e, s + 0.5 * h), geom_at(e, s + h));
+/// the element's own at the middle (on smoothed pieces also at a quarter and three quarters:
+/// a quintic A′ can bulge off the element's between the middle and the ends, where the cubic
+/// scheme's linear A‴ cannot), as the largest share of an axis limit it can cost (see
+/// [`interpolation_error_at`]), weighed at the highest flat v̄ of the ends and those points.
+fn interpolation_error(e: &Element, s: f64, h: f64, feed: f64, quintic: bool, lim: &Limits) -> f64 {
+    let (a, b) = (geom_at(e, s), geom_at(e, s + h));
+    let sigmas: &[f64] = if quintic { &[0.25, 0.5, 0.75] } else { &[0.5] };
+    let inner: Vec<(f64, NodeGeom)> = sigmas.iter().map(|&x| (x, geom_at(e, s + x * h))).collect();
     let flat = |g: &NodeGeom| flat_velocity_bound(g, lim);
-    let v = flat(&a).max(flat(&b)).max(flat(&m)).min(feed);
-    interpolation_error_at(h, (&a, &b), &m, v, lim)
+    let v = inner.iter().fold(flat(&a).max(flat(&b)), |m, (_, g)| m.max(flat(g))).min(feed);
+    inner.iter().map(|(x, m)| interpolation_error_at(h, (&a, &b), (*x, m), v, quintic, lim)).fold(0.0, f64::max)
 }
 
-/// The interpolation error of the interval `h` long from geometry `a` to `b`, whose middle has
-/// the geometry `m`, at path velocity `v`: the errors of A′, A″, A‴ at the middle times v, v²,
-/// v³ (and the cross terms of eq. 1b–1c with the path acceleration and jerk the axes allow
-/// along A′), as the largest share of an axis limit.
-fn interpolation_error_at(h: f64, (a, b): (&NodeGeom, &NodeGeom), m: &NodeGeom, v: f64, lim: &Limits) -> f64 {
+/// The interpolation error of the interval `h` long from geometry `a` to `b`, whose point at
+/// fraction σ has the geometry `m`, at path velocity `v`: the errors of A′, A″, A‴ there times
+/// v, v², v³ (and the cross terms of eq. 1b–1c with the path acceleration and jerk the axes
+/// allow along A′), as the largest share of an axis limit.
+fn interpolation_error_at(
+    h: f64,
+    (a, b): (&NodeGeom, &NodeGeom),
+    (sigma, m): (f64, &NodeGeom),
+    v: f64,
+    quintic: bool,
+    lim: &Limits,
+) -> f64 {
     if !v.is_finite() {
         return 0.0;
     }
@@ -515,8 +540,8 @@ fn interpolation_error_at(h: f64, (a, b): (&NodeGeom, &NodeGeom), m: &NodeGeom, 
             jerk_p = jerk_p.min(lim.jerk[k] / t);
         }
     }
-    let g = IntervalGeom { start: a, end: b, ds_mm: h, sign: 1.0, span: None };
-    let i = node_geom_at(&g, 0.5, lim.n_axes);
+    let g = IntervalGeom { start: a, end: b, ds_mm: h, sign: 1.0, span: None, quintic };
+    let i = node_geom_at(&g, sigma, lim.n_axes);
     let mut worst = 0.0f64;
     for k in 0..lim.n_axes {
         let (e1, e2, e3) = ((i.d1[k] - m.d1[k]).abs(), (i.d2[k] - m.d2[k]).abs(), (i.d3[k] - m.d3[k]).abs());
@@ -528,6 +553,18 @@ fn interpolation_error_at(h: f64, (a, b): (&NodeGeom, &NodeGeom), m: &NodeGeom, 
         worst = worst.max(r_vel).max(r_acc).max(r_jerk);
     }
     if worst.is_nan() { f64::INFINITY } else { worst }
+}
+
+/// Whether the checks may interpolate the geometry of `e` between its nodes with the quintic
+/// Hermite A′ (`check::HermiteBasis`): on smoothed pieces, whose A‴ can change too fast for the
+/// linear A‴ of the cubic scheme (its O(ds²) error, weighed by v³, set a node every 0.5–1.5 µm
+/// on tight smoothed CAM paths). It is taken only on the steps where the cubic scheme would
+/// need a shorter one; lines, arcs, splines, path tables and every other step keep the cubic
+/// scheme their figures were measured with. The coarser grid costs some speed on clean data
+/// (fewer places for the constant-jerk profile to change its jerk: the 2 µm trochoid of
+/// `cam_bench.py --quick` runs 1.6 % longer), which `[planner] quintic_checks = false` avoids.
+fn is_quintic(e: &Element) -> bool {
+    matches!(e.geometry, crate::path::Geometry::Quintic(_))
 }
 
 fn push_interior(e: &Element, s_local: f64, d: &mut AxisDerivs, feed: f64, lim: &Limits, out: &mut Vec<Node>) {
@@ -545,6 +582,7 @@ fn push_interior(e: &Element, s_local: f64, d: &mut AxisDerivs, feed: f64, lim: 
         line: e.source.line,
         reach_bound: false,
         span: None,
+        quintic: false,
     });
 }
 
@@ -563,6 +601,7 @@ pub(super) fn end_node(last: &Element, end: &ElementEnd, final_dwell_s: f64, par
         line: last.source.line,
         reach_bound: false,
         span: None,
+        quintic: false,
     }
 }
 

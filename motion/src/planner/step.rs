@@ -299,7 +299,7 @@ mod tests {
     /// work it took.
     fn solve(v0: f64, a0: f64, v_max: f64, ds_mm: f64) -> (Interval, Work) {
         let (l, g) = setup();
-        let ig = IntervalGeom { start: &g, end: &g, ds_mm, sign: 1.0, span: None };
+        let ig = IntervalGeom { start: &g, end: &g, ds_mm, sign: 1.0, span: None, quintic: false };
         let mut w = Work::default();
         let iv = max_feasible(v0, a0, v_max, &ig, &l, &mut w).unwrap();
         (iv, w)

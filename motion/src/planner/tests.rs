@@ -606,3 +606,24 @@ fn a_slow_arc_cruises_on_few_nodes_and_starts_from_rest() {
         assert!(v <= 1.001 && a <= 1.001 && j <= 1.02, "F{feed_mm_min}: vel {v} acc {a} jerk {j}");
     }
 }
+
+/// A stretch of the hard CAM family's cusp trochoid (`benches/cam/family.py`, seed 1, 20 µm
+/// moves), smoothed with G64 P0.01 on the family's machine: loops of 25–250 µm radius whose
+/// smoothed pieces change A‴ so fast that the cubic scheme's linear A‴ put a node every
+/// 0.5–1.5 µm (1 539 nodes on these 8.5 mm; each viability ramp then simulated ~96 of them, and
+/// the block's search took 1.3 M work units, a second of planning). The quintic scheme on the
+/// steps that need it (`check::HermiteBasis`) describes the same geometry within the same share
+/// of a limit on a third of the nodes.
+#[test]
+fn a_tight_smoothed_trochoid_gets_nodes_for_its_geometry_not_for_the_interpolation() {
+    let mut cfg = repo_machine("benches/cam/family_machine.toml");
+    cfg.prep.max_solve_ms = 1e5;
+    let prog = program::parse(include_str!("testdata/cusp_snippet.ngc"), "t.ngc", &cfg).unwrap();
+    let path = crate::prep::prepare_path(&cfg, &prog.path).unwrap().path;
+    let (segs, _, stats) = plan_online_stats(&cfg, &path, cfg.planner.lookahead_mm);
+    check_covers(&segs, path.length_mm());
+    let [v, a, j] = profile::limit_ratios(&path, &segs, &cfg, 2.5e-4);
+    assert!(v <= 1.001 && a <= 1.001 && j <= 1.02, "vel {v} acc {a} jerk {j}");
+    assert!(stats.nodes < 800 && stats.forced_stops == 0, "{stats:?}");
+    assert!(stats.work.units() < 400_000, "{stats:?}");
+}

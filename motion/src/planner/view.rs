@@ -68,14 +68,16 @@ impl<'a> View<'a> {
     /// The interval t → t+1 for the limit checks.
     #[inline]
     pub(super) fn interval_geom(&self, t: usize) -> IntervalGeom<'a> {
-        // The interval's exact geometry belongs to its node of lower s.
-        let span = self.nodes[self.index(t).min(self.index(t + 1))].span.as_deref();
+        // The interval's exact geometry (and how to interpolate it) belongs to its node of
+        // lower s.
+        let first = &self.nodes[self.index(t).min(self.index(t + 1))];
         IntervalGeom {
             start: self.start_geom(t),
             end: self.end_geom(t + 1),
             ds_mm: self.ds(t),
             sign: self.sign(),
-            span,
+            span: first.span.as_deref(),
+            quintic: first.quintic,
         }
     }
 }

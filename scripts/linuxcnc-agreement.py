@@ -27,11 +27,13 @@ For every `.ngc` under the DIRs (recursively):
   --period-ms 1e6 --out CSV`: the final position (the last sample, where the machine rests).
 
 The machine: the 3-axis machine FILE (default tests/machines/xyz_loose.toml, X Y ±1000 mm,
-Z ±500 mm) written to a scratch copy with travel widened to ±100 000 mm (the programs are not
+Z ±500 mm), or for a program with A, B or C words the `--rotary-machine` (default
+tests/machines/xyzabc_loose.toml: the same with rotary A B C), written to a scratch copy with travel widened to ±100 000 mm (the programs are not
 written for any one machine) and tools 1-99 added where FILE has none: diameter 0.125 in
 (3.175 mm), length 0, as `rs274`'s tool table gets them too (tool 1 of FILE is kept: 6 mm).
 
-Both accept and agree: final X Y Z within 1 µm and path length within 0.01 mm. A program both
+Both accept and agree: final X Y Z within 1 µm and path length within 0.01 mm (over X Y Z; a
+move of A B C alone counts its degrees, as LinuxCNC's canon and interpd count it). A program both
 accept whose `interpd plan` fails or takes longer than 60 s has no final position and is
 counted apart.
 """
@@ -262,15 +264,24 @@ def canon_motion(path, text_instead=None, scratch=None):
     if not v["ok"]:
         return "canon refuses: " + v["error"]
     pos = [0.0, 0.0, 0.0]
+    rot = [0.0, 0.0, 0.0]
     length = 0.0
     for mv in v["moves"]:
         end = mv["end"][:3]
+        end_rot = mv["end"][3:6]
         if mv["kind"] == "arc":
             length += arc_length(pos, end, mv["centre"], PLANE_AXES[mv["plane"]], mv["turns"])
         else:
-            length += math.dist(pos, end)
-        pos = end
+            length += straight_length(pos, end, rot, end_rot)
+        pos, rot = end, end_rot
     return pos, length, 0.0
+
+
+def straight_length(pos, end, rot, end_rot):
+    """A straight move's length as LinuxCNC's canon and interpd count it: over X Y Z, or over
+    A B C (degrees) when only they move."""
+    d = math.dist(pos, end)
+    return d if d > 1e-9 else math.dist(rot, end_rot)
 
 
 CALL = re.compile(r"([A-Z_0-9]+)\((.*)\)\s*$")
@@ -279,18 +290,27 @@ PRINTED_PLANES = {"CANON_PLANE_XY": 17, "CANON_PLANE_XZ": 18, "CANON_PLANE_YZ": 
 
 def printed_motion(out):
     """(final XYZ mm, path length mm, rounding mm) from `rs274 -g`'s printed calls: positions
-    in the units of USE_LENGTH_UNITS, plus the G5x, G92 and tool length offsets."""
+    in the units of USE_LENGTH_UNITS, plus the G92 offset, turned by SET_XY_ROTATION (degrees,
+    about the work origin), plus the G5x and tool length offsets."""
     scale, plane = 1.0, 17
     g5x, g92, tlo = [0.0] * 3, [0.0] * 3, [0.0] * 3
     pos = [0.0] * 3
+    rot = [0.0] * 3
     length = 0.0
     inch = False
+    rotation_deg = 0.0
 
     def nums(args):
         return [float(x) for x in re.split(r"[,\s]+", args.strip()) if x]
 
     def machine(p):
-        return [(p[k] + g5x[k] + g92[k] + tlo[k]) * scale for k in range(3)]
+        # As LinuxCNC's canon (`rotate_and_offset_pos`): the G92 offset, the XY rotation of
+        # the work system (SET_XY_ROTATION, degrees), then the work and tool offsets.
+        v = [p[k] + g92[k] for k in range(3)]
+        if rotation_deg:
+            t = math.radians(rotation_deg)
+            v[0], v[1] = v[0] * math.cos(t) - v[1] * math.sin(t), v[0] * math.sin(t) + v[1] * math.cos(t)
+        return [(v[k] + g5x[k] + tlo[k]) * scale for k in range(3)]
 
     for line in out.splitlines():
         m = CALL.search(line)
@@ -306,12 +326,15 @@ def printed_motion(out):
             g5x = nums(args)[1:4]
         elif name == "SET_G92_OFFSET":
             g92 = nums(args)[:3]
+        elif name == "SET_XY_ROTATION":
+            rotation_deg = nums(args)[0]
         elif name == "USE_TOOL_LENGTH_OFFSET":
             tlo = nums(args)[:3]
         elif name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED"):
-            end = machine(nums(args)[:3])
-            length += math.dist(pos, end)
-            pos = end
+            a = nums(args)
+            end, end_rot = machine(a[:3]), a[3:6]
+            length += straight_length(pos, end, rot, end_rot)
+            pos, rot = end, end_rot
         elif name == "ARC_FEED":
             a = nums(args)
             i, j, k = PLANE_AXES[plane]
@@ -322,6 +345,7 @@ def printed_motion(out):
             c = machine(centre_prog)
             length += arc_length(pos, end, [c[i], c[j]], (i, j, k), int(a[4]))
             pos = end
+            rot = a[6:9] if len(a) >= 9 else rot
     # Per axis: the printed position and the printed tool length offset, each rounded.
     rounding = 2 * 0.5e-4 * (MM_PER_INCH if inch else 1.0)
     return pos, length, rounding
@@ -415,7 +439,12 @@ def machine_files(base, scratch):
     return machine, tbl, tools
 
 
-def run_one(args, machine, tbl, path):
+def uses_rotary_axes(text):
+    """A, B or C words: the program needs the machine with rotary axes."""
+    return any(l in "ABC" for l, _ in words(text))
+
+
+def run_one(args, machines, tbl, path):
     r = {"file": path}
     try:
         with open(path, encoding="utf-8", errors="replace") as f:
@@ -428,6 +457,7 @@ def run_one(args, machine, tbl, path):
         r["scope"] = reason
         return r
     r["scope"] = None
+    machine = machines[1] if uses_rotary_axes(text) else machines[0]
     scratch = tempfile.mkdtemp(prefix="agree-")
     try:
         err, out = rs274_g(path, tbl, scratch)
@@ -478,6 +508,11 @@ def main():
     ap.add_argument("binary")
     ap.add_argument("dirs", nargs="+")
     ap.add_argument("--machine", default=os.path.join(REPO, "tests/machines/xyz_loose.toml"))
+    ap.add_argument(
+        "--rotary-machine",
+        default=os.path.join(REPO, "tests/machines/xyzabc_loose.toml"),
+        help="the machine for programs with A, B or C words",
+    )
     ap.add_argument("--json", action="store_true", help="one JSON object with the table and every program")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--list", action="store_true", help="also list every in-scope program with its verdicts")
@@ -493,8 +528,11 @@ def main():
     scratch = tempfile.mkdtemp(prefix="agree-machine-")
     try:
         machine, tbl, _ = machine_files(args.machine, scratch)
+        rotary_dir = os.path.join(scratch, "rotary")
+        os.mkdir(rotary_dir)
+        machine_abc, _, _ = machine_files(args.rotary_machine, rotary_dir)
         with concurrent.futures.ThreadPoolExecutor(max_workers=args.jobs) as pool:
-            results = list(pool.map(lambda p: run_one(args, machine, tbl, p), files))
+            results = list(pool.map(lambda p: run_one(args, (machine, machine_abc), tbl, p), files))
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
 

@@ -12,8 +12,9 @@ Each move: {"kind": "rapid"|"feed"|"arc", "end": [X Y Z A B C U V W] (mm, deg),
 "feed_mm_min": number or null, "dwell_s": seconds of dwell before it} and for arcs also
 "plane" (17, 18, 19), "centre" (mm, in the plane's axis order: X Y, Z X, Y Z) and "turns"
 (signed: positive counter-clockwise). Positions and centres are machine coordinates: the
-module's program coordinates plus the work (G54-G59) and G92 offsets it reports, as interpd's
-path is. Moves shorter than 1e-9 mm are dropped, as interpd drops them. Usage: /usr/bin/python3 scripts/rs274_canon.py FILE...
+module's program coordinates plus the G92 offset, turned by the work system's XY rotation
+(G10 L2 R), plus the work (G54-G59.3) and tool length (G43.1) offsets it reports, as LinuxCNC's
+canon maps them and as interpd's path is. Moves shorter than 1e-9 mm are dropped, as interpd drops them. Usage: /usr/bin/python3 scripts/rs274_canon.py FILE...
 """
 import json
 import math
@@ -50,10 +51,21 @@ class Recorder:
         # Work (G54-G59) and G92 offsets, in the module's units, per axis.
         self.g5x = [0.0] * 9
         self.g92 = [0.0] * 9
+        # The rotation of the active work system about Z, degrees (SET_XY_ROTATION).
+        self.rotation_deg = 0.0
+        # The tool length offset (USE_TOOL_LENGTH_OFFSET: G43.1, or G43 with a tool table),
+        # in the module's units.
+        self.tlo = [0.0] * 9
 
     def _machine(self, values):
-        """Program coordinates (the module's units) to machine coordinates in mm."""
-        return to_mm([v + g + h for v, g, h in zip(values, self.g5x, self.g92)])
+        """Program coordinates (the module's units) to machine coordinates in mm: as
+        LinuxCNC's canon (`rotate_and_offset_pos`), the G92 offset, then the XY rotation of
+        the work system about its origin, then the work and tool length offsets."""
+        v = [p + h for p, h in zip(values, self.g92)]
+        if self.rotation_deg:
+            t = math.radians(self.rotation_deg)
+            v[0], v[1] = v[0] * math.cos(t) - v[1] * math.sin(t), v[0] * math.sin(t) + v[1] * math.cos(t)
+        return to_mm([p + g + t for p, g, t in zip(v, self.g5x, self.tlo)])
 
     def _move(self, kind, end, extra=None):
         lin = math.sqrt(sum((e - p) ** 2 for e, p, l in zip(end, self.pos, LINEAR) if l))
@@ -106,8 +118,8 @@ class Recorder:
     def set_traverse_rate(self, rate):
         pass
 
-    def set_xy_rotation(self, *a):
-        pass
+    def set_xy_rotation(self, deg):
+        self.rotation_deg = deg
 
     def set_g5x_offset(self, index, *a):
         self.g5x = list(a)
@@ -116,7 +128,7 @@ class Recorder:
         self.g92 = list(a)
 
     def tool_offset(self, *a):
-        pass
+        self.tlo = list(a) + [0.0] * (9 - len(a))
 
     def change_tool(self, *a):
         pass

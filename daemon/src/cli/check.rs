@@ -55,7 +55,10 @@ pub fn run(program_path: &Path, machine: Option<&Path>) -> Result<(), CliError> 
             .work_offsets
             .iter()
             .map(|name| {
-                let i = interpd_motion::config::WORK_SYSTEMS.iter().position(|w| w == name).expect("known system");
+                // G59.1 … G59.3 are not in the configuration: they start at zero (G10 sets them).
+                let Some(i) = interpd_motion::config::WORK_SYSTEMS.iter().position(|w| w == name) else {
+                    return format!("{name} (zero unless the program sets it)");
+                };
                 let v = settings.work_offsets.vector(i, &settings.axes);
                 let axes: Vec<String> =
                     settings.axes.iter().enumerate().map(|(k, a)| format!("{}{}", a.name, v[k])).collect();

@@ -6,6 +6,7 @@
 mod context;
 mod cycles;
 mod flow;
+mod frame;
 mod offsets;
 mod spline;
 
@@ -144,6 +145,9 @@ pub(crate) struct Interpreter {
     /// The origin of each work system G54 … G59 per machine axis, read once from the settings
     /// (an axis lookup by name per coordinate would dominate the reading of micro-segments).
     pub(super) work_origins: [AxisVec; WORK_SYSTEM_NAMES.len()],
+    /// The rotation of each work system about Z, degrees counter-clockwise (G10 L2 R;
+    /// frame.rs).
+    pub(super) work_rotations_deg: [f64; WORK_SYSTEM_NAMES.len()],
     pub(super) linear: [bool; MAX_AXES],
     pub(super) modal: Modal,
     /// Cutter radius compensation: contour elements go through it on their way to the path.
@@ -304,6 +308,7 @@ impl Interpreter {
                     [0.0; MAX_AXES]
                 }
             }),
+            work_rotations_deg: [0.0; WORK_SYSTEM_NAMES.len()],
             linear,
             modal: Self::initial_modal(settings, [0.0; MAX_AXES]),
             cutter: Cutter::new(&linear[..settings.axes.len()]),
@@ -535,7 +540,7 @@ impl Interpreter {
         for (slot, letter) in AxisLetter::ALL.iter().enumerate().take(9) {
             let Some(k) = self.settings.axis_index(*letter) else { continue };
             let unit = if self.linear[k] { m.unit_mm } else { 1.0 };
-            snap.pos[slot] = (m.pos[k] - self.program_offset(k)) / unit;
+            snap.pos[slot] = self.program_coord(k) / unit;
             snap.abs[slot] = m.pos[k] / unit;
             snap.g92[slot] = m.g92[k] / unit;
         }
@@ -577,6 +582,7 @@ impl Interpreter {
         };
         snap.retract_r = self.cycle.retract_r;
         for (sys, origin) in self.work_origins.iter().enumerate() {
+            snap.rotation_deg[sys] = self.work_rotations_deg[sys];
             for (slot, letter) in AxisLetter::ALL.iter().enumerate().take(9) {
                 if let Some(k) = self.settings.axis_index(*letter) {
                     snap.work[sys][slot] = origin[k];
@@ -961,6 +967,17 @@ impl Interpreter {
                         );
                         return false;
                     };
+                    if self.modal.plane != Plane::Xy && self.xy_rotation().is_some() {
+                        d.error(
+                            line,
+                            col,
+                            format!(
+                                "{name} in {} in a rotated coordinate system (G10 L2 R) is not supported: the rotation about Z tilts the plane",
+                                self.modal.plane.name()
+                            ),
+                        );
+                        return false;
+                    }
                     self.summary.compensation = true;
                     self.cutter.start(side, radius_mm, p, q);
                     let side = match side {
@@ -1108,8 +1125,14 @@ impl Interpreter {
                         d.error(line_no, w.col, format!("{letter} is not a finite number"));
                         return false;
                     }
-                    // pos = program coordinate + work offset + tool length + G92 offset.
-                    g92[k] = self.modal.pos[k] - (self.program_offset(k) - self.modal.g92[k]) - v;
+                    // pos = program coordinate + work offset + tool length + G92 offset (X and
+                    // Y in a rotated system: the G92 offset applies before the rotation).
+                    let with_g92 = if self.xy_rotation().is_some() {
+                        self.program_coord(k) + self.modal.g92[k]
+                    } else {
+                        self.modal.pos[k] - (self.program_offset(k) - self.modal.g92[k])
+                    };
+                    g92[k] = with_g92 - v;
                 }
                 self.modal.g92 = g92;
                 self.modal.g92_saved = g92;
@@ -1507,16 +1530,26 @@ impl Interpreter {
     pub(super) fn target(&self, block: &Block, d: &mut Diagnostics) -> Option<AxisVec> {
         let mut target = self.modal.pos;
         let mut ok = true;
+        // In a rotated work system X and Y map to the machine together (frame.rs): their
+        // program coordinates are collected and converted after the loop. G53 is unrotated.
+        let rotation = if self.block_g53 { None } else { self.xy_rotation() };
+        let mut xy: Vec<(usize, f64)> = Vec::new();
+        let mut xy_col = block.words[0].col;
         if let Some((xk, yk, x, y)) = self.polar_target(block, d)? {
-            for (k, v) in [(xk, x), (yk, y)] {
-                target[k] = v * self.modal.unit_mm + self.program_offset(k);
-                if !target[k].is_finite() {
-                    d.error(block.line, block.words[0].col, "the polar target is not a finite number");
-                    return None;
-                }
-                if let Some(msg) = self.travel_violation(k, target[k]) {
-                    d.error(block.line, block.words[0].col, msg);
-                    ok = false;
+            let unit = self.modal.unit_mm;
+            if rotation.is_some() {
+                xy = vec![(xk, x * unit), (yk, y * unit)];
+            } else {
+                for (k, v) in [(xk, x), (yk, y)] {
+                    target[k] = v * unit + self.program_offset(k);
+                    if !target[k].is_finite() {
+                        d.error(block.line, block.words[0].col, "the polar target is not a finite number");
+                        return None;
+                    }
+                    if let Some(msg) = self.travel_violation(k, target[k]) {
+                        d.error(block.line, block.words[0].col, msg);
+                        ok = false;
+                    }
                 }
             }
         }
@@ -1534,6 +1567,16 @@ impl Interpreter {
             };
             let scale = if self.linear[k] { self.modal.unit_mm } else { 1.0 };
             let v = w.value * scale;
+            if let Some((xk, yk, _)) = rotation {
+                if k == xk || k == yk {
+                    if xy.is_empty() {
+                        xy_col = w.col;
+                    }
+                    let prog = if self.modal.absolute { v } else { self.program_coord(k) + v };
+                    xy.push((k, prog));
+                    continue;
+                }
+            }
             target[k] = if self.block_g53 {
                 v // G53: machine coordinates
             } else if self.modal.absolute {
@@ -1549,6 +1592,19 @@ impl Interpreter {
             if let Some(msg) = self.travel_violation(k, target[k]) {
                 d.error(block.line, w.col, msg);
                 ok = false;
+            }
+        }
+        if let (Some((xk, yk, _)), false) = (rotation, xy.is_empty()) {
+            self.set_program_coords(&mut target, &xy);
+            for k in [xk, yk] {
+                if !target[k].is_finite() {
+                    d.error(block.line, xy_col, "the X Y target is not a finite number");
+                    return None;
+                }
+                if let Some(msg) = self.travel_violation(k, target[k]) {
+                    d.error(block.line, xy_col, msg);
+                    ok = false;
+                }
             }
         }
         ok.then_some(target)
@@ -1582,8 +1638,8 @@ impl Interpreter {
             return refuse(d, "polar coordinates (@ ^) need axes X and Y on this machine");
         };
         let unit = self.modal.unit_mm;
-        let cx = (self.modal.pos[xk] - self.program_offset(xk)) / unit;
-        let cy = (self.modal.pos[yk] - self.program_offset(yk)) / unit;
+        let cx = self.program_coord(xk) / unit;
+        let cy = self.program_coord(yk) / unit;
         let at_origin = cx == 0.0 && cy == 0.0;
         let (x, y) = if self.modal.absolute {
             if angle.is_none() && at_origin {
@@ -1724,6 +1780,17 @@ impl Interpreter {
                 return;
             }
         }
+        if plane != Plane::Xy && self.xy_rotation().is_some() {
+            d.error(
+                line,
+                block.words[0].col,
+                format!(
+                    "an arc in {} in a rotated coordinate system (G10 L2 R) is not supported: the rotation about Z tilts its plane",
+                    plane.name()
+                ),
+            );
+            return;
+        }
         let r_word = block.get('R');
         let (ow_p, ow_q) = (block.get(pc), block.get(qc));
         if r_word.is_some() && (ow_p.is_some() || ow_q.is_some()) {
@@ -1763,7 +1830,10 @@ impl Interpreter {
                 d.error(line, block.words[0].col, format!("arc needs its centre ({pc} {qc}) or radius R"));
                 return;
             };
-            let c = [s[0] + ow_p.map_or(0.0, |w| w.value * unit), s[1] + ow_q.map_or(0.0, |w| w.value * unit)];
+            // The offsets are program-frame vectors: a rotated system turns them (in G17; the
+            // other planes are refused above).
+            let (op, oq) = self.rotate_xy(ow_p.map_or(0.0, |w| w.value * unit), ow_q.map_or(0.0, |w| w.value * unit));
+            let c = [s[0] + op, s[1] + oq];
             let r0 = (s[0] - c[0]).hypot(s[1] - c[1]);
             let r1 = (e[0] - c[0]).hypot(e[1] - c[1]);
             let col = ow_p.or(ow_q).expect("one offset").col;
@@ -1865,6 +1935,14 @@ impl Interpreter {
             return;
         };
         if !self.has_xyz(block.line, block.words[0].col, d) {
+            return;
+        }
+        if self.xy_rotation().is_some() {
+            d.error(
+                block.line,
+                block.words[0].col,
+                "G06 splines in a rotated coordinate system (G10 L2 R) are not supported",
+            );
             return;
         }
         let ijk = ['I', 'J', 'K'].map(|c| block.get(c).map(|w| w.value * self.modal.unit_mm));

@@ -63,6 +63,8 @@ pub(super) struct Snapshot {
     /// Work offsets G54 … G59.3, X … W (#5221 + 20·k …), in the machine's units (mm, deg) as
     /// LinuxCNC keeps them.
     pub work: [[f64; 9]; 9],
+    /// The rotation of each work system about Z, degrees (#5230 + 20·k, G10 L2 R).
+    pub rotation_deg: [f64; 9],
 }
 
 /// The parameter store.
@@ -122,6 +124,7 @@ impl Params {
             }
             5420..=5428 => s.pos[n - 5420],
             5221..=5390 if (n - 5221) % 20 < 9 => s.work[(n - 5221) / 20][(n - 5221) % 20],
+            5221..=5390 if (n - 5221) % 20 == 9 => s.rotation_deg[(n - 5221) / 20],
             _ => self.numbered[n],
         })
     }

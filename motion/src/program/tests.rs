@@ -667,3 +667,35 @@ fn a_negative_diameter_compensates_on_the_other_side() {
     let t = ok("M61 Q1\nG43\nG0 Z0\n");
     assert_eq!(t.summary.tools.iter().copied().collect::<Vec<_>>(), vec![1]);
 }
+
+#[test]
+fn rotated_work_systems_as_linuxcnc() {
+    // machine = R(program + G92) + origin (LinuxCNC's tests/interp/rotation and g10 tests).
+    let s = 0.5f64.sqrt();
+    // G54 at X3 Y7 turned 45°: X1 goes along the turned X; G91 moves turn too; G53 does not.
+    let p = ok("G10 L2 P1 X3 Y7 R45\nG0 X1 Y0\nG91 Y1\nG90 G53 G0 X1 Y2\n");
+    let want = [[3.0 + s, 7.0 + s, 0.0], [3.0, 7.0 + 2.0 * s, 0.0], [1.0, 2.0, 0.0]];
+    for (i, w) in want.iter().enumerate() {
+        assert!(close(end_at(&p, i), *w), "{:?} != {w:?}", end_at(&p, i));
+    }
+    // An arc's centre offset turns with the system: a quarter circle about the origin.
+    let p = ok("G10 L2 P1 R90\nG0 X10\nG3 X0 Y10 I-10 F100\n");
+    assert!(close(end(&p), [-10.0, 0.0, 0.0]), "{:?}", end(&p));
+    assert!((p.path.elements[1].geometry.length_mm() - 5.0 * std::f64::consts::PI).abs() < 1e-9);
+    // G92 applies before the rotation; #5420 reads the program coordinate back; #5230 the angle.
+    let p = ok("G10 L2 P1 R90\nG0 X1\nG92 X0\nG0 X1 Y#5230\n");
+    assert!(close(end(&p), [-90.0, 2.0, 0.0]), "{:?}", end(&p));
+    // L20 in a rotated system: the current point gets the given program coordinate.
+    // (Machine (-2, 1); program (1, 2) becomes (0, 2): the origin moves to (0, 1).)
+    let p = ok("G10 L2 P1 R90\nG0 X1 Y2\nG10 L20 P1 X0\nG0 Y0\n");
+    assert!(close(end(&p), [0.0, 1.0, 0.0]), "{:?}", end(&p));
+    // The active system's rotation changes the mapping, not the machine position.
+    let p = ok("G0 X1\nG10 L2 P1 R90\nG0 X#5420 Y#5421\n");
+    assert!(close(end(&p), [1.0, 0.0, 0.0]) && p.path.elements.len() == 1, "{:?}", ends(&p));
+    for (text, want) in [
+        ("G10 L20 P1 R10\n", "t.ngc:1:12: G10: R is not allowed in G10 L20"),
+        ("G10 L2 P1 R10\nG18 G2 X1 Z1 R1 F10\n", "t.ngc:2:1: an arc in G18 (ZX) in a rotated coordinate system"),
+    ] {
+        assert!(first_error(text).starts_with(want), "{text}: {}", first_error(text));
+    }
+}

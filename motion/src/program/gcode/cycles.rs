@@ -133,7 +133,7 @@ impl Interpreter {
             }
         }
         let unit = self.modal.unit_mm;
-        let prog = |s: &Self, k: usize| (s.modal.pos[k] - s.program_offset(k)) / unit;
+        let prog = |s: &Self, k: usize| s.program_coord(k) / unit;
         let (cur_a, cur_b, cur_c) = (prog(self, idx[0]), prog(self, idx[1]), prog(self, idx[2]));
         let word = |c: char| block.get(c);
         let (wa, wb, wc) = (word(letters[0].as_char()), word(letters[1].as_char()), word(letters[2].as_char()));
@@ -319,8 +319,8 @@ impl Interpreter {
                 Step::Feed(a, b, c) => (a, b, c, Feed::Programmed { mm_per_s: feed }),
             };
             let mut target = self.modal.pos;
-            for (k, v) in idx.iter().zip([a, b, c]) {
-                target[*k] = v * unit + self.program_offset(*k);
+            self.set_program_coords(&mut target, &[(idx[0], a * unit), (idx[1], b * unit), (idx[2], c * unit)]);
+            for k in &idx {
                 if let Some(msg) = self.travel_violation(*k, target[*k]) {
                     d.error(line, col0, format!("{name}: {msg}"));
                     self.modal.blend = blend;

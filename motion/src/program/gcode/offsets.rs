@@ -6,6 +6,7 @@
 //! `[work_offsets]` and `offsets.set` give the values it starts with); G59.1 … G59.3 start
 //! at zero.
 
+use super::frame::rotate;
 use super::{Block, Interpreter, Motion};
 use crate::path::{Feed, Source};
 use crate::program::error::Diagnostics;
@@ -180,29 +181,66 @@ impl Interpreter {
             d.error(line_no, p.col, format!("{name}: P must be a coordinate system 0 … 9, got {}", p.value));
             return;
         }
-        if let Some(r) = block.get('R') {
-            if r.value != 0.0 {
-                d.error(line_no, r.col, format!("{name}: a rotated coordinate system (R) is not supported"));
+        let sys = if p.value == 0.0 { self.modal.work_system } else { p.value as usize - 1 };
+        // R: the rotation of the system about Z, degrees (L2 only, as LinuxCNC).
+        let rotation_deg = match block.get('R') {
+            Some(r) if l.value == 20.0 => {
+                d.error(line_no, r.col, format!("{name}: R is not allowed in G10 L20"));
                 return;
             }
-        }
-        let sys = if p.value == 0.0 { self.modal.work_system } else { p.value as usize - 1 };
+            Some(r) if !r.value.is_finite() => {
+                d.error(line_no, r.col, format!("{name}: R is not a finite number"));
+                return;
+            }
+            Some(r) => r.value,
+            None => self.work_rotations_deg[sys],
+        };
         let tool_z = |s: &Self, k: usize| match s.modal.tool_length {
             Some((_, len)) if s.settings.axes[k].name == AxisLetter::Z => len,
             _ => 0.0,
         };
+        let xy = match (self.settings.axis_index(AxisLetter::X), self.settings.axis_index(AxisLetter::Y)) {
+            (Some(xk), Some(yk)) => Some((xk, yk)),
+            _ => None,
+        };
+        let mut origin = self.work_origins[sys];
+        let g92 = self.modal.g92;
+        let pos = self.modal.pos;
+        if let (true, Some((xk, yk))) = (l.value == 20.0, xy) {
+            if axes.iter().any(|(k, _, _)| *k == xk || *k == yk) {
+                // L20 in X Y: the current point gets the given program coordinates in that
+                // (possibly rotated) system: machine = R(program + G92) + origin.
+                let t = rotation_deg.to_radians();
+                let (cx, cy) = rotate(pos[xk] - origin[xk], pos[yk] - origin[yk], -t);
+                let mut want = (cx - g92[xk], cy - g92[yk]);
+                for &(k, v, _) in axes {
+                    if k == xk {
+                        want.0 = v;
+                    } else if k == yk {
+                        want.1 = v;
+                    }
+                }
+                let (rx, ry) = rotate(want.0 + g92[xk], want.1 + g92[yk], t);
+                origin[xk] = pos[xk] - rx;
+                origin[yk] = pos[yk] - ry;
+            }
+        }
         for &(k, v, _) in axes {
-            let origin = if l.value == 2.0 {
+            if l.value == 20.0 && xy.is_some_and(|(xk, yk)| k == xk || k == yk) {
+                continue;
+            }
+            origin[k] = if l.value == 2.0 {
                 v
             } else {
                 // L20: the current point gets the coordinate v in that system.
-                self.modal.pos[k] - tool_z(self, k) - self.modal.g92[k] - v
+                pos[k] - tool_z(self, k) - g92[k] - v
             };
-            if !origin.is_finite() {
-                d.error(line_no, col, format!("{name}: the offset is not a finite number"));
-                return;
-            }
-            self.work_origins[sys][k] = origin;
         }
+        if origin.iter().any(|v| !v.is_finite()) {
+            d.error(line_no, col, format!("{name}: the offset is not a finite number"));
+            return;
+        }
+        self.work_origins[sys] = origin;
+        self.work_rotations_deg[sys] = rotation_deg;
     }
 }

@@ -106,10 +106,7 @@ impl Interpreter {
             return;
         };
         let unit = self.modal.unit_mm;
-        let cur = [
-            (self.modal.pos[xk] - self.program_offset(xk)) / unit,
-            (self.modal.pos[yk] - self.program_offset(yk)) / unit,
-        ];
+        let cur = [self.program_coord(xk) / unit, self.program_coord(yk) / unit];
         let xw = block.get('X');
         let yw = block.get('Y');
         // The end point, as LinuxCNC's `find_ends`: a missing word keeps the coordinate.
@@ -289,8 +286,8 @@ impl Interpreter {
         let unit = self.modal.unit_mm;
         let emit = |s: &mut Self, p: [f64; 2], d: &mut Diagnostics| -> bool {
             let mut target = s.modal.pos;
-            for (k, v) in [(xk, p[0]), (yk, p[1])] {
-                target[k] = v * unit + s.program_offset(k);
+            s.set_program_coords(&mut target, &[(xk, p[0] * unit), (yk, p[1] * unit)]);
+            for k in [xk, yk] {
                 if let Some(msg) = s.travel_violation(k, target[k]) {
                     d.error(source.line, col, msg);
                     return false;

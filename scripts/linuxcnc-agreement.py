@@ -193,11 +193,14 @@ def rs274_g(path, tools_tbl, scratch):
 
 def arc_length(start, end, centre, plane_axes, turns):
     """Length of a helix from `start` to `end` (XYZ, mm) around `centre` (in the plane's axis
-    order) with signed `turns` (positive counter-clockwise)."""
+    order) with signed `turns` (positive counter-clockwise). Where the end point misses the
+    start's circle, LinuxCNC moves a spiral whose radius changes linearly with the angle
+    (`pmCircleInit`): its length, ∫ √(r² + r′² + h′²) dφ by Simpson's rule."""
     i, j, k = plane_axes
     a0 = math.atan2(start[j] - centre[1], start[i] - centre[0])
     a1 = math.atan2(end[j] - centre[1], end[i] - centre[0])
     r = math.hypot(start[i] - centre[0], start[j] - centre[1])
+    r1 = math.hypot(end[i] - centre[0], end[j] - centre[1])
     if turns > 0:
         sweep = (a1 - a0) % (2 * math.pi)
     else:
@@ -205,7 +208,14 @@ def arc_length(start, end, centre, plane_axes, turns):
     if sweep <= 1e-12:
         sweep = 2 * math.pi
     sweep += 2 * math.pi * (abs(turns) - 1)
-    return math.hypot(r * sweep, end[k] - start[k])
+    rise = end[k] - start[k]
+    if abs(r1 - r) <= 1e-9:
+        return math.hypot(r * sweep, rise)
+    dr, dh = (r1 - r) / sweep, rise / sweep
+    n = 2000
+    step = sweep / n
+    f = [math.sqrt((r + dr * step * m) ** 2 + dr * dr + dh * dh) for m in range(n + 1)]
+    return step / 3 * (f[0] + f[n] + 4 * sum(f[1:n:2]) + 2 * sum(f[2:n:2]))
 
 
 PLANE_AXES = {17: (0, 1, 2), 18: (2, 0, 1), 19: (1, 2, 0)}

@@ -293,6 +293,24 @@ impl Cutter {
         Ok(())
     }
 
+    /// After G40 with the tool still beside the programmed point: a move whose programmed
+    /// length is zero is the exit move all the same (LinuxCNC moves the tool from the offset
+    /// onto the programmed point). Ends the compensation and gives where the tool stands (the
+    /// exit move's start), or `None` when the tool already stands on the programmed point.
+    pub(crate) fn exit_in_place(&mut self, programmed: &AxisVec) -> Option<AxisVec> {
+        let State::Exit { shift } = self.state else { return None };
+        if shift[0].hypot(shift[1]) <= MIN_PLANE_MOVE_MM {
+            return None;
+        }
+        self.flush();
+        self.state = State::Off;
+        self.last_end = None;
+        let mut from = *programmed;
+        from[self.p] += shift[0];
+        from[self.q] += shift[1];
+        Some(from)
+    }
+
     /// The end of the program: hands on what is held back (the tool stays at the offset).
     pub(crate) fn finish(&mut self) -> Result<(), CutterError> {
         if let State::On(held) = std::mem::replace(&mut self.state, State::Off) {

@@ -1752,6 +1752,17 @@ impl Interpreter {
         let len = self.move_length(&self.modal.pos, &target);
         let feed = self.inverse_time_feed(feed, len);
         if len <= MIN_MOVE_MM {
+            // Right after G40 the tool may still stand beside the programmed point: then this
+            // move is the exit move, from there (as LinuxCNC).
+            if let Some(from) = self.cutter.exit_in_place(&self.modal.pos) {
+                let exit_len = self.move_length(&from, &target);
+                if exit_len > MIN_MOVE_MM {
+                    let feed = self.inverse_time_feed(feed, exit_len);
+                    self.push(Geometry::Line(LineGeom::new(from, target, exit_len)), feed, source, col, d);
+                    self.modal.pos = target;
+                    return;
+                }
+            }
             self.summary.zero_length_moves += 1;
             self.modal.pos = target;
             return;

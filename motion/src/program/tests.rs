@@ -699,3 +699,15 @@ fn rotated_work_systems_as_linuxcnc() {
         assert!(first_error(text).starts_with(want), "{text}: {}", first_error(text));
     }
 }
+
+#[test]
+fn a_zero_length_move_after_g40_is_the_exit_move() {
+    // LinuxCNC's nc_files/gmoccapy_2_tools_with_cutter_radius_compensation.ngc: G40, then a
+    // move to the point the contour ended on: the tool leaves the offset all the same.
+    let p = ok("G1 X0 Y0 F100\nG41.1 D2\nG1 X10\nG1 Y10\nG40\nG0 X10 Y10\nG0 Z5\n");
+    let n = p.path.elements.len();
+    assert!(close(end_at(&p, n - 2), [10.0, 10.0, 0.0]), "{:?}", ends(&p));
+    assert!(close(end(&p), [10.0, 10.0, 5.0]));
+    // Only the first block (to where the tool already is) is dropped.
+    assert_eq!(p.summary.zero_length_moves, 1);
+}

@@ -222,6 +222,11 @@ impl<'l> Block<'l> {
         }
     }
 
+    /// A word of `letter` was used by something in the block already.
+    fn is_consumed(&self, letter: char) -> bool {
+        self.consumed.get() & letter_bit(letter) != 0
+    }
+
     fn consume(&self, letter: char) {
         self.consumed.set(self.consumed.get() | letter_bit(letter));
     }
@@ -822,7 +827,12 @@ impl Interpreter {
         if has_axis {
             self.cycle.il = None;
         }
-        let arc_words: Vec<&Word> = line.words.iter().filter(|w| matches!(w.letter, 'I' | 'J' | 'K' | 'R')).collect();
+        // (An R that M19 took as its orientation angle is not an arc word.)
+        let arc_words: Vec<&Word> = line
+            .words
+            .iter()
+            .filter(|w| matches!(w.letter, 'I' | 'J' | 'K' | 'R') && !block.is_consumed(w.letter))
+            .collect();
         // As LinuxCNC: an arc in the centre form without axis words is a full circle back to
         // where it starts.
         let full_circle = matches!(self.modal.motion, Some(Motion::ArcCw | Motion::ArcCcw))

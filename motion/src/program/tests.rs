@@ -711,3 +711,10 @@ fn a_zero_length_move_after_g40_is_the_exit_move() {
     // Only the first block (to where the tool already is) is dropped.
     assert_eq!(p.summary.zero_length_moves, 1);
 }
+
+#[test]
+fn m19_takes_r_as_its_angle_not_as_an_arc_radius() {
+    // LinuxCNC's tests/interp/m19: R is the orientation angle, also under G2/G3.
+    let p = ok("M19\nM19 R45 Q2\nM19 R90 P0\nF100 G2 X2 R1\nM19 R90 P1\n");
+    assert!(close(end(&p), [2.0, 0.0, 0.0]));
+}

@@ -158,6 +158,13 @@ const TOKENS: &[&str] = &[
     "M73",
     "M19 R45",
     "M61 Q1",
+    // Rotated work systems, EXISTS out of range, the exit move in place.
+    "G10 L2 P1 X3 Y7 R45",
+    "G10 L2 P0 R-30",
+    "G10 L20 P1 X0",
+    "G2 X1 Y1 I1 R",
+    "EXISTS[#99999]",
+    "G40\nG0 X0 Y0\n",
 ];
 
 fn corpus() -> Vec<(String, String)> {

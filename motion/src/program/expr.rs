@@ -280,7 +280,7 @@ fn function(c: &mut Cursor, p: &Params) -> Result<f64, ExprError> {
     }
     if name == "exists" {
         c.i += 1;
-        let r = param_ref(c, p)?;
+        let r = param_ref_in(c, p, false)?;
         if c.peek() != Some(b']') {
             return err(c.i, "EXISTS takes one parameter: EXISTS[#<name>]");
         }
@@ -325,6 +325,12 @@ fn function(c: &mut Cursor, p: &Params) -> Result<f64, ExprError> {
 
 /// The parameter named at the cursor (`#`): `#5`, `#[expr]`, `##1`, `#<name>`.
 pub(super) fn param_ref(c: &mut Cursor, p: &Params) -> Result<ParamRef, ExprError> {
+    param_ref_in(c, p, true)
+}
+
+/// A parameter reference; with `range_checked` false a number outside 1 … MAX_NUMBERED is no
+/// error (`EXISTS[#99999]` is 0 in LinuxCNC): it comes back as `Numbered` out of that range.
+fn param_ref_in(c: &mut Cursor, p: &Params, range_checked: bool) -> Result<ParamRef, ExprError> {
     let at = c.i;
     if c.peek() != Some(b'#') {
         return err(c.i, "expected '#'");
@@ -357,6 +363,9 @@ pub(super) fn param_ref(c: &mut Cursor, p: &Params) -> Result<ParamRef, ExprErro
         return err(at, format!("parameter number {n} is not an integer"));
     }
     if !(1.0..=MAX_NUMBERED as f64).contains(&k) {
+        if !range_checked {
+            return Ok(ParamRef::Numbered(0));
+        }
         return err(at, format!("parameter number {k} is out of range (1 – {MAX_NUMBERED})"));
     }
     Ok(ParamRef::Numbered(k as usize))
@@ -399,6 +408,8 @@ mod tests {
             ("FUP[2.1]", 3.0),
             ("sqrt[16]", 4.0),
             ("[EXISTS[#<r>] + EXISTS[#<q>]]", 1.0),
+            // LinuxCNC's tests/interp/exists: a number out of range does not exist.
+            ("[EXISTS[#1] + EXISTS[#99999] * 10]", 1.0),
             ("[3 / 2]", 1.5),
             ("[1 GE 1.0000001]", 1.0),
         ];

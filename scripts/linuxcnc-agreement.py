@@ -451,8 +451,13 @@ def machine_files(base, scratch):
 
 
 def uses_rotary_axes(text):
-    """A, B or C words: the program needs the machine with rotary axes."""
-    return any(l in "ABC" for l, _ in words(text))
+    """A, B or C words: the program needs the machine with rotary axes. A letter that stands
+    alone (not within ABS, ATAN, AND, call, sub …; spaces kept, so `A EXISTS[#<b>]` counts)."""
+    for raw in text.splitlines():
+        line = re.sub(r"<[^>]*>", "", strip_comments(raw).upper())
+        if re.search(r"(?<![A-Z_])[ABC](?![A-Z_])", line):
+            return True
+    return False
 
 
 def run_one(args, machines, tbl, path):

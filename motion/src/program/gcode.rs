@@ -1275,6 +1275,11 @@ impl Interpreter {
                     g.blend = Some(BlendWord::Exact);
                     "G61"
                 }),
+                // LinuxCNC's exact stop: interpd's G61 already stops exactly at every corner.
+                611 => (5, {
+                    g.blend = Some(BlendWord::Exact);
+                    "G61.1"
+                }),
                 640 => (5, {
                     g.blend = Some(BlendWord::Smooth);
                     "G64"

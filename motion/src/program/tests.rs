@@ -718,3 +718,12 @@ fn m19_takes_r_as_its_angle_not_as_an_arc_radius() {
     let p = ok("M19\nM19 R45 Q2\nM19 R90 P0\nF100 G2 X2 R1\nM19 R90 P1\n");
     assert!(close(end(&p), [2.0, 0.0, 0.0]));
 }
+
+#[test]
+fn g61_1_is_exact_stop_as_g61() {
+    // LinuxCNC's tests/interp/g6164.
+    let a = ok("G64 P0.1\nG61.1\nG1 X1 F100\nY1\n");
+    let b = ok("G64 P0.1\nG61\nG1 X1 F100\nY1\n");
+    assert_eq!(a.path.elements[1].joint, b.path.elements[1].joint);
+    assert_eq!(a.path.elements.len(), b.path.elements.len());
+}

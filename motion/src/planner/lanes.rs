@@ -10,7 +10,7 @@
 //! The axes go in chunks of four that may overlap (five axes: 0–3 and 1–4), which the maximum
 //! does not mind; with fewer than four axes the lanes past the last axis are left out.
 
-use super::check::HermiteBasis;
+use super::hermite_basis::HermiteBasis;
 use super::limits::Limits;
 use super::node::{IntervalGeom, NodeGeom, SpanPoly};
 use crate::path::MAX_AXES;
@@ -220,7 +220,7 @@ impl Source for Hermite<'_> {
     }
 }
 
-/// Interpolated between the nodes with the quintic Hermite basis of `check::HermiteBasis`
+/// Interpolated between the nodes with the quintic Hermite basis of `hermite_basis::HermiteBasis`
 /// (`check::hermite_at`, whose sums run in the same order).
 #[inline(always)]
 pub(super) fn interpolated_quintic(g: &IntervalGeom, h: &HermiteBasis, v: f64, a: f64, j: f64, lim: &Limits) -> f64 {

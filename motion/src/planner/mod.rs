@@ -27,6 +27,7 @@ mod error;
 pub mod export;
 mod falsi;
 mod forward;
+mod hermite_basis;
 mod interval;
 mod join;
 mod lanes;

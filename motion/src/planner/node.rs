@@ -132,7 +132,7 @@ pub(super) struct IntervalGeom<'a> {
     pub sign: f64,
     /// The exact geometry between the nodes where the path has one as a polynomial.
     pub span: Option<&'a SpanPoly>,
-    /// Without `span`: interpolate with the quintic Hermite A′ (`check::HermiteBasis`, smoothed
+    /// Without `span`: interpolate with the quintic Hermite A′ (`hermite_basis::HermiteBasis`, smoothed
     /// pieces) rather than the cubic one with a linear A‴ (`check::CubicBasis`).
     pub quintic: bool,
 }

@@ -556,7 +556,7 @@ fn interpolation_error_at(
 }
 
 /// Whether the checks may interpolate the geometry of `e` between its nodes with the quintic
-/// Hermite A′ (`check::HermiteBasis`): on smoothed pieces, whose A‴ can change too fast for the
+/// Hermite A′ (`hermite_basis::HermiteBasis`): on smoothed pieces, whose A‴ can change too fast for the
 /// linear A‴ of the cubic scheme (its O(ds²) error, weighed by v³, set a node every 0.5–1.5 µm
 /// on tight smoothed CAM paths). It is taken only on the steps where the cubic scheme would
 /// need a shorter one; lines, arcs, splines, path tables and every other step keep the cubic

@@ -612,7 +612,7 @@ fn a_slow_arc_cruises_on_few_nodes_and_starts_from_rest() {
 /// smoothed pieces change A‴ so fast that the cubic scheme's linear A‴ put a node every
 /// 0.5–1.5 µm (1 539 nodes on these 8.5 mm; each viability ramp then simulated ~96 of them, and
 /// the block's search took 1.3 M work units, a second of planning). The quintic scheme on the
-/// steps that need it (`check::HermiteBasis`) describes the same geometry within the same share
+/// steps that need it (`hermite_basis::HermiteBasis`) describes the same geometry within the same share
 /// of a limit on a third of the nodes.
 #[test]
 fn a_tight_smoothed_trochoid_gets_nodes_for_its_geometry_not_for_the_interpolation() {

@@ -320,6 +320,17 @@ impl ProgramsConfig {
         self.subroutine_path.iter().map(|p| base.join(p)).collect()
     }
 
+    /// For `interpd check` and `interpd plan`, which are given a file, not a name inside the
+    /// programs directory: without a configured `dir`, the program's own directory is the
+    /// programs directory, so `o<name> call` finds the subroutine files beside the program
+    /// (as LinuxCNC's `rs274` does), wherever the command is run from.
+    pub fn default_to_dir_of(&mut self, program: &std::path::Path) {
+        if self.dir.is_none() {
+            let parent = program.parent().filter(|p| !p.as_os_str().is_empty());
+            self.dir = Some(parent.map_or_else(|| ".".to_string(), |p| p.to_string_lossy().into_owned()));
+        }
+    }
+
     /// The programs directory (the working directory when unset).
     pub fn base_dir(&self) -> std::path::PathBuf {
         std::path::PathBuf::from(self.dir.as_deref().unwrap_or("."))

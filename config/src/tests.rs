@@ -236,3 +236,16 @@ fn tool_table_and_work_offsets_are_checked_by_key() {
     let e = err_text(&format!("{base}\n[work_offsets]\nG60 = {{ X = 1.0 }}\n"));
     assert!(e.contains("G60"), "{e}");
 }
+
+#[test]
+fn check_and_plan_read_subroutines_beside_the_program_unless_a_dir_is_configured() {
+    let mut p = ProgramsConfig::default();
+    p.default_to_dir_of(std::path::Path::new("/data/jobs/part.ngc"));
+    assert_eq!(p.base_dir(), std::path::PathBuf::from("/data/jobs"));
+    let mut p = ProgramsConfig::default();
+    p.default_to_dir_of(std::path::Path::new("part.ngc"));
+    assert_eq!(p.base_dir(), std::path::PathBuf::from("."));
+    let mut p = ProgramsConfig { dir: Some("/srv/programs".into()), ..ProgramsConfig::default() };
+    p.default_to_dir_of(std::path::Path::new("/data/jobs/part.ngc"));
+    assert_eq!(p.base_dir(), std::path::PathBuf::from("/srv/programs"), "a configured dir stays");
+}

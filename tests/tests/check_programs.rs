@@ -99,3 +99,19 @@ fn not_utf8_and_missing_file() {
     assert!(stderr.starts_with("/nonexistent/m.toml: cannot read configuration"), "{stderr}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `interpd check FILE` (and `plan`) without a configured `[programs] dir` reads subroutine
+/// files from the program's own directory, as LinuxCNC's `rs274` does, wherever it is run
+/// from (here from the repository, the program in a scratch directory).
+#[test]
+fn subroutine_files_beside_the_program_are_found() {
+    let dir = std::env::temp_dir().join(format!("interpd-check-sub-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    std::fs::write(dir.join("square.ngc"), "o<square> sub\nG1 X#1 F600\nG1 Y#1\no<square> endsub\nM2\n").expect("sub");
+    let main = dir.join("main.ngc");
+    std::fs::write(&main, "G21 G90\no<square> call [5]\nM2\n").expect("main");
+    let (code, out, err) = check(main.to_str().expect("utf-8 path"), None);
+    std::fs::remove_dir_all(&dir).ok();
+    assert_eq!(code, 0, "stdout {out}\nstderr {err}");
+    assert!(out.contains("2 lines"), "{out}");
+}

@@ -10,7 +10,8 @@ use std::path::Path;
 use std::time::Instant;
 
 pub fn run(program_path: &Path, machine: Option<&Path>) -> Result<(), CliError> {
-    let config = Config::load_or_default(machine)?;
+    let mut config = Config::load_or_default(machine)?;
+    config.programs.default_to_dir_of(program_path);
     let settings = Settings::from_config(&config);
     let t0 = Instant::now();
     // A law program is read whole; G-code and tables are checked in one streaming pass.

@@ -69,6 +69,7 @@ pub struct Setup {
 impl Setup {
     pub fn from_args(args: &PlanArgs) -> Result<Self, PlanError> {
         let mut config = Config::load_or_default(args.machine.as_deref())?;
+        config.programs.default_to_dir_of(&args.program);
         if let Some(l) = args.lookahead_mm {
             if l.is_nan() || l <= 0.0 {
                 return Err(PlanError::Lookahead(l));

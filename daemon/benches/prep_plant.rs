@@ -12,6 +12,9 @@
 #[path = "common/haas_plant.rs"]
 #[allow(dead_code)]
 mod haas_plant;
+#[path = "common/reference.rs"]
+#[allow(dead_code)]
+mod reference;
 
 use haas_plant::{Reference, repo_file, simulate, with_mode};
 use interpd::config::Config;

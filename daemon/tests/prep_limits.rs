@@ -7,6 +7,11 @@
 use interpd::config::Config;
 use std::process::Command;
 
+// The programmed path as a polyline, shared with the plant benches.
+#[path = "../benches/common/reference.rs"]
+#[allow(dead_code)]
+mod reference;
+
 fn repo_file(name: &str) -> String {
     let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(name);
     std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
@@ -133,34 +138,10 @@ fn dense_slice_is_5x_faster_smoothed_and_keeps_the_limits() {
 
 /// Largest distance of the setpoints (CSV rows) from the programmed path of `text`, X/Y, mm.
 fn setpoint_distance(rows: &[Vec<f64>], text: &str) -> f64 {
-    use interpd_motion::path::AxisDerivs;
     let settings = interpd_motion::Settings::from(&Config::default_machine());
     let path = interpd_motion::program::parse(text, "p.ngc", &settings).expect("parses").path;
-    let mut pts: Vec<(f64, f64)> = Vec::new();
-    let mut d = AxisDerivs::default();
-    for e in &path.elements {
-        let len = e.geometry.length_mm();
-        // 0.05 mm chords: a sag of 0.016 µm on the 20 mm arcs of the shapes.
-        let n = (len / 0.05).ceil().max(1.0) as usize;
-        for i in 0..=n {
-            e.geometry.eval(len * i as f64 / n as f64, &mut d);
-            pts.push((d.pos[0], d.pos[1]));
-        }
-    }
-    rows.iter()
-        .map(|r| {
-            let (x, y) = (r[5], r[6]);
-            pts.windows(2)
-                .map(|w| {
-                    let ((ax, ay), (bx, by)) = (w[0], w[1]);
-                    let (dx, dy) = (bx - ax, by - ay);
-                    let l2 = dx * dx + dy * dy;
-                    let t = if l2 > 0.0 { (((x - ax) * dx + (y - ay) * dy) / l2).clamp(0.0, 1.0) } else { 0.0 };
-                    (x - ax - t * dx).hypot(y - ay - t * dy)
-                })
-                .fold(f64::INFINITY, f64::min)
-        })
-        .fold(0.0, f64::max)
+    let reference = reference::Reference::new(&path);
+    rows.iter().map(|r| reference.distance(r[5], r[6])).fold(0.0, f64::max)
 }
 
 #[test]

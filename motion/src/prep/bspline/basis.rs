@@ -50,6 +50,12 @@ impl Knots {
         self.span_of[j]
     }
 
+    /// The knots that the basis functions on `span` depend on (`span − p + 1 ..= span + p`),
+    /// relative to `x`: two points with the same offsets have the same basis values.
+    pub(crate) fn offsets(&self, span: usize, x: f64) -> [f64; 2 * DEGREE] {
+        std::array::from_fn(|i| self.knots[span + 1 + i - DEGREE] - x)
+    }
+
     /// Values and derivatives 0..=MAX_DERIV of the p + 1 basis functions not zero on `span`,
     /// at `x` (evaluated with that span's polynomials, also at its ends): `out[k][i]` is the
     /// k-th derivative of N_{span − p + i}.

@@ -50,6 +50,15 @@ pub(crate) struct Curve {
 /// Relative pivot below which the normal equations count as singular.
 const PIVOT_REL_TOL: f64 = 1e-13;
 
+/// Knot offsets (in τ, where the points are about 1 apart) that count as the same when the
+/// basis values of one point are taken over for the next: the values then differ by about
+/// this much relatively, far below what the band check resolves.
+const SAME_OFFSET_TOL: f64 = 1e-12;
+
+fn same_offsets(a: &[f64; 2 * DEGREE], b: &[f64; 2 * DEGREE]) -> bool {
+    a.iter().zip(b).all(|(x, y)| (x - y).abs() <= SAME_OFFSET_TOL * x.abs().max(1.0))
+}
+
 impl Fit {
     /// The fit over breakpoints `u` (one per QP point, strictly increasing), inner knots of
     /// `multiplicity`, data `levels` (x … x^(levels − 1)) per point weighted by `weights`,
@@ -70,28 +79,41 @@ impl Fit {
             return Err(FitError::TooFewControlPoints);
         }
         let n = u.len();
-        let mut at_points = Vec::with_capacity(n);
+        let mut at_points: Vec<(usize, [[f64; ORDER]; LEVELS])> = Vec::with_capacity(n);
+        // The basis values at a point depend only on the knots around it relative to the
+        // point; on equidistant points (most of a window) they repeat from point to point, and
+        // are taken over instead of evaluated again.
+        let mut last_offsets = [f64::NAN; 2 * DEGREE];
         for j in 0..n {
             let span = knots.span(j.min(n - 2));
-            let mut d = [[0.0; ORDER]; LEVELS];
-            knots.derivs(span, u[j], &mut d);
+            let offsets = knots.offsets(span, u[j]);
+            let d = match at_points.last() {
+                Some(&(_, d)) if same_offsets(&offsets, &last_offsets) => d,
+                _ => {
+                    let mut d = [[0.0; ORDER]; LEVELS];
+                    knots.derivs(span, u[j], &mut d);
+                    d
+                }
+            };
+            last_offsets = offsets;
             at_points.push((span, d));
         }
         let free = fixed_left..n_ctrl - fixed_right;
         let mut normal = BandedSpd::zeros(free.len());
         for (span, d) in &at_points {
             let first = span - DEGREE;
-            for l in 0..levels {
-                for a in 0..ORDER {
-                    let ia = first + a;
-                    if !free.contains(&ia) {
-                        continue;
-                    }
-                    for b in 0..=a {
-                        let ib = first + b;
-                        if free.contains(&ib) {
-                            normal.add(ia - free.start, ib - free.start, weights[l] * d[l][a] * d[l][b]);
-                        }
+            // The point's block of KᵀWK (lower triangle), summed over the levels before it is
+            // added to the band: one addition per entry instead of one per entry and level.
+            for a in 0..ORDER {
+                let ia = first + a;
+                if !free.contains(&ia) {
+                    continue;
+                }
+                for b in 0..=a {
+                    let ib = first + b;
+                    if free.contains(&ib) {
+                        let v: f64 = (0..levels).map(|l| weights[l] * d[l][a] * d[l][b]).sum();
+                        normal.add(ia - free.start, ib - free.start, v);
                     }
                 }
             }
@@ -124,15 +146,21 @@ impl Fit {
         let mut rhs = vec![0.0; free.len()];
         for (j, (span, d)) in self.at_points.iter().enumerate() {
             let first = span - DEGREE;
+            // Only the points near the ends see fixed control points.
+            let inner = free.contains(&first) && free.contains(&(first + DEGREE));
+            let mut r = [0.0; LEVELS];
             for l in 0..self.levels {
                 // Residual of the data against the fixed control points' share.
-                let fixed: f64 =
-                    (0..ORDER).filter(|a| !free.contains(&(first + a))).map(|a| d[l][a] * ctrl[first + a]).sum();
-                let r = self.weights[l] * (data[j][l] - fixed);
-                for a in 0..ORDER {
-                    if free.contains(&(first + a)) {
-                        rhs[first + a - free.start] += d[l][a] * r;
-                    }
+                let fixed: f64 = if inner {
+                    0.0
+                } else {
+                    (0..ORDER).filter(|a| !free.contains(&(first + a))).map(|a| d[l][a] * ctrl[first + a]).sum()
+                };
+                r[l] = self.weights[l] * (data[j][l] - fixed);
+            }
+            for a in 0..ORDER {
+                if inner || free.contains(&(first + a)) {
+                    rhs[first + a - free.start] += (0..self.levels).map(|l| d[l][a] * r[l]).sum::<f64>();
                 }
             }
         }
@@ -143,7 +171,20 @@ impl Fit {
         Curve { ctrl }
     }
 
-    /// Value and derivatives 0..LEVELS of `curve` at `x` on breakpoint interval `j`.
+    /// Value and derivatives 0..LEVELS of `curve` at breakpoint `j`, from the basis values the
+    /// fit already holds there (those of the interval starting at `j`; at the last breakpoint,
+    /// of the interval ending there). The derivatives up to the spline's continuity are the same
+    /// from either side of a breakpoint, so this is also the end state of interval `j − 1` in
+    /// them; the levels above the continuity are those of the interval starting at `j`.
+    pub(crate) fn eval_at_point(&self, curve: &Curve, j: usize) -> [f64; LEVELS] {
+        let (span, d) = &self.at_points[j];
+        let first = span - DEGREE;
+        std::array::from_fn(|l| (0..ORDER).map(|a| d[l][a] * curve.ctrl[first + a]).sum())
+    }
+
+    /// Value and derivatives 0..LEVELS of `curve` at `x` on breakpoint interval `j` (the tests'
+    /// reference for the spline between the points).
+    #[cfg(test)]
     pub(crate) fn eval(&self, curve: &Curve, j: usize, x: f64) -> [f64; LEVELS] {
         let span = self.knots.span(j);
         let mut d = [[0.0; ORDER]; LEVELS];
@@ -213,6 +254,51 @@ mod tests {
                 let (got, want) = (fit.eval(&c, j, x), q(x));
                 for l in 0..LEVELS {
                     assert!((got[l] - want[l]).abs() < 1e-8 * (1.0 + want[l].abs()), "x {x} l {l}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_state_at_a_point_is_that_of_both_adjacent_intervals_up_to_the_continuity() {
+        let u = [0.0, 0.4, 1.0, 1.3, 2.2, 2.5, 3.0, 3.9];
+        let data: Vec<[f64; LEVELS]> = u.iter().map(|&x| sample(x)).collect();
+        for m in 1..=3 {
+            let fit = Fit::new(&u, m, 3, [1000.0, 100.0, 10.0, 1.0, 0.1], 0, 0).unwrap();
+            let c = fit.solve(&data, &[0.0; LEVELS], &[0.0; LEVELS]);
+            for j in 0..u.len() {
+                let at = fit.eval_at_point(&c, j);
+                let mut sides = vec![];
+                if j > 0 {
+                    sides.push(fit.eval(&c, j - 1, u[j]));
+                }
+                if j + 1 < u.len() {
+                    sides.push(fit.eval(&c, j, u[j]));
+                }
+                for side in sides {
+                    for l in 0..=DEGREE - m {
+                        assert!((at[l] - side[l]).abs() < 1e-9 * (1.0 + side[l].abs()), "m {m} j {j} l {l}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn basis_values_taken_over_on_equidistant_points_are_those_evaluated() {
+        // Equidistant runs (values taken over) between uneven points (evaluated).
+        let u: Vec<f64> = (0..40).map(|j| if j < 20 { j as f64 * 0.8 } else { 16.0 + (j - 20) as f64 * 1.3 }).collect();
+        let u: Vec<f64> = u.iter().enumerate().map(|(j, &x)| if j == 30 { x + 0.2 } else { x }).collect();
+        for m in 1..=3 {
+            let fit = Fit::new(&u, m, 4, [1000.0, 100.0, 10.0, 1.0, 0.1], 0, 0).unwrap();
+            for (j, (span, d)) in fit.at_points.iter().enumerate() {
+                let mut want = [[0.0; ORDER]; LEVELS];
+                fit.knots.derivs(*span, u[j], &mut want);
+                for l in 0..LEVELS {
+                    for a in 0..ORDER {
+                        let tol = 1e-10 * want[l].iter().fold(1.0, |m: f64, v| m.max(v.abs()));
+                        assert!((d[l][a] - want[l][a]).abs() <= tol, "m {m} j {j} l {l} a {a}");
+                    }
                 }
             }
         }

@@ -89,19 +89,23 @@ pub(super) fn window_pieces(
         };
         curves.push(Some(fit.solve(&data, &left[k], &right_k)));
     }
-    let eval = |j: usize, x: f64| -> State {
-        std::array::from_fn(|k| match &curves[k] {
-            Some(c) => fit.eval(c, j, x),
-            None => {
-                let mut v = [0.0; LEVELS];
-                v[0] = states[0][k][0];
-                v
-            }
+    // The spline's state at each point up to the committed one, from the basis values the fit
+    // holds there: the pieces need x, x′, x″ at their ends, which the spline has continuous at
+    // every breakpoint (m ≤ 3), and the next window keeps the levels up to the continuity.
+    let at: Vec<State> = (0..=commit)
+        .map(|j| {
+            std::array::from_fn(|k| match &curves[k] {
+                Some(c) => fit.eval_at_point(c, j),
+                None => {
+                    let mut v = [0.0; LEVELS];
+                    v[0] = states[0][k][0];
+                    v
+                }
+            })
         })
-    };
+        .collect();
     let mut pieces = Vec::with_capacity(commit);
     for j in 0..commit {
-        let (a, b) = (eval(j, u[j]), eval(j, u[j + 1]));
         let d = u[j + 1] - u[j];
         let end = |s: &State| {
             let mut e = HermiteEnd::default();
@@ -112,10 +116,11 @@ pub(super) fn window_pieces(
             }
             e
         };
-        pieces.push(QuinticSpan::hermite(&end(&a), &end(&b), &st.linear).map_err(|_| SplineFailure::Span(j))?);
+        pieces.push(
+            QuinticSpan::hermite(&end(&at[j]), &end(&at[j + 1]), &st.linear).map_err(|_| SplineFailure::Span(j))?,
+        );
     }
-    // The state at the committed point from the span that ends there (the derivatives up to
-    // the continuity are the same from either side).
-    let end = if commit == 0 { *left } else { eval(commit - 1, u[commit]) };
+    // The state at the committed point (the levels the next window keeps are continuous there).
+    let end = if commit == 0 { *left } else { at[commit] };
     Ok(SplinePieces { pieces, end, levels: keep })
 }

@@ -660,33 +660,56 @@ fn check_spline(
     let p = &run.points;
     let n = sol.states.len();
     let u: Vec<f64> = p[..n].iter().map(|q| (q.s_mm - p[0].s_mm) / st.spacing_mm).collect();
-    let failed = match bspline::window_pieces(st, &u, &sol.states, &run.state, run.spline_levels, right, commit) {
-        Ok(sp) => {
-            let (mut bad, mut worst) = (None, f64::NEG_INFINITY);
-            for (j, piece) in sp.pieces.iter().enumerate() {
-                let (dev, excess) =
-                    verify::piece_excess(piece, &p[j], &p[j + 1], &run.elems, &run.programmed, st.spacing_mm);
-                stats.max_deviation_mm = stats.max_deviation_mm.max(dev);
-                if excess > 0.0 {
-                    bad = Some(j);
-                    break;
-                }
-                worst = worst.max(excess);
-            }
-            match bad {
-                None => {
-                    stats.max_excess_mm = stats.max_excess_mm.max(worst);
-                    stats.bspline_windows += 1;
-                    return Ok((sp.pieces, Some((sp.end, sp.levels))));
-                }
-                Some(j) if can_refine(j) => return Err(j),
-                Some(j) => Some(j),
-            }
-        }
-        Err(f) => {
+    // The spline's pieces at `weights` if every one keeps the band; else the first outside it.
+    let window = bspline::SplineWindow {
+        u: &u,
+        states: &sol.states,
+        left: &run.state,
+        left_levels: run.spline_levels,
+        right,
+        commit,
+    };
+    let fit = |weights: [f64; 5], stats: &mut PrepStats| -> Result<bspline::SplinePieces, Option<usize>> {
+        let sp = bspline::window_pieces(st, &window, weights).map_err(|f| {
             tracing::debug!(?f, s_mm = p[0].s_mm, "no B-spline for the window");
             None
+        })?;
+        let mut worst = f64::NEG_INFINITY;
+        for (j, piece) in sp.pieces.iter().enumerate() {
+            let (dev, excess) =
+                verify::piece_excess(piece, &p[j], &p[j + 1], &run.elems, &run.programmed, st.spacing_mm);
+            stats.max_deviation_mm = stats.max_deviation_mm.max(dev);
+            if excess > 0.0 {
+                return Err(Some(j));
+            }
+            worst = worst.max(excess);
         }
+        stats.max_excess_mm = stats.max_excess_mm.max(worst);
+        Ok(sp)
+    };
+    let accept = |sp: bspline::SplinePieces, stats: &mut PrepStats| {
+        stats.bspline_windows += 1;
+        Ok((sp.pieces, Some((sp.end, sp.levels))))
+    };
+    let failed = match fit(st.bspline_weights, stats) {
+        Ok(sp) => return accept(sp, stats),
+        Err(Some(j)) => {
+            // The positions weighted more (no QP solve), before a point is inserted.
+            for gain in bspline::TIGHTEN_GAINS {
+                let mut w = st.bspline_weights;
+                w[0] *= gain;
+                if let Ok(sp) = fit(w, stats) {
+                    stats.bspline_tightened += 1;
+                    tracing::debug!(s_mm = p[0].s_mm, gain, "B-spline window: positions weighted more");
+                    return accept(sp, stats);
+                }
+            }
+            if can_refine(j) {
+                return Err(j);
+            }
+            Some(j)
+        }
+        Err(None) => None,
     };
     let pieces = check_pieces(run, st, stats, sol, commit);
     match (pieces, failed) {

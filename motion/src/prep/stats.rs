@@ -49,6 +49,9 @@ pub struct PrepStats {
     /// B-spline method: windows whose spline could not be fitted or left the band after the
     /// refinements, committed as Hermite pieces instead.
     pub bspline_to_hermite: u64,
+    /// B-spline method: windows whose spline at `bspline_weights` left the band after the
+    /// refinements and kept it fitted with the positions weighted more.
+    pub bspline_tightened: u64,
     /// Largest distance of a checked sample to the programmed path, mm.
     pub max_deviation_mm: f64,
     /// Largest (distance − tolerance) over the checked samples, mm (≤ 0: inside).

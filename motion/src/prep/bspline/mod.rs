@@ -26,6 +26,11 @@ pub(crate) mod banded;
 pub(crate) mod basis;
 pub(crate) mod fit;
 
+/// Gains on the position weight for a window whose spline leaves the band at the configured
+/// weights after the refinements: the least-squares fit moves towards interpolating the QP's
+/// points, which keep the band, before the window falls back to Hermite pieces.
+pub(super) const TIGHTEN_GAINS: [f64; 2] = [1e2, 1e4];
+
 use super::settings::StageSettings;
 use super::window::{RightEnd, State};
 use crate::path::{HermiteEnd, MAX_AXES, QuinticSpan};
@@ -47,17 +52,25 @@ pub(super) struct SplinePieces {
     pub levels: usize,
 }
 
-/// The window's spline through the QP solution `states` at breakpoints `u` (in τ), from `left`
-/// (its first `left_levels` levels fixed) to the end `right` demands.
+/// One window's data for the spline: the QP solution `states` at breakpoints `u` (in τ), from
+/// `left` (its first `left_levels` levels fixed) to the end `right` demands, committed up to
+/// point `commit`.
+pub(super) struct SplineWindow<'a> {
+    pub u: &'a [f64],
+    pub states: &'a [State],
+    pub left: &'a State,
+    pub left_levels: usize,
+    pub right: RightEnd,
+    pub commit: usize,
+}
+
+/// The window's spline, fitted with `weights` per level, and its committed pieces.
 pub(super) fn window_pieces(
     st: &StageSettings,
-    u: &[f64],
-    states: &[State],
-    left: &State,
-    left_levels: usize,
-    right: RightEnd,
-    commit: usize,
+    w: &SplineWindow,
+    weights: [f64; LEVELS],
 ) -> Result<SplinePieces, SplineFailure> {
+    let SplineWindow { u, states, left, left_levels, right, commit } = *w;
     let n = u.len();
     let m = st.bspline_multiplicity;
     let keep = (basis::DEGREE + 1 - m).min(LEVELS);
@@ -67,7 +80,7 @@ pub(super) fn window_pieces(
         RightEnd::Band => 0,
         RightEnd::Join(_) => 3,
     };
-    let fit = Fit::new(u, m, st.levels, st.bspline_weights, fixed_left, fixed_right).map_err(SplineFailure::Fit)?;
+    let fit = Fit::new(u, m, st.levels, weights, fixed_left, fixed_right).map_err(SplineFailure::Fit)?;
     let mut curves: Vec<Option<Curve>> = Vec::with_capacity(MAX_AXES);
     let mut data = vec![[0.0; LEVELS]; n];
     for k in 0..MAX_AXES {

@@ -33,7 +33,9 @@ mod tooling;
 pub use error::ConfigError;
 pub use keys::keys_of;
 pub use machine::{AxisConfig, AxisKind, AxisLetter, MAX_AXES, MachineSection};
-pub use sections::{ControlConfig, PlannerConfig, PrepConfig, PrepMethod, PrepMode, ProgramsConfig, RtConfig};
+pub use sections::{
+    ControlConfig, PlannerConfig, PointDistribution, PrepConfig, PrepMethod, PrepMode, ProgramsConfig, RtConfig,
+};
 pub use tooling::{MAX_TOOL_NUMBER, ToolConfig, WORK_SYSTEMS, WorkOffsetsConfig, validate_tools};
 
 use serde::Deserialize;

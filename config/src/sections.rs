@@ -100,6 +100,18 @@ pub enum PrepMethod {
     Bspline,
 }
 
+/// Where the QP points sit within a programmed block (Haas 2012, §3.5 and §4.8).
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum PointDistribution {
+    /// Equidistant at `point_spacing_mm` (§4.8, Table 4.7: what the thesis finally uses).
+    #[default]
+    Equidistant,
+    /// The cumulative density of eq. 3.13: as many points per block, crowded towards both of
+    /// its ends.
+    Cumulative,
+}
+
 /// `[prep]`: path preparation (tolerance-band smoothing, Haas 2012, §3–4): a windowed per-axis
 /// QP moves the points of the path inside a lateral band, then quintic Hermite pieces join
 /// them C².
@@ -140,6 +152,8 @@ pub struct PrepConfig {
     /// Largest spacing of the QP points along the path, mm (Haas 2012, Table 4.7:
     /// ≥ 0.926 points/mm).
     pub point_spacing_mm: f64,
+    /// Equidistant points, or the cumulative density of Haas 2012, eq. 3.13, within each block.
+    pub point_distribution: PointDistribution,
     /// Largest tangent turn between two QP points on curves, degrees.
     pub max_turn_deg: f64,
     /// Vertices that turn the tangent by more than this are corners: a point sits on the vertex
@@ -171,6 +185,7 @@ impl Default for PrepConfig {
             segment_mm: 10.0,
             window_segments: 5,
             point_spacing_mm: 1.0,
+            point_distribution: PointDistribution::Equidistant,
             max_turn_deg: 5.0,
             corner_deg: 2.0,
             max_corner_deg: 90.0,

@@ -315,6 +315,38 @@ fn bspline_method_keeps_the_band_and_joins_at_every_degree() {
 }
 
 #[test]
+fn cumulative_point_distribution_keeps_the_band_with_both_methods() {
+    // Haas 2012, eq. 3.13: the points crowd towards the block ends; the check still holds the
+    // band, for the Hermite pieces and the B-spline alike.
+    for method in [interpd_config::PrepMethod::Hermite, interpd_config::PrepMethod::Bspline] {
+        let mut config = Settings::default_machine();
+        config.prep.max_corner_deg = 170.0;
+        config.prep.method = method;
+        for name in SHAPES {
+            let text = repo_file(&format!("examples/{name}.ngc"));
+            let programmed = parse(&text, &config);
+            for tol in [0.01, 0.1] {
+                let program = parse(&with_mode(&text, &format!("G64 P{tol}"), usize::MAX), &config);
+                let equidistant = prepare_path(&config, &program).expect("smoothing").stats;
+                let mut cumulative = config.clone();
+                cumulative.prep.point_distribution = interpd_config::PointDistribution::Cumulative;
+                let prepared = prepare_path(&cumulative, &program).expect("smoothing");
+                let dev = max_deviation(&programmed, &prepared.path, 2e-3);
+                eprintln!(
+                    "{method:?} cumulative {name:>14} P{tol}: max deviation {dev:.6} mm, {} points ({} equidistant), exact stops {}",
+                    prepared.stats.points, equidistant.points, prepared.stats.fallback_exact
+                );
+                assert!(dev <= tol + SLACK_MM, "{method:?} {name} P{tol}: {dev} mm off the programmed path");
+                assert_ne!(
+                    prepared.stats.points, equidistant.points,
+                    "{name} P{tol}: the distribution changed nothing"
+                );
+            }
+        }
+    }
+}
+
+#[test]
 fn hermite_pieces_of_degree_7_and_9_keep_the_band_and_join_c3() {
     for (degree, hermite) in [(3u32, 3u32), (4, 3), (4, 4)] {
         let mut config = Settings::default_machine();

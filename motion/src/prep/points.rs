@@ -11,6 +11,7 @@
 use super::elements::{RunElems, cos_between};
 use super::settings::{CORNER_FIRST_STEP_PER_TOL, StageSettings};
 use crate::path::{AxisDerivs, AxisVec, MAX_AXES};
+use interpd_config::PointDistribution;
 
 /// One QP point: a place on the programmed path.
 #[derive(Debug, Clone, Copy)]
@@ -163,6 +164,9 @@ impl Placer {
         let mut h = st.spacing_mm;
         // Grow away from the last corner: steps of first_step, then doubling.
         h = h.min((self.s_mm - self.last_corner_s_mm).max(first_step));
+        if st.distribution == PointDistribution::Cumulative {
+            h = h.min(cumulative_step(here.s0_mm, here.s1_mm(), self.s_mm, st.spacing_mm).max(first_step));
+        }
         // Curvature of a curved element: at most max_turn between points.
         let mut d = AxisDerivs::default();
         here.eval(self.s_mm, &mut d);
@@ -227,6 +231,27 @@ impl Placer {
         let elem = elems.index_at(s_mm, a.elem);
         point(elems, st, s_mm, elem, false, false)
     }
+}
+
+/// The step from `s_mm` to the next point of the cumulative density over the block
+/// [`s0_mm`, `s1_mm`] (Haas 2012, eq. 3.13): n = ⌈L / spacing⌉ points per block at
+/// s = s0 + L·F(i / n), F(u) = (1 − cos πu) / 2, the cumulative sum of sin-shaped increments
+/// normalised to the block. As printed, eq. 3.13 takes the sine over [0, 1], which crowds the
+/// points at the block's start only; over [0, π] it crowds them at both ends, as the thesis
+/// describes the density. A block no longer than two spacings keeps the spacing.
+fn cumulative_step(s0_mm: f64, s1_mm: f64, s_mm: f64, spacing_mm: f64) -> f64 {
+    let len = s1_mm - s0_mm;
+    if len <= 2.0 * spacing_mm {
+        return spacing_mm;
+    }
+    let n = (len / spacing_mm).ceil();
+    let t = ((s_mm - s0_mm) / len).clamp(0.0, 1.0);
+    // The index of the point at s (F⁻¹), rounded to the nearest whole one so that rounding does
+    // not add a sliver step.
+    let i = ((1.0 - 2.0 * t).clamp(-1.0, 1.0).acos() / std::f64::consts::PI * n + 1e-9).floor();
+    let f = |u: f64| 0.5 * (1.0 - (std::f64::consts::PI * u.min(1.0)).cos());
+    let next = s0_mm + len * f((i + 1.0) / n);
+    (next - s_mm).max(f64::EPSILON * s1_mm.abs().max(1.0))
 }
 
 /// The point at `s_mm` on element `elem`.
@@ -295,5 +320,42 @@ fn straight_extent(elems: &RunElems, s_mm: f64, elem: usize, tangent: &AxisVec, 
 impl Default for Placer {
     fn default() -> Self {
         Self::new()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::cumulative_step;
+
+    /// Steps from the block start to its end.
+    fn walk(s0: f64, s1: f64, spacing: f64) -> Vec<f64> {
+        let mut s = vec![s0];
+        while *s.last().unwrap() < s1 - 1e-12 {
+            let x = *s.last().unwrap();
+            s.push(x + cumulative_step(s0, s1, x, spacing));
+            assert!(s.len() < 1000, "no end");
+        }
+        s
+    }
+
+    #[test]
+    fn the_cumulative_density_keeps_the_point_count_and_crowds_both_block_ends() {
+        let (s0, s1, spacing) = (3.0, 23.0, 1.0);
+        let s = walk(s0, s1, spacing);
+        // ⌈20 / 1⌉ = 20 steps, ending on the block end.
+        assert_eq!(s.len(), 21, "{s:?}");
+        assert!((s[20] - s1).abs() < 1e-12);
+        let steps: Vec<f64> = s.windows(2).map(|w| w[1] - w[0]).collect();
+        // Symmetric, shortest at both ends, longest in the middle (π/2 × the spacing).
+        for i in 0..10 {
+            assert!((steps[i] - steps[19 - i]).abs() < 1e-9, "{steps:?}");
+        }
+        assert!(steps[0] < 0.15 && steps[9] > 1.5 && steps[9] < 1.6, "{steps:?}");
+        assert!(steps.windows(2).take(9).all(|w| w[1] > w[0]));
+        // From a place between two points (another rule took a shorter step) to the next one.
+        let mid = 0.5 * (s[4] + s[5]);
+        assert!((mid + cumulative_step(s0, s1, mid, spacing) - s[5]).abs() < 1e-9);
+        // A short block keeps the spacing.
+        assert_eq!(cumulative_step(0.0, 1.5, 0.2, 1.0), 1.0);
     }
 }

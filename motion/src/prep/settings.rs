@@ -1,7 +1,7 @@
 //! The `[prep]` configuration turned into what the stage computes with.
 
 use crate::Settings;
-use interpd_config::{AxisKind, PrepMethod};
+use interpd_config::{AxisKind, PointDistribution, PrepMethod};
 
 /// First point spacing next to a corner, in units of the corner's tolerance; the spacing then
 /// doubles away from the corner up to `point_spacing_mm`.
@@ -18,6 +18,8 @@ pub(super) struct StageSettings {
     pub segment_mm: f64,
     pub window_segments: usize,
     pub spacing_mm: f64,
+    /// Equidistant points or Haas 2012's cumulative density within a block.
+    pub distribution: PointDistribution,
     pub max_turn_rad: f64,
     pub corner_rad: f64,
     pub max_corner_rad: f64,
@@ -51,6 +53,7 @@ impl StageSettings {
             segment_mm: p.segment_mm,
             window_segments: p.window_segments,
             spacing_mm: p.point_spacing_mm,
+            distribution: p.point_distribution,
             max_turn_rad: p.max_turn_deg.to_radians(),
             corner_rad: p.corner_deg.to_radians(),
             max_corner_rad: p.max_corner_deg.to_radians(),

@@ -12,6 +12,7 @@
 //! ```sh
 //! cargo bench -p interpd --bench prep_methods
 //! PREP_METHODS_TOL=0.01 PREP_METHODS_PLANT=schneider-stiff cargo bench -p interpd --bench prep_methods
+//! PREP_METHODS_POINTS=cumulative cargo bench -p interpd --bench prep_methods   # Haas's eq. 3.13
 //! ```
 
 // Shared with `prep_plant`, which builds its reference from the corners it names.
@@ -24,7 +25,7 @@ mod reference;
 
 use haas_plant::{Figures, Reference, repo_file, simulate, with_mode};
 use interpd::config::Config;
-use interpd_config::PrepMethod;
+use interpd_config::{PointDistribution, PrepMethod};
 use interpd_motion::Settings;
 use interpd_motion::prep::{PrepStats, prepare_path};
 use interpd_motion::program;
@@ -53,6 +54,11 @@ struct Row {
 
 fn main() {
     let plant = std::env::var("PREP_METHODS_PLANT").unwrap_or_else(|_| "haas-laser".into());
+    let points = match std::env::var("PREP_METHODS_POINTS").as_deref() {
+        Ok("cumulative") => PointDistribution::Cumulative,
+        Ok("equidistant") | Err(_) => PointDistribution::Equidistant,
+        Ok(other) => panic!("PREP_METHODS_POINTS: \"equidistant\" or \"cumulative\", got {other:?}"),
+    };
     let tol: f64 = std::env::var("PREP_METHODS_TOL").ok().and_then(|v| v.parse().ok()).unwrap_or(0.1);
     let png = std::env::var("PREP_METHODS_PNG").unwrap_or_else(|_| {
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/prep_methods.png").display().to_string()
@@ -61,7 +67,7 @@ fn main() {
         format!("{}\n[plant]\npreset = \"{plant}\"\napply_crosstalk = true\n", interpd::config::DEFAULT_MACHINE_TOML);
     let config = Config::from_toml_str(&text, &format!("<default machine, {plant} plant>")).expect("machine");
     let mut out = std::io::stdout().lock();
-    writeln!(out, "plant {plant}, G64 P{tol}; thesis: Haas 2012 Table 4.8 (VNCK, 0.1 mm)").ok();
+    writeln!(out, "plant {plant}, G64 P{tol}, {points:?} points; thesis: Haas 2012 Table 4.8 (VNCK, 0.1 mm)").ok();
     writeln!(
         out,
         "{:<14} {:<10} {:>9} {:>8} {:>9} {:>9} {:>10} {:>10} {:>7} {:>7} {:>6}",
@@ -97,6 +103,7 @@ fn main() {
         variants.push((Some(PrepMethod::Hermite), 4, 4));
         for (method, degree, hermite) in variants {
             let mut settings = Settings::from(&config);
+            settings.prep.point_distribution = points;
             let (word, label) = match method {
                 None => ("G61".to_string(), "G61".to_string()),
                 Some(m) => {

@@ -34,7 +34,8 @@ pub use error::ConfigError;
 pub use keys::keys_of;
 pub use machine::{AxisConfig, AxisKind, AxisLetter, MAX_AXES, MachineSection};
 pub use sections::{
-    ControlConfig, PlannerConfig, PointDistribution, PrepConfig, PrepMethod, PrepMode, ProgramsConfig, RtConfig,
+    ControlConfig, PlannerConfig, PointDistribution, PrepConfig, PrepMethod, PrepMode, ProgramsConfig, QpSolver,
+    RtConfig,
 };
 pub use tooling::{MAX_TOOL_NUMBER, ToolConfig, WORK_SYSTEMS, WorkOffsetsConfig, validate_tools};
 

@@ -112,6 +112,18 @@ pub enum PointDistribution {
     Cumulative,
 }
 
+/// Which solver takes the window QPs.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum QpSolver {
+    /// The interior-point method on the QP's banded structure, with Clarabel for the windows it
+    /// declines (nearly infeasible ones).
+    #[default]
+    Banded,
+    /// Clarabel for every window (the general sparse solver).
+    Clarabel,
+}
+
 /// `[prep]`: path preparation (tolerance-band smoothing, Haas 2012, §3–4): a windowed per-axis
 /// QP moves the points of the path inside a lateral band, then quintic Hermite pieces join
 /// them C².
@@ -167,6 +179,8 @@ pub struct PrepConfig {
     pub band_margin: f64,
     /// A window solve slower than this counts as failed and takes the fallback, ms.
     pub max_solve_ms: f64,
+    /// The window QPs' solver.
+    pub qp_solver: QpSolver,
 }
 
 impl Default for PrepConfig {
@@ -191,6 +205,7 @@ impl Default for PrepConfig {
             max_corner_deg: 90.0,
             band_margin: 0.1,
             max_solve_ms: 50.0,
+            qp_solver: QpSolver::Banded,
         }
     }
 }

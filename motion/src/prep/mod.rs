@@ -21,6 +21,8 @@ mod pieces;
 mod points;
 mod programmed;
 mod qp;
+mod qp_banded;
+mod qp_shape;
 mod run;
 mod settings;
 mod simplify;

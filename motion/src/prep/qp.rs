@@ -15,48 +15,10 @@
 //! of one window share one solver (P, A, its scaling and its symbolic factorisation) and
 //! change only q and b.
 
+use super::qp_banded::{BandedQp, Unsolved};
+use super::qp_shape::Shape;
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
-
-/// The structure of a window problem.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub(super) struct Shape {
-    pub n_points: usize,
-    /// Values per point: position and `levels − 1` derivatives.
-    pub levels: usize,
-    /// Leading levels fixed at the first point (1 = position only).
-    pub left_fixed: usize,
-    /// Leading levels fixed at the last point; 0 = the last point only keeps its band.
-    pub right_fixed: usize,
-}
-
-impl Shape {
-    pub(super) fn n_vars(&self) -> usize {
-        self.n_points * self.levels
-    }
-
-    fn var(&self, j: usize, k: usize) -> usize {
-        j * self.levels + k
-    }
-
-    /// Trapezoid rows: (n − 1) per coupled level pair.
-    fn n_trapezoid(&self) -> usize {
-        (self.n_points - 1) * (self.levels - 1)
-    }
-
-    pub(super) fn n_eq(&self) -> usize {
-        self.n_trapezoid() + self.left_fixed + self.right_fixed
-    }
-
-    /// Points whose position is bounded by the band (all but fixed ends).
-    pub(super) fn bounded(&self) -> std::ops::Range<usize> {
-        1..if self.right_fixed == 0 { self.n_points } else { self.n_points - 1 }
-    }
-
-    pub(super) fn n_rows(&self) -> usize {
-        self.n_eq() + 2 * self.bounded().len()
-    }
-}
 
 /// Why a window solve gave no usable result.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -130,12 +92,16 @@ pub(super) struct WindowQp {
     cones: Vec<SupportedConeT<f64>>,
     time_limit_s: f64,
     solver: Option<DefaultSolver<f64>>,
+    /// The banded interior-point method, tried first where `prep.qp_solver` is "banded".
+    banded: Option<BandedQp>,
     pub solution: Vec<f64>,
     pub iterations: u32,
+    /// Solves the banded method declined and Clarabel took, since the solver was made.
+    pub declined: u64,
 }
 
 impl WindowQp {
-    pub(super) fn new(shape: Shape, time_limit_s: f64) -> Self {
+    pub(super) fn new(shape: Shape, time_limit_s: f64, banded: bool) -> Self {
         let (a_entries, _) = a_entries(&shape, &vec![1.0; shape.n_points - 1]);
         let n = shape.n_vars();
         let p_entries: Vec<(usize, usize)> = (0..n).map(|i| (i, i)).collect();
@@ -150,9 +116,11 @@ impl WindowQp {
             ],
             time_limit_s,
             solver: None,
+            banded: banded.then(|| BandedQp::new(shape)),
             shape,
             solution: vec![0.0; n],
             iterations: 0,
+            declined: 0,
         }
     }
 
@@ -169,6 +137,9 @@ impl WindowQp {
             }
         }
         self.a_gen = a_entries(&s, deltas).1;
+        if let Some(b) = &mut self.banded {
+            b.load(deltas, weights);
+        }
         // A new window gets a new solver: its equilibration is computed for these values (a
         // window through a corner scales nothing like one on a straight line). The axes of the
         // window share it and change only q and b.
@@ -177,6 +148,17 @@ impl WindowQp {
 
     /// Solves with linear term `q` and right-hand side `b`; the solution is in `self.solution`.
     pub(super) fn solve(&mut self, q: &[f64], b: &[f64]) -> Result<(), QpFailure> {
+        if let Some(banded) = &mut self.banded {
+            match banded.solve(q, b, self.time_limit_s) {
+                Ok(()) => {
+                    self.solution.copy_from_slice(&banded.solution);
+                    self.iterations = banded.iterations;
+                    return Ok(());
+                }
+                Err(Unsolved::Slow) => return Err(QpFailure::Slow),
+                Err(Unsolved::Declined) => self.declined += 1,
+            }
+        }
         if self.solver.is_none() {
             let p = self.p_pattern.matrix(&self.p_gen);
             let a = self.a_pattern.matrix(&self.a_gen);
@@ -276,31 +258,9 @@ fn a_entries(s: &Shape, deltas: &[f64]) -> (Vec<(usize, usize)>, Vec<f64>) {
     (idx, val)
 }
 
-/// Right-hand side rows for one axis.
-pub(super) struct Rhs<'a> {
-    pub left: &'a [f64],
-    pub right: &'a [f64],
-    /// (lower, upper) per bounded point, in `Shape::bounded` order.
-    pub bands: &'a [(f64, f64)],
-}
-
-impl Shape {
-    /// Fills `b` (length `n_rows`) from the boundary values and bands.
-    pub(super) fn rhs(&self, rhs: &Rhs<'_>, b: &mut Vec<f64>) {
-        b.clear();
-        b.resize(self.n_trapezoid(), 0.0);
-        b.extend_from_slice(&rhs.left[..self.left_fixed]);
-        b.extend_from_slice(&rhs.right[..self.right_fixed]);
-        for &(lo, hi) in rhs.bands {
-            b.push(hi);
-            b.push(-lo);
-        }
-        debug_assert_eq!(b.len(), self.n_rows());
-    }
-}
-
 #[cfg(test)]
 mod tests {
+    use super::super::qp_shape::Rhs;
     use super::*;
 
     #[test]
@@ -309,7 +269,7 @@ mod tests {
         // x nearly linear in τ and x′ nearly constant (the end correction lets the free x″ at the
         // ends shave the mean of x′ a little).
         let shape = Shape { n_points: 11, levels: 3, left_fixed: 1, right_fixed: 1 };
-        let mut qp = WindowQp::new(shape, f64::INFINITY);
+        let mut qp = WindowQp::new(shape, f64::INFINITY, false);
         qp.load(&[1.0; 10], &[0.0, 1.0, 1.0]);
         let bands: Vec<(f64, f64)> = shape.bounded().map(|_| (-100.0, 100.0)).collect();
         let mut b = Vec::new();
@@ -325,7 +285,7 @@ mod tests {
     #[test]
     fn band_is_kept_and_values_can_be_reloaded() {
         let shape = Shape { n_points: 5, levels: 4, left_fixed: 4, right_fixed: 1 };
-        let mut qp = WindowQp::new(shape, f64::INFINITY);
+        let mut qp = WindowQp::new(shape, f64::INFINITY, false);
         let mut b = Vec::new();
         for delta in [1.0, 0.5] {
             qp.load(&[delta; 4], &[0.0, 1e-2, 1e-4, 1e-6]);
@@ -356,7 +316,7 @@ mod tests {
         // A line with a narrow band, entered with its own slope: nothing to smooth.
         let (n, m) = (30, 0.866);
         let shape = Shape { n_points: n, levels: 4, left_fixed: 4, right_fixed: 1 };
-        let mut qp = WindowQp::new(shape, f64::INFINITY);
+        let mut qp = WindowQp::new(shape, f64::INFINITY, false);
         qp.load(&vec![1.0; n - 1], &[0.0, 0.0016, 0.04, 1.0]);
         let bands: Vec<(f64, f64)> = shape.bounded().map(|j| (m * j as f64 - 0.0045, m * j as f64 + 0.0045)).collect();
         let mut b = Vec::new();
@@ -376,7 +336,7 @@ mod tests {
         // trapezoid rows force x′₁ = 2 and x″₁ = 4; with band-free ends that is feasible, so
         // pin x′ at the right as well to make it infeasible.
         let shape = Shape { n_points: 2, levels: 3, left_fixed: 3, right_fixed: 2 };
-        let mut qp = WindowQp::new(shape, f64::INFINITY);
+        let mut qp = WindowQp::new(shape, f64::INFINITY, false);
         qp.load(&[1.0], &[0.0, 1.0, 1.0]);
         let mut b = Vec::new();
         shape.rhs(&Rhs { left: &[0.0, 0.0, 0.0], right: &[1.0, 0.0], bands: &[] }, &mut b);

@@ -1,7 +1,7 @@
 //! The `[prep]` configuration turned into what the stage computes with.
 
 use crate::Settings;
-use interpd_config::{AxisKind, PointDistribution, PrepMethod};
+use interpd_config::{AxisKind, PointDistribution, PrepMethod, QpSolver};
 
 /// First point spacing next to a corner, in units of the corner's tolerance; the spacing then
 /// doubles away from the corner up to `point_spacing_mm`.
@@ -25,6 +25,8 @@ pub(super) struct StageSettings {
     pub max_corner_rad: f64,
     pub band_margin: f64,
     pub max_solve_s: f64,
+    /// The window QPs' solver (`prep.qp_solver`).
+    pub qp_solver: QpSolver,
     pub linear: Vec<bool>,
     pub n_axes: usize,
     /// How the points become pieces (Hermite or B-spline, `prep.method`).
@@ -59,6 +61,7 @@ impl StageSettings {
             max_corner_rad: p.max_corner_deg.to_radians(),
             band_margin: p.band_margin,
             max_solve_s: p.max_solve_ms * 1e-3,
+            qp_solver: p.qp_solver,
             linear: settings.axes.iter().map(|a| a.kind == AxisKind::Linear).collect(),
             n_axes: settings.axes.len(),
             method: p.method,

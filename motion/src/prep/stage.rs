@@ -378,6 +378,7 @@ impl Prep {
             self.stats.solves += 1;
             self.stats.solve_s_total += dt;
             self.stats.solve_s_max = self.stats.solve_s_max.max(dt);
+            self.stats.qp_declined = self.solvers.declined;
             let sol = match result {
                 Ok(s) => s,
                 Err(f) => {

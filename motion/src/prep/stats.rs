@@ -44,6 +44,8 @@ pub struct PrepStats {
     pub infeasible: u64,
     pub slow: u64,
     pub numerical: u64,
+    /// Axis solves the banded QP method declined and Clarabel took (`prep.qp_solver`).
+    pub qp_declined: u64,
     /// B-spline method: windows committed as spline spans.
     pub bspline_windows: u64,
     /// B-spline method: windows whose spline could not be fitted or left the band after the

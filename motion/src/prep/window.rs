@@ -3,7 +3,8 @@
 
 use super::band;
 use super::points::Point;
-use super::qp::{QpFailure, Rhs, Shape, WindowQp};
+use super::qp::{QpFailure, WindowQp};
+use super::qp_shape::{Rhs, Shape};
 use super::settings::StageSettings;
 use crate::path::MAX_AXES;
 use std::collections::HashMap;
@@ -54,6 +55,8 @@ pub(super) struct Solvers {
     b: Vec<f64>,
     bands: Vec<(f64, f64)>,
     deltas: Vec<f64>,
+    /// Axis solves the banded method declined and Clarabel took, in all.
+    pub declined: u64,
 }
 
 /// The window's solution per point.
@@ -75,7 +78,8 @@ impl Solvers {
         };
         let shape = Shape { n_points: n, levels: st.levels, left_fixed: w.left_levels, right_fixed };
         let time_limit = st.max_solve_s;
-        let qp = self.by_shape.entry(shape).or_insert_with(|| WindowQp::new(shape, time_limit));
+        let banded = st.qp_solver == interpd_config::QpSolver::Banded;
+        let qp = self.by_shape.entry(shape).or_insert_with(|| WindowQp::new(shape, time_limit, banded));
         self.deltas.clear();
         self.deltas.extend(pts.windows(2).map(|p| (p[1].s_mm - p[0].s_mm) / st.spacing_mm));
         qp.load(&self.deltas, &st.weights_tau);
@@ -137,7 +141,10 @@ impl Solvers {
                     self.q[j * st.levels] = -st.weights_tau[0] * qj * (pts[j].pos[k] - origin[k]);
                 }
             }
-            qp.solve(&self.q, &self.b)?;
+            let declined = qp.declined;
+            let solved = qp.solve(&self.q, &self.b);
+            self.declined += qp.declined - declined;
+            solved?;
             sol.iterations += qp.iterations;
             for (j, s) in sol.states.iter_mut().enumerate() {
                 for l in 0..st.levels {

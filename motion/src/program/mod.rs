@@ -10,6 +10,7 @@ mod error;
 mod expr;
 mod gcode;
 mod lexer;
+mod param_file;
 mod params;
 mod stream;
 mod table;
@@ -19,6 +20,7 @@ pub(crate) use append::AppendBuffer;
 pub use append::{AppendError, Appended, Appends};
 pub use error::{ProgramError, ProgramErrors};
 pub(crate) use gcode::fmt_num;
+pub use param_file::{ParamFile, ParamFileError};
 pub(crate) use stream::ProgramStream;
 pub use stream::{Checked, check, check_open, check_text};
 

@@ -309,6 +309,11 @@ pub struct ProgramsConfig {
     /// Iterations one O-word loop (`while`, `do`, `repeat`) may run, at most: a loop that runs
     /// longer is an error at its line (it most likely never ends).
     pub max_loop_iterations: u64,
+    /// LinuxCNC's parameter file (`NUMBER VALUE` lines): the work offsets G54 … G59 are read
+    /// from it at start-up and written to it by `offsets.set` and at the end of every program
+    /// that changed them (G10 L2/L20). Relative to the configuration file's directory. Unset:
+    /// no file, the offsets come from `[work_offsets]` and last until the daemon ends.
+    pub parameter_file: Option<String>,
 }
 
 impl Default for ProgramsConfig {
@@ -318,6 +323,7 @@ impl Default for ProgramsConfig {
             append_buffer_kib: 4096,
             subroutine_path: vec![".".to_string()],
             max_loop_iterations: 10_000_000,
+            parameter_file: None,
         }
     }
 }
@@ -326,6 +332,9 @@ impl ProgramsConfig {
     pub(crate) fn validate(&self, v: &Validator) -> Result<(), ConfigError> {
         if self.dir.as_deref().is_some_and(str::is_empty) {
             return Err(v.err("programs.dir", "must not be empty (leave it out for the working directory)"));
+        }
+        if self.parameter_file.as_deref().is_some_and(str::is_empty) {
+            return Err(v.err("programs.parameter_file", "must not be empty (leave it out for no parameter file)"));
         }
         for p in &self.subroutine_path {
             let path = std::path::Path::new(p);

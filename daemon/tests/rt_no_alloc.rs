@@ -66,6 +66,21 @@ fn run(core: &interpd::service::ServiceCore, steps: &[(&str, u64)]) {
 
 /// Manual motion: a move-to, a continuous jog changed while moving and stopped, a jog by a
 /// distance, MDI blocks, and a jog from a held program followed by the resume back to it.
+/// Program stops: paused at M0, resumed, paused at M1, stopped there.
+fn paused(core: &interpd::service::ServiceCore) {
+    let text = "G1 X5 F1200\nM0\nG1 X10\nM1\nG1 X0\nM2\n";
+    core.load(ProgramSource::Text { name: "stops.ngc".into(), text: text.into() }, false).expect("load");
+    core.start().expect("start");
+    assert_eq!(core.wait_for(&[State::Paused], Duration::from_secs(30)), State::Paused);
+    std::thread::sleep(Duration::from_millis(100));
+    core.resume().expect("resume");
+    std::thread::sleep(Duration::from_millis(20));
+    assert_eq!(core.wait_for(&[State::Paused], Duration::from_secs(30)), State::Paused);
+    std::thread::sleep(Duration::from_millis(100));
+    core.stop().expect("stop");
+    assert_eq!(core.wait_for(&[State::Idle], Duration::from_secs(30)), State::Idle);
+}
+
 fn manual(core: &interpd::service::ServiceCore) {
     use interpd_protocol::api::{JogMode, JogParams, MdiParams, MoveToParams};
     let axes = |pairs: &[(&str, f64)]| pairs.iter().map(|(a, v)| (a.to_string(), *v)).collect();
@@ -123,12 +138,13 @@ fn the_cycle_never_allocates() {
     let service = Service::start(ServiceOptions { config, shm: true }).expect("service");
     let core = service.core();
     // A whole program; one with hold, resume and override changes; one stopped midway; one
-    // with a stalled planner (underrun).
+    // with a stalled planner (underrun); one paused at its program stops.
     run(&core, &[]);
     run(&core, &[("fast", 150), ("hold", 150), ("resume", 300), ("slow", 100)]);
     run(&core, &[("stop", 250)]);
     core.debug_stall_planner(0.2, 0.4);
     run(&core, &[]);
+    paused(&core);
     manual(&core);
     let report = service.shutdown();
     let in_cycle = IN_CYCLE_ALLOCS.load(Ordering::Relaxed);

@@ -15,10 +15,13 @@ pub mod tooling;
 pub use drives::{
     HomeResult, HomedAxis, ResetDrive, ResetParams, ResetResult, SdoReadParams, SdoResult, SdoType, SdoWriteParams,
 };
-pub use params::{AppendParams, JogMode, JogParams, LawParams, LoadParams, MdiParams, MoveToParams, OverrideParams};
+pub use params::{
+    AppendParams, JogMode, JogParams, LawParams, LoadParams, MdiParams, MoveToParams, OptionalStopParams,
+    OverrideParams,
+};
 pub use status::{
-    CutterMode, CutterStatus, CycleStats, DriveStatus, LookaheadStatus, ManualStatus, MdiModal, Percentiles,
-    ProgramBuffer, ProgramInfo, ProgramModal, SpindleTool, State, Status, ToolLength,
+    CutterMode, CutterStatus, CycleStats, DriveStatus, LookaheadStatus, ManualStatus, MdiModal, PauseStatus,
+    Percentiles, ProgramBuffer, ProgramInfo, ProgramModal, SpindleTool, State, Status, ToolLength,
 };
 pub use tooling::{Tool, ToolTable, WorkOffsets};
 
@@ -90,10 +93,11 @@ pub enum Method {
     DrivesSdoWrite,
     DrivesReset,
     MachineHome,
+    MotionOptionalStop,
 }
 
 impl Method {
-    pub const ALL: [Method; 22] = [
+    pub const ALL: [Method; 23] = [
         Method::ProgramLoad,
         Method::ProgramAppend,
         Method::MotionStart,
@@ -116,6 +120,7 @@ impl Method {
         Method::DrivesSdoWrite,
         Method::DrivesReset,
         Method::MachineHome,
+        Method::MotionOptionalStop,
     ];
 
     /// The wire name, e.g. `"motion.start"`.
@@ -143,6 +148,7 @@ impl Method {
             Method::DrivesSdoWrite => "drives.sdo_write",
             Method::DrivesReset => "drives.reset",
             Method::MachineHome => "machine.home",
+            Method::MotionOptionalStop => "motion.optional_stop",
         }
     }
 
@@ -207,6 +213,7 @@ pub enum Call {
     DrivesSdoWrite(SdoWriteParams),
     DrivesReset(ResetParams),
     MachineHome,
+    MotionOptionalStop(OptionalStopParams),
 }
 
 impl Call {
@@ -228,6 +235,7 @@ impl Call {
             Method::DrivesSdoRead => Call::DrivesSdoRead(SdoReadParams::parse(params)?),
             Method::DrivesSdoWrite => Call::DrivesSdoWrite(SdoWriteParams::parse(params)?),
             Method::DrivesReset => Call::DrivesReset(ResetParams::parse(params)?),
+            Method::MotionOptionalStop => Call::MotionOptionalStop(OptionalStopParams::parse(params)?),
             Method::ToolsGet => params::none(m, params).map(|()| Call::ToolsGet)?,
             Method::OffsetsGet => params::none(m, params).map(|()| Call::OffsetsGet)?,
             Method::MotionJogStop => params::none(m, params).map(|()| Call::MotionJogStop)?,
@@ -265,6 +273,7 @@ impl Call {
             Call::DrivesSdoWrite(_) => Method::DrivesSdoWrite,
             Call::DrivesReset(_) => Method::DrivesReset,
             Call::MachineHome => Method::MachineHome,
+            Call::MotionOptionalStop(_) => Method::MotionOptionalStop,
         }
     }
 }
@@ -292,6 +301,20 @@ impl Default for Ack {
 pub struct OverrideResult {
     #[serde(rename = "override")]
     pub factor: f64,
+}
+
+/// Result of `motion.optional_stop`: the switch now in effect.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct OptionalStopResult {
+    pub optional_stop: bool,
+}
+
+/// The program stop a program pauses at (`paused` event, `status.pause`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum PauseCode {
+    M0,
+    M1,
+    M60,
 }
 
 /// Result of `subscribe`: the connection now also carries event notifications.
@@ -401,11 +424,14 @@ pub enum Event {
     MeasurementLost { age_ms: f64 },
     /// Valid measurements arrive again: the corrections fade back in.
     MeasurementRestored,
+    /// The program stands at its program stop `code` (M0, M1 with the optional-stop switch
+    /// on, M60) on line `line`: it waits for `motion.resume`.
+    Paused { line: u32, code: PauseCode },
 }
 
 impl Event {
     /// The `event` tag of every variant, in declaration order.
-    pub const NAMES: [&'static str; 14] = [
+    pub const NAMES: [&'static str; 15] = [
         "started",
         "line_reached",
         "underrun",
@@ -420,6 +446,7 @@ impl Event {
         "jog_done",
         "measurement_lost",
         "measurement_restored",
+        "paused",
     ];
 
     pub fn name(&self) -> &'static str {
@@ -438,6 +465,7 @@ impl Event {
             Event::JogDone { .. } => "jog_done",
             Event::MeasurementLost { .. } => "measurement_lost",
             Event::MeasurementRestored => "measurement_restored",
+            Event::Paused { .. } => "paused",
         }
     }
 

@@ -213,6 +213,9 @@ pub mod flags {
     pub const LATE: u32 = 1 << 6;
     /// No motion: the machine stands at the setpoint.
     pub const IDLE: u32 = 1 << 7;
+    /// The program stands at a program stop (M0, M1, M60) and waits to be resumed (with
+    /// `RUNNING`: the program goes on from here).
+    pub const PAUSED: u32 = 1 << 8;
 }
 
 /// One setpoint per interpolation cycle (service `interpd/setpoints`). 288 bytes.

@@ -56,6 +56,12 @@ pub struct RunArgs {
 
 pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let mut config = Config::load_or_default(args.config.as_deref())?;
+    // The parameter file lies relative to the configuration file.
+    if let (Some(file), Some(dir)) =
+        (config.programs.parameter_file.clone(), args.config.as_deref().and_then(std::path::Path::parent))
+    {
+        config.programs.parameter_file = Some(dir.join(file).display().to_string());
+    }
     // The iceoryx2 service prefix: --service-prefix, else INTERPD_SERVICE_PREFIX, else the
     // configuration (`[sinks] shm_prefix`, default "interpd").
     let env_prefix = std::env::var(interpd_protocol::shm::SERVICE_PREFIX_ENV).ok().filter(|p| !p.is_empty());
@@ -113,7 +119,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let service =
         Service::start_with(ServiceOptions { config: config.clone(), shm: config.sinks.shm && !args.no_shm }, extras)
             .map_err(|e| match e {
-            StartupError::ProgramsDir(_) => CliError::BadInput(e.to_string()),
+            StartupError::ProgramsDir(_) | StartupError::ParamFile(_) => CliError::BadInput(e.to_string()),
             e => CliError::Failure(e.to_string()),
         })?;
     if service.sched().all_granted() {

@@ -150,6 +150,9 @@ impl Context {
             }
             Call::MotionHold => motion.hold().map_err(ErrorObject::from).and_then(|()| to_value(&Ack::default())),
             Call::MotionResume => motion.resume().map_err(ErrorObject::from).and_then(|()| to_value(&Ack::default())),
+            Call::MotionOptionalStop(p) => {
+                to_value(&api::OptionalStopResult { optional_stop: motion.set_optional_stop(p.enabled) })
+            }
             Call::MotionStop => {
                 let Ok(()) = motion.stop();
                 to_value(&Ack::default())
@@ -337,7 +340,7 @@ impl From<ManualError> for ErrorObject {
             }
             ManualError::Program(_) | ManualError::Prep(_) => codes::BAD_PROGRAM,
             ManualError::DrivesNotReady(_) => codes::DRIVES_NOT_READY,
-            ManualError::PlannerGone => codes::INTERNAL_ERROR,
+            ManualError::PlannerGone | ManualError::ParamFile { .. } => codes::INTERNAL_ERROR,
         };
         ErrorObject::new(code, e.to_string())
     }

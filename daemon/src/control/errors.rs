@@ -190,6 +190,9 @@ pub enum ManualError {
     /// The planner thread is gone (−32603).
     #[error("internal error: the planner thread has ended")]
     PlannerGone,
+    /// The parameter file cannot be written (−32603); nothing was changed.
+    #[error("internal error: cannot write the parameter file {file}: {message}; nothing was changed")]
+    ParamFile { file: String, message: String },
 }
 
 /// Why the control server could not start.
@@ -243,6 +246,9 @@ pub fn hint(action: Method, state: State) -> &'static str {
         (DrivesSdoRead | DrivesSdoWrite | DrivesReset, _) => {
             "drive commissioning runs while nothing moves: wait for state idle or finished (motion.stop ends a held or \
              running motion)"
+        }
+        (_, Paused) => {
+            "the program waits at a program stop (M0, M1, M60): call motion.resume to continue or motion.stop to end it"
         }
         (Mdi, Jogging) => "a manual motion runs; end it with motion.jog_stop and wait for the jog_done event",
         _ => "check the state with status",

@@ -54,6 +54,13 @@ pub trait Motion: Send + Sync + 'static {
     /// Continues after a hold.
     fn resume(&self) -> Result<(), ResumeError>;
 
+    /// Sets the optional-stop switch (`motion.optional_stop`): M1 pauses the program while it
+    /// is on. Returns the switch now in effect. Allowed in every state; a change applies to the
+    /// next M1 the motion reaches. The default: a service without program stops ignores it.
+    fn set_optional_stop(&self, enabled: bool) -> bool {
+        enabled
+    }
+
     /// Controlled stop. Succeeds in every state (a no-op when nothing moves): the server calls
     /// it for `stop_on_disconnect`, and the daemon on SIGTERM/SIGINT.
     fn stop(&self) -> Result<(), Infallible>;

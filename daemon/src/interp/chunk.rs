@@ -2,6 +2,19 @@
 
 use super::coarse::CoarsePoint;
 use super::epoch::Epoch;
+use interpd_protocol::api::PauseCode;
+
+/// A program stop (M0, M1, M60) inside a chunk: at `t_s` (a coarse point where the planned
+/// motion is at rest, its exact stop) the executor waits for a release. M1 waits only while
+/// the optional-stop switch is on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ChunkPause {
+    /// Time within the chunk's `points`, s.
+    pub t_s: f64,
+    pub code: PauseCode,
+    /// The program line of the stop.
+    pub line: u32,
+}
 
 /// A stretch of planned motion, a few interpolation cycles long, with the fastest stop that
 /// can follow it. The real-time thread runs `points`; at their end it continues with the next
@@ -24,6 +37,9 @@ pub struct Chunk {
     pub last: bool,
     /// Feed override the chunk was planned with (1.0 = 100 %).
     pub feed_override: f64,
+    /// Program stops within `points`, in time order (the planner thread fills them; the
+    /// executor only reads them).
+    pub pauses: Vec<ChunkPause>,
 }
 
 impl Chunk {
@@ -41,6 +57,7 @@ impl Chunk {
     pub fn clear(&mut self) {
         self.points.clear();
         self.tail.clear();
+        self.pauses.clear();
         self.last = false;
     }
 }

@@ -10,6 +10,7 @@ use super::coarse::CoarsePoint;
 use super::epoch::Epoch;
 use super::hermite;
 use crossbeam::queue::ArrayQueue;
+use interpd_protocol::api::PauseCode;
 use interpd_protocol::shm::{Setpoints, flags};
 
 /// Why the executor stopped following the planned motion and ran a chunk's tail.
@@ -37,6 +38,8 @@ pub enum Notice {
     Finished { epoch: Epoch, s_mm: f64, cycle: u64 },
     /// The setpoints entered program line `line`.
     Line { line: u32, cycle: u64 },
+    /// The motion stands at the program stop `code` of line `line` and waits for a release.
+    Paused { line: u32, code: PauseCode, cycle: u64 },
 }
 
 /// Where the executor is.
@@ -48,6 +51,8 @@ pub enum Phase {
     Main,
     /// Running a chunk's tail to rest.
     Tail(DivertCause),
+    /// Standing at a program stop inside the running chunk, waiting for a release.
+    Paused,
 }
 
 /// The queues between the executor and the planner thread, and the requests it obeys.
@@ -65,6 +70,11 @@ pub struct Io<'a> {
     /// Chunks of epochs below this belong to stopped motion and are dropped
     /// ([`super::epoch::Epochs::floor`]).
     pub epoch_floor: Epoch,
+    /// The optional-stop switch: M1 pauses like M0.
+    pub optional_stop: bool,
+    /// Releases of program stops so far (`motion.resume` counts it up): a pause ends when it
+    /// differs from its value when the pause began.
+    pub releases: u64,
 }
 
 /// Counters of things that should not happen, for the status.
@@ -95,6 +105,10 @@ pub struct Executor {
     finished: bool,
     line: u32,
     feed_override: f64,
+    /// Index of the running chunk's next program stop.
+    next_pause: usize,
+    /// `Io::releases` when the current pause began.
+    released_seen: u64,
     pub faults: ExecutorFaults,
 }
 
@@ -113,6 +127,8 @@ impl Executor {
             finished: false,
             line: 0,
             feed_override: 1.0,
+            next_pause: 0,
+            released_seen: 0,
             faults: ExecutorFaults::default(),
         }
     }
@@ -150,6 +166,7 @@ impl Executor {
                 self.t_s += dt_s;
                 self.advance(cycle, io);
             }
+            Phase::Paused => self.wait_paused(cycle, dt_s, io),
         }
         self.write(out);
         if out.line != self.line && out.line != 0 {
@@ -180,6 +197,7 @@ impl Executor {
             self.chunk = Some(chunk);
             self.phase = Phase::Main;
             self.piece = 0;
+            self.next_pause = 0;
             self.t_s = 0.0;
             self.stand_reason = None;
             self.finished = false;
@@ -195,7 +213,33 @@ impl Executor {
                 self.phase = Phase::Standing;
                 return;
             };
+            let due = chunk.pauses.get(self.next_pause).filter(|p| self.t_s >= p.t_s).copied();
             match self.phase {
+                Phase::Main if due.is_some() => {
+                    let Some(p) = due else { return };
+                    self.next_pause += 1;
+                    if p.code == PauseCode::M1 && !io.optional_stop {
+                        continue;
+                    }
+                    // The stop is a coarse point at rest: the machine stands at it exactly (its
+                    // line is the line the motion goes on with) until the release.
+                    if let Some(at) =
+                        chunk.points.iter().min_by(|a, b| (a.t_s - p.t_s).abs().total_cmp(&(b.t_s - p.t_s).abs()))
+                    {
+                        self.rest = CoarsePoint {
+                            v_mm_s: 0.0,
+                            a_mm_s2: 0.0,
+                            vel: [0.0; interpd_motion::path::MAX_AXES],
+                            acc: [0.0; interpd_motion::path::MAX_AXES],
+                            ..*at
+                        };
+                    }
+                    self.t_s = p.t_s;
+                    self.phase = Phase::Paused;
+                    self.released_seen = io.releases;
+                    self.notify(io, Notice::Paused { line: p.line, code: p.code, cycle });
+                    return;
+                }
                 Phase::Main if self.t_s > chunk.duration_s() => {
                     let over = self.t_s - chunk.duration_s();
                     let (epoch, seq, last) = (chunk.epoch, chunk.seq, chunk.last);
@@ -218,6 +262,7 @@ impl Executor {
                                 self.recycle(io, old);
                                 self.t_s = over;
                                 self.piece = 0;
+                                self.next_pause = 0;
                                 continue;
                             }
                             None => Some(DivertCause::Underrun),
@@ -242,6 +287,27 @@ impl Executor {
                 }
                 _ => return,
             }
+        }
+    }
+
+    /// At a program stop: a stop request ends the program here (as a stop at rest); a release
+    /// goes on along the same chunk.
+    fn wait_paused(&mut self, cycle: u64, dt_s: f64, io: &Io) {
+        if io.stop {
+            let Some(chunk) = self.chunk.as_ref() else {
+                self.phase = Phase::Standing;
+                return;
+            };
+            let (epoch, seq, at) = (chunk.epoch, chunk.seq, self.rest);
+            self.epoch = epoch.replan();
+            self.notify(io, Notice::Diverted { epoch, seq, cause: DivertCause::Stop, cycle });
+            self.stand(io, at);
+            self.stand_reason = Some(DivertCause::Stop);
+            self.notify(io, Notice::Stood { epoch, seq, cause: DivertCause::Stop, s_mm: at.s_mm, cycle });
+        } else if io.releases != self.released_seen {
+            self.phase = Phase::Main;
+            self.t_s += dt_s;
+            self.advance(cycle, io);
         }
     }
 
@@ -334,6 +400,7 @@ impl Executor {
             Phase::Tail(DivertCause::Hold) => flags::RUNNING | flags::HOLDING,
             Phase::Tail(DivertCause::Stop) => flags::RUNNING | flags::STOPPING,
             Phase::Tail(DivertCause::Underrun) => flags::RUNNING | flags::UNDERRUN,
+            Phase::Paused => flags::RUNNING | flags::PAUSED,
             Phase::Standing => {
                 flags::IDLE
                     | match self.stand_reason {

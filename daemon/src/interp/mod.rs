@@ -38,6 +38,13 @@
 //! 7. The executor never locks, blocks or logs either: requests arrive as two flags (hold,
 //!    stop), and what happened leaves as [`executor::Notice`]s through a lock-free queue.
 //!    daemon/tests/rt_no_alloc.rs runs the real service and proves its cycle allocation-free.
+//! 8. A program stop (M0, M1, M60) is a planned exact stop (v = a = 0) with a coarse point of
+//!    its own; the chunk names its time ([`chunk::ChunkPause`]). The executor stands there,
+//!    tells the daemon ([`executor::Notice::Paused`]) and waits until the release counter
+//!    (`motion.resume`) moves past what it was at the stop, then goes on in the same chunk: the
+//!    look-ahead plans on past the stop and nothing is replanned. M1 is skipped while the
+//!    optional-stop switch (a flag read every cycle) is off. A stop request while paused ends
+//!    the program there, as a stop at rest.
 
 pub mod chunk;
 pub mod coarse;
@@ -45,7 +52,7 @@ pub mod epoch;
 pub mod executor;
 pub mod hermite;
 
-pub use chunk::Chunk;
+pub use chunk::{Chunk, ChunkPause};
 pub use coarse::{CoarseBuilder, CoarsePoint};
 pub use epoch::{Epoch, Epochs};
 pub use executor::{DivertCause, Executor, Io, Notice, Phase};

@@ -281,7 +281,7 @@ impl Motion for ServiceCore {
         let here = shared.live.load().pos;
         // Law moves are made (and checked against the limits) from where the machine stands.
         let motion = match &loaded {
-            Loaded::Program { text, tooling, appends } => {
+            Loaded::Program { text, tooling, appends, .. } => {
                 let appends = appends.clone();
                 if appends.as_ref().is_some_and(|a| a.taken_bytes() > 0) {
                     return Err(StartError::AppendedOnce);
@@ -327,6 +327,17 @@ impl Motion for ServiceCore {
         if ctl.feed_override < OVERRIDE_HOLD_BELOW {
             return Err(ResumeError::OverrideZero);
         }
+        if ctl.state == State::Paused {
+            // The executor goes on along the chunk it stands in: nothing is replanned.
+            let shared = &self.shared;
+            ctl.pause = None;
+            ctl.state = State::Running;
+            ctl.held_by_override = false;
+            shared.hold.store(false, Ordering::SeqCst);
+            shared.pause_releases.fetch_add(1, Ordering::SeqCst);
+            shared.emit(Event::Resumed);
+            return Ok(());
+        }
         self.resume_locked(&mut ctl);
         Ok(())
     }
@@ -336,7 +347,10 @@ impl Motion for ServiceCore {
         let mut ctl = lock(&shared.control);
         ctl.pending_start = None;
         match ctl.state {
-            State::Running | State::Holding | State::Jogging => shared.request_stop(&mut ctl),
+            State::Running | State::Holding | State::Jogging | State::Paused => {
+                ctl.pause = None;
+                shared.request_stop(&mut ctl);
+            }
             State::Error => {
                 shared.request_stop(&mut ctl);
                 ctl.last_error = None;
@@ -424,7 +438,15 @@ impl Motion for ServiceCore {
                 RunKind::Mdi | RunKind::Manual => None,
             },
             lookahead: shared.lookahead.status(chunk_s),
+            optional_stop: shared.optional_stop.load(Ordering::SeqCst),
+            pause: ctl.pause,
         }
+    }
+
+    fn set_optional_stop(&self, enabled: bool) -> bool {
+        self.shared.optional_stop.store(enabled, Ordering::SeqCst);
+        tracing::info!(enabled, "optional stop (M1) switch");
+        enabled
     }
 
     fn subscribe(&self) -> Receiver<Event> {

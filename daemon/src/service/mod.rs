@@ -22,6 +22,7 @@ mod load;
 pub mod manual;
 pub mod modal_track;
 pub mod otg_motion;
+pub mod param_store;
 pub mod programs;
 mod reposition;
 mod rt_loop;
@@ -90,6 +91,9 @@ pub enum StartupError {
     RealTimeExited,
     #[error(transparent)]
     ProgramsDir(#[from] programs::ProgramsDirError),
+    /// The parameter file cannot be read or is corrupt: nothing may move until it is fixed.
+    #[error("{0}; fix or remove the file ([programs] parameter_file)")]
+    ParamFile(#[from] interpd_motion::program::ParamFileError),
 }
 
 /// What the service did, reported at shutdown.
@@ -115,6 +119,10 @@ struct Shared {
     /// Requests the real-time thread reads every cycle.
     hold: AtomicBool,
     stop: AtomicBool,
+    /// The optional-stop switch (M1 pauses while it is on), `motion.optional_stop`.
+    optional_stop: AtomicBool,
+    /// Releases of program stops (`motion.resume` while paused counts it up).
+    pause_releases: AtomicU64,
     /// The stop floor ([`crate::interp::Epochs::floor`]) as its number: chunks of older epochs
     /// never start.
     epoch_floor: AtomicU64,
@@ -145,6 +153,8 @@ struct Shared {
     lookahead: Arc<feeder::LookaheadHealth>,
     /// An axis's setpoint moved at rest (homing), for the real-time thread.
     reposition: reposition::Reposition,
+    /// The parameter file the work offsets are kept in (`[programs] parameter_file`).
+    params: Option<param_store::ParamStore>,
 }
 
 impl Shared {
@@ -231,6 +241,11 @@ impl Service {
     pub fn start_with(opts: ServiceOptions, extras: ServiceExtras) -> Result<Service, StartupError> {
         let ServiceExtras { sinks: extra_sinks, drives, start_position, debug_stall_cycle } = extras;
         let programs = programs::ProgramsDir::from_config(&opts.config.programs)?;
+        let params = param_store::ParamStore::open(opts.config.programs.parameter_file.as_deref())?;
+        let mut work_offsets = opts.config.work_offsets.clone();
+        if let Some(p) = &params {
+            p.apply(&mut work_offsets, &opts.config.axes);
+        }
         allocator::keep_memory_returnable();
         // Before any thread starts: they all inherit it; the real-time thread pins itself.
         match rt::sched::keep_off_rt_cpu(&opts.config.rt) {
@@ -249,6 +264,9 @@ impl Service {
             hold: AtomicBool::new(false),
             epoch_floor: AtomicU64::new(0),
             stop: AtomicBool::new(false),
+            // On, as LinuxCNC starts.
+            optional_stop: AtomicBool::new(true),
+            pause_releases: AtomicU64::new(0),
             quit: AtomicBool::new(false),
             live: LiveSetpoint::default(),
             control: Mutex::new(Control::new()),
@@ -263,13 +281,11 @@ impl Service {
             comp_stats: Mutex::new(None),
             drives,
             programs,
-            tooling: Mutex::new(Arc::new(tooling::Tooling {
-                tools: opts.config.tools.clone(),
-                work_offsets: opts.config.work_offsets.clone(),
-            })),
+            tooling: Mutex::new(Arc::new(tooling::Tooling { tools: opts.config.tools.clone(), work_offsets })),
             modal: feeder.modal_track(),
             lookahead: feeder.health(),
             reposition: reposition::Reposition::default(),
+            params,
         });
         let thread_err = |what: &'static str| move |source| StartupError::Thread { what, source };
 

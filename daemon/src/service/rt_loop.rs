@@ -1,8 +1,9 @@
 //! The real-time thread: its scheduling, then the loop over the executor and the sinks.
 //!
 //! The body of the cycle (the closure given to [`rt::run_loop`]) runs under the real-time
-//! contract of [`crate::interp`]: it reads three atomic flags (hold, stop, a reposition at
-//! rest after homing), steps the executor, hands the
+//! contract of [`crate::interp`]: it reads atomic flags and counters (hold, stop, the
+//! optional-stop switch, the pause releases, a reposition at rest after homing), steps the
+//! executor, hands the
 //! setpoint to each sink and stores it for `status`. It never allocates, locks, blocks or logs
 //! (daemon/tests/rt_no_alloc.rs proves the allocation part).
 
@@ -67,6 +68,8 @@ pub(super) fn run(
             hold: shared.hold.load(Ordering::Relaxed),
             stop: shared.stop.load(Ordering::Relaxed),
             epoch_floor: Epoch::from_number(shared.epoch_floor.load(Ordering::SeqCst)),
+            optional_stop: shared.optional_stop.load(Ordering::Relaxed),
+            releases: shared.pause_releases.load(Ordering::SeqCst),
         };
         if let Some((axis, pos)) = shared.reposition.pending() {
             // Only at rest: a moving axis keeps its path (the request waits).

@@ -9,6 +9,7 @@
 //! | stopping | refused      | refused          | refused     | refused       | no-op       |
 //! | finished | idle         | running¹         | refused     | refused       | no-op       |
 //! | error    | refused      | refused          | refused     | refused       | stopping    |
+//! | paused   | refused      | refused          | refused     | running⁴      | stopping    |
 //!
 //! `motion.jog`, `motion.move_to` and `mdi` start from idle, finished or a held program at rest
 //! (jog and move-to also replace a running manual motion, state `jogging`); a manual motion ends
@@ -16,7 +17,8 @@
 //! first ([`Control::check_manual`], `excursion`).
 //!
 //! ¹ holding instead while the feed override is 0 %; ² with a program loaded; ³ not while the
-//! override is 0 %. `motion.law` is a load and a start in one. `feed.override` is allowed in
+//! override is 0 %; ⁴ the executor goes on from the program stop it stands at (M0, M1, M60:
+//! the real-time thread pauses there on its own and the supervisor turns running into paused). `motion.law` is a load and a start in one. `feed.override` is allowed in
 //! every state; setting 0 % while running holds, raising it again resumes that hold.
 //!
 //! The threads move the state on their own: running or holding becomes finished at the end of
@@ -34,7 +36,7 @@ use super::tooling::Tooling;
 use crate::control::{ManualError, NotAllowed};
 use crate::interp::Epochs;
 use interpd_motion::program::{Appends, ModalState};
-use interpd_protocol::api::{ManualStatus, Method, ProgramInfo, State};
+use interpd_protocol::api::{ManualStatus, Method, PauseStatus, ProgramInfo, State};
 use std::sync::Arc;
 
 /// Override factors below this act as a feed hold (0 % feed).
@@ -50,6 +52,9 @@ pub(super) enum Loaded {
         text: ProgramText,
         tooling: Arc<Tooling>,
         appends: Option<Appends>,
+        /// The work offsets G54 … G59 the program leaves (its G10 L2/L20 executed at the load's
+        /// check), kept in the parameter file when it has run to its end.
+        offsets_end: Option<Arc<interpd_config::WorkOffsetsConfig>>,
     },
     Laws(Arc<LawProgram>),
 }
@@ -94,6 +99,8 @@ pub(super) struct Control {
     pub manual_braking: bool,
     /// The G-code modal state MDI carries from call to call.
     pub mdi_modal: Option<ModalState>,
+    /// The program stop the program waits at (state `paused`).
+    pub pause: Option<PauseStatus>,
 }
 
 impl Control {
@@ -114,6 +121,7 @@ impl Control {
             manual: None,
             manual_braking: false,
             mdi_modal: None,
+            pause: None,
         }
     }
 
@@ -145,7 +153,7 @@ impl Control {
             Method::ProgramLoad | Method::MotionLaw => at_rest,
             Method::MotionStart => at_rest && self.program.is_some(),
             Method::MotionHold => matches!(self.state, State::Running | State::Jogging),
-            Method::MotionResume => self.state == State::Holding,
+            Method::MotionResume => matches!(self.state, State::Holding | State::Paused),
             _ => true,
         };
         if allowed { Ok(()) } else { Err(NotAllowed { state: self.state, action }) }
@@ -171,6 +179,7 @@ impl Control {
         self.kind = RunKind::Program;
         self.excursion = false;
         self.manual = None;
+        self.pause = None;
         epoch
     }
 

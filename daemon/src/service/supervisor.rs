@@ -5,11 +5,11 @@
 //! cannot wake anyone on.
 
 use super::feeder::{FeederCommand, FeederReport};
-use super::state::{Control, RunKind};
+use super::state::{Control, Loaded, RunKind};
 use super::{Shared, lock};
 use crate::interp::{DivertCause, Notice};
 use crossbeam::channel::Receiver;
-use interpd_protocol::api::{Event, State};
+use interpd_protocol::api::{Event, PauseStatus, State};
 use interpd_protocol::shm::flags;
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
@@ -109,6 +109,11 @@ fn on_notice(shared: &Shared, n: Notice) {
                 manual_done(shared, ctl, cycle);
                 return;
             }
+            // The work offsets a program run to its end leaves are kept (the parameter file).
+            let keep = match (&ctl.kind, &ctl.program) {
+                (RunKind::Program, Some((_, Loaded::Program { offsets_end: Some(o), .. }))) => Some(o.clone()),
+                _ => None,
+            };
             // An MDI from a hold returns to the held program (resume moves back to it).
             if ctl.kind == RunKind::Mdi && ctl.excursion {
                 ctl.state = State::Holding;
@@ -119,11 +124,25 @@ fn on_notice(shared: &Shared, n: Notice) {
             }
             let duration_s = (cycle - ctl.start_cycle) as f64 * shared.config.cycle_s();
             drop(ctl);
+            if let Some(offsets) = keep {
+                shared.keep_program_offsets(&offsets);
+            }
             shared.emit(Event::Finished { duration_s });
         }
         Notice::Line { line, .. } => {
             drop(ctl);
             shared.emit(Event::LineReached { line });
+        }
+        Notice::Paused { line, code, .. } => {
+            // A hold asked for on the way is answered by the pause: the program stands.
+            if !matches!(ctl.state, State::Running | State::Holding) {
+                return;
+            }
+            ctl.state = State::Paused;
+            ctl.pause = Some(PauseStatus { line, code });
+            drop(ctl);
+            tracing::info!(line, ?code, "program stop: waiting for motion.resume");
+            shared.emit(Event::Paused { line, code });
         }
     }
 }

@@ -97,9 +97,45 @@ impl ServiceCore {
                 let i = WORK_SYSTEMS.iter().position(|w| *w == system).expect("checked by the protocol");
                 *next.work_offsets.systems_mut()[i] = values.into_iter().collect::<BTreeMap<_, _>>();
             }
+            // Kept for good first: a change the file cannot take is refused whole.
+            if let Some(store) = &self.shared.params {
+                store.save(&next.work_offsets, axes).map_err(|e| ManualError::ParamFile {
+                    file: store.path().display().to_string(),
+                    message: e.to_string(),
+                })?;
+            }
             *t = Arc::new(next);
         }
         tracing::info!("work offsets changed");
         Ok(self.work_offsets())
+    }
+}
+
+impl super::Shared {
+    /// A program ran to its end: the work offsets its G10 L2/L20 left become the machine's
+    /// (for programs loaded after it, as `offsets.set`) and go to the parameter file. Without a
+    /// parameter file, a program's G10 changes the offsets for that program only.
+    pub(super) fn keep_program_offsets(&self, offsets: &interpd_config::WorkOffsetsConfig) {
+        let shared = self;
+        let Some(store) = &shared.params else { return };
+        let axes = &shared.settings.axes;
+        let mut t = lock(&shared.tooling);
+        if super::param_store::same_offsets(&t.work_offsets, offsets, axes) {
+            return;
+        }
+        let mut next = (**t).clone();
+        next.work_offsets = offsets.clone();
+        match store.save(&next.work_offsets, axes) {
+            Ok(()) => *t = Arc::new(next),
+            Err(e) => {
+                drop(t);
+                let message = format!(
+                    "cannot write the parameter file {}: {e}; the program's work offsets are not kept",
+                    store.path().display()
+                );
+                tracing::error!("{message}");
+                shared.emit(interpd_protocol::api::Event::Error { message });
+            }
+        }
     }
 }

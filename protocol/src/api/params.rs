@@ -295,6 +295,27 @@ impl LawParams {
     }
 }
 
+/// `motion.optional_stop` parameters: `{"enabled": true}` makes M1 pause the program as M0
+/// does; `false` lets the motion go on at M1 (its exact stop stays).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OptionalStopParams {
+    pub enabled: bool,
+}
+
+const OPTIONAL_STOP: Usage = Usage {
+    method: Method::MotionOptionalStop,
+    example: r#"{"enabled": false}"#,
+    known: r#"{"enabled": true} or {"enabled": false}"#,
+    missing: ("enabled", r#"missing parameter "enabled""#),
+};
+
+impl OptionalStopParams {
+    pub fn parse(params: Params) -> Result<OptionalStopParams, ErrorObject> {
+        OPTIONAL_STOP.members::<OptionalStopParams>(params)
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // motion.jog, motion.move_to, mdi
 // ---------------------------------------------------------------------------------------------

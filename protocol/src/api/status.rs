@@ -26,11 +26,21 @@ pub enum State {
     Error,
     /// A manual motion (`motion.jog`, `motion.move_to`) is in progress.
     Jogging,
+    /// The program stands at a program stop (M0, M1, M60) and waits for `motion.resume`.
+    Paused,
 }
 
 impl State {
-    pub const ALL: [State; 7] =
-        [State::Idle, State::Running, State::Holding, State::Stopping, State::Finished, State::Error, State::Jogging];
+    pub const ALL: [State; 8] = [
+        State::Idle,
+        State::Running,
+        State::Holding,
+        State::Stopping,
+        State::Finished,
+        State::Error,
+        State::Jogging,
+        State::Paused,
+    ];
 
     pub const fn as_str(self) -> &'static str {
         match self {
@@ -41,6 +51,7 @@ impl State {
             State::Finished => "finished",
             State::Error => "error",
             State::Jogging => "jogging",
+            State::Paused => "paused",
         }
     }
 }
@@ -217,6 +228,17 @@ pub struct Status {
     pub modal: Option<ProgramModal>,
     /// How far ahead of the machine the look-ahead stayed in the current or last motion.
     pub lookahead: LookaheadStatus,
+    /// The optional-stop switch: M1 pauses the program (`motion.optional_stop`).
+    pub optional_stop: bool,
+    /// The program stop the program waits at (state `paused`); `null` otherwise.
+    pub pause: Option<PauseStatus>,
+}
+
+/// The program stop a paused program waits at, in `status.pause`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PauseStatus {
+    pub line: u32,
+    pub code: super::PauseCode,
 }
 
 /// How the look-ahead (the planner thread) kept up in the current or last motion, in
@@ -339,6 +361,8 @@ impl Default for Status {
             mdi: None,
             modal: None,
             lookahead: LookaheadStatus::default(),
+            optional_stop: true,
+            pause: None,
         }
     }
 }

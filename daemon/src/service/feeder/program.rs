@@ -2,14 +2,16 @@
 //! an [`interpd_motion::Feed`], or a path made whole (MDI blocks). Each chunk takes about a
 //! chunk's duration of planned segments and the fastest stop from its end as its tail.
 
-use super::run::{Motion, PathRun};
+use super::run::{Motion, PAUSE_AT_MM, PathRun};
 use super::{Feeder, STARVED_STOP_CHUNKS};
-use crate::interp::Chunk;
 use crate::interp::coarse::{CoarseBuilder, CoarsePoint};
+use crate::interp::{Chunk, ChunkPause};
 use crate::service::tooling::Tooling;
-use interpd_motion::path::{AxisVec, Path};
+use interpd_motion::Segment;
+use interpd_motion::path::{AxisVec, Path, Pause};
 use interpd_motion::program::Appends;
 use interpd_motion::{Feed, FeedError};
+use interpd_protocol::api::PauseCode;
 use std::sync::Arc;
 use std::time::SystemTime;
 
@@ -126,8 +128,18 @@ impl Feeder {
             self.stats.tail_retries += 1;
             target = t + 0.25 * chunk_s;
         };
+        let stops = program_stops(path.feed.path(), &segments, &mut run.pause_armed_mm);
         let mut builder = CoarseBuilder::new(path.feed.path(), max_piece_s, &self.max_jerk);
-        builder.build(&segments, 0.0, &mut chunk.points);
+        // Each program stop gets a coarse point of its own: the executor stands exactly there.
+        let mut from = 0;
+        for (k, code, line) in stops {
+            builder.build(&segments[from..k], 0.0, &mut chunk.points);
+            let t_s = chunk.points.last().map_or(0.0, |p| p.t_s);
+            chunk.pauses.push(ChunkPause { t_s, code, line });
+            from = k;
+        }
+        let t_s = chunk.points.last().map_or(0.0, |p| p.t_s);
+        builder.build(&segments[from..], t_s, &mut chunk.points);
         let end = *chunk.points.last().expect("points");
         chunk.last = path.feed.finished();
         if !tail.is_empty() {
@@ -138,4 +150,53 @@ impl Feeder {
         run.close_chunk(end, tail);
         Ok(true)
     }
+}
+
+/// Path velocity counted as rest at a program stop, mm/s.
+const PAUSE_V_MM_S: f64 = 1e-9;
+
+/// The program stops (M0, M1, M60) the planned `segments` reach, after `armed_mm` (moved past
+/// each one found): the index of the segment that starts at the stop, the code and the program
+/// line the motion continues with. The planner plans a stop at rest before such an element,
+/// so a segment starts there.
+fn program_stops(path: &Path, segments: &[Segment], armed_mm: &mut f64) -> Vec<(usize, PauseCode, u32)> {
+    let mut stops = Vec::new();
+    let Some(last) = segments.last() else { return stops };
+    let end_mm = last.s1_mm();
+    let first = path.elements.partition_point(|e| e.s_start_mm <= *armed_mm);
+    for e in &path.elements[first..] {
+        if e.s_start_mm > end_mm + PAUSE_AT_MM {
+            break;
+        }
+        let Some(pause) = e.pause_before else { continue };
+        // The first segment from rest there (a sliver of the braking before may start within
+        // the tolerance too).
+        let near = |g: &Segment| (g.s0_mm - e.s_start_mm).abs() <= PAUSE_AT_MM;
+        let at = segments
+            .iter()
+            .position(|g| near(g) && g.v0.abs() <= PAUSE_V_MM_S)
+            .or_else(|| segments.iter().position(near));
+        match at {
+            Some(k) => {
+                let code = match pause {
+                    Pause::Stop => PauseCode::M0,
+                    Pause::Optional => PauseCode::M1,
+                    Pause::PalletShuttle => PauseCode::M60,
+                };
+                stops.push((k, code, e.source.line));
+                *armed_mm = e.s_start_mm;
+            }
+            // The segments end at the stop: the next chunk's first one starts there.
+            None if e.s_start_mm >= end_mm - PAUSE_AT_MM => break,
+            None => {
+                tracing::warn!(
+                    line = e.source.line,
+                    s_mm = e.s_start_mm,
+                    "a program stop the plan does not stop at: passed"
+                );
+                *armed_mm = e.s_start_mm;
+            }
+        }
+    }
+    stops
 }

@@ -12,6 +12,9 @@ use interpd_motion::{Feed, Segment};
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
 
+/// A planned segment starting this close to an element's start (mm) starts at it.
+pub(super) const PAUSE_AT_MM: f64 = 1e-6;
+
 /// Where a run waits.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) enum Wait {
@@ -123,6 +126,9 @@ pub(super) struct Run {
     pub(super) queued_s: f64,
     /// Path position the run (re)started at.
     pub(super) s_start_mm: f64,
+    /// Program stops at or before this path position are queued already (or lie behind the
+    /// start): each is put into one chunk only.
+    pub(super) pause_armed_mm: f64,
 }
 
 impl Run {
@@ -143,6 +149,8 @@ impl Run {
             wait: Wait::No,
             queued_s: 0.0,
             s_start_mm: s_mm,
+            // A stop exactly where the run starts from rest is still ahead of it.
+            pause_armed_mm: s_mm - PAUSE_AT_MM,
         }
     }
 

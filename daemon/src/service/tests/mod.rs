@@ -25,6 +25,8 @@ pub(crate) struct Sim {
     pub reports: channel::Receiver<FeederReport>,
     pub hold: bool,
     pub stop: bool,
+    pub optional_stop: bool,
+    pub releases: u64,
     /// The stop floor the control side publishes.
     pub epoch_floor: Epoch,
     pub cycle: u64,
@@ -47,6 +49,8 @@ impl Sim {
             reports: rx,
             hold: false,
             stop: false,
+            optional_stop: true,
+            releases: 0,
             epoch_floor: Epoch::NONE,
             cycle: 0,
             out: Vec::new(),
@@ -77,6 +81,8 @@ impl Sim {
             hold: self.hold,
             stop: self.stop,
             epoch_floor: self.epoch_floor,
+            optional_stop: self.optional_stop,
+            releases: self.releases,
         };
         let mut sp = Setpoints::default();
         self.executor.step(self.cycle, self.config.cycle_s(), &io, &mut sp);
@@ -320,4 +326,85 @@ fn at_rest_only_the_first_chunk_of_an_epoch_starts() {
     }
     assert!(sim.out.iter().all(|s| s.pos[0] == 0.0), "moved: X = {}", sim.out.last().unwrap().pos[0]);
     assert!(!sim.seen.iter().any(|n| matches!(n, Notice::Started { .. })), "{:?}", sim.seen);
+}
+
+/// Runs `sim` until a pause notice, at most `max_cycles`; the index of that notice.
+fn run_to_pause(sim: &mut Sim, max_cycles: u64) -> Option<usize> {
+    let before = sim.seen.len();
+    for _ in 0..max_cycles {
+        sim.cycle();
+        if let Some(i) = sim.seen[before..].iter().position(|n| matches!(n, Notice::Paused { .. })) {
+            return Some(before + i);
+        }
+        if sim.finished() {
+            return None;
+        }
+    }
+    None
+}
+
+#[test]
+fn program_stops_stand_exactly_until_released_and_m1_follows_the_switch() {
+    use interpd_protocol::api::PauseCode;
+    let text = "G21 G90 G1 F1200 X10\nM0\nG1 X20\nM1\nG1 X30\nM60\nG1 X40\nM2\n";
+    let config = Config::default_machine();
+    let path = Arc::new(program::parse(text, "stops.ngc", &Settings::from(&config)).unwrap().path);
+    let mut sim = Sim::new(config.clone());
+    sim.start(path.clone());
+    // M0: stands at X10 with every setpoint constant while paused.
+    let i = run_to_pause(&mut sim, 20_000).expect("paused at M0");
+    assert!(matches!(sim.seen[i], Notice::Paused { code: PauseCode::M0, line: 3, .. }), "{:?}", sim.seen[i]);
+    let at = *sim.out.last().unwrap();
+    assert!((at.pos[0] - 10.0).abs() < 1e-9 && at.v_mm_s.abs() < 1e-9, "{at:?}");
+    for _ in 0..200 {
+        sim.cycle();
+    }
+    for sp in &sim.out[sim.out.len() - 201..] {
+        assert_eq!(sp.pos[..3], at.pos[..3], "a setpoint moved while paused");
+        assert_ne!(sp.flags & interpd_protocol::shm::flags::PAUSED, 0);
+    }
+    // Released; M1 with the switch on pauses at X20.
+    sim.releases += 1;
+    let i = run_to_pause(&mut sim, 20_000).expect("paused at M1");
+    assert!(matches!(sim.seen[i], Notice::Paused { code: PauseCode::M1, line: 5, .. }), "{:?}", sim.seen[i]);
+    assert!((sim.out.last().unwrap().pos[0] - 20.0).abs() < 1e-9);
+    // Switch off: M60 still pauses, at X30.
+    sim.optional_stop = false;
+    sim.releases += 1;
+    let i = run_to_pause(&mut sim, 20_000).expect("paused at M60");
+    assert!(matches!(sim.seen[i], Notice::Paused { code: PauseCode::M60, line: 7, .. }), "{:?}", sim.seen[i]);
+    assert!((sim.out.last().unwrap().pos[0] - 30.0).abs() < 1e-9);
+    sim.releases += 1;
+    sim.run_to_end(20_000);
+    assert!((sim.out.last().unwrap().pos[0] - 40.0).abs() < 1e-9);
+    let r = stream_ratios(&config, &sim.out);
+    assert!(r[0] <= 1.001 && r[1] <= 1.001 && r[2] <= 1.02, "limits: {r:?}");
+    assert!(!sim.seen.iter().any(|n| matches!(n, Notice::Diverted { .. })), "nothing replanned: {:?}", sim.seen);
+    // The switch off from the start: M1 is passed at its exact stop without waiting.
+    let mut sim = Sim::new(config.clone());
+    sim.optional_stop = false;
+    sim.start(path);
+    run_to_pause(&mut sim, 20_000).expect("M0");
+    sim.releases += 1;
+    let i = run_to_pause(&mut sim, 20_000).expect("M60");
+    assert!(matches!(sim.seen[i], Notice::Paused { code: PauseCode::M60, .. }), "M1 skipped: {:?}", sim.seen[i]);
+}
+
+#[test]
+fn a_stop_while_paused_ends_the_program_where_it_stands() {
+    let config = Config::default_machine();
+    let text = "G21 G90 G1 F1200 X10\nM0\nG1 X20\nM2\n";
+    let path = Arc::new(program::parse(text, "stop.ngc", &Settings::from(&config)).unwrap().path);
+    let mut sim = Sim::new(config);
+    sim.start(path);
+    run_to_pause(&mut sim, 20_000).expect("paused");
+    sim.stop = true;
+    for _ in 0..10 {
+        sim.cycle();
+    }
+    assert!(sim.seen.iter().any(|n| matches!(n, Notice::Stood { cause: DivertCause::Stop, .. })), "{:?}", sim.seen);
+    let last = sim.out.last().unwrap();
+    assert!((last.pos[0] - 10.0).abs() < 1e-9);
+    assert_ne!(last.flags & interpd_protocol::shm::flags::IDLE, 0);
+    assert!(!sim.finished());
 }

@@ -232,7 +232,8 @@ fn notice_cycle(n: &Notice) -> u64 {
         | Notice::Diverted { cycle, .. }
         | Notice::Stood { cycle, .. }
         | Notice::Finished { cycle, .. }
-        | Notice::Line { cycle, .. } => cycle,
+        | Notice::Line { cycle, .. }
+        | Notice::Paused { cycle, .. } => cycle,
     }
 }
 

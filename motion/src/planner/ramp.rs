@@ -380,7 +380,13 @@ fn landing_ramp_interval(
     // The next node's flat acceleration at the current speed (the ramp slows on the way, and
     // a slower state is flat at a lower relative slope: landing there errs on the safe side).
     let target = ceiling.flat_acc(t + 1, v);
-    if a <= target || steep.a1() >= target {
+    // The steep interval either brakes past the target (land instead), or does not brake at
+    // all although the state is above it: where every braking jerk of `RAMP_JERK_STEPS` comes
+    // to rest inside the interval (a slow feed on nodes a few µm apart, against the jerk
+    // limit of a fast machine: braking at 0.4 J from 1 mm/s stops within 1 µm), the ramp
+    // falls back to j = 0 and would run on at constant acceleration, above the ceiling,
+    // until the block ends. The landing interval is the gentle braking jerk there.
+    if a <= target || (steep.a1() >= target && steep.j < 0.0) {
         return Some((steep, false, r1));
     }
     let ig = view.interval_geom(t);

@@ -627,3 +627,24 @@ fn a_tight_smoothed_trochoid_gets_nodes_for_its_geometry_not_for_the_interpolati
     assert!(stats.nodes < 800 && stats.forced_stops == 0, "{stats:?}");
     assert!(stats.work.units() < 400_000, "{stats:?}");
 }
+
+/// LinuxCNC's `nc_files/comp311.ngc` in miniature: at F60 mm/min (1 mm/s) on the loose test
+/// machine, a line and two tangent arcs after a plunge, planned online with a short look-ahead,
+/// so that a horizon ends inside an arc. The arc cruises at its feed, so its nodes there are
+/// far apart (`sampling::cruise_ramp_mm`), and the horizon's end, planned as a stop, must
+/// still be reachable from rest backwards. It found no backward branch from there ("no
+/// backward branch leaves this section end"), and forced stops crept back to the arc's start
+/// until the program failed.
+#[test]
+fn a_horizon_ending_inside_a_slow_arc_plans_its_stop() {
+    let cfg = repo_machine("tests/machines/xyz_loose.toml");
+    let text = "G21 G90 G17 F60\nG1 Z-25.4\nG1 Y-25.4\nG3 X25.4 Y-50.8 I25.4\nG2 X50.8 Y-76.2 J-25.4\nM2\n";
+    let prog = program::parse(text, "t.ngc", &cfg).unwrap();
+    for lookahead_mm in [30.0, 60.0] {
+        let (segs, _, stats) = plan_online_stats(&cfg, &prog.path, lookahead_mm);
+        check_covers(&segs, prog.path.length_mm());
+        assert!(stats.forced_stops == 0, "look-ahead {lookahead_mm} mm: {stats:?}");
+        let [v, a, j] = profile::limit_ratios(&prog.path, &segs, &cfg, 1e-3);
+        assert!(v <= 1.001 && a <= 1.001 && j <= 1.02, "vel {v} acc {a} jerk {j}");
+    }
+}

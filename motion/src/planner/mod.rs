@@ -105,6 +105,18 @@ const STOP_TAKEN_WHOLE_MAX_INTERVALS: usize = 4;
 /// rest to rest takes at least three constant-jerk intervals.
 const STOP_CLEARANCE_NODES: usize = 3;
 
+/// A block longer than this many nodes is planned in chunks (`Planner::plan_horizon`): the
+/// first `CHUNK_NODES` as if the motion stopped at the last of them, handing over what does
+/// not depend on that stop, then on from the hand-over state, as consecutive horizons do. One
+/// search over a long block of dense nodes (the tight curves of smoothed CAM data, a node every
+/// few µm) repeats every pass over all its nodes after each repair, and so ran out of its work
+/// budget and forced stops in mid-surface (issue 41: a block of 3 431 nodes on the family's
+/// wander program, the 500 mm look-ahead of `3D_Chips.ngc`); a chunk's search needs only its
+/// own repairs, within the budget of 1 000 units per node (`block::LONG_BLOCK_NODES`). Chunks
+/// of 1 000 nodes handed over states the next chunk could not continue from more often
+/// (braking along the kept stop), and left one forced stop on `3D_Chips.ngc`.
+const CHUNK_NODES: usize = 2_000;
+
 /// Interval lengths of a retained stop against the node spacing
 /// ([`Planner::can_stop_within_horizon`]).
 #[cfg(test)]
@@ -411,13 +423,17 @@ impl Planner {
         let mut idx = 1;
         // Node where `retained_stop` (what is left of it) starts.
         let mut stop_from = 0;
+        // Off for the rest of the horizon once a chunk handed over nothing (see below).
+        let mut chunking = true;
         while idx < n {
             let is_end = idx == n - 1;
-            if !(self.nodes[idx].stop || is_end) {
+            let chunk_cut = chunking && !is_end && !self.nodes[idx].stop && idx - block_start >= CHUNK_NODES;
+            if !(self.nodes[idx].stop || is_end || chunk_cut) {
                 idx += 1;
                 continue;
             }
-            let virtual_end = is_end && !last_is_real_end && !self.nodes[idx].stop;
+            // A chunk's end is planned as a stop, as the horizon's end is.
+            let virtual_end = (is_end && !last_is_real_end && !self.nodes[idx].stop) || chunk_cut;
             let saved_vbar = self.nodes[idx].vbar_mm_s;
             if virtual_end {
                 self.nodes[idx].vbar_mm_s = 0.0;
@@ -481,12 +497,25 @@ impl Planner {
                 continue;
             }
             let final_count = if virtual_end { plan.final_before } else { plan.intervals.len() };
+            if chunk_cut && final_count == 0 {
+                // Nothing of the chunk is final (its whole profile depends on the stop at its
+                // end): the block is planned whole from here, as without chunks.
+                chunking = false;
+                idx += 1;
+                continue;
+            }
             self.emit(block_start, &plan.intervals[..final_count]);
             handed = block_start + final_count;
             if final_count < plan.intervals.len() {
                 let iv = &plan.intervals[final_count];
                 state = (iv.v0, iv.a0);
                 self.retained_stop = plan.intervals[final_count..].to_vec();
+                if chunk_cut {
+                    // On from the hand-over state, with the rest of the chunk's plan as the
+                    // stop kept, exactly as the next horizon would go on.
+                    (stop_from, block_start, idx) = (handed, handed, handed + 1);
+                    continue;
+                }
                 break;
             }
             state = (0.0, 0.0);

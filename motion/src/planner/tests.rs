@@ -648,3 +648,25 @@ fn a_horizon_ending_inside_a_slow_arc_plans_its_stop() {
         assert!(v <= 1.001 && a <= 1.001 && j <= 1.02, "vel {v} acc {a} jerk {j}");
     }
 }
+
+/// Moves 1 600–3 300 of the hard CAM family's wander program (`benches/cam/family.py`, seed 7,
+/// a random polyline of ~7 µm moves turning by ~17° per move), smoothed with G64 P0.01 on the
+/// family's machine: one G64 run, so one block of 3 775 nodes, a node every few µm where the
+/// jerk term sets the ceiling. Its search repeats every pass over all of them after each
+/// repair, took the most work allowed for the block and forced a stop in mid-surface. Planned
+/// in chunks of `CHUNK_NODES`, each chunk's search needs only its own repairs.
+#[test]
+fn a_long_block_of_dense_nodes_is_planned_in_chunks_without_forced_stops() {
+    let mut cfg = repo_machine("benches/cam/family_machine.toml");
+    cfg.prep.max_solve_ms = 1e5;
+    let prog = program::parse(include_str!("testdata/wander_snippet.ngc"), "t.ngc", &cfg).unwrap();
+    let path = crate::prep::prepare_path(&cfg, &prog.path).unwrap().path;
+    let (segs, _, stats) = plan_online_stats(&cfg, &path, cfg.planner.lookahead_mm);
+    check_covers(&segs, path.length_mm());
+    let [v, a, j] = profile::limit_ratios(&path, &segs, &cfg, 2.5e-4);
+    assert!(v <= 1.001 && a <= 1.001 && j <= 1.02, "vel {v} acc {a} jerk {j}");
+    assert!(stats.forced_stops == 0, "{stats:?}");
+    assert!(stats.nodes > 3_000, "the case needs a block longer than a chunk: {stats:?}");
+    // Every chunk's search within the budget of a block of its length.
+    assert!(stats.block_work_max < block::work_bound_units(CHUNK_NODES), "{stats:?}");
+}

@@ -9,6 +9,7 @@ mod flow;
 mod frame;
 mod offsets;
 mod spline;
+mod tool_table;
 
 pub(super) use flow::{LineAt, LinePos};
 
@@ -33,6 +34,7 @@ use offsets::OffsetWord;
 use spline::{SplineKind, SplineState};
 use std::cell::Cell;
 use std::f64::consts::PI;
+use tool_table::ToolTable;
 
 // `pub(crate)`: `program::fmt_num` (mod.rs) re-exports it from here.
 pub(crate) use super::error::fmt_num;
@@ -102,6 +104,8 @@ pub(crate) struct Modal {
     pub(super) work_system: usize,
     /// Active tool length compensation: the tool (None for G43.1) and its length, mm.
     pub(super) tool_length: Option<(Option<u32>, f64)>,
+    /// The tool offset G43 applies on every axis (Z: the length), mm or deg; zero after G49.
+    pub(super) tool_offset: AxisVec,
     /// The G92 offset per axis, added to every work offset, and the values G92 saved last
     /// (G92.3 restores them; LinuxCNC's parameters 5211–5219).
     pub(super) g92: AxisVec,
@@ -184,6 +188,8 @@ pub(crate) struct Interpreter {
     spline: SplineState,
     /// Modal states M70/M73 saved, by call level.
     contexts: Contexts,
+    /// The tools G10 L1/L10/L11 wrote (tool_table.rs).
+    pub(super) tools: ToolTable,
     /// The block being executed moves in machine coordinates (G53).
     block_g53: bool,
     /// The line being read.
@@ -291,6 +297,7 @@ impl Interpreter {
             pos,
             work_system: 0,
             tool_length: None,
+            tool_offset: [0.0; MAX_AXES],
             g92: [0.0; MAX_AXES],
             g92_saved: [0.0; MAX_AXES],
             prepared_tool: None,
@@ -336,6 +343,7 @@ impl Interpreter {
             cycle: CycleState::default(),
             spline: SplineState::default(),
             contexts: Contexts::default(),
+            tools: ToolTable::default(),
             block_g53: false,
             current_line: 0,
         }
@@ -363,8 +371,9 @@ impl Interpreter {
             work_offset: self.work_origins[m.work_system],
             g92_offset: m.g92,
             tool: m.tool.map(|number| {
-                let t = self.settings.tool(number);
-                ActiveTool { number, length_mm: t.map(|t| t.length_mm), radius_mm: t.map(|t| t.diameter_mm / 2.0) }
+                let t = self.program_tool(number);
+                let length_mm = t.map(|t| self.settings.axis_index(AxisLetter::Z).map_or(0.0, |z| t.offset[z]));
+                ActiveTool { number, length_mm, radius_mm: t.map(|t| t.diameter_mm / 2.0) }
             }),
             tool_length: m.tool_length,
             cutter: if self.cutter.is_on() { m.comp } else { None },
@@ -557,8 +566,14 @@ impl Interpreter {
         snap.inverse_time = m.inverse_time;
         snap.tool = m.tool.map_or(0.0, f64::from);
         snap.selected_tool = m.prepared_tool.map_or(-1.0, f64::from);
-        snap.tool_length = m.tool_length.map_or(0.0, |(_, l)| l / m.unit_mm);
         snap.tool_offset_on = m.tool_length.is_some();
+        if let Some(tool) = m.tool.and_then(|n| self.program_tool(n)) {
+            for (slot, letter) in AxisLetter::ALL.iter().enumerate().take(9) {
+                let Some(k) = self.settings.axis_index(*letter) else { continue };
+                let unit = if self.linear[k] { m.unit_mm } else { 1.0 };
+                snap.loaded_tool_offset[slot] = tool.offset[k] / unit;
+            }
+        }
         snap.feed = m.feed_mm_s.map_or(0.0, |f| f * 60.0 / m.unit_mm);
         snap.motion_code = match m.motion {
             None | Some(Motion::Rapid) => 0.0,
@@ -938,7 +953,7 @@ impl Interpreter {
                         let Some((number, col)) = self.tool_word(dw, 'D', line, col, d) else { return false };
                         match number {
                             Some(number) => {
-                                let Some(entry) = self.settings.tool(number) else {
+                                let Some(entry) = self.program_tool(number) else {
                                     d.error(line, col, format!("tool {number} is not in the tool table"));
                                     return false;
                                 };
@@ -999,25 +1014,33 @@ impl Interpreter {
             }
         }
         if let Some((word, col)) = g.tool_length {
-            let Some(_) = self.settings.axis_index(AxisLetter::Z) else {
+            let Some(z) = self.settings.axis_index(AxisLetter::Z) else {
                 d.error(line, col, "tool length compensation needs a Z axis on this machine");
                 return false;
             };
             let length = match word {
-                ToolLengthWord::Cancel => None,
+                ToolLengthWord::Cancel => {
+                    self.modal.tool_offset = [0.0; MAX_AXES];
+                    None
+                }
                 ToolLengthWord::Table => {
                     // Without H, the tool in the spindle (T… M6), as LinuxCNC.
                     let Some((number, hcol)) = self.tool_word(block.get('H'), 'H', line, col, d) else { return false };
                     match number {
                         Some(number) => {
-                            let Some(tool) = self.settings.tool(number) else {
+                            let Some(tool) = self.program_tool(number) else {
                                 d.error(line, hcol, format!("tool {number} is not in the tool table"));
                                 return false;
                             };
                             self.summary.tools.insert(number);
-                            Some((Some(number), tool.length_mm))
+                            // Every offset of the tool, as LinuxCNC 2.9 (tool_table.rs).
+                            self.modal.tool_offset = tool.offset;
+                            Some((Some(number), tool.offset[z]))
                         }
-                        None => Some((Some(0), 0.0)),
+                        None => {
+                            self.modal.tool_offset = [0.0; MAX_AXES];
+                            Some((Some(0), 0.0))
+                        }
                     }
                 }
                 ToolLengthWord::Dynamic => {
@@ -1032,7 +1055,9 @@ impl Interpreter {
                         d.error(line, col, "G43.1 needs Z (the tool length)");
                         return false;
                     };
-                    Some((None, zw.value * self.modal.unit_mm))
+                    // The offsets of the other axes stay, as LinuxCNC's G43.1 keeps them.
+                    self.modal.tool_offset[z] = zw.value * self.modal.unit_mm;
+                    Some((None, self.modal.tool_offset[z]))
                 }
             };
             self.modal.tool_length = length;
@@ -1065,7 +1090,7 @@ impl Interpreter {
         d: &mut Diagnostics,
     ) -> Option<(Option<u32>, u32)> {
         let Some(w) = w else {
-            let number = self.modal.tool.filter(|&n| n != 0 || self.settings.tool(0).is_some());
+            let number = self.modal.tool.filter(|&n| n != 0 || self.program_tool(0).is_some());
             return Some((number, col));
         };
         if w.value < 0.0 || w.value.fract() != 0.0 || w.has_point {
@@ -1151,14 +1176,10 @@ impl Interpreter {
         true
     }
 
-    /// The offset from program to machine coordinates on axis `k`: the work offset, on Z the
-    /// tool length (G43), and the G92 offset.
+    /// The offset from program to machine coordinates on axis `k`: the work offset, the tool
+    /// offset (G43; on Z the tool length), and the G92 offset.
     pub(super) fn program_offset(&self, k: usize) -> f64 {
-        let tool = match self.modal.tool_length {
-            Some((_, l)) if self.settings.axes[k].name == AxisLetter::Z => l,
-            _ => 0.0,
-        };
-        self.work_origins[self.modal.work_system][k] + tool + self.modal.g92[k]
+        self.work_origins[self.modal.work_system][k] + self.modal.tool_offset[k] + self.modal.g92[k]
     }
 
     /// The axes a canned cycle works on in the active plane: the plane's two and the normal.

@@ -51,8 +51,10 @@ pub(super) struct Snapshot {
     pub inverse_time: bool,
     pub tool: f64,
     pub selected_tool: f64,
-    pub tool_length: f64,
     pub tool_offset_on: bool,
+    /// The offsets X … W of the tool in the spindle as the tool table has them (#5401–#5409,
+    /// LinuxCNC 2.9: G10 L1 on the loaded tool shows here before G43 applies it).
+    pub loaded_tool_offset: [f64; 9],
     pub feed: f64,
     pub motion_code: f64,
     pub plane_code: f64,
@@ -115,13 +117,7 @@ impl Params {
             5211..=5219 => s.g92[n - 5211],
             5220 => s.coord_index as f64,
             5400 => s.tool,
-            5401..=5409 => {
-                if n == 5403 {
-                    s.tool_length
-                } else {
-                    0.0
-                }
-            }
+            5401..=5409 => s.loaded_tool_offset[n - 5401],
             5420..=5428 => s.pos[n - 5420],
             5221..=5390 if (n - 5221) % 20 < 9 => s.work[(n - 5221) / 20][(n - 5221) % 20],
             5221..=5390 if (n - 5221) % 20 == 9 => s.rotation_deg[(n - 5221) / 20],

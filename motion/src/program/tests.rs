@@ -537,7 +537,12 @@ fn offsets_home_positions_and_machine_coordinates() {
     for (text, want) in [
         ("G91 G53 G0 X1\n", "t.ngc:1:5: G53 cannot be used in incremental distance mode"),
         ("G53 G2 X1 I1 F100\n", "t.ngc:1:1: G53 moves in machine coordinates with G0 or G1 only"),
-        ("G10 L1 P1 R2\n", "t.ngc:1:5: G10 L1: the tool table comes from the configuration"),
+        ("G10 L1 P1\n", "t.ngc:1:1: G10 L1 without offsets has no effect"),
+        ("G10 L1 X1\n", "t.ngc:1:1: G10 L1 needs P (the tool number)"),
+        ("G10 L10 P1.5 X1\n", "t.ngc:1:9: G10 L10: P must be a tool number"),
+        ("G10 L11 P7 Z1\n", "t.ngc:1:9: G10 L11: tool 7 is not in the tool table"),
+        ("G10 L1 P1 Q12\n", "t.ngc:1:11: G10 L1: Q (the lathe tool orientation) must be 0 … 9"),
+        ("G10 L3 P1 X1\n", "t.ngc:1:5: G10 L3 is not supported"),
         ("G10 L2 X1\n", "t.ngc:1:1: G10 L2 needs P"),
         ("G10 L2 P10 X1\n", "t.ngc:1:8: G10: P must be a coordinate system 0 … 9"),
         ("G28.1 X1\n", "t.ngc:1:7: G28.1 stores the current position and takes no axis words"),
@@ -726,4 +731,43 @@ fn g61_1_is_exact_stop_as_g61() {
     let b = ok("G64 P0.1\nG61\nG1 X1 F100\nY1\n");
     assert_eq!(a.path.elements[1].joint, b.path.elements[1].joint);
     assert_eq!(a.path.elements.len(), b.path.elements.len());
+}
+
+fn one_tool() -> Settings {
+    let mut settings = xyz();
+    settings.tools = vec![interpd_config::ToolConfig { number: 1, diameter_mm: 6.0, length_mm: 0.0, name: None }];
+    settings
+}
+
+#[test]
+fn g10_writes_tool_offsets_that_g43_applies_on_every_axis() {
+    // As LinuxCNC 2.9 (its tests/interp/g10/g10-l1-l10): G10 L1 sets the offsets, G43 applies
+    // X Y and Z; they stay applied until G43 or G49, whatever G10 writes meanwhile.
+    let run = |text: &str| parse(text, "t.ngc", &one_tool()).unwrap_or_else(|e| panic!("{text}: {e}"));
+    let p = run("G10 L1 P1 X1 Y2 Z3\nT1 M6 G43\nG0 X0 Y0 Z0\nG10 L1 P1 X5\nG0 X1\nG49\nG0 X0 Y0 Z0\n");
+    assert_eq!(ends(&p), [[1.0, 2.0, 3.0], [2.0, 2.0, 3.0], [0.0, 0.0, 0.0]]);
+    // L10: the offsets make the current point read the given coordinates with G43, here in
+    // G55 with a G92 offset (both count).
+    let p =
+        run("G10 L2 P2 X10\nG55 G92 X0\nT1 M6 G0 X0.1 Y0.2 Z0.3\nG10 L10 P1 X1 Y2 Z3\nG43\nG0 X1 Y2 Z3\nG1 X0 F100\n");
+    // The move to X1 Y2 Z3 stays where the tool stands (it is dropped).
+    let e = ends(&p);
+    assert!(e.len() == 2 && close(e[0], [0.1, 0.2, 0.3]) && close(e[1], [-0.9, 0.2, 0.3]), "{e:?}");
+    // L11: in G59.3 (the touch-off fixture) without G92, whatever system is active.
+    let p = run("G10 L2 P9 Z-27\nG53 G0 Z-30\nG92 Z5\nG10 L11 P1 Z0\nT1 M6 G43\nG92.1\nG0 Z0\n");
+    assert!(close(*ends(&p).last().unwrap(), [0.0, 0.0, -3.0]), "{:?}", ends(&p));
+    // In a rotated system the offset stays in the machine frame; L10 with X alone keeps the
+    // part of the offset along the turned Y axis.
+    let p = run("G10 L2 P1 R90\nG10 L1 P1 X1\nT1 M6 G43\nG0 X0 Y0\nG0 X1\n");
+    let e = ends(&p);
+    assert!(close(e[0], [1.0, 0.0, 0.0]) && close(e[1], [1.0, 1.0, 0.0]), "{e:?}");
+    let p = run("G10 L2 P1 R45\nG0 X3\nG0 X0 Y0\nT1 M6\nG10 L10 P1 X1\nG10 L10 P1 Y1\nG43\nG0 X2 Y2\n");
+    let last = *ends(&p).last().unwrap();
+    let want = [0.0, std::f64::consts::SQRT_2, 0.0];
+    assert!(last.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-6), "{last:?}");
+    // R sets the radius cutter compensation takes; #5401 … reads the loaded tool's offsets.
+    let p = run("G10 L1 P1 R2\nT1 M6\nG41\nG1 X10 F100\n");
+    assert!(close(end(&p), [10.0, 2.0, 0.0]), "{:?}", end(&p));
+    let p = run("T1 M6\nG10 L1 P1 X1 Y2\n#1 = [#5401 * 10 + #5402]\nG0 X#1\n");
+    assert!(close(end(&p), [12.0, 0.0, 0.0]));
 }

@@ -22,6 +22,7 @@ pub(crate) struct SavedModal {
     blend: Blend,
     work_system: usize,
     tool_length: Option<(Option<u32>, f64)>,
+    tool_offset: crate::path::AxisVec,
     retract_r: bool,
     /// Cutter compensation was on: it is not restored, so a restore into another state is an
     /// error.
@@ -56,6 +57,7 @@ impl Interpreter {
                     blend: m.blend,
                     work_system: m.work_system,
                     tool_length: m.tool_length,
+                    tool_offset: m.tool_offset,
                     retract_r: self.cycle.retract_r,
                     comp_on: self.cutter.is_on(),
                     auto: code == 73,
@@ -107,6 +109,7 @@ impl Interpreter {
         m.blend = saved.blend;
         m.work_system = saved.work_system;
         m.tool_length = saved.tool_length;
+        m.tool_offset = saved.tool_offset;
         self.cycle.retract_r = saved.retract_r;
         true
     }

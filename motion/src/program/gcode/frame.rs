@@ -1,7 +1,7 @@
 //! The program frame and the machine frame, as LinuxCNC 2.9 maps them (`get_abs_position` in
 //! its `interp_convert.cc`, `rotate_and_offset_pos` in `emccanon.cc`):
 //!
-//! machine = R(θ) · (program + G92 offset) + work origin + tool length (Z),
+//! machine = R(θ) · (program + G92 offset) + work origin + tool offset (G43; on Z the length),
 //!
 //! where R(θ) turns X and Y about Z by the rotation of the active work system (`G10 L2 … R`,
 //! degrees counter-clockwise, LinuxCNC's parameters #5230, #5250 … #5390). Without a rotation
@@ -43,8 +43,10 @@ impl Interpreter {
     pub(in crate::program) fn program_coord_of(&self, m: &AxisVec, k: usize) -> f64 {
         if let Some((xk, yk, t)) = self.xy_rotation() {
             if k == xk || k == yk {
+                // The tool offset is not turned: it lies in the machine frame (tool_table.rs).
                 let origin = &self.work_origins[self.modal.work_system];
-                let (x, y) = rotate(m[xk] - origin[xk], m[yk] - origin[yk], -t);
+                let tool = &self.modal.tool_offset;
+                let (x, y) = rotate(m[xk] - origin[xk] - tool[xk], m[yk] - origin[yk] - tool[yk], -t);
                 let g92 = &self.modal.g92;
                 return if k == xk { x - g92[xk] } else { y - g92[yk] };
             }
@@ -74,9 +76,10 @@ impl Interpreter {
         if let (Some((xk, yk, t)), Some((x, y))) = (rotation, xy) {
             let origin = &self.work_origins[self.modal.work_system];
             let g92 = &self.modal.g92;
+            let tool = &self.modal.tool_offset;
             let (mx, my) = rotate(x + g92[xk], y + g92[yk], t);
-            target[xk] = mx + origin[xk];
-            target[yk] = my + origin[yk];
+            target[xk] = mx + origin[xk] + tool[xk];
+            target[yk] = my + origin[yk] + tool[yk];
         }
     }
 }

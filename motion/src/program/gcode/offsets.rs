@@ -157,15 +157,15 @@ impl Interpreter {
         match l.value {
             v if v == 2.0 || v == 20.0 => {}
             v if v == 1.0 || v == 10.0 || v == 11.0 => {
-                d.error(
-                    line_no,
-                    l.col,
-                    format!("{name} L{v}: the tool table comes from the configuration ([[tool]], tools.set), not the program"),
-                );
+                self.g10_tool(name, v, col, block, axes, d);
                 return;
             }
             v => {
-                d.error(line_no, l.col, format!("{name} L{v} is not supported (L2, L20: work offsets)"));
+                d.error(
+                    line_no,
+                    l.col,
+                    format!("{name} L{v} is not supported (L1, L10, L11: tool offsets; L2, L20: work offsets)"),
+                );
                 return;
             }
         }
@@ -195,17 +195,16 @@ impl Interpreter {
             Some(r) => r.value,
             None => self.work_rotations_deg[sys],
         };
-        let tool_z = |s: &Self, k: usize| match s.modal.tool_length {
-            Some((_, len)) if s.settings.axes[k].name == AxisLetter::Z => len,
-            _ => 0.0,
-        };
         let xy = match (self.settings.axis_index(AxisLetter::X), self.settings.axis_index(AxisLetter::Y)) {
             (Some(xk), Some(yk)) => Some((xk, yk)),
             _ => None,
         };
         let mut origin = self.work_origins[sys];
         let g92 = self.modal.g92;
-        let pos = self.modal.pos;
+        // The current point without the tool offset: the work offset is where the program's
+        // zero lies for the bare spindle.
+        let tool = self.modal.tool_offset;
+        let pos: crate::path::AxisVec = std::array::from_fn(|k| self.modal.pos[k] - tool[k]);
         if let (true, Some((xk, yk))) = (l.value == 20.0, xy) {
             if axes.iter().any(|(k, _, _)| *k == xk || *k == yk) {
                 // L20 in X Y: the current point gets the given program coordinates in that
@@ -233,7 +232,7 @@ impl Interpreter {
                 v
             } else {
                 // L20: the current point gets the coordinate v in that system.
-                pos[k] - tool_z(self, k) - g92[k] - v
+                pos[k] - g92[k] - v
             };
         }
         if origin.iter().any(|v| !v.is_finite()) {

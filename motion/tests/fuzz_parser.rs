@@ -165,12 +165,13 @@ const TOKENS: &[&str] = &[
     "G2 X1 Y1 I1 R",
     "EXISTS[#99999]",
     "G40\nG0 X0 Y0\n",
-    // Tool offsets written by the program and applied by G43 on every axis.
+    // Tool offsets written by the program and applied by G43 on every axis; fractional N.
     "G10 L1 P1 X1 Y2 Z3 R2",
     "G10 L10 P1 X0",
     "G10 L11 P1 Z0 Q3",
     "T1 M6 G43",
     "#5401",
+    "N10.5",
 ];
 
 fn corpus() -> Vec<(String, String)> {

@@ -45,7 +45,6 @@ const DELIBERATE: &[(&str, &str)] = &[
     ("21_g64_bad_tolerance.ngc", "G64 P0"),
     ("37_arc_leaves_travel.ngc", "targets beyond the travel range"),
     ("38_block_delete.ngc", "codes interpd does not carry out (block delete)"),
-    ("39_fractional_block_number.ngc", "fractional block number"),
     ("61_g64_q.ngc", "G64 Q"),
 ];
 

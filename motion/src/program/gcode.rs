@@ -661,8 +661,9 @@ impl Interpreter {
         }
         let block_no = block.get('N').map_or(0, |w| w.value as u32);
         if let Some(n) = block.get('N') {
-            if n.value < 0.0 || n.value.fract() != 0.0 || n.has_point {
-                d.error(line_no, n.col, "block number N must be a non-negative integer");
+            // A fractional part is accepted and ignored, as LinuxCNC 2.9 (`read_n_number`).
+            if n.value < 0.0 || !n.value.is_finite() {
+                d.error(line_no, n.col, "block number N must be a non-negative number");
                 return;
             }
             if n.col != line.words[0].col {

@@ -105,7 +105,7 @@ pub(super) fn o_word_only(text: &str, params: &Params) -> Option<OWord> {
     // A block number may come first.
     if matches!(b.get(i), Some(b'n' | b'N')) {
         i += 1;
-        while i < b.len() && (b[i].is_ascii_digit() || b[i].is_ascii_whitespace()) {
+        while i < b.len() && (b[i].is_ascii_digit() || b[i] == b'.' || b[i].is_ascii_whitespace()) {
             i += 1;
         }
     }

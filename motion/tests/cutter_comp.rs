@@ -449,6 +449,35 @@ fn a_plunge_at_a_corner_and_a_reversal_are_carried_out_at_the_offset() {
 }
 
 #[test]
+fn the_cusp_between_two_humps_is_an_inside_corner_for_the_tool_above_them() {
+    // Two clockwise half circles of radius 5 about (5, 0) and (15, 0) meet at (10, 0) turning
+    // back (a reversal); the tool (radius 1) on their left runs above them: as LinuxCNC, the
+    // cusp is an inside corner and both offsets (radius 6) are trimmed where they cross, at
+    // (10, √11). The entry ends where its parallel offset meets the first hump's, at
+    // (5 − √35, 1), and the line after the humps starts at (15 + √35, 1).
+    let text = "G0 X-10 Y0\nF1000\nG41.1 D2\nG1 X0 Y0\nG2 X10 Y0 I5 J0\nG2 X20 Y0 I5 J0\nG1 X30 Y0\nG40 G1 X30 Y-10\n";
+    let p = program::parse(text, "t.ngc", &machine()).unwrap_or_else(|e| panic!("{e}"));
+    let (s35, s11) = (35f64.sqrt(), 11f64.sqrt());
+    assert_ends(
+        &ends(&p.path),
+        &[
+            [-10.0, 0.0, 0.0],
+            [5.0 - s35, 1.0, 0.0],
+            [10.0, s11, 0.0],
+            [15.0 + s35, 1.0, 0.0],
+            [30.0, 1.0, 0.0],
+            [30.0, -10.0, 0.0],
+        ],
+    );
+    // On the right the tool runs inside the humps: the cusp is an outside corner, passed
+    // around on an arc of the tool radius.
+    let p = program::parse(&text.replace("G41.1", "G42.1"), "t.ngc", &machine()).unwrap_or_else(|e| panic!("{e}"));
+    let e = ends(&p.path);
+    assert_eq!(e.len(), 9, "{e:?}");
+    assert!((e[3][0] - 9.0).abs() < 1e-9 && (e[4][0] - 11.0).abs() < 1e-9 && e[4][1].abs() < 1e-9, "{e:?}");
+}
+
+#[test]
 fn compensation_works_in_the_zx_plane() {
     // G18: the plane is Z X, counter-clockwise as G3 turns (seen from +Y). Travelling along +Z
     // (direction (1, 0) in (Z, X)), left is a quarter turn counter-clockwise: (0, 1), i.e. +X.

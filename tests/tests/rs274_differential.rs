@@ -700,13 +700,24 @@ fn cutter_compensation_agrees_with_linuxcnc() {
         programs.push(format!(
             "G20\nG0 X-.2 Y-.2 Z0\nF30\n{comp} D1\nG1 X0 Y0\nG1 Y1\nG3 R.25 X-.25 Y1.25\nG1 X-.5\nG2 R.25 X-.75 Y1.5\nG1 Y1.75\nG40\nG0 X.2 Y-.2\n"
         ));
-        // (The long G2 ends heading -Y: a line to +Y after it would reverse, which LinuxCNC
-        // passes differently, so it is followed by the second contour only.)
+        // (The long G2 ends heading -Y: the line to +Y after it reverses, inside for G41 by
+        // LinuxCNC's rule for reversals at arcs, the top of an "h".)
         for arc in ["G3 X10 Y10 I0 J10", "G2 X10 Y10 I10 J0", "G3 X10 Y10 R10", "G2 X10 Y10 R-10"] {
-            if !arc.ends_with("R-10") {
-                programs.push(format!("G0 X0 Y0 Z0\nF1000\n{comp} D1\n{arc}\nG1 X10 Y20\nG1 X0 Y20\nG40 G1 X0 Y30\n"));
-            }
+            programs.push(format!("G0 X0 Y0 Z0\nF1000\n{comp} D1\n{arc}\nG1 X10 Y20\nG1 X0 Y20\nG40 G1 X0 Y30\n"));
             programs.push(format!("G0 X0 Y0 Z0\nF1000\n{comp} D1\n{arc}\nG1 X20 Y10\nG40 G1 X30 Y10\n"));
+        }
+        // Reversals at arcs (LinuxCNC's tests/interp/inside-corners and crazy-paths): the cusp
+        // between two humps (inside for the tool above them, outside below), and a straight
+        // entry into an arc that turns back along it (the tangents at the corner nearly
+        // antiparallel: the offsets' crossing in closed form).
+        programs.push(format!(
+            "G0 X-10 Y0 Z0\nF1000\n{comp} D1\nG1 X0 Y0\nG2 X10 Y0 I5 J0\nG2 X20 Y0 I5 J0\nG1 X30 Y0\nG40 G1 X30 Y-10\n"
+        ));
+        if comp == "G41" {
+            // (With G42 both refuse the line after the arc: the corner is too tight.)
+            programs.push(format!(
+                "G0 X0 Y0 Z0\nF1000\n{comp} D1\nG1 Y-5\nG2 I2.5 J-0.2 X1.246006 Y-7.371981\nG1 X5 Y-1\nG40 G1 X10 Y10\n"
+            ));
         }
     }
     let (failures, compared) = compare_printed(&programs, &settings, &dir);

@@ -16,6 +16,9 @@
 //!   centre on that radius, equidistant from where the tool stands. The move after G40 (the
 //!   exit move, a line) goes from the offset of the contour's last point to its programmed
 //!   end.
+//! - Near a reversal (within LinuxCNC's 0.05 rad) a corner is inside or outside by
+//!   LinuxCNC's rule for arcs, not by its angle: inside where the tool runs outside the arc
+//!   that turns back (a cusp between two humps), so the offsets are trimmed where they cross.
 //! - Short elements at inside corners (CAM chords) are swallowed as by the true offset curve:
 //!   where two offsets do not meet, either the new offset meets a piece kept back before the
 //!   tail (the pieces between are dropped), or the new element lies inside the corner (it is
@@ -70,12 +73,18 @@ const INTERSECT_SLACK_MM: f64 = 1e-6;
 /// Corners within this of a full reversal (π) are passed as a reversal: the offsets are too
 /// close to parallel to intersect reliably.
 const REVERSAL_RAD: f64 = 1e-9;
+/// LinuxCNC's `TOLERANCE_CONCAVE_CORNER`: within this of a reversal a corner is inside or
+/// outside by LinuxCNC's rule for arcs ([`Cutter::reversal_is_inside`]), not by its angle.
+const REVERSAL_BAND_RAD: f64 = 0.05;
 /// Moves shorter than this in the plane count as moves without motion in the plane, mm.
 const MIN_PLANE_MOVE_MM: f64 = 1e-9;
 /// Newton steps for the intersection of two offset elements at an inside corner.
 const INTERSECT_STEPS: usize = 60;
 /// The intersection is accepted when the two points agree to this, mm.
 const INTERSECT_TOL_MM: f64 = 1e-10;
+/// An intersection found in closed form is accepted when the two elements' points there agree
+/// to this, mm (the rounding of the closed form, far below the 1 µm the path is held to).
+const CLOSED_FORM_TOL_MM: f64 = 1e-7;
 /// Elements that meet this closely are left as they are, mm.
 const CONNECT_EXACT_MM: f64 = 1e-12;
 /// Only elements that meet in the plane to this (as trimmed ones do, to the intersection's
@@ -416,11 +425,20 @@ impl Cutter {
         let end_tangent = self.end_tangent(&piece.geometry);
         let last = tail;
         let mut turn = cross(t1, t2).atan2(dot(t1, t2));
-        // A reversal (the path turns back on itself) is passed around its end: the offsets of
-        // the two elements are parallel and never meet, so it is an outside corner whose arc
-        // turns away from the tool's side.
-        if turn.abs() >= PI - REVERSAL_RAD {
-            turn = -self.side.sign() * PI;
+        // Near a reversal (the path turns back on itself, within LinuxCNC's 0.05 rad) the
+        // corner is inside or outside as LinuxCNC decides it (`convert_arc_comp2`,
+        // `convert_straight_comp2`): inside where the tool runs on the outside of the arc that
+        // turns back (the new element's, or for a line the previous one's: the cusp between
+        // two humps, the top of an "h"), else outside: a line reversing on a line is passed
+        // around its end, the offsets being parallel.
+        if turn.abs() > PI - REVERSAL_BAND_RAD {
+            let inside = self.reversal_is_inside(&last.geometry, &piece.geometry);
+            if inside != (self.side.sign() * turn > 0.0) {
+                turn -= turn.signum() * 2.0 * PI;
+            }
+            if turn.abs() >= PI - REVERSAL_RAD {
+                turn = if inside { self.side.sign() } else { -self.side.sign() } * PI;
+            }
         }
         let outside = self.side.sign() * turn < 0.0;
         // A straight entry into an inside corner whose offsets meet beyond the next element
@@ -659,13 +677,30 @@ impl Cutter {
         Ok((Piece { geometry: g.clone(), ..tail }, g))
     }
 
+    /// LinuxCNC's rule for a corner within [`REVERSAL_BAND_RAD`] of a reversal, from the
+    /// tail `prev` (the previous element's offset) into the contour element `next`: inside
+    /// when the tool runs outside the arc `next` is (`!TOOL_INSIDE_ARC` in `convert_arc_comp2`),
+    /// or, `next` being a line, outside the arc `prev` is (the "h" shape of
+    /// `convert_straight_comp2`).
+    fn reversal_is_inside(&self, prev: &Geometry, next: &Geometry) -> bool {
+        let outside_of = |g: &Geometry| match g {
+            Geometry::Helix(h) => Some(self.side.sign() * h.sweep_rad() < 0.0),
+            _ => None,
+        };
+        match next {
+            Geometry::Helix(_) => outside_of(next).unwrap_or(false),
+            Geometry::Line(_) => outside_of(prev).unwrap_or(false),
+            _ => false,
+        }
+    }
+
     fn inside_corner_error(&self, piece: &Piece) -> CutterError {
         piece.error(CutterErrorKind::InsideCorner { radius_mm: fmt_num(self.radius_mm) })
     }
 
     /// `g1` up to and `g2` from their intersection in the plane, both non-empty.
     fn trim_corner(&self, g1: &Geometry, g2: &Geometry) -> Option<(Geometry, Geometry)> {
-        let (s1, s2) = intersect(g1, g2, self.p, self.q)?;
+        let (s1, s2) = intersect_or_closed_form(g1, g2, self.p, self.q)?;
         let linear = &self.linear[..self.n_axes];
         Some((trim(g1, 0.0, s1, linear)?, trim(g2, s2, g2.length_mm(), linear)?))
     }
@@ -1031,6 +1066,128 @@ fn intersect(g1: &Geometry, g2: &Geometry, p: usize, q: usize) -> Option<(f64, f
         s2 += y;
     }
     None
+}
+
+/// The intersection of `g1` and `g2` in the plane, as [`intersect`], where Newton's method
+/// from the tangent lines does not find it: for lines and arcs, in closed form. Near a
+/// reversal (an arc that turns back against the line it follows) the tangent lines meet far
+/// from the curves and the iteration leaves them; the offsets still meet, and LinuxCNC
+/// (`convert_arc_comp2`, `convert_straight_comp2`) finds that point in closed form too. Of
+/// several intersections inside both elements, the first on `g2`.
+fn intersect_or_closed_form(g1: &Geometry, g2: &Geometry, p: usize, q: usize) -> Option<(f64, f64)> {
+    if let Some(s) = intersect(g1, g2, p, q) {
+        return Some(s);
+    }
+    let (c1, c2) = (PlaneCurve::of(g1, p, q)?, PlaneCurve::of(g2, p, q)?);
+    let (l1, l2) = (g1.length_mm(), g2.length_mm());
+    let mut best: Option<(f64, f64)> = None;
+    for x in c1.meet(&c2) {
+        for u1 in c1.fractions_at(x, INTERSECT_SLACK_MM / l1) {
+            for u2 in c2.fractions_at(x, INTERSECT_SLACK_MM / l2) {
+                let (s1, s2) = ((u1 * l1).clamp(0.0, l1), (u2 * l2).clamp(0.0, l2));
+                if best.is_none_or(|(b1, b2)| s2 < b2 || (s2 == b2 && s1 > b1)) {
+                    best = Some((s1, s2));
+                }
+            }
+        }
+    }
+    let (s1, s2) = best?;
+    let (mut a, mut b) = (AxisDerivs::default(), AxisDerivs::default());
+    g1.eval(s1, &mut a);
+    g2.eval(s2, &mut b);
+    ((a.pos[p] - b.pos[p]).hypot(a.pos[q] - b.pos[q]) <= CLOSED_FORM_TOL_MM).then_some((s1, s2))
+}
+
+/// A line or an arc in the compensation plane.
+enum PlaneCurve {
+    /// From `a` along `d` (the whole element: fraction 0 … 1).
+    Line { a: [f64; 2], d: [f64; 2] },
+    /// About `c` with radius `r`, from angle `phi0` turning `sweep` (signed).
+    Arc { c: [f64; 2], r: f64, phi0: f64, sweep: f64 },
+}
+
+impl PlaneCurve {
+    fn of(g: &Geometry, p: usize, q: usize) -> Option<Self> {
+        let mut d = AxisDerivs::default();
+        g.eval(0.0, &mut d);
+        let a = [d.pos[p], d.pos[q]];
+        match g {
+            Geometry::Line(_) => {
+                g.eval(g.length_mm(), &mut d);
+                let dir = [d.pos[p] - a[0], d.pos[q] - a[1]];
+                (dir[0].hypot(dir[1]) > MIN_PLANE_MOVE_MM).then_some(PlaneCurve::Line { a, d: dir })
+            }
+            Geometry::Helix(h) if h.plane_axes() == (p, q) && h.radius_mm() > MIN_OFFSET_RADIUS_MM => {
+                let c = h.center();
+                let phi0 = (a[1] - c[1]).atan2(a[0] - c[0]);
+                Some(PlaneCurve::Arc { c, r: h.radius_mm(), phi0, sweep: h.sweep_rad() })
+            }
+            _ => None,
+        }
+    }
+
+    /// The points where the two curves (as whole lines and circles) cross.
+    fn meet(&self, other: &PlaneCurve) -> Vec<[f64; 2]> {
+        match (self, other) {
+            (PlaneCurve::Line { a: a1, d: d1 }, PlaneCurve::Line { a: a2, d: d2 }) => {
+                let det = cross(*d1, *d2);
+                if det.abs() < 1e-15 {
+                    return Vec::new();
+                }
+                let t = cross([a2[0] - a1[0], a2[1] - a1[1]], *d2) / det;
+                vec![[a1[0] + t * d1[0], a1[1] + t * d1[1]]]
+            }
+            (PlaneCurve::Line { a, d }, PlaneCurve::Arc { c, r, .. })
+            | (PlaneCurve::Arc { c, r, .. }, PlaneCurve::Line { a, d }) => {
+                // |a + t·d − c|² = r²
+                let f = [a[0] - c[0], a[1] - c[1]];
+                let (qa, qb, qc) = (dot(*d, *d), 2.0 * dot(f, *d), dot(f, f) - r * r);
+                let disc = qb * qb - 4.0 * qa * qc;
+                if disc < 0.0 {
+                    return Vec::new();
+                }
+                let root = disc.sqrt();
+                [(-qb - root) / (2.0 * qa), (-qb + root) / (2.0 * qa)]
+                    .iter()
+                    .map(|t| [a[0] + t * d[0], a[1] + t * d[1]])
+                    .collect()
+            }
+            (PlaneCurve::Arc { c: c1, r: r1, .. }, PlaneCurve::Arc { c: c2, r: r2, .. }) => {
+                let (dx, dy) = (c2[0] - c1[0], c2[1] - c1[1]);
+                let dist = dx.hypot(dy);
+                if dist < 1e-12 || dist > r1 + r2 || dist < (r1 - r2).abs() {
+                    return Vec::new();
+                }
+                let along = (r1 * r1 - r2 * r2 + dist * dist) / (2.0 * dist);
+                let h = (r1 * r1 - along * along).max(0.0).sqrt();
+                let m = [c1[0] + along * dx / dist, c1[1] + along * dy / dist];
+                vec![[m[0] - h * dy / dist, m[1] + h * dx / dist], [m[0] + h * dy / dist, m[1] - h * dx / dist]]
+            }
+        }
+    }
+
+    /// The fractions of the element (0 … 1, `slack` beyond) at which it passes point `x`,
+    /// which lies on its line or circle.
+    fn fractions_at(&self, x: [f64; 2], slack: f64) -> Vec<f64> {
+        let inside = |u: &f64| (-slack..=1.0 + slack).contains(u);
+        match self {
+            PlaneCurve::Line { a, d } => {
+                let u = dot([x[0] - a[0], x[1] - a[1]], *d) / dot(*d, *d);
+                [u].into_iter().filter(inside).collect()
+            }
+            PlaneCurve::Arc { c, phi0, sweep, .. } => {
+                // The angle turned from the start in the arc's direction, every turn of it.
+                let turned = ((x[1] - c[1]).atan2(x[0] - c[0]) - phi0) * sweep.signum();
+                let first = turned.rem_euclid(2.0 * PI);
+                let turns = (sweep.abs() / (2.0 * PI)).ceil() as usize + 1;
+                (0..=turns)
+                    .flat_map(|k| [first + k as f64 * 2.0 * PI, first + (k as f64 - 1.0) * 2.0 * PI])
+                    .map(|t| t / sweep.abs())
+                    .filter(inside)
+                    .collect()
+            }
+        }
+    }
 }
 
 /// The part s ∈ [s0, s1] of a line, arc or spline span (None if it is empty).

@@ -14,8 +14,8 @@ For every `.ngc` under the DIRs (recursively):
 - LinuxCNC: `rs274 -g -t TOOLS -v VARS` (Debian's `linuxcnc-uspace`), run in the program's
   directory (where LinuxCNC's interpreter looks for subroutine files without an INI file):
   the verdict. The motion comes from `scripts/rs274_canon.py` (LinuxCNC's `gcode` module, the
-  same interpreter, doubles); for programs with T, D or H words, which the module cannot run
-  without a live tool table, from `rs274 -g`'s printed calls (4 decimals in the program's
+  same interpreter, doubles); for programs with T, H or tool-number D words (not G41.1/G42.1's
+  diameter D), which the module cannot run without a live tool table, from `rs274 -g`'s printed calls (4 decimals in the program's
   units: the final position is then compared within 1 µm plus that rounding). `rs274 -g` prints a
   NURBS (G5, G5.1, G5.2/G5.3) as one `NURBS_FEED` call without its points, so a program with
   one whose tool words are only T and M6 (no D, H, G41/G42/G43: the tool does not change the
@@ -152,7 +152,15 @@ def out_of_scope(path, text):
 
 
 def has_tool_word(text):
-    return any(l in "TDH" for l, _ in words(text))
+    """A T or H word, or a D word that names a tool: the `gcode` module needs a running
+    LinuxCNC's tool table for them. G41.1/G42.1's D is a diameter (no look-up): such programs
+    run through the module, in doubles, not through `rs274 -g`'s 4 printed decimals."""
+    for raw in text.splitlines():
+        ws = words(raw)
+        diameter = any(math.isclose(v, x) for v in code_values(ws, "G") for x in (41.1, 42.1))
+        if any(l in "TH" or (l == "D" and not diameter) for l, _ in ws):
+            return True
+    return False
 
 
 def needs_tool_data(text):

@@ -91,12 +91,17 @@ def resample(f, u0, u1, step, approx_len):
     return out
 
 
+# Centre travel of the cusp trochoid, mm (the path is about 3 times as long); the daemon bench
+# makes a long one (issue 41's 300 000-move program).
+CUSP_CENTRE_MM = (20.0, 40.0)
+
+
 def cusp_curve(rng):
     pitch = rng.uniform(0.2, 1.0)                 # centre travel per loop, mm
     omega = 2 * math.pi / pitch
     r0 = rng.uniform(5.0, 10.0)                   # spiral start radius, mm
     grow = rng.uniform(0.5, 2.0)                  # spiral radius growth per turn, mm
-    length = rng.uniform(20.0, 40.0)              # centre travel, mm
+    length = rng.uniform(*CUSP_CENTRE_MM)         # centre travel, mm
     k0, k1 = (0.5, 2.0) if rng.random() < 0.5 else (2.0, 0.5)
     # Critical loop radius: the loop speed r * omega equals the centre speed (1 per unit u).
     r_crit = 1.0 / omega

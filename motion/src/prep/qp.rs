@@ -16,7 +16,7 @@
 //! change only q and b.
 
 use super::qp_banded::{BandedQp, Unsolved};
-use super::qp_shape::Shape;
+use super::qp_shape::{SOLVER_TOL, Shape};
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
 
@@ -30,8 +30,6 @@ pub(super) enum QpFailure {
     Numerical,
 }
 
-/// Gap and feasibility tolerance of the solver.
-const SOLVER_TOL: f64 = 1e-7;
 /// Iteration cap of one solve; a well-posed window needs 10–30.
 const MAX_ITER: u32 = 200;
 

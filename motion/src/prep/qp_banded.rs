@@ -21,7 +21,7 @@
 //!   not solve within `MAX_ITER` steps (an infeasible band, a degenerate window) is handed to
 //!   Clarabel by the caller, which also tells infeasible from numerically hard.
 
-use super::qp_shape::Shape;
+use super::qp_shape::{SOLVER_TOL, Shape};
 use std::time::Instant;
 
 /// How a solve ended without a solution.
@@ -34,8 +34,6 @@ pub(super) enum Unsolved {
     Slow,
 }
 
-/// Residual and gap tolerance, relative to the data (the same as Clarabel's in `qp.rs`).
-const SOLVER_TOL: f64 = 1e-7;
 /// Newton steps before the window is handed to Clarabel; a well-posed window needs 6–12.
 const MAX_ITER: u32 = 30;
 /// Steps over which the equality residual must at least halve, else the window (nearly

@@ -2,6 +2,11 @@
 //! fixed ends, the variables' numbering and the layout of the right-hand side, shared by the
 //! two solvers (`qp.rs` with Clarabel, `qp_banded.rs`).
 
+/// Gap and feasibility tolerance both solvers stop at, relative to the data: positions to
+/// ~1e-7 of the window's scale are far inside the micrometre budget, and each further digit
+/// costs interior-point steps.
+pub(super) const SOLVER_TOL: f64 = 1e-7;
+
 /// The structure of a window problem.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub(super) struct Shape {

@@ -118,9 +118,9 @@ pub enum PointDistribution {
 pub enum QpSolver {
     /// The interior-point method on the QP's banded structure, with Clarabel for the windows it
     /// declines (nearly infeasible ones).
-    #[default]
     Banded,
     /// Clarabel for every window (the general sparse solver).
+    #[default]
     Clarabel,
 }
 
@@ -205,7 +205,7 @@ impl Default for PrepConfig {
             max_corner_deg: 90.0,
             band_margin: 0.1,
             max_solve_ms: 50.0,
-            qp_solver: QpSolver::Banded,
+            qp_solver: QpSolver::Clarabel,
         }
     }
 }

@@ -347,6 +347,30 @@ fn cumulative_point_distribution_keeps_the_band_with_both_methods() {
 }
 
 #[test]
+fn banded_qp_solver_keeps_the_band_and_joins_c2() {
+    // `qp_solver = "banded"`: the interior-point method on the QP's band, Clarabel for what it
+    // declines; the smoothed path keeps the band and its joints as with Clarabel.
+    let mut config = Settings::default_machine();
+    config.prep.max_corner_deg = 170.0;
+    config.prep.qp_solver = interpd_config::QpSolver::Banded;
+    for name in SHAPES {
+        let text = repo_file(&format!("examples/{name}.ngc"));
+        let programmed = parse(&text, &config);
+        for tol in [0.01, 0.1] {
+            let prepared =
+                prepare_path(&config, &parse(&with_mode(&text, &format!("G64 P{tol}"), usize::MAX), &config))
+                    .expect("smoothing");
+            let dev = max_deviation(&programmed, &prepared.path, 2e-3);
+            let ([dp, d1, d2], _) = joint_residuals(&prepared.path);
+            eprintln!("banded {name:>14} P{tol}: max deviation {dev:.6} mm, declined {}", prepared.stats.qp_declined);
+            assert!(dev <= tol + SLACK_MM, "{name} P{tol}: {dev} mm off the programmed path");
+            assert!(dp < 1e-9 && d1 < 1e-9 && d2 < 1e-7, "{name} P{tol}: joints not C²: {dp:e} {d1:e} {d2:e}");
+            assert_eq!(prepared.stats.fallback_exact, 0, "{name} P{tol}");
+        }
+    }
+}
+
+#[test]
 fn hermite_pieces_of_degree_7_and_9_keep_the_band_and_join_c3() {
     for (degree, hermite) in [(3u32, 3u32), (4, 3), (4, 4)] {
         let mut config = Settings::default_machine();

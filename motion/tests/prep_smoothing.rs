@@ -144,6 +144,21 @@ fn joint_residuals(path: &Path) -> ([f64; 3], usize) {
 
 const SHAPES: [&str; 5] = ["corner_90", "line_arc_line", "staircase", "zigzag", "two_arcs"];
 
+/// Each Haas shape at P0.01 and P0.1, smoothed with `config`: (name, tolerance, the programmed
+/// path, what the smoothing made of it).
+fn smoothed_shapes(config: &Settings) -> Vec<(&'static str, f64, Path, interpd_motion::prep::Prepared)> {
+    let mut out = Vec::new();
+    for name in SHAPES {
+        let text = repo_file(&format!("examples/{name}.ngc"));
+        let programmed = parse(&text, config);
+        for tol in [0.01, 0.1] {
+            let program = parse(&with_mode(&text, &format!("G64 P{tol}"), usize::MAX), config);
+            out.push((name, tol, programmed.clone(), prepare_path(config, &program).expect("smoothing")));
+        }
+    }
+    out
+}
+
 /// Tolerance + 1 µm (Haas 2012, §4.8).
 const SLACK_MM: f64 = 1e-3;
 
@@ -284,32 +299,25 @@ fn bspline_method_keeps_the_band_and_joins_at_every_degree() {
         config.prep.max_corner_deg = 170.0;
         config.prep.method = interpd_config::PrepMethod::Bspline;
         config.prep.continuity_degree = degree;
-        for name in SHAPES {
-            let text = repo_file(&format!("examples/{name}.ngc"));
-            let programmed = parse(&text, &config);
-            for tol in [0.01, 0.1] {
-                let prepared =
-                    prepare_path(&config, &parse(&with_mode(&text, &format!("G64 P{tol}"), usize::MAX), &config))
-                        .expect("smoothing");
-                let (smoothed, stats) = (prepared.path, prepared.stats);
-                let dev = max_deviation(&programmed, &smoothed, 2e-3);
-                let ([dp, d1, d2], smooth) = joint_residuals(&smoothed);
-                let d3 = jerk_joint_residual(&smoothed);
-                eprintln!(
-                    "bspline C{degree} {name:>14} P{tol}: max deviation {dev:.6} mm (excess {:+.2e} mm); \
-                     {smooth} smooth joints, max jump A {dp:.1e}, A′ {d1:.1e}, A″ {d2:.1e}, A‴ {d3:.1e} (rel); \
-                     spline windows {}, Hermite instead {}, exact stops {}",
-                    dev - tol,
-                    stats.bspline_windows,
-                    stats.bspline_to_hermite,
-                    stats.fallback_exact
-                );
-                assert!(stats.bspline_windows > 0, "{name} P{tol}: no spline window");
-                assert!(dev <= tol + SLACK_MM, "{name} P{tol}: {dev} mm off the programmed path");
-                assert!(dp < 1e-9 && d1 < 1e-9 && d2 < 1e-7, "{name} P{tol}: joints not C²: {dp:e} {d1:e} {d2:e}");
-                let (a, b) = (programmed.end_position(), smoothed.end_position());
-                assert!((0..3).all(|k| (a[k] - b[k]).abs() < 1e-9), "{name}: ends at {b:?}, not {a:?}");
-            }
+        for (name, tol, programmed, prepared) in smoothed_shapes(&config) {
+            let (smoothed, stats) = (prepared.path, prepared.stats);
+            let dev = max_deviation(&programmed, &smoothed, 2e-3);
+            let ([dp, d1, d2], smooth) = joint_residuals(&smoothed);
+            let d3 = jerk_joint_residual(&smoothed);
+            eprintln!(
+                "bspline C{degree} {name:>14} P{tol}: max deviation {dev:.6} mm (excess {:+.2e} mm); \
+                 {smooth} smooth joints, max jump A {dp:.1e}, A′ {d1:.1e}, A″ {d2:.1e}, A‴ {d3:.1e} (rel); \
+                 spline windows {}, Hermite instead {}, exact stops {}",
+                dev - tol,
+                stats.bspline_windows,
+                stats.bspline_to_hermite,
+                stats.fallback_exact
+            );
+            assert!(stats.bspline_windows > 0, "{name} P{tol}: no spline window");
+            assert!(dev <= tol + SLACK_MM, "{name} P{tol}: {dev} mm off the programmed path");
+            assert!(dp < 1e-9 && d1 < 1e-9 && d2 < 1e-7, "{name} P{tol}: joints not C²: {dp:e} {d1:e} {d2:e}");
+            let (a, b) = (programmed.end_position(), smoothed.end_position());
+            assert!((0..3).all(|k| (a[k] - b[k]).abs() < 1e-9), "{name}: ends at {b:?}, not {a:?}");
         }
     }
 }
@@ -353,20 +361,13 @@ fn banded_qp_solver_keeps_the_band_and_joins_c2() {
     let mut config = Settings::default_machine();
     config.prep.max_corner_deg = 170.0;
     config.prep.qp_solver = interpd_config::QpSolver::Banded;
-    for name in SHAPES {
-        let text = repo_file(&format!("examples/{name}.ngc"));
-        let programmed = parse(&text, &config);
-        for tol in [0.01, 0.1] {
-            let prepared =
-                prepare_path(&config, &parse(&with_mode(&text, &format!("G64 P{tol}"), usize::MAX), &config))
-                    .expect("smoothing");
-            let dev = max_deviation(&programmed, &prepared.path, 2e-3);
-            let ([dp, d1, d2], _) = joint_residuals(&prepared.path);
-            eprintln!("banded {name:>14} P{tol}: max deviation {dev:.6} mm, declined {}", prepared.stats.qp_declined);
-            assert!(dev <= tol + SLACK_MM, "{name} P{tol}: {dev} mm off the programmed path");
-            assert!(dp < 1e-9 && d1 < 1e-9 && d2 < 1e-7, "{name} P{tol}: joints not C²: {dp:e} {d1:e} {d2:e}");
-            assert_eq!(prepared.stats.fallback_exact, 0, "{name} P{tol}");
-        }
+    for (name, tol, programmed, prepared) in smoothed_shapes(&config) {
+        let dev = max_deviation(&programmed, &prepared.path, 2e-3);
+        let ([dp, d1, d2], _) = joint_residuals(&prepared.path);
+        eprintln!("banded {name:>14} P{tol}: max deviation {dev:.6} mm, declined {}", prepared.stats.qp_declined);
+        assert!(dev <= tol + SLACK_MM, "{name} P{tol}: {dev} mm off the programmed path");
+        assert!(dp < 1e-9 && d1 < 1e-9 && d2 < 1e-7, "{name} P{tol}: joints not C²: {dp:e} {d1:e} {d2:e}");
+        assert_eq!(prepared.stats.fallback_exact, 0, "{name} P{tol}");
     }
 }
 

@@ -132,14 +132,13 @@ impl Feeder {
         let mut builder = CoarseBuilder::new(path.feed.path(), max_piece_s, &self.max_jerk);
         // Each program stop gets a coarse point of its own: the executor stands exactly there.
         let mut from = 0;
+        let chunk_time = |points: &Vec<CoarsePoint>| points.last().map_or(0.0, |p| p.t_s);
         for (k, code, line) in stops {
-            builder.build(&segments[from..k], 0.0, &mut chunk.points);
-            let t_s = chunk.points.last().map_or(0.0, |p| p.t_s);
-            chunk.pauses.push(ChunkPause { t_s, code, line });
+            builder.build(&segments[from..k], chunk_time(&chunk.points), &mut chunk.points);
+            chunk.pauses.push(ChunkPause { t_s: chunk_time(&chunk.points), code, line });
             from = k;
         }
-        let t_s = chunk.points.last().map_or(0.0, |p| p.t_s);
-        builder.build(&segments[from..], t_s, &mut chunk.points);
+        builder.build(&segments[from..], chunk_time(&chunk.points), &mut chunk.points);
         let end = *chunk.points.last().expect("points");
         chunk.last = path.feed.finished();
         if !tail.is_empty() {

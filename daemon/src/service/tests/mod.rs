@@ -408,3 +408,26 @@ fn a_stop_while_paused_ends_the_program_where_it_stands() {
     assert_ne!(last.flags & interpd_protocol::shm::flags::IDLE, 0);
     assert!(!sim.finished());
 }
+
+#[test]
+fn two_program_stops_in_one_chunk_both_stand_and_the_motion_between_keeps_its_time() {
+    use interpd_protocol::api::PauseCode;
+    // A move of 0.1 µm between two stops: both fall into one chunk.
+    let text = "G21 G90 G1 F1200 X10\nM0\nG1 X10.0001\nM1\nG1 X20\nM2\n";
+    let config = Config::default_machine();
+    let path = Arc::new(program::parse(text, "stops2.ngc", &Settings::from(&config)).unwrap().path);
+    let mut sim = Sim::new(config.clone());
+    sim.start(path);
+    let i = run_to_pause(&mut sim, 20_000).expect("paused at M0");
+    assert!(matches!(sim.seen[i], Notice::Paused { code: PauseCode::M0, .. }), "{:?}", sim.seen[i]);
+    assert!((sim.out.last().unwrap().pos[0] - 10.0).abs() < 1e-9);
+    sim.releases += 1;
+    let i = run_to_pause(&mut sim, 20_000).expect("paused at M1");
+    assert!(matches!(sim.seen[i], Notice::Paused { code: PauseCode::M1, .. }), "{:?}", sim.seen[i]);
+    assert!((sim.out.last().unwrap().pos[0] - 10.0001).abs() < 1e-9, "{:?}", sim.out.last().unwrap().pos[0]);
+    sim.releases += 1;
+    sim.run_to_end(20_000);
+    assert!((sim.out.last().unwrap().pos[0] - 20.0).abs() < 1e-9);
+    let r = stream_ratios(&config, &sim.out);
+    assert!(r[0] <= 1.001 && r[1] <= 1.001 && r[2] <= 1.02, "limits: {r:?}");
+}

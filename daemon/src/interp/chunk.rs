@@ -4,13 +4,13 @@ use super::coarse::CoarsePoint;
 use super::epoch::Epoch;
 use interpd_protocol::api::PauseCode;
 
-/// A program stop (M0, M1, M60) inside a chunk: at `t_s` (a coarse point where the planned
+/// A program stop (M0, M1, M60) inside a chunk: at coarse point `point` (where the planned
 /// motion is at rest, its exact stop) the executor waits for a release. M1 waits only while
 /// the optional-stop switch is on.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ChunkPause {
-    /// Time within the chunk's `points`, s.
-    pub t_s: f64,
+    /// Index of the stop's coarse point in the chunk's `points`.
+    pub point: usize,
     pub code: PauseCode,
     /// The program line of the stop.
     pub line: u32,

@@ -213,28 +213,28 @@ impl Executor {
                 self.phase = Phase::Standing;
                 return;
             };
-            let due = chunk.pauses.get(self.next_pause).filter(|p| self.t_s >= p.t_s).copied();
+            let due = chunk
+                .pauses
+                .get(self.next_pause)
+                .and_then(|p| Some((*p, *chunk.points.get(p.point)?)))
+                .filter(|(_, at)| self.t_s >= at.t_s);
             match self.phase {
                 Phase::Main if due.is_some() => {
-                    let Some(p) = due else { return };
+                    let Some((p, at)) = due else { return };
                     self.next_pause += 1;
                     if p.code == PauseCode::M1 && !io.optional_stop {
                         continue;
                     }
                     // The stop is a coarse point at rest: the machine stands at it exactly (its
                     // line is the line the motion goes on with) until the release.
-                    if let Some(at) =
-                        chunk.points.iter().min_by(|a, b| (a.t_s - p.t_s).abs().total_cmp(&(b.t_s - p.t_s).abs()))
-                    {
-                        self.rest = CoarsePoint {
-                            v_mm_s: 0.0,
-                            a_mm_s2: 0.0,
-                            vel: [0.0; interpd_motion::path::MAX_AXES],
-                            acc: [0.0; interpd_motion::path::MAX_AXES],
-                            ..*at
-                        };
-                    }
-                    self.t_s = p.t_s;
+                    self.rest = CoarsePoint {
+                        v_mm_s: 0.0,
+                        a_mm_s2: 0.0,
+                        vel: [0.0; interpd_motion::path::MAX_AXES],
+                        acc: [0.0; interpd_motion::path::MAX_AXES],
+                        ..at
+                    };
+                    self.t_s = at.t_s;
                     self.phase = Phase::Paused;
                     self.released_seen = io.releases;
                     self.notify(io, Notice::Paused { line: p.line, code: p.code, cycle });

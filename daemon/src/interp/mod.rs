@@ -39,7 +39,7 @@
 //!    stop), and what happened leaves as [`executor::Notice`]s through a lock-free queue.
 //!    daemon/tests/rt_no_alloc.rs runs the real service and proves its cycle allocation-free.
 //! 8. A program stop (M0, M1, M60) is a planned exact stop (v = a = 0) with a coarse point of
-//!    its own; the chunk names its time ([`chunk::ChunkPause`]). The executor stands there,
+//!    its own; the chunk names that point ([`chunk::ChunkPause`]). The executor stands there,
 //!    tells the daemon ([`executor::Notice::Paused`]) and waits until the release counter
 //!    (`motion.resume`) moves past what it was at the stop, then goes on in the same chunk: the
 //!    look-ahead plans on past the stop and nothing is replanned. M1 is skipped while the

@@ -135,7 +135,7 @@ impl Feeder {
         let chunk_time = |points: &Vec<CoarsePoint>| points.last().map_or(0.0, |p| p.t_s);
         for (k, code, line) in stops {
             builder.build(&segments[from..k], chunk_time(&chunk.points), &mut chunk.points);
-            chunk.pauses.push(ChunkPause { t_s: chunk_time(&chunk.points), code, line });
+            chunk.pauses.push(ChunkPause { point: chunk.points.len().saturating_sub(1), code, line });
             from = k;
         }
         builder.build(&segments[from..], chunk_time(&chunk.points), &mut chunk.points);

@@ -21,7 +21,7 @@
 //!   not solve within `MAX_ITER` steps (an infeasible band, a degenerate window) is handed to
 //!   Clarabel by the caller, which also tells infeasible from numerically hard.
 
-use super::qp_shape::{SOLVER_TOL, Shape};
+use super::qp_shape::{SOLVER_TOL, Shape, a_entries, quadrature_weight};
 use std::time::Instant;
 
 /// How a solve ended without a solution.
@@ -121,8 +121,8 @@ impl BandedLdl {
     }
 }
 
-/// One equality row over the free variables: (KKT index of the variable, coefficient), and the
-/// constant the fixed variables contribute.
+/// One equality row over the free variables: its KKT index and (KKT index of the variable,
+/// coefficient) per term; the fixed variables' share goes to the right-hand side per solve.
 #[derive(Debug, Clone, Default)]
 struct Row {
     kkt: usize,
@@ -192,25 +192,19 @@ impl BandedQp {
         let s = self.shape;
         let (n, l) = (s.n_points, s.levels);
         for j in 0..n {
-            let left = if j > 0 { deltas[j - 1] } else { 0.0 };
-            let right = deltas.get(j).copied().unwrap_or(0.0);
+            let q = quadrature_weight(deltas, j);
             for k in 0..l {
-                self.p[j * l + k] = 0.5 * (left + right) * weights[k];
+                self.p[j * l + k] = q * weights[k];
             }
         }
-        // The trapezoid rows of `qp.rs` (eq. 3.11 with its Euler–Maclaurin correction).
-        let r = l - 1;
+        // The trapezoid rows of the QP (eq. 3.11 with its Euler–Maclaurin correction), grouped
+        // by row.
+        let (idx, val) = a_entries(&s, deltas);
         self.coupling.clear();
-        for j in 0..n - 1 {
-            for k in 0..r {
-                let half = 0.5 * deltas[j];
-                let mut t =
-                    vec![(j * l + l + k, 1.0), (j * l + k, -1.0), (j * l + k + 1, -half), (j * l + l + k + 1, -half)];
-                if k + 2 <= r {
-                    let c = deltas[j] * deltas[j] / 12.0;
-                    t.extend([(j * l + l + k + 2, c), (j * l + k + 2, -c)]);
-                }
-                self.coupling.push(t);
+        self.coupling.resize_with(s.n_trapezoid(), Vec::new);
+        for (&(row, col), &v) in idx.iter().zip(&val) {
+            if row < s.n_trapezoid() {
+                self.coupling[row].push((col, v));
             }
         }
         for (row, t) in self.rows.iter_mut().zip(&self.coupling) {

@@ -69,3 +69,60 @@ impl Shape {
         debug_assert_eq!(b.len(), self.n_rows());
     }
 }
+
+/// Trapezoid quadrature weight of point j for spacings `deltas`.
+pub(super) fn quadrature_weight(deltas: &[f64], j: usize) -> f64 {
+    let left = if j > 0 { deltas[j - 1] } else { 0.0 };
+    let right = deltas.get(j).copied().unwrap_or(0.0);
+    0.5 * (left + right)
+}
+
+/// The entries of A in a fixed order: (row, column) and value; the trapezoid rows first
+/// (`Shape::n_trapezoid` of them), then the fixed ends, then the bands.
+pub(super) fn a_entries(s: &Shape, deltas: &[f64]) -> (Vec<(usize, usize)>, Vec<f64>) {
+    let mut idx = Vec::new();
+    let mut val = Vec::new();
+    let r = s.levels - 1;
+    // The trapezoid coupling of Haas 2012, eq. 3.11, at every level k < r. Eq. 3.11 prints
+    // the difference (x′_{i+1} − x′_i); the trapezoid rule, as in its expanded form, takes the
+    // sum: z_{j+1,k} − z_{j,k} − (Δ_j/2)(z_{j,k+1} + z_{j+1,k+1}) = 0.
+    for j in 0..s.n_points - 1 {
+        for k in 0..r {
+            let row = j * r + k;
+            let half = 0.5 * deltas[j];
+            idx.extend([
+                (row, s.var(j + 1, k)),
+                (row, s.var(j, k)),
+                (row, s.var(j, k + 1)),
+                (row, s.var(j + 1, k + 1)),
+            ]);
+            val.extend([1.0, -1.0, -half, -half]);
+            if k + 2 <= r {
+                // Euler–Maclaurin end correction of the trapezoid rule, + (Δ²/12)(z_{j+1,k+2} −
+                // z_{j,k+2}): the rule becomes exact for quartic z and the points' data
+                // consistent with a smooth curve to O(Δ⁵) instead of O(Δ³).
+                let c = deltas[j] * deltas[j] / 12.0;
+                idx.extend([(row, s.var(j + 1, k + 2)), (row, s.var(j, k + 2))]);
+                val.extend([c, -c]);
+            }
+        }
+    }
+    let mut row = s.n_trapezoid();
+    for k in 0..s.left_fixed {
+        idx.push((row, s.var(0, k)));
+        val.push(1.0);
+        row += 1;
+    }
+    for k in 0..s.right_fixed {
+        idx.push((row, s.var(s.n_points - 1, k)));
+        val.push(1.0);
+        row += 1;
+    }
+    for j in s.bounded() {
+        // z ≤ upper, −z ≤ −lower
+        idx.extend([(row, s.var(j, 0)), (row + 1, s.var(j, 0))]);
+        val.extend([1.0, -1.0]);
+        row += 2;
+    }
+    (idx, val)
+}

@@ -134,6 +134,8 @@ pub struct Planner {
     params: SamplingParams,
     lookahead_mm: f64,
     lookahead_samples: usize,
+    /// Nodes of a chunk (`CHUNK_NODES`; shorter in tests).
+    chunk_nodes: usize,
     /// Elements received but not yet sampled (the newest waits for its successor).
     pending: VecDeque<Element>,
     /// The last sampled element and its end (for the joint with the next one).
@@ -174,6 +176,7 @@ impl Planner {
             params: SamplingParams::from_settings(settings),
             lookahead_mm: p.lookahead_mm,
             lookahead_samples: p.lookahead_samples.unwrap_or(usize::MAX),
+            chunk_nodes: CHUNK_NODES,
             pending: VecDeque::new(),
             prev: None,
             since_stop_mm: 0.0,
@@ -433,7 +436,11 @@ impl Planner {
         let mut chunking = true;
         while idx < n {
             let is_end = idx == n - 1;
-            let chunk_cut = chunking && !is_end && !self.nodes[idx].stop && idx - block_start >= CHUNK_NODES;
+            // A chunk reaches past the stop kept from the hand-over state, so that a chunk
+            // with no continuation can still brake along that stop.
+            let past_stop = block_start != stop_from || idx > stop_from + self.retained_stop.len();
+            let chunk_cut =
+                chunking && !is_end && !self.nodes[idx].stop && idx - block_start >= self.chunk_nodes && past_stop;
             if !(self.nodes[idx].stop || is_end || chunk_cut) {
                 idx += 1;
                 continue;
@@ -479,9 +486,6 @@ impl Planner {
                     continue;
                 }
             };
-            if block_start == stop_from {
-                self.retained_stop.clear();
-            }
             self.stats.blocks += 1;
             tracing::debug!(
                 s_from_mm = self.nodes[block_start].s_mm,
@@ -495,6 +499,7 @@ impl Planner {
                 "planned section block"
             );
             if !plan.node_aligned {
+                self.retained_stop.clear();
                 self.emit_block(block_start, idx, &plan.intervals);
                 handed = idx;
                 state = (0.0, 0.0);
@@ -509,6 +514,12 @@ impl Planner {
                 chunking = false;
                 idx += 1;
                 continue;
+            }
+            // The stop kept from the hand-over state is replaced only by a plan that hands
+            // something on: a chunk that hands on nothing leaves it the fallback of the block
+            // planned whole.
+            if block_start == stop_from {
+                self.retained_stop.clear();
             }
             self.emit(block_start, &plan.intervals[..final_count]);
             handed = block_start + final_count;

@@ -340,6 +340,30 @@ fn a_short_look_ahead_does_not_search_caps_that_cannot_help() {
     assert!(stats.work.cap_tries <= 250, "{:?}", stats.work);
 }
 
+/// Chunks shorter than the stop a horizon kept from its hand-over state (here 500 nodes on the
+/// dense spline with a 10 mm look-ahead): a chunk reaches past that stop, and one that hands
+/// over nothing leaves it in place, so a block with no continuation from the hand-over state
+/// still brakes along it. Before, such a block found neither and the plan failed ("no
+/// backward branch").
+#[test]
+fn short_chunks_keep_the_stop_from_the_hand_over_state() {
+    let (tight, path) = tight_spline(10_000);
+    let mut cfg = tight.clone();
+    cfg.planner.lookahead_mm = 10.0;
+    let mut planner = Planner::new(&cfg);
+    planner.chunk_nodes = 500;
+    let mut segs = Vec::new();
+    for e in &path.elements {
+        planner.push(e.clone());
+        segs.extend(planner.plan().expect("online plan"));
+    }
+    planner.finish(path.final_dwell_s);
+    segs.extend(planner.plan().expect("final plan"));
+    assert!(planner.done());
+    check_covers(&segs, path.length_mm());
+    assert_eq!(planner.stats.forced_stops, 0, "{:?}", planner.stats);
+}
+
 /// A repair lowers v̄ at a node in the middle of a 9 000-node block (a dense spline on the
 /// tight test machine). Rebuilt from the envelope before, the envelope takes over the branches
 /// before that node, and the forward branch resumes at its last section end before the first

@@ -32,11 +32,9 @@ RUN_TIMEOUT_S = 1800
 
 
 def cusp_long(path):
-    """The family's cusp trochoid (seed 1) with a centre travel of 230 mm: about 1 000 000 moves
-    of 2.3 um. Not yet the issue's 300 000-move program: the family's spiral is parametrised by
-    an arc-length approximation that holds for its 20-40 mm, and beyond that the loop sizes no
-    longer follow the intended sweep (69 mm gives 30 000 moves, 230 mm 1 000 000)."""
-    family.CUSP_CENTRE_MM = (230.0, 230.0)
+    """The family's cusp trochoid (seed 1) with a centre travel of 500 mm: about 300 000 moves
+    of 2.3 um along some 690 mm of path, issue 41's 300 000-move cusp trochoid."""
+    family.CUSP_CENTRE_MM = (500.0, 500.0)
     text, _, _, desc = family.make("cusp", 1, 0.0023)
     with open(path, "w") as f:
         f.write(text)

@@ -106,10 +106,13 @@ def cusp_curve(rng):
     # Critical loop radius: the loop speed r * omega equals the centre speed (1 per unit u).
     r_crit = 1.0 / omega
 
+    b = grow / (2 * math.pi)                      # radius growth per radian, mm
+
     def spiral(u):
-        # Archimedean spiral by (approximately) its arc length u.
-        phi = u / r0 - (grow / (2 * math.pi)) * (u / r0) ** 2 / (2 * r0) * r0
-        rad = r0 + grow * phi / (2 * math.pi)
+        # Archimedean spiral r = r0 + b*phi by its arc length u: s(phi) = r0*phi + b*phi^2/2
+        # (the b^2 term of ds/dphi = sqrt(r^2 + b^2) is below 1e-3 of r here), inverted.
+        phi = (np.sqrt(r0 * r0 + 2.0 * b * u) - r0) / b
+        rad = r0 + b * phi
         return rad * np.cos(phi), rad * np.sin(phi)
 
     def f(u):

@@ -79,8 +79,10 @@ def geom_at(start, end, ds, sigma, k, m, span=None):
 # ----------------------------------------------------------------------------- Ipopt problem
 
 
-def ipopt_block(data, i0, i1, verbose):
-    """Time-optimal constant-jerk profile over nodes i0..i1 (rest at both ends).
+def ipopt_block(data, i0, i1, verbose, free_ends=False):
+    """Time-optimal constant-jerk profile over nodes i0..i1 (rest at both ends; with
+    `free_ends`, rest only at an end that is a stop: the least time any profile of the family
+    spends on these nodes, whatever it enters and leaves them with).
 
     Built as one SX expression graph (scalar operations, exact sparse Hessian) for Ipopt."""
     nodes, lim, prof = data["nodes"], data["limits"], data["profile"]
@@ -100,7 +102,9 @@ def ipopt_block(data, i0, i1, verbose):
     inf = ca.inf
     lbx = [0.0] * (m + 1) + [-inf] * (m + 1) + [-inf] * m + [1e-6] * m
     ubx = [inf] * (m + 1) + [inf] * (m + 1) + [inf] * m + [inf] * m
-    for idx in (0, m):  # rest at both ends
+    for idx, i in ((0, i0), (m, i1)):  # rest at both ends
+        if free_ends and not nodes[i]["stop"]:
+            continue
         lbx[idx] = ubx[idx] = 0.0
         lbx[m + 1 + idx] = ubx[m + 1 + idx] = 0.0
     g, lbg, ubg = [], [], []
@@ -256,11 +260,48 @@ def where_lost(data, i0, i1, v_opt, dt_opt):
     return out
 
 
+def window_bounds(data, path, n, max_windows, verbose):
+    """Ipopt with free end states on consecutive windows of `n` nodes (or `max_windows` of them
+    spread evenly): per window our time on its nodes and the least time of any profile of the
+    planner's family there. Over all windows of a program their sum is a lower bound of its
+    jerk-limited motion time on these nodes (windows split the time at their shared nodes)."""
+    nodes, prof = data["nodes"], data["profile"]
+    starts = list(range(0, len(nodes) - 2, n))
+    if max_windows and len(starts) > max_windows:
+        step = len(starts) / max_windows
+        starts = [starts[int(k * step)] for k in range(max_windows)]
+    ours_sum, opt_sum, worst = 0.0, 0.0, 0.0
+    t0 = time.time()
+    for i0 in starts:
+        i1 = min(i0 + n, len(nodes) - 1)
+        t_ours = sum(p[3] for p in prof[i0:i1] if p)
+        t_opt, st, _, _ = ipopt_block(data, i0, i1, verbose, free_ends=True)
+        if st != "optimal":
+            print(f"  {nodes[i0]['s']:9.3f}-{nodes[i1]['s']:9.3f} mm: Ipopt {st}, left out", flush=True)
+            continue
+        ours_sum, opt_sum = ours_sum + t_ours, opt_sum + t_opt
+        worst = max(worst, t_ours / t_opt)
+        print(f"  {nodes[i0]['s']:9.3f}-{nodes[i1]['s']:9.3f} mm: ours {t_ours:.4f} s, Ipopt {t_opt:.4f} s, "
+              f"ours/Ipopt {t_ours / t_opt:.4f}", flush=True)
+    print(f"{path}: windows of {n} nodes: ours {ours_sum:.4f} s, Ipopt (free ends) {opt_sum:.4f} s, "
+          f"ours/Ipopt {ours_sum / max(opt_sum, 1e-12):.4f}, worst window {worst:.4f} "
+          f"[{len(nodes)} nodes, {time.time() - t0:.1f} s]", flush=True)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("exports", nargs="+", help="JSON files from interpd plan --export-nodes")
     ap.add_argument("--verbose", action="store_true", help="Ipopt iteration log")
     ap.add_argument("--no-ipopt", action="store_true", help="only the acceleration-only bound")
+    ap.add_argument(
+        "--windows",
+        type=int,
+        default=0,
+        metavar="N",
+        help="instead of whole blocks, Ipopt on windows of N nodes with free end states (a lower bound of the time "
+        "on each window's nodes): for programs too long for one solve",
+    )
+    ap.add_argument("--max-windows", type=int, default=0, metavar="K", help="with --windows: K windows spread evenly")
     ap.add_argument(
         "--where",
         type=int,
@@ -269,6 +310,10 @@ def main():
         help="also list the N stretches (between minima of our v-bar) where our motion loses most time to Ipopt's",
     )
     args = ap.parse_args()
+    if args.windows:
+        for path in args.exports:
+            window_bounds(load(path), path, args.windows, args.max_windows, args.verbose)
+        return 0
     worst = 0.0
     for path in args.exports:
         data = load(path)

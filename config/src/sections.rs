@@ -309,10 +309,12 @@ pub struct ProgramsConfig {
     /// Iterations one O-word loop (`while`, `do`, `repeat`) may run, at most: a loop that runs
     /// longer is an error at its line (it most likely never ends).
     pub max_loop_iterations: u64,
-    /// LinuxCNC's parameter file (`NUMBER VALUE` lines): the work offsets G54 … G59 are read
-    /// from it at start-up and written to it by `offsets.set` and at the end of every program
-    /// that changed them (G10 L2/L20). Relative to the configuration file's directory. Unset:
-    /// no file, the offsets come from `[work_offsets]` and last until the daemon ends.
+    /// LinuxCNC's parameter file (`NUMBER VALUE` lines): the work offsets G54 … G59.3 with
+    /// their rotations and the G28/G30 positions (#5161–#5390) are read from it at start-up
+    /// and written to it by `offsets.set` and at the end of every program that changed them
+    /// (G10 L2/L20, G28.1/G30.1). Relative to the configuration file's directory. Unset: no
+    /// file, the offsets come from `[work_offsets]` and last until the daemon ends, and every
+    /// program starts with the G28/G30 positions at 0.
     pub parameter_file: Option<String>,
 }
 

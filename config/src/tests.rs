@@ -217,18 +217,22 @@ fn can_section_errors_name_the_key() {
 fn tool_table_and_work_offsets_are_checked_by_key() {
     let base = format!("[machine]\n{AXIS_X}");
     let ok = parse(&format!(
-        "{base}\n[[tool]]\nnumber = 3\ndiameter = 6.0\nlength = 40.0\n[work_offsets]\nG55 = {{ X = 2.5 }}\n"
+        "{base}\n[[tool]]\nnumber = 3\ndiameter = 6.0\nlength = 40.0\n[work_offsets]\nG55 = {{ X = 2.5 }}\n\"G59.2\" = {{ X = -1.0 }}\nrotation = {{ \"G59.2\" = 30.0 }}\n"
     ))
     .unwrap();
     assert_eq!((ok.tools[0].number, ok.tools[0].diameter_mm, ok.tools[0].length_mm), (3, 6.0, 40.0));
     assert_eq!(ok.work_offsets.vector(1, &ok.axes)[0], 2.5);
     assert_eq!(ok.work_offsets.vector(0, &ok.axes)[0], 0.0);
+    assert_eq!((ok.work_offsets.vector(7, &ok.axes)[0], ok.work_offsets.rotation(7)), (-1.0, 30.0));
+    assert_eq!(ok.work_offsets.rotation(1), 0.0);
     for (extra, key) in [
         ("[[tool]]\nnumber = 1\ndiameter = -1.0\n", "tool[0].diameter"),
         ("[[tool]]\nnumber = 1\ndiameter = 1.0\n[[tool]]\nnumber = 1\ndiameter = 2.0\n", "tool[1].number"),
         ("[[tool]]\nnumber = 100000\ndiameter = 1.0\n", "tool[0].number"),
         ("[work_offsets]\nG54 = { Y = 1.0 }\n", "work_offsets.G54.Y"),
         ("[work_offsets]\nG54 = { X = nan }\n", "work_offsets.G54.X"),
+        ("[work_offsets]\nrotation = { G60 = 1.0 }\n", "work_offsets.rotation.G60"),
+        ("[work_offsets]\nrotation = { G54 = inf }\n", "work_offsets.rotation.G54"),
     ] {
         let e = err_text(&format!("{base}\n{extra}"));
         assert!(e.contains(key), "{extra}: {e}");

@@ -16,8 +16,10 @@ pub struct Settings {
     pub prep: PrepConfig,
     /// The tool table (G43 H, G41/G42 D).
     pub tools: Vec<ToolConfig>,
-    /// The work coordinate systems G54 … G59.
+    /// The work coordinate systems G54 … G59.3 and their rotations.
     pub work_offsets: WorkOffsetsConfig,
+    /// The G28/G30 positions a program starts with (0 unless a parameter file keeps them).
+    pub home_positions: crate::program::HomePositions,
     /// Where subroutine files are found and how long a loop may run.
     pub programs: ProgramsConfig,
 }
@@ -31,6 +33,7 @@ impl Settings {
             prep: config.prep.clone(),
             tools: config.tools.clone(),
             work_offsets: config.work_offsets.clone(),
+            home_positions: Default::default(),
             programs: config.programs.clone(),
         }
     }

@@ -56,14 +56,16 @@ pub fn run(program_path: &Path, machine: Option<&Path>) -> Result<(), CliError> 
             .work_offsets
             .iter()
             .map(|name| {
-                // G59.1 … G59.3 are not in the configuration: they start at zero (G10 sets them).
                 let Some(i) = interpd_motion::config::WORK_SYSTEMS.iter().position(|w| w == name) else {
-                    return format!("{name} (zero unless the program sets it)");
+                    return name.to_string();
                 };
                 let v = settings.work_offsets.vector(i, &settings.axes);
                 let axes: Vec<String> =
                     settings.axes.iter().enumerate().map(|(k, a)| format!("{}{}", a.name, v[k])).collect();
-                format!("{name} ({})", axes.join(" "))
+                match settings.work_offsets.rotation(i) {
+                    0.0 => format!("{name} ({})", axes.join(" ")),
+                    deg => format!("{name} ({}, turned {deg}°)", axes.join(" ")),
+                }
             })
             .collect();
         extra += &format!(", work offsets {}", systems.join(", "));

@@ -12,7 +12,6 @@ use super::law_run::{self, LawProgram};
 use super::state::Loaded;
 use super::{ServiceCore, lock};
 use crate::control::{LoadError, ProgramSource};
-use interpd_config::WORK_SYSTEMS;
 use interpd_motion::law::LawMove;
 use interpd_motion::program;
 use interpd_protocol::api::{Method, ProgramInfo};
@@ -81,9 +80,8 @@ impl ServiceCore {
         let mut ctl = lock(&shared.control);
         // The state may have changed while the program was checked.
         ctl.check(Method::ProgramLoad)?;
-        let offsets_end = checked
-            .work_origins_end
-            .map(|o| Arc::new(super::param_store::offsets_of(&o[..WORK_SYSTEMS.len()], &shared.config.axes)));
+        let offsets_end =
+            checked.persistent_end.map(|end| Arc::new(super::param_store::Kept::of_program(&end, &shared.config.axes)));
         ctl.loaded(info.clone(), Loaded::Program { text, tooling, appends, offsets_end });
         Ok(info)
     }

@@ -153,7 +153,8 @@ struct Shared {
     lookahead: Arc<feeder::LookaheadHealth>,
     /// An axis's setpoint moved at rest (homing), for the real-time thread.
     reposition: reposition::Reposition,
-    /// The parameter file the work offsets are kept in (`[programs] parameter_file`).
+    /// The parameter file the work offsets and G28/G30 positions are kept in
+    /// (`[programs] parameter_file`).
     params: Option<param_store::ParamStore>,
 }
 
@@ -242,9 +243,9 @@ impl Service {
         let ServiceExtras { sinks: extra_sinks, drives, start_position, debug_stall_cycle } = extras;
         let programs = programs::ProgramsDir::from_config(&opts.config.programs)?;
         let params = param_store::ParamStore::open(opts.config.programs.parameter_file.as_deref())?;
-        let mut work_offsets = opts.config.work_offsets.clone();
+        let mut kept = param_store::Kept { work_offsets: opts.config.work_offsets.clone(), ..Default::default() };
         if let Some(p) = &params {
-            p.apply(&mut work_offsets, &opts.config.axes);
+            p.apply(&mut kept, &opts.config.axes);
         }
         allocator::keep_memory_returnable();
         // Before any thread starts: they all inherit it; the real-time thread pins itself.
@@ -281,7 +282,11 @@ impl Service {
             comp_stats: Mutex::new(None),
             drives,
             programs,
-            tooling: Mutex::new(Arc::new(tooling::Tooling { tools: opts.config.tools.clone(), work_offsets })),
+            tooling: Mutex::new(Arc::new(tooling::Tooling {
+                tools: opts.config.tools.clone(),
+                work_offsets: kept.work_offsets,
+                home_positions: kept.home_positions,
+            })),
             modal: feeder.modal_track(),
             lookahead: feeder.health(),
             reposition: reposition::Reposition::default(),

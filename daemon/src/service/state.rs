@@ -52,9 +52,10 @@ pub(super) enum Loaded {
         text: ProgramText,
         tooling: Arc<Tooling>,
         appends: Option<Appends>,
-        /// The work offsets G54 … G59 the program leaves (its G10 L2/L20 executed at the load's
-        /// check), kept in the parameter file when it has run to its end.
-        offsets_end: Option<Arc<interpd_config::WorkOffsetsConfig>>,
+        /// The work offsets G54 … G59.3 (with rotations) and G28/G30 positions the program
+        /// leaves (its G10 L2/L20, G28.1/G30.1 executed at the load's check), kept in the
+        /// parameter file when it has run to its end.
+        offsets_end: Option<Arc<super::param_store::Kept>>,
     },
     Laws(Arc<LawProgram>),
 }

@@ -3,6 +3,7 @@
 //! after a change; a loaded or running program keeps the path it was read with, so a change is
 //! allowed in every state.
 
+use super::param_store::Kept;
 use super::{ServiceCore, lock};
 use crate::config::{ToolConfig, WORK_SYSTEMS};
 use crate::control::errors::ManualError;
@@ -17,12 +18,24 @@ use std::sync::Arc;
 pub struct Tooling {
     pub tools: Vec<interpd_config::ToolConfig>,
     pub work_offsets: interpd_config::WorkOffsetsConfig,
+    /// The G28/G30 positions (the parameter file's; 0 without one).
+    pub home_positions: interpd_motion::program::HomePositions,
 }
 
 impl Tooling {
-    /// `settings` with this tool table and these work offsets.
+    /// `settings` with this tool table, these work offsets and G28/G30 positions.
     pub fn apply(&self, settings: &Settings) -> Settings {
-        Settings { tools: self.tools.clone(), work_offsets: self.work_offsets.clone(), ..settings.clone() }
+        Settings {
+            tools: self.tools.clone(),
+            work_offsets: self.work_offsets.clone(),
+            home_positions: self.home_positions,
+            ..settings.clone()
+        }
+    }
+
+    /// What the parameter file keeps of it.
+    fn kept(&self) -> Kept {
+        Kept { work_offsets: self.work_offsets.clone(), home_positions: self.home_positions }
     }
 }
 
@@ -62,7 +75,7 @@ impl ServiceCore {
         self.tool_table()
     }
 
-    /// Every system with every axis of the machine.
+    /// Every system with every axis of the machine, and every system's rotation.
     pub(crate) fn work_offsets(&self) -> WorkOffsets {
         let t = lock(&self.shared.tooling);
         let axes = &self.shared.settings.axes;
@@ -74,10 +87,13 @@ impl ServiceCore {
                 (name.to_string(), axes.iter().enumerate().map(|(k, a)| (a.name.to_string(), v[k])).collect())
             })
             .collect();
-        WorkOffsets { offsets }
+        let rotations_deg =
+            WORK_SYSTEMS.iter().enumerate().map(|(i, name)| (name.to_string(), t.work_offsets.rotation(i))).collect();
+        WorkOffsets { offsets, rotations_deg }
     }
 
-    /// Replaces the systems given, each whole; the axis names must be the machine's.
+    /// Replaces the systems given, each whole, and the rotations given; the axis names must be
+    /// the machine's.
     pub(crate) fn set_work_offsets(&self, offsets: WorkOffsets) -> Result<WorkOffsets, ManualError> {
         let axes = &self.shared.settings.axes;
         for (system, values) in &offsets.offsets {
@@ -93,13 +109,16 @@ impl ServiceCore {
         {
             let mut t = lock(&self.shared.tooling);
             let mut next = (**t).clone();
+            let index = |system: &str| WORK_SYSTEMS.iter().position(|w| *w == system).expect("checked by the protocol");
             for (system, values) in offsets.offsets {
-                let i = WORK_SYSTEMS.iter().position(|w| *w == system).expect("checked by the protocol");
-                *next.work_offsets.systems_mut()[i] = values.into_iter().collect::<BTreeMap<_, _>>();
+                *next.work_offsets.systems_mut()[index(&system)] = values.into_iter().collect::<BTreeMap<_, _>>();
+            }
+            for (system, deg) in offsets.rotations_deg {
+                next.work_offsets.set_rotation(index(&system), deg);
             }
             // Kept for good first: a change the file cannot take is refused whole.
             if let Some(store) = &self.shared.params {
-                store.save(&next.work_offsets, axes).map_err(|e| ManualError::ParamFile {
+                store.save(&next.kept(), axes).map_err(|e| ManualError::ParamFile {
                     file: store.path().display().to_string(),
                     message: e.to_string(),
                 })?;
@@ -112,25 +131,27 @@ impl ServiceCore {
 }
 
 impl super::Shared {
-    /// A program ran to its end: the work offsets its G10 L2/L20 left become the machine's
-    /// (for programs loaded after it, as `offsets.set`) and go to the parameter file. Without a
-    /// parameter file, a program's G10 changes the offsets for that program only.
-    pub(super) fn keep_program_offsets(&self, offsets: &interpd_config::WorkOffsetsConfig) {
+    /// A program ran to its end: the work offsets its G10 L2/L20 left and the G28/G30
+    /// positions its G28.1/G30.1 left become the machine's (for programs loaded after it, as
+    /// `offsets.set`) and go to the parameter file. Without a parameter file, a program's G10
+    /// and G28.1 change them for that program only.
+    pub(super) fn keep_program_offsets(&self, kept: &Kept) {
         let shared = self;
         let Some(store) = &shared.params else { return };
         let axes = &shared.settings.axes;
         let mut t = lock(&shared.tooling);
-        if super::param_store::same_offsets(&t.work_offsets, offsets, axes) {
+        if t.kept().same_on(kept, axes) {
             return;
         }
         let mut next = (**t).clone();
-        next.work_offsets = offsets.clone();
-        match store.save(&next.work_offsets, axes) {
+        next.work_offsets = kept.work_offsets.clone();
+        next.home_positions = kept.home_positions;
+        match store.save(&next.kept(), axes) {
             Ok(()) => *t = Arc::new(next),
             Err(e) => {
                 drop(t);
                 let message = format!(
-                    "cannot write the parameter file {}: {e}; the program's work offsets are not kept",
+                    "cannot write the parameter file {}: {e}; the program's work offsets and G28/G30 positions are not kept",
                     store.path().display()
                 );
                 tracing::error!("{message}");

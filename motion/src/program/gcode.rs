@@ -313,14 +313,8 @@ impl Interpreter {
         }
         Self {
             settings: settings.clone(),
-            work_origins: std::array::from_fn(|sys| {
-                if sys < interpd_config::WORK_SYSTEMS.len() {
-                    settings.work_offsets.vector(sys, &settings.axes)
-                } else {
-                    [0.0; MAX_AXES]
-                }
-            }),
-            work_rotations_deg: [0.0; WORK_SYSTEM_NAMES.len()],
+            work_origins: std::array::from_fn(|sys| settings.work_offsets.vector(sys, &settings.axes)),
+            work_rotations_deg: std::array::from_fn(|sys| settings.work_offsets.rotation(sys)),
             linear,
             modal: Self::initial_modal(settings, [0.0; MAX_AXES]),
             cutter: Cutter::new(&linear[..settings.axes.len()]),
@@ -338,7 +332,7 @@ impl Interpreter {
             pending_pause: None,
             pause_for: None,
             block_pause: None,
-            params: Params::default(),
+            params: settings.home_positions.params(),
             flow: Flow::default(),
             cycle: CycleState::default(),
             spline: SplineState::default(),

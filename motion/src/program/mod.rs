@@ -20,7 +20,7 @@ pub(crate) use append::AppendBuffer;
 pub use append::{AppendError, Appended, Appends};
 pub use error::{ProgramError, ProgramErrors};
 pub(crate) use gcode::fmt_num;
-pub use param_file::{ParamFile, ParamFileError};
+pub use param_file::{HomePositions, ParamFile, ParamFileError, Persistent};
 pub(crate) use stream::ProgramStream;
 pub use stream::{Checked, check, check_open, check_text};
 

@@ -486,9 +486,9 @@ pub struct Checked {
     pub length_mm: f64,
     /// Joints where the tangent breaks (a stop unless smoothed).
     pub corners: u64,
-    /// The origins of the work systems G54 … G59.3 per machine axis at the program's end (what
-    /// its G10 L2/L20 left; the parameter file keeps them). `None` for a path table.
-    pub work_origins_end: Option<[crate::path::AxisVec; super::WORK_SYSTEM_NAMES.len()]>,
+    /// The work systems G54 … G59.3 and the G28/G30 positions at the program's end (what its
+    /// G10 L2/L20 and G28.1/G30.1 left; the parameter file keeps them). `None` for a path table.
+    pub persistent_end: Option<super::Persistent>,
 }
 
 /// Reads the program at `path` to its end, keeping no geometry: every error (up to the cap,
@@ -538,15 +538,15 @@ fn check_stream(mut stream: ProgramStream) -> Result<(Checked, Option<AppendChec
     }
     let summary = stream.summary().clone();
     let elements = summary.kinds.values().map(|&n| n as u64).sum();
-    let (length_mm, checker, work_origins_end) = match &stream.reader {
+    let (length_mm, checker, persistent_end) = match &stream.reader {
         Reader::GCode(interp) => {
             let checker = (!summary.program_end)
                 .then(|| AppendChecker::new((**interp).clone(), stream.line_no, stream.d.file().to_string()));
-            (length_mm.max(interp.path.length_mm()), checker, Some(interp.work_origins))
+            (length_mm.max(interp.path.length_mm()), checker, Some(interp.persistent()))
         }
         Reader::Table { .. } => (length_mm, None, None),
     };
-    Ok((Checked { summary, elements, length_mm, corners, work_origins_end }, checker))
+    Ok((Checked { summary, elements, length_mm, corners, persistent_end }, checker))
 }
 
 fn fatal(origin: &str, message: String) -> ProgramErrors {

@@ -288,8 +288,16 @@ fn tool_table_and_offsets_params() {
     let o = Call::parse("offsets.set", Some(json!({"offsets": {"G54": {"X": 1.5}}}))).expect("offsets.set");
     let Call::OffsetsSet(o) = o else { panic!("{o:?}") };
     assert_eq!(o.offsets["G54"]["X"], 1.5);
+    let o =
+        Call::parse("offsets.set", Some(json!({"offsets": {"G59.2": {"X": 5.0}}, "rotations_deg": {"G59.2": 30.0}})))
+            .expect("offsets.set of G59.2 with a rotation");
+    let Call::OffsetsSet(o) = o else { panic!("{o:?}") };
+    assert_eq!((o.offsets["G59.2"]["X"], o.rotations_deg["G59.2"]), (5.0, 30.0));
     for (params, param) in [
         (json!({"offsets": {}}), "offsets"),
+        (json!({"rotations_deg": {}}), "offsets"),
+        (json!({"rotations_deg": {"G60": 1.0}}), "rotations_deg.G60"),
+        (json!({"rotations_deg": {"G54": "x"}}), "G54"),
         (json!({"offsets": {"G53": {"X": 1.0}}}), "offsets.G53"),
         (json!({"offsets": {"G54": {"X": "1"}}}), "X"),
     ] {

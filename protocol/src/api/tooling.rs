@@ -12,7 +12,7 @@ use std::collections::BTreeMap;
 pub const MAX_TOOL_NUMBER: u32 = 99_999;
 
 /// The names of the work coordinate systems, in order.
-pub const WORK_SYSTEMS: [&str; 6] = ["G54", "G55", "G56", "G57", "G58", "G59"];
+pub const WORK_SYSTEMS: [&str; 9] = ["G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3"];
 
 /// One tool.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -37,12 +37,18 @@ pub struct ToolTable {
 }
 
 /// Result of `offsets.get` and `offsets.set`: every system with every axis (mm, deg for rotary
-/// axes). As the parameters of `offsets.set`: the systems given, each replaced whole (axes left
-/// out are 0); systems not given keep their offsets.
+/// axes) and every system's rotation about Z (degrees counter-clockwise, `G10 L2 … R`). As the
+/// parameters of `offsets.set`: the systems given in `offsets`, each replaced whole (axes left
+/// out are 0), and the rotations given in `rotations_deg`; the rest is kept.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct WorkOffsets {
+    #[serde(default)]
     pub offsets: BTreeMap<String, BTreeMap<String, f64>>,
+    /// The rotation lives beside the axes, not among them: a client that reads every key of a
+    /// system as an axis keeps working.
+    #[serde(default)]
+    pub rotations_deg: BTreeMap<String, f64>,
 }
 
 pub(super) fn refuse(method: Method, param: &str, detail: &str) -> ErrorObject {
@@ -113,16 +119,32 @@ impl ToolTable {
 }
 
 impl WorkOffsets {
-    /// `offsets.set`: at least one system, each named G54 … G59, values finite (the axis names
-    /// are checked against the machine by the daemon).
+    /// `offsets.set`: at least one system or rotation, each system named G54 … G59.3, values
+    /// finite (the axis names are checked against the machine by the daemon).
     pub fn parse(params: Params) -> Result<WorkOffsets, ErrorObject> {
         const M: Method = Method::OffsetsSet;
         let o: WorkOffsets = members(M, params, OFFSETS_EXAMPLE)?;
-        if o.offsets.is_empty() {
+        for (system, v) in &o.rotations_deg {
+            if !WORK_SYSTEMS.contains(&system.as_str()) {
+                return Err(refuse(
+                    M,
+                    &format!("rotations_deg.{system}"),
+                    &format!("unknown coordinate system {system:?}; expected one of G54 … G59.3"),
+                ));
+            }
+            if !v.is_finite() {
+                return Err(refuse(
+                    M,
+                    &format!("rotations_deg.{system}"),
+                    &format!("the rotation must be a finite number, got {v}"),
+                ));
+            }
+        }
+        if o.offsets.is_empty() && o.rotations_deg.is_empty() {
             return Err(refuse(
                 M,
                 "offsets",
-                &format!("\"offsets\" names no coordinate system; expected {OFFSETS_EXAMPLE}"),
+                &format!("\"offsets\" and \"rotations_deg\" name no coordinate system; expected {OFFSETS_EXAMPLE}"),
             ));
         }
         for (system, axes) in &o.offsets {
@@ -130,7 +152,7 @@ impl WorkOffsets {
                 return Err(refuse(
                     M,
                     &format!("offsets.{system}"),
-                    &format!("unknown coordinate system {system:?}; expected one of G54 … G59"),
+                    &format!("unknown coordinate system {system:?}; expected one of G54 … G59.3"),
                 ));
             }
             for (axis, v) in axes {

@@ -3,14 +3,15 @@
 //! offset, LinuxCNC's G92 offset), G53 (a move in machine coordinates).
 //!
 //! A work offset G10 sets holds for the rest of the program (the configuration's
-//! `[work_offsets]` and `offsets.set` give the values it starts with); G59.1 … G59.3 start
-//! at zero.
+//! `[work_offsets]`, `offsets.set` and the parameter file give the values it starts with, the
+//! parameter file the G28/G30 positions too); what a program leaves is [`Interpreter::persistent`].
 
 use super::frame::rotate;
 use super::{Block, Interpreter, Motion};
 use crate::path::{Feed, Source};
 use crate::program::error::Diagnostics;
 use crate::program::lexer::Line;
+use crate::program::param_file::HOME_BASE;
 use interpd_config::AxisLetter;
 
 /// The non-modal codes of this module.
@@ -26,10 +27,20 @@ pub(crate) enum OffsetWord {
 }
 
 /// The first parameter of the G28 and G30 positions (X; then Y Z A B C U V W).
-const G28_PARAM: usize = 5161;
-const G30_PARAM: usize = 5181;
+const G28_PARAM: usize = HOME_BASE[0];
+const G30_PARAM: usize = HOME_BASE[1];
 
 impl Interpreter {
+    /// The work systems and G28/G30 positions as the program has them now: at its end, what
+    /// the parameter file keeps.
+    pub(in crate::program) fn persistent(&self) -> crate::program::Persistent {
+        crate::program::Persistent {
+            work_origins: self.work_origins,
+            work_rotations_deg: self.work_rotations_deg,
+            home_positions: crate::program::HomePositions::of(&self.params),
+        }
+    }
+
     /// G53 is allowed here: G0 or G1, absolute, no cutter compensation.
     pub(in crate::program) fn machine_coordinates_ok(
         &self,

@@ -66,9 +66,10 @@ fn run(core: &interpd::service::ServiceCore, steps: &[(&str, u64)]) {
 
 /// Manual motion: a move-to, a continuous jog changed while moving and stopped, a jog by a
 /// distance, MDI blocks, and a jog from a held program followed by the resume back to it.
-/// Program stops: paused at M0, resumed, paused at M1, stopped there.
+/// Program stops: paused at M0, resumed, paused at M1, stopped there; operator messages before
+/// and after the stop and between moves (their markers are read in the cycle).
 fn paused(core: &interpd::service::ServiceCore) {
-    let text = "G1 X5 F1200\nM0\nG1 X10\nM1\nG1 X0\nM2\n";
+    let text = "G1 X5 F1200\n(DEBUG,x=#5420)\nM0\n(MSG,on)\nG1 X10\n(PRINT,%d#5420)\nG1 X11\nM1\nG1 X0\nM2\n";
     core.load(ProgramSource::Text { name: "stops.ngc".into(), text: text.into() }, false).expect("load");
     core.start().expect("start");
     assert_eq!(core.wait_for(&[State::Paused], Duration::from_secs(30)), State::Paused);

@@ -545,6 +545,15 @@ impl Feed {
         self.window.take_modal_change()
     }
 
+    /// The oldest operator message (`(MSG,…)`, `(DEBUG,…)`, `(PRINT,…)`) read so far and not yet
+    /// taken, in program order. Its place in the motion is the [`crate::path::Pause`] of the
+    /// element that names its number (messages after the last element have none: they belong
+    /// to the program's end). The reader holds at most a bounded number
+    /// ([`crate::program::MessageQueue`]): take them after each [`Feed::plan`].
+    pub fn take_message(&mut self) -> Option<crate::program::Message> {
+        self.window.take_message()
+    }
+
     /// What the program's lines held so far (`None` for a path held whole).
     pub fn summary(&self) -> Option<&Summary> {
         self.window.summary()

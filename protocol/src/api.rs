@@ -317,6 +317,18 @@ pub enum PauseCode {
     M60,
 }
 
+/// The comment an operator message comes from (`message` event).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MessageKind {
+    /// `(MSG,…)`, shown as written.
+    Msg,
+    /// `(DEBUG,…)`, parameters substituted (while `#5599` > 0).
+    Debug,
+    /// `(PRINT,…)`, parameters substituted.
+    Print,
+}
+
 /// Result of `subscribe`: the connection now also carries event notifications.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Subscribed {
@@ -427,11 +439,17 @@ pub enum Event {
     /// The program stands at its program stop `code` (M0, M1 with the optional-stop switch
     /// on, M60) on line `line`: it waits for `motion.resume`.
     Paused { line: u32, code: PauseCode },
+    /// The motion reached an operator message of the program (`(MSG,…)`, `(DEBUG,…)`,
+    /// `(PRINT,…)` on line `line`): everything before it has moved. `text` is formatted when
+    /// the program read the block (parameters substituted for DEBUG and PRINT, at most 255
+    /// bytes); `dropped` counts the messages left out just before this one because too many
+    /// waited for the motion (0 normally).
+    Message { kind: MessageKind, text: String, line: u32, dropped: u64 },
 }
 
 impl Event {
     /// The `event` tag of every variant, in declaration order.
-    pub const NAMES: [&'static str; 15] = [
+    pub const NAMES: [&'static str; 16] = [
         "started",
         "line_reached",
         "underrun",
@@ -447,6 +465,7 @@ impl Event {
         "measurement_lost",
         "measurement_restored",
         "paused",
+        "message",
     ];
 
     pub fn name(&self) -> &'static str {
@@ -466,6 +485,7 @@ impl Event {
             Event::MeasurementLost { .. } => "measurement_lost",
             Event::MeasurementRestored => "measurement_restored",
             Event::Paused { .. } => "paused",
+            Event::Message { .. } => "message",
         }
     }
 

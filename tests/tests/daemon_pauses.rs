@@ -51,12 +51,12 @@ fn m0_m1_m60_pause_until_resumed_and_the_optional_stop_switch_skips_m1() {
     assert_eq!(r["error"]["code"], -32002, "{r}");
 
     c.ok("motion.start", Value::Null);
-    expect_pause(&mut c, 3, "M0", 10.0);
+    expect_pause(&mut c, 2, "M0", 10.0);
     // Not a hold: motion.hold is refused, motion.start too.
     let r = c.call("motion.hold", Value::Null);
     assert_eq!(r["error"]["data"]["state"], "paused", "{r}");
     c.ok("motion.resume", Value::Null);
-    expect_pause(&mut c, 5, "M1", 20.0);
+    expect_pause(&mut c, 4, "M1", 20.0);
     c.ok("motion.resume", Value::Null);
     let st = c.wait_state(&["finished", "error"], TIMEOUT);
     assert_eq!(st["state"], "finished", "{st}");
@@ -67,7 +67,7 @@ fn m0_m1_m60_pause_until_resumed_and_the_optional_stop_switch_skips_m1() {
     let events = paused_events(&c);
     assert_eq!(
         events,
-        vec![json!({"event": "paused", "line": 3, "code": "M0"}), json!({"event": "paused", "line": 5, "code": "M1"})]
+        vec![json!({"event": "paused", "line": 2, "code": "M0"}), json!({"event": "paused", "line": 4, "code": "M1"})]
     );
     assert_eq!(c.events.iter().filter(|e| e["event"] == "resumed").count(), 2, "{:?}", c.events);
 
@@ -93,7 +93,7 @@ fn m0_m1_m60_pause_until_resumed_and_the_optional_stop_switch_skips_m1() {
     c.ok("program.load", json!({"text": PROGRAM.replace("X30 Y5", "X30 Y0"), "name": "stops2"}));
     c.events.clear();
     c.ok("motion.start", Value::Null);
-    expect_pause(&mut c, 3, "M0", 10.0);
+    expect_pause(&mut c, 2, "M0", 10.0);
     c.ok("motion.resume", Value::Null);
     let st = c.wait_state(&["finished", "paused", "error"], TIMEOUT);
     assert_eq!(st["state"], "finished", "M1 must not pause with the switch off: {st}");
@@ -104,7 +104,7 @@ fn m0_m1_m60_pause_until_resumed_and_the_optional_stop_switch_skips_m1() {
     // M60 pauses whatever the switch; motion.stop there ends the program where it stands.
     c.ok("program.load", json!({"text": "G1 F1200 X5\nM60\nG1 X0\nM2\n", "name": "m60"}));
     c.ok("motion.start", Value::Null);
-    expect_pause(&mut c, 3, "M60", 5.0);
+    expect_pause(&mut c, 2, "M60", 5.0);
     c.ok("motion.stop", Value::Null);
     let st = c.wait_state(&["idle"], TIMEOUT);
     assert!((position(&st)[0] - 5.0).abs() < 1e-9, "{st}");

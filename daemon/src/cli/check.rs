@@ -25,7 +25,10 @@ pub fn run(program_path: &Path, machine: Option<&Path>) -> Result<(), CliError> 
             }
         }
     }
-    let checked = program::check(program_path, &settings)?;
+    // Operator messages on stderr in program order as the check executes their blocks, so the
+    // summary on stdout stays one line.
+    let name = program_path.display().to_string();
+    let checked = program::check_with_messages(program_path, &settings, &mut |m| eprintln!("{name}:{m}"))?;
     let elapsed = t0.elapsed();
     let s = &checked.summary;
     let kinds: Vec<String> =

@@ -16,6 +16,20 @@ pub struct ChunkPause {
     pub line: u32,
 }
 
+/// Operator messages inside a chunk: when the motion reaches coarse point `point` (a planned
+/// exact stop), and the chunk's first `after_pauses` program stops are behind it, the executor
+/// reports that the program's messages up to number `upto` are due. The texts stay with the
+/// planner thread and the supervisor (`service::messages`); the chunk carries numbers only.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ChunkMessage {
+    /// Index of the coarse point in the chunk's `points`.
+    pub point: usize,
+    /// The last message number due there.
+    pub upto: u64,
+    /// How many of the chunk's `pauses` come before the messages.
+    pub after_pauses: usize,
+}
+
 /// A stretch of planned motion, a few interpolation cycles long, with the fastest stop that
 /// can follow it. The real-time thread runs `points`; at their end it continues with the next
 /// chunk of the same epoch, or, on a hold, a stop or when no chunk is there (underrun), runs
@@ -40,6 +54,8 @@ pub struct Chunk {
     /// Program stops within `points`, in time order (the planner thread fills them; the
     /// executor only reads them).
     pub pauses: Vec<ChunkPause>,
+    /// Operator messages within `points`, in time order (filled by the planner thread).
+    pub messages: Vec<ChunkMessage>,
 }
 
 impl Chunk {
@@ -58,6 +74,7 @@ impl Chunk {
         self.points.clear();
         self.tail.clear();
         self.pauses.clear();
+        self.messages.clear();
         self.last = false;
     }
 }

@@ -40,6 +40,8 @@ pub enum Notice {
     Line { line: u32, cycle: u64 },
     /// The motion stands at the program stop `code` of line `line` and waits for a release.
     Paused { line: u32, code: PauseCode, cycle: u64 },
+    /// The motion reached the program's operator messages up to number `upto`.
+    Message { upto: u64, cycle: u64 },
 }
 
 /// Where the executor is.
@@ -107,6 +109,8 @@ pub struct Executor {
     feed_override: f64,
     /// Index of the running chunk's next program stop.
     next_pause: usize,
+    /// Index of the running chunk's next operator message marker.
+    next_message: usize,
     /// `Io::releases` when the current pause began.
     released_seen: u64,
     pub faults: ExecutorFaults,
@@ -128,6 +132,7 @@ impl Executor {
             line: 0,
             feed_override: 1.0,
             next_pause: 0,
+            next_message: 0,
             released_seen: 0,
             faults: ExecutorFaults::default(),
         }
@@ -198,6 +203,7 @@ impl Executor {
             self.phase = Phase::Main;
             self.piece = 0;
             self.next_pause = 0;
+            self.next_message = 0;
             self.t_s = 0.0;
             self.stand_reason = None;
             self.finished = false;
@@ -213,12 +219,24 @@ impl Executor {
                 self.phase = Phase::Standing;
                 return;
             };
+            // Messages first: those before a program stop at the same point come before it.
+            let message = chunk
+                .messages
+                .get(self.next_message)
+                .filter(|m| m.after_pauses <= self.next_pause)
+                .filter(|m| chunk.points.get(m.point).is_none_or(|at| self.t_s >= at.t_s))
+                .map(|m| m.upto);
             let due = chunk
                 .pauses
                 .get(self.next_pause)
                 .and_then(|p| Some((*p, *chunk.points.get(p.point)?)))
                 .filter(|(_, at)| self.t_s >= at.t_s);
             match self.phase {
+                Phase::Main if message.is_some() => {
+                    let Some(upto) = message else { return };
+                    self.next_message += 1;
+                    self.notify(io, Notice::Message { upto, cycle });
+                }
                 Phase::Main if due.is_some() => {
                     let Some((p, at)) = due else { return };
                     self.next_pause += 1;
@@ -263,6 +281,7 @@ impl Executor {
                                 self.t_s = over;
                                 self.piece = 0;
                                 self.next_pause = 0;
+                                self.next_message = 0;
                                 continue;
                             }
                             None => Some(DivertCause::Underrun),

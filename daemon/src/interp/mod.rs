@@ -44,7 +44,13 @@
 //!    (`motion.resume`) moves past what it was at the stop, then goes on in the same chunk: the
 //!    look-ahead plans on past the stop and nothing is replanned. M1 is skipped while the
 //!    optional-stop switch (a flag read every cycle) is off. A stop request while paused ends
-//!    the program there, as a stop at rest.
+//!    the program there, as a stop at rest. Its `line` is the line of the M0/M1/M60 block.
+//! 9. An operator message (`(MSG,…)`, `(DEBUG,…)`, `(PRINT,…)`) is a planned exact stop too
+//!    (LinuxCNC's task waits for the motion before one); the chunk names its coarse point and
+//!    the number of the last message due there ([`chunk::ChunkMessage`]), never its text. The
+//!    executor reports [`executor::Notice::Message`] when its time comes and goes on at once;
+//!    messages and a program stop at the same point come out in program order. The texts wait
+//!    in a bounded queue outside the cycle (`service::messages`) for the supervisor.
 
 pub mod chunk;
 pub mod coarse;
@@ -52,7 +58,7 @@ pub mod epoch;
 pub mod executor;
 pub mod hermite;
 
-pub use chunk::{Chunk, ChunkPause};
+pub use chunk::{Chunk, ChunkMessage, ChunkPause};
 pub use coarse::{CoarseBuilder, CoarsePoint};
 pub use epoch::{Epoch, Epochs};
 pub use executor::{DivertCause, Executor, Io, Notice, Phase};

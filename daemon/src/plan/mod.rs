@@ -140,7 +140,9 @@ pub fn run(
     let settings = Settings::from_config(config);
     // One streaming pass for the program's errors, then a second that reads, smooths, plans and
     // samples it as it goes: memory grows with the look-ahead, not with the program.
-    let checked = program::check(&args.program, &settings)?;
+    // Operator messages on stderr in program order (stdout carries the figures).
+    let name = args.program.display().to_string();
+    let checked = program::check_with_messages(&args.program, &settings, &mut |m| eprintln!("{name}:{m}"))?;
     if checked.elements == 0 {
         return Err(PlanError::NoMotion(args.program.clone()));
     }

@@ -20,6 +20,7 @@ pub mod law_run;
 pub mod live;
 mod load;
 pub mod manual;
+pub mod messages;
 pub mod modal_track;
 pub mod otg_motion;
 pub mod param_store;
@@ -149,6 +150,9 @@ struct Shared {
     /// The running program's tool and offset state along its lines (the look-ahead thread
     /// writes it, `status` reads it).
     modal: Arc<Mutex<modal_track::ModalTrack>>,
+    /// The running program's operator messages waiting for the motion (the look-ahead thread
+    /// writes, the supervisor takes them as the motion reaches them).
+    messages: Arc<Mutex<messages::MessageBoard>>,
     /// How the look-ahead thread keeps up (it writes, `status` reads).
     lookahead: Arc<feeder::LookaheadHealth>,
     /// An axis's setpoint moved at rest (homing), for the real-time thread.
@@ -288,6 +292,7 @@ impl Service {
                 home_positions: kept.home_positions,
             })),
             modal: feeder.modal_track(),
+            messages: feeder.message_board(),
             lookahead: feeder.health(),
             reposition: reposition::Reposition::default(),
             params,

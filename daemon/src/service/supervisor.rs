@@ -123,7 +123,13 @@ fn on_notice(shared: &Shared, n: Notice) {
                 ctl.state = State::Finished;
             }
             let duration_s = (cycle - ctl.start_cycle) as f64 * shared.config.cycle_s();
+            // The messages after the program's last motion come out at its end.
+            let program_ended = ctl.state == State::Finished && ctl.kind == RunKind::Program;
             drop(ctl);
+            if program_ended {
+                let events = lock(&shared.messages).take_upto(None);
+                events.into_iter().for_each(|e| shared.emit(e));
+            }
             if let Some(offsets) = keep {
                 shared.keep_program_offsets(&offsets);
             }
@@ -132,6 +138,16 @@ fn on_notice(shared: &Shared, n: Notice) {
         Notice::Line { line, .. } => {
             drop(ctl);
             shared.emit(Event::LineReached { line });
+        }
+        Notice::Message { upto, .. } => {
+            drop(ctl);
+            let events = lock(&shared.messages).take_upto(Some(upto));
+            for e in events {
+                if let Event::Message { kind, text, line, .. } = &e {
+                    tracing::info!(line, ?kind, text = text.as_str(), "program message");
+                }
+                shared.emit(e);
+            }
         }
         Notice::Paused { line, code, .. } => {
             // A hold asked for on the way is answered by the pause: the program stands.

@@ -161,6 +161,14 @@ impl Window {
         }
     }
 
+    /// The oldest operator message read and not yet taken.
+    pub(super) fn take_message(&mut self) -> Option<crate::program::Message> {
+        match &mut self.input {
+            Input::Stream { stream, .. } => stream.take_message(),
+            Input::Whole => None,
+        }
+    }
+
     /// Index in the whole path of the element a plan from `s_mm` starts with, reading on until
     /// the window holds it.
     pub(super) fn index_from(&mut self, s_mm: f64) -> Result<usize, FeedError> {

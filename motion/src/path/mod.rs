@@ -171,20 +171,46 @@ pub struct Element {
     /// Dwell before this element starts (G4), s. A dwell forces a stop.
     pub dwell_before_s: f64,
     pub blend: Blend,
-    /// A planned pause (M0, M1, M60) before this element starts: the motion stops exactly
-    /// there and the program waits to be resumed.
+    /// A planned pause before this element starts: a program stop (M0, M1, M60), operator
+    /// messages (`(MSG,…)`, `(DEBUG,…)`, `(PRINT,…)`), or both. The motion stops exactly there.
     pub pause_before: Option<Pause>,
 }
 
-/// A planned pause of the program (RS274NGC's program stops).
+/// A program stop of RS274NGC.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Pause {
+pub enum StopCode {
     /// M0: the program stops until it is resumed.
     Stop,
     /// M1: as M0 when the optional-stop switch is on, else nothing.
     Optional,
     /// M60: a pallet shuttle and a stop (the shuttle is not interpd's; the stop is).
     PalletShuttle,
+}
+
+/// What waits for the motion before an element: the motion comes to an exact stop there (as
+/// LinuxCNC's task waits for the motion before a program stop or an operator message), then
+/// the messages numbered up to `messages_before` come out, then the program stop, then the
+/// messages up to `messages_after` (read after the stop). Messages are numbered from 1 in
+/// program order; 0 means none.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Pause {
+    pub messages_before: u64,
+    pub stop: Option<StopCode>,
+    /// Program line of the stop's block.
+    pub stop_line: u32,
+    pub messages_after: u64,
+}
+
+impl Pause {
+    /// A program stop on line `line`.
+    pub fn stop(code: StopCode, line: u32) -> Self {
+        Self { stop: Some(code), stop_line: line, ..Self::default() }
+    }
+
+    /// The last message number that comes out here (0: none).
+    pub fn last_message(&self) -> u64 {
+        self.messages_before.max(self.messages_after)
+    }
 }
 
 impl Element {

@@ -18,13 +18,14 @@ use super::arc_rule;
 use super::cutter::{Cutter, Piece, Side};
 use super::error::Diagnostics;
 use super::lexer::{Line, Word, lex_block};
+use super::message::{self, Message, MessageKind, MessageQueue};
 use super::params::{Params, Snapshot};
 use super::{G06_END_MARKER, Summary};
 use crate::Settings;
 use crate::path::Line as LineGeom;
 use crate::path::{
     AxisVec, Blend, CubicSpan, Feed, Geometry, Helix, MAX_AXES, MIN_CURVATURE_RADIUS_MM, MIN_MOVE_MM, Path, Pause,
-    Source, SpanError, spline::natural_tangents,
+    Source, SpanError, StopCode, spline::natural_tangents,
 };
 use context::Contexts;
 use cycles::{CycleKind, CycleState};
@@ -172,12 +173,20 @@ pub(crate) struct Interpreter {
     modal_log: Option<ModalLog>,
     /// G93: the F of the block being executed, 1/min (each feed move's inverse time).
     inverse_f: Option<f64>,
-    /// A planned pause (M0, M1, M60) waiting for the next element, and the element's source once
-    /// it has gone into the compensation stage (the pause goes with it to the path).
+    /// A planned pause (M0, M1, M60, operator messages) waiting for the next element, and the
+    /// element's source once it has gone into the compensation stage (the pause goes with it
+    /// to the path).
     pending_pause: Option<Pause>,
     pause_for: Option<(Source, Pause)>,
-    /// The pause of the block being executed.
-    block_pause: Option<Pause>,
+    /// The program stop of the block being executed.
+    block_pause: Option<StopCode>,
+    /// Operator messages read and not yet taken (message.rs), and how many were read.
+    messages: MessageQueue,
+    message_count: u64,
+    /// Messages read since the last element (one place in the motion), and the newest beyond
+    /// [`message::PLACE_CAP`] of them, held back with the count of those it stands for.
+    messages_here: usize,
+    overflow: Option<Message>,
     /// Numbered and named parameters.
     pub(super) params: Params,
     /// O-word control flow.
@@ -332,6 +341,10 @@ impl Interpreter {
             pending_pause: None,
             pause_for: None,
             block_pause: None,
+            messages: MessageQueue::with_cap(message::QUEUE_CAP),
+            message_count: 0,
+            messages_here: 0,
+            overflow: None,
             params: settings.home_positions.params(),
             flow: Flow::default(),
             cycle: CycleState::default(),
@@ -340,6 +353,61 @@ impl Interpreter {
             tools: ToolTable::default(),
             block_g53: false,
             current_line: 0,
+        }
+    }
+
+    /// An operator message in `comment` (line `line_no`): formatted now, with the parameters as
+    /// they are at this block, queued, and attached to the next element as a pause (the motion
+    /// before it ends first). False after an error.
+    fn message(&mut self, comment: &str, col: u32, line_no: u32, d: &mut Diagnostics) -> bool {
+        let Some((kind, raw)) = message::parse(comment) else { return true };
+        if kind == MessageKind::Debug && self.params.stored(message::DEBUG_FLAG_PARAM) <= 0.0 {
+            return true;
+        }
+        let text = if kind == MessageKind::Msg {
+            let mut t = raw.to_string();
+            message::truncate(&mut t);
+            t
+        } else {
+            match message::expand(raw, &self.params) {
+                Ok(t) => t,
+                Err(m) => {
+                    d.error(line_no, col, format!("({}, …): {m}", kind.name().to_uppercase()));
+                    return false;
+                }
+            }
+        };
+        self.message_count += 1;
+        self.summary.messages += 1;
+        let id = self.message_count;
+        let m = Message { id, kind, text, line: line_no, dropped: 0 };
+        self.messages_here += 1;
+        if self.messages_here > message::PLACE_CAP {
+            let dropped = self.overflow.take().map_or(0, |o| o.dropped + 1);
+            self.overflow = Some(Message { dropped, ..m });
+        } else {
+            self.messages.push(m);
+        }
+        let p = self.pending_pause.get_or_insert_default();
+        if p.stop.is_some() {
+            p.messages_after = id;
+        } else {
+            p.messages_before = id;
+        }
+        true
+    }
+
+    /// The oldest operator message read and not yet taken.
+    pub(super) fn take_message(&mut self) -> Option<Message> {
+        self.messages.pop()
+    }
+
+    /// The place of the messages read so far is closed (an element follows, or the program
+    /// ends): the newest of those beyond the cap joins the queue.
+    fn close_message_place(&mut self) {
+        self.messages_here = 0;
+        if let Some(m) = self.overflow.take() {
+            self.messages.push(m);
         }
     }
 
@@ -491,6 +559,13 @@ impl Interpreter {
             }
             self.finish_g06(d);
         }
+        // The comment first, as LinuxCNC's `execute_block`: a message comes before the block's
+        // motion, after the motion before it.
+        if let Some((a, b)) = line.comment {
+            if !self.message(&text[a..b], super::lexer::col_of(text, a), line_no, d) {
+                return None;
+            }
+        }
         if line.words.is_empty() {
             return None;
         }
@@ -624,6 +699,7 @@ impl Interpreter {
             d.error(e.line, e.col, e.kind.to_string());
         }
         self.drain(d);
+        self.close_message_place();
         self.path.final_dwell_s += self.pending_dwell_s;
         self.pending_dwell_s = 0.0;
     }
@@ -634,8 +710,14 @@ impl Interpreter {
         let errors_before = d.found();
         self.block_pause = None;
         self.execute(&block, line, d);
-        if let Some(p) = self.block_pause.take() {
-            self.pending_pause = Some(p);
+        if let Some(code) = self.block_pause.take() {
+            let p = self.pending_pause.get_or_insert_default();
+            // A second stop before any motion replaces the first (one stop per place); the
+            // messages after the first come before it.
+            p.messages_before = p.messages_before.max(p.messages_after);
+            p.messages_after = 0;
+            p.stop = Some(code);
+            p.stop_line = line_no;
         }
         if d.found() == errors_before {
             if let Some(w) = block.unconsumed() {
@@ -1442,9 +1524,9 @@ impl Interpreter {
                 2 | 30 if w.value.fract() == 0.0 => 0,
                 0 | 1 | 60 if w.value.fract() == 0.0 => {
                     pause = Some(match code {
-                        0 => Pause::Stop,
-                        1 => Pause::Optional,
-                        _ => Pause::PalletShuttle,
+                        0 => StopCode::Stop,
+                        1 => StopCode::Optional,
+                        _ => StopCode::PalletShuttle,
                     });
                     0
                 }
@@ -1726,6 +1808,7 @@ impl Interpreter {
                 log.element();
             }
         }
+        self.close_message_place();
         if let Some(p) = self.pending_pause.take() {
             self.pause_for = Some((source, p));
         }

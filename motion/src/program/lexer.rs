@@ -36,6 +36,9 @@ pub(super) struct Line {
     pub blank: bool,
     /// The line holds only `%` (a tape mark).
     pub percent: bool,
+    /// Bytes of the text inside the line's last `( … )` comment (LinuxCNC keeps the last one of
+    /// a block): an operator message may be there.
+    pub comment: Option<(usize, usize)>,
 }
 
 /// A parameter assignment of a line: the parameter, its new value and the column of its `#`.
@@ -229,6 +232,7 @@ pub(super) fn lex_block(text: &str, params: &Params) -> Result<Lexed, LexError> 
             '(' => match text[i..].find(')') {
                 Some(off) => {
                     col += text[i..=i + off].chars().count() as u32;
+                    line.comment = Some((i + 1, i + off));
                     i += off + 1;
                 }
                 None => {

@@ -10,6 +10,7 @@ mod error;
 mod expr;
 mod gcode;
 mod lexer;
+mod message;
 mod param_file;
 mod params;
 mod stream;
@@ -20,9 +21,10 @@ pub(crate) use append::AppendBuffer;
 pub use append::{AppendError, Appended, Appends};
 pub use error::{ProgramError, ProgramErrors};
 pub(crate) use gcode::fmt_num;
+pub use message::{MAX_TEXT_BYTES, Message, MessageKind, MessageQueue, PLACE_CAP};
 pub use param_file::{HomePositions, ParamFile, ParamFileError, Persistent};
 pub(crate) use stream::ProgramStream;
-pub use stream::{Checked, check, check_open, check_text};
+pub use stream::{Checked, check, check_open, check_text, check_with_messages};
 
 use crate::Settings;
 use crate::path::Path;
@@ -52,6 +54,8 @@ pub struct Summary {
     pub ignored_words: usize,
     /// Planned pauses (M0, M1, M60): the motion stops exactly there and waits.
     pub pauses: usize,
+    /// Operator messages (`(MSG,…)`, `(DEBUG,…)` shown, `(PRINT,…)`) read.
+    pub messages: usize,
     /// The program ends with M2, M30 or a closing `%` (a path table always ends); one without
     /// an end can be continued (`program.append`).
     pub program_end: bool,

@@ -84,8 +84,11 @@ pub(crate) struct Params {
 
 impl Default for Params {
     fn default() -> Self {
+        let mut numbered = vec![0.0; MAX_NUMBERED + 1];
+        // `(DEBUG,…)` comes out (LinuxCNC starts with #5599 = 1).
+        numbered[super::message::DEBUG_FLAG_PARAM] = 1.0;
         Self {
-            numbered: vec![0.0; MAX_NUMBERED + 1],
+            numbered,
             globals: HashMap::new(),
             locals: vec![HashMap::new()],
             snap: Snapshot::default(),

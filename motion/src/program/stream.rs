@@ -165,6 +165,15 @@ impl ProgramStream {
         }
     }
 
+    /// The oldest operator message read and not yet taken (a G-code program; see
+    /// [`crate::program::Message`]).
+    pub(crate) fn take_message(&mut self) -> Option<super::Message> {
+        match &mut self.reader {
+            Reader::GCode(interp) => interp.take_message(),
+            Reader::Table { .. } => None,
+        }
+    }
+
     /// The stream has handed out everything there is but the program goes on: text appended
     /// later continues it.
     pub(crate) fn waiting(&self) -> bool {
@@ -494,12 +503,22 @@ pub struct Checked {
 /// Reads the program at `path` to its end, keeping no geometry: every error (up to the cap,
 /// each as FILE:LINE:COL) or the summary.
 pub fn check(path: &std::path::Path, settings: &Settings) -> Result<Checked, ProgramErrors> {
-    check_stream(ProgramStream::open(path, settings)?).map(|(c, _)| c)
+    check_stream(ProgramStream::open(path, settings)?, &mut |_| {}).map(|(c, _)| c)
+}
+
+/// [`check`] that hands every operator message to `on_message` in program order, as its
+/// block executes (`interpd check` prints them).
+pub fn check_with_messages(
+    path: &std::path::Path,
+    settings: &Settings,
+    on_message: &mut dyn FnMut(super::Message),
+) -> Result<Checked, ProgramErrors> {
+    check_stream(ProgramStream::open(path, settings)?, on_message).map(|(c, _)| c)
 }
 
 /// [`check`] of program text held in memory.
 pub fn check_text(text: String, origin: &str, settings: &Settings) -> Result<Checked, ProgramErrors> {
-    check_stream(ProgramStream::from_text(text, origin, settings)).map(|(c, _)| c)
+    check_stream(ProgramStream::from_text(text, origin, settings), &mut |_| {}).map(|(c, _)| c)
 }
 
 /// [`check`] of the program at `path` (or of `text`, named `path`) that keeps a program
@@ -517,11 +536,14 @@ pub fn check_open(
         None => ProgramStream::open(path, settings)?,
     };
     stream.finish_at_eof = false;
-    let (checked, checker) = check_stream(stream)?;
+    let (checked, checker) = check_stream(stream, &mut |_| {})?;
     Ok((checked, checker.map(|c| Appends::new(c, buffer_bytes))))
 }
 
-fn check_stream(mut stream: ProgramStream) -> Result<(Checked, Option<AppendChecker>), ProgramErrors> {
+fn check_stream(
+    mut stream: ProgramStream,
+    on_message: &mut dyn FnMut(super::Message),
+) -> Result<(Checked, Option<AppendChecker>), ProgramErrors> {
     let (mut corners, mut length_mm) = (0u64, 0.0f64);
     loop {
         if !stream.d.errors.is_empty() {
@@ -530,6 +552,9 @@ fn check_stream(mut stream: ProgramStream) -> Result<(Checked, Option<AppendChec
         while let Some(e) = stream.ready.pop_front() {
             corners += u64::from(e.joint == crate::path::JointKind::Corner);
             length_mm = length_mm.max(e.s_end_mm());
+        }
+        while let Some(m) = stream.take_message() {
+            on_message(m);
         }
         if stream.eof {
             break;

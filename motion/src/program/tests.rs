@@ -406,10 +406,11 @@ const PI_F64: f64 = std::f64::consts::PI;
 
 #[test]
 fn program_stops_are_planned_pauses_after_the_block_motion() {
-    use crate::path::Pause;
+    use crate::path::{Pause, StopCode};
     let p = ok("G1 X10 F600\nG1 X20 M0\nG1 X30\nM1\nG1 Y5\nM60\n");
     let pauses: Vec<Option<Pause>> = p.path.elements.iter().map(|e| e.pause_before).collect();
-    assert_eq!(pauses, [None, None, Some(Pause::Stop), Some(Pause::Optional)]);
+    // Each stop names its own block's line (not the line the motion goes on with).
+    assert_eq!(pauses, [None, None, Some(Pause::stop(StopCode::Stop, 2)), Some(Pause::stop(StopCode::Optional, 4))]);
     assert!(p.path.elements[2].stops_before());
     assert_eq!(p.summary.pauses, 3);
     assert!(first_error("M0 M1\n").contains("same modal group"));
@@ -770,4 +771,81 @@ fn g10_writes_tool_offsets_that_g43_applies_on_every_axis() {
     assert!(close(end(&p), [10.0, 2.0, 0.0]), "{:?}", end(&p));
     let p = run("T1 M6\nG10 L1 P1 X1 Y2\n#1 = [#5401 * 10 + #5402]\nG0 X#1\n");
     assert!(close(end(&p), [12.0, 0.0, 0.0]));
+}
+
+/// The messages `check_text` hands out, as `(line, kind, text)`.
+fn messages(text: &str) -> Vec<(u32, &'static str, String)> {
+    let path = std::env::temp_dir().join(format!("interpd-msg-{}-{}.ngc", std::process::id(), text.len()));
+    std::fs::write(&path, text).expect("write");
+    let mut got = Vec::new();
+    let r = super::check_with_messages(&path, &xyz(), &mut |m| got.push((m.line, m.kind.name(), m.text)));
+    let _ = std::fs::remove_file(&path);
+    r.unwrap_or_else(|e| panic!("program rejected:\n{e}"));
+    got
+}
+
+#[test]
+fn messages_are_formatted_when_their_block_executes() {
+    let text = "#<i> = 0\n(MSG, Start: #<i> as written)\no1 while [#<i> LT 3]\n#<i> = [#<i> + 1]\n\
+                G1 X#<i> F600 (debug, i=#<i> neg=#<neg>)\no1 endwhile\n#5599 = 0\n(DEBUG, hidden)\n\
+                (print,%d#<i> of #<missing>)\nM2\n";
+    let text = text.replace("#<neg>", "[0 - #<i> / 3]");
+    // `[…]` is no parameter in a message: LinuxCNC writes it as it stands.
+    let got = messages(&text);
+    let want = [
+        (2, "msg", " Start: #<i> as written".to_string()),
+        (5, "debug", " i=1.000000 neg=[0 - 1.000000 / 3]".to_string()),
+        (5, "debug", " i=2.000000 neg=[0 - 2.000000 / 3]".to_string()),
+        (5, "debug", " i=3.000000 neg=[0 - 3.000000 / 3]".to_string()),
+        (9, "print", "3 of ######".to_string()),
+    ];
+    assert_eq!(got, want);
+    // A negative value, and a bad reference is a positioned error.
+    assert_eq!(messages("#1 = -2.5\n(DEBUG,#1)\nM2\n"), [(2, "debug", "-2.500000".to_string())]);
+    assert_eq!(
+        first_error("G1 X1 F600\n(DEBUG, #<open)\nM2\n"),
+        "t.ngc:2:2: (DEBUG, …): named parameter '#<' is not closed with '>'"
+    );
+}
+
+#[test]
+fn messages_wait_for_the_motion_before_them_as_pauses() {
+    use crate::path::{Pause, StopCode};
+    // Line 2: a message after the first move; line 3: its move comes after it; line 4: a
+    // message and a stop in one block (the message first); line 5: a message after the stop.
+    let p = ok("G1 X10 F600\n(MSG,a)\nG1 X20 (MSG,b)\nM0 (MSG,c)\n(MSG,d)\nG1 X30\n(MSG,end)\nM2\n");
+    let pauses: Vec<Option<Pause>> = p.path.elements.iter().map(|e| e.pause_before).collect();
+    assert_eq!(
+        pauses,
+        [
+            None,
+            Some(Pause { messages_before: 2, ..Pause::default() }),
+            Some(Pause { messages_before: 3, stop: Some(StopCode::Stop), stop_line: 4, messages_after: 4 }),
+        ]
+    );
+    assert!(p.path.elements[1].stops_before());
+    // The last one follows the last motion: it belongs to the program's end.
+    assert_eq!(p.summary.messages, 5);
+}
+
+#[test]
+fn a_loop_of_messages_without_motion_keeps_the_first_and_the_newest() {
+    let got = {
+        let path = std::env::temp_dir().join(format!("interpd-msg-loop-{}.ngc", std::process::id()));
+        std::fs::write(
+            &path,
+            "G1 X1 F600\no1 while [#1 LT 100000]\n#1 = [#1 + 1]\n(DEBUG,%d#1)\no1 endwhile\nG1 X2\nM2\n",
+        )
+        .unwrap();
+        let mut got = Vec::new();
+        super::check_with_messages(&path, &xyz(), &mut |m| got.push(m)).unwrap();
+        let _ = std::fs::remove_file(&path);
+        got
+    };
+    let cap = super::message::PLACE_CAP;
+    assert_eq!(got.len(), cap + 1);
+    assert_eq!(got[cap - 1].text, cap.to_string());
+    let last = got.last().unwrap();
+    assert_eq!((last.text.as_str(), last.dropped), ("100000", 100_000 - cap as u64 - 1));
+    assert!(got.windows(2).all(|w| w[0].id < w[1].id));
 }

@@ -307,3 +307,14 @@ fn tool_table_and_offsets_params() {
         assert!(got.ends_with(param), "{params}: {e:?}");
     }
 }
+
+#[test]
+fn message_event_names_its_kind_text_and_line() {
+    let ev = Event::Message { kind: MessageKind::Debug, text: "i=1.000000".into(), line: 4, dropped: 0 };
+    assert_eq!(
+        serde_json::to_string(&ev).expect("ser"),
+        r#"{"event":"message","kind":"debug","text":"i=1.000000","line":4,"dropped":0}"#
+    );
+    assert_eq!(ev.name(), "message");
+    assert!(Event::NAMES.contains(&"message"));
+}

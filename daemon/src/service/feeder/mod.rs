@@ -23,6 +23,7 @@ pub use program::{FileStamp, PathSource, ProgramText};
 use super::law_run::LawPart;
 use super::lock;
 use super::manual::{ManualGoal, ManualPart, ManualPlanError};
+use super::messages::MessageBoard;
 use super::modal_track::ModalTrack;
 use super::otg_motion::AxisLimits;
 use crate::interp::coarse::CoarsePoint;
@@ -181,6 +182,8 @@ pub struct Feeder {
     pub stats: FeederStats,
     /// The running program's tool and offset state changes, read by `status`.
     modal: Arc<Mutex<ModalTrack>>,
+    /// The running program's operator messages, taken by the supervisor.
+    pub(super) messages: Arc<Mutex<MessageBoard>>,
     /// How the thread kept up, read by `status`.
     health: Arc<LookaheadHealth>,
 }
@@ -218,6 +221,7 @@ impl Feeder {
             max_jerk,
             stats: FeederStats::default(),
             modal: Arc::default(),
+            messages: Arc::default(),
             health: Arc::default(),
         }
     }
@@ -225,6 +229,11 @@ impl Feeder {
     /// Where the running program's tool and offset state changes are kept (`status.modal`).
     pub fn modal_track(&self) -> Arc<Mutex<ModalTrack>> {
         self.modal.clone()
+    }
+
+    /// Where the running program's operator messages wait for the motion.
+    pub fn message_board(&self) -> Arc<Mutex<MessageBoard>> {
+        self.messages.clone()
     }
 
     /// How this thread keeps up with the motion (`status.lookahead`).
@@ -266,6 +275,7 @@ impl Feeder {
                 if !suspend {
                     // The program run before is over; an excursion from a held one keeps it.
                     lock(&self.modal).clear();
+                    lock(&self.messages).clear();
                 }
                 match self.start_path(source, feed_override, epoch) {
                     Ok(run) => self.run = Some(run),

@@ -5,10 +5,10 @@
 use super::run::{Motion, PAUSE_AT_MM, PathRun};
 use super::{Feeder, STARVED_STOP_CHUNKS};
 use crate::interp::coarse::{CoarseBuilder, CoarsePoint};
-use crate::interp::{Chunk, ChunkPause};
+use crate::interp::{Chunk, ChunkMessage, ChunkPause};
 use crate::service::tooling::Tooling;
 use interpd_motion::Segment;
-use interpd_motion::path::{AxisVec, Path, Pause};
+use interpd_motion::path::{AxisVec, Path, Pause, StopCode};
 use interpd_motion::program::Appends;
 use interpd_motion::{Feed, FeedError};
 use interpd_protocol::api::PauseCode;
@@ -93,7 +93,7 @@ impl Feeder {
             }
             ProgramText::Text { name, text } => builder.open_text(name, text.as_str()),
         };
-        Ok(PathRun::new(feed, Some(self.modal.clone())))
+        Ok(PathRun::new(feed, Some(self.modal.clone())).with_messages(self.messages.clone()))
     }
 
     /// Fills `chunk` with the next stretch of the path's planned motion (about one chunk
@@ -130,12 +130,29 @@ impl Feeder {
         };
         let stops = program_stops(path.feed.path(), &segments, &mut run.pause_armed_mm);
         let mut builder = CoarseBuilder::new(path.feed.path(), max_piece_s, &self.max_jerk);
-        // Each program stop gets a coarse point of its own: the executor stands exactly there.
+        // Each program stop and message place gets a coarse point of its own: the executor
+        // stands exactly there, or reports the messages there.
         let mut from = 0;
         let chunk_time = |points: &Vec<CoarsePoint>| points.last().map_or(0.0, |p| p.t_s);
-        for (k, code, line) in stops {
+        for (k, pause) in stops {
             builder.build(&segments[from..k], chunk_time(&chunk.points), &mut chunk.points);
-            chunk.pauses.push(ChunkPause { point: chunk.points.len().saturating_sub(1), code, line });
+            let point = chunk.points.len().saturating_sub(1);
+            if pause.messages_before > 0 {
+                let after_pauses = chunk.pauses.len();
+                chunk.messages.push(ChunkMessage { point, upto: pause.messages_before, after_pauses });
+            }
+            if let Some(code) = pause.stop {
+                let code = match code {
+                    StopCode::Stop => PauseCode::M0,
+                    StopCode::Optional => PauseCode::M1,
+                    StopCode::PalletShuttle => PauseCode::M60,
+                };
+                chunk.pauses.push(ChunkPause { point, code, line: pause.stop_line });
+            }
+            if pause.messages_after > 0 {
+                let after_pauses = chunk.pauses.len();
+                chunk.messages.push(ChunkMessage { point, upto: pause.messages_after, after_pauses });
+            }
             from = k;
         }
         builder.build(&segments[from..], chunk_time(&chunk.points), &mut chunk.points);
@@ -154,11 +171,11 @@ impl Feeder {
 /// Path velocity counted as rest at a program stop, mm/s.
 const PAUSE_V_MM_S: f64 = 1e-9;
 
-/// The program stops (M0, M1, M60) the planned `segments` reach, after `armed_mm` (moved past
-/// each one found): the index of the segment that starts at the stop, the code and the program
-/// line the motion continues with. The planner plans a stop at rest before such an element,
-/// so a segment starts there.
-fn program_stops(path: &Path, segments: &[Segment], armed_mm: &mut f64) -> Vec<(usize, PauseCode, u32)> {
+/// The planned pauses (program stops M0, M1, M60 and operator messages) the planned `segments`
+/// reach, after `armed_mm` (moved past each one found): the index of the segment that starts
+/// there and the pause. The planner plans a stop at rest before such an element, so a segment
+/// starts there.
+fn program_stops(path: &Path, segments: &[Segment], armed_mm: &mut f64) -> Vec<(usize, Pause)> {
     let mut stops = Vec::new();
     let Some(last) = segments.last() else { return stops };
     let end_mm = last.s1_mm();
@@ -177,12 +194,7 @@ fn program_stops(path: &Path, segments: &[Segment], armed_mm: &mut f64) -> Vec<(
             .or_else(|| segments.iter().position(near));
         match at {
             Some(k) => {
-                let code = match pause {
-                    Pause::Stop => PauseCode::M0,
-                    Pause::Optional => PauseCode::M1,
-                    Pause::PalletShuttle => PauseCode::M60,
-                };
-                stops.push((k, code, e.source.line));
+                stops.push((k, pause));
                 *armed_mm = e.s_start_mm;
             }
             // The segments end at the stop: the next chunk's first one starts there.

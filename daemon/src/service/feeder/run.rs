@@ -7,6 +7,7 @@ use crate::interp::{Chunk, DivertCause, Epoch};
 use crate::service::law_run::LawPart;
 use crate::service::lock;
 use crate::service::manual::ManualPart;
+use crate::service::messages::MessageBoard;
 use crate::service::modal_track::ModalTrack;
 use interpd_motion::{Feed, Segment};
 use std::collections::VecDeque;
@@ -66,16 +67,34 @@ pub(super) struct PathRun {
     /// The running program's tool and offset changes (`status.modal`); `None` for a path
     /// made whole, which leaves the track of the program it interrupts as it is.
     modal: Option<Arc<Mutex<ModalTrack>>>,
+    /// Where the program's operator messages wait for the motion; `None` for a path made whole.
+    messages: Option<Arc<Mutex<MessageBoard>>>,
     pub(super) returning: Option<ManualPart>,
 }
 
 impl PathRun {
     pub(super) fn new(feed: Feed, modal: Option<Arc<Mutex<ModalTrack>>>) -> PathRun {
-        PathRun { feed: Box::new(feed), modal, returning: None }
+        PathRun { feed: Box::new(feed), modal, messages: None, returning: None }
     }
 
-    /// Moves the tool and offset changes the feed has read into the track.
+    /// The run's operator messages go to `board`.
+    pub(super) fn with_messages(mut self, board: Arc<Mutex<MessageBoard>>) -> PathRun {
+        self.messages = Some(board);
+        self
+    }
+
+    /// Moves the tool and offset changes the feed has read into the track, and its operator
+    /// messages onto the board.
     pub(super) fn track_modal(&mut self) {
+        if let Some(board) = &self.messages {
+            if let Some(first) = self.feed.take_message() {
+                let mut b = lock(board);
+                b.push(first);
+                while let Some(m) = self.feed.take_message() {
+                    b.push(m);
+                }
+            }
+        }
         let Some(track) = &self.modal else { return };
         let mut next = self.feed.take_modal_change();
         if next.is_none() {

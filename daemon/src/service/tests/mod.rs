@@ -353,7 +353,7 @@ fn program_stops_stand_exactly_until_released_and_m1_follows_the_switch() {
     sim.start(path.clone());
     // M0: stands at X10 with every setpoint constant while paused.
     let i = run_to_pause(&mut sim, 20_000).expect("paused at M0");
-    assert!(matches!(sim.seen[i], Notice::Paused { code: PauseCode::M0, line: 3, .. }), "{:?}", sim.seen[i]);
+    assert!(matches!(sim.seen[i], Notice::Paused { code: PauseCode::M0, line: 2, .. }), "{:?}", sim.seen[i]);
     let at = *sim.out.last().unwrap();
     assert!((at.pos[0] - 10.0).abs() < 1e-9 && at.v_mm_s.abs() < 1e-9, "{at:?}");
     for _ in 0..200 {
@@ -366,13 +366,13 @@ fn program_stops_stand_exactly_until_released_and_m1_follows_the_switch() {
     // Released; M1 with the switch on pauses at X20.
     sim.releases += 1;
     let i = run_to_pause(&mut sim, 20_000).expect("paused at M1");
-    assert!(matches!(sim.seen[i], Notice::Paused { code: PauseCode::M1, line: 5, .. }), "{:?}", sim.seen[i]);
+    assert!(matches!(sim.seen[i], Notice::Paused { code: PauseCode::M1, line: 4, .. }), "{:?}", sim.seen[i]);
     assert!((sim.out.last().unwrap().pos[0] - 20.0).abs() < 1e-9);
     // Switch off: M60 still pauses, at X30.
     sim.optional_stop = false;
     sim.releases += 1;
     let i = run_to_pause(&mut sim, 20_000).expect("paused at M60");
-    assert!(matches!(sim.seen[i], Notice::Paused { code: PauseCode::M60, line: 7, .. }), "{:?}", sim.seen[i]);
+    assert!(matches!(sim.seen[i], Notice::Paused { code: PauseCode::M60, line: 6, .. }), "{:?}", sim.seen[i]);
     assert!((sim.out.last().unwrap().pos[0] - 30.0).abs() < 1e-9);
     sim.releases += 1;
     sim.run_to_end(20_000);
@@ -428,6 +428,50 @@ fn two_program_stops_in_one_chunk_both_stand_and_the_motion_between_keeps_its_ti
     sim.releases += 1;
     sim.run_to_end(20_000);
     assert!((sim.out.last().unwrap().pos[0] - 20.0).abs() < 1e-9);
+    let r = stream_ratios(&config, &sim.out);
+    assert!(r[0] <= 1.001 && r[1] <= 1.001 && r[2] <= 1.02, "limits: {r:?}");
+}
+
+#[test]
+fn messages_come_when_the_motion_before_them_is_done_and_in_order_with_a_stop() {
+    use interpd_protocol::api::PauseCode;
+    // Message 1 after X10, 2 before the X20 move (same place), 3 before M0 and 4 after it (in
+    // one place), 5 at the program end (no motion after it: the supervisor's part).
+    let text =
+        "G21 G90 G1 F1200 X10\n(MSG,one)\nG1 X20 (DEBUG,two)\n(MSG,three)\nM0\n(PRINT,four)\nG1 X30\n(MSG,five)\nM2\n";
+    let config = Config::default_machine();
+    let path = Arc::new(program::parse(text, "msgs.ngc", &Settings::from(&config)).unwrap().path);
+    let mut sim = Sim::new(config.clone());
+    sim.start(path);
+    // Each notice with the setpoints of its cycle and the one before: the notice comes in the
+    // first cycle at or past the message's place, an exact stop (v = 0 there).
+    let mut got = Vec::new();
+    while !sim.finished() && sim.cycle < 40_000 {
+        let before = sim.seen.len();
+        sim.cycle();
+        let n_out = sim.out.len();
+        let (prev, sp) = (sim.out[n_out.saturating_sub(2)], sim.out[n_out - 1]);
+        for n in &sim.seen[before..] {
+            match *n {
+                Notice::Message { upto, .. } => got.push((format!("message {upto}"), prev.pos[0], sp.pos[0])),
+                Notice::Paused { code: PauseCode::M0, line, .. } => {
+                    got.push((format!("M0 line {line}"), prev.pos[0], sp.pos[0]));
+                    sim.releases += 1;
+                }
+                _ => {}
+            }
+        }
+    }
+    assert!(sim.finished());
+    let want = [("message 2", 10.0), ("message 3", 20.0), ("M0 line 5", 20.0), ("message 4", 20.0)];
+    assert_eq!(got.len(), want.len(), "{got:?}");
+    // From rest, one cycle (4 ms) moves less than 1 µm at this jerk.
+    for ((what, x0, x1), (w, wx)) in got.iter().zip(want) {
+        assert_eq!(what, w, "{got:?}");
+        assert!(*x0 <= wx + 1e-9 && *x1 >= wx - 1e-9 && x1 - wx < 1e-3, "{what} at X{x0} → X{x1}: {got:?}");
+    }
+    // The stop itself stands exactly at its place.
+    assert_eq!(got[2].2, 20.0);
     let r = stream_ratios(&config, &sim.out);
     assert!(r[0] <= 1.001 && r[1] <= 1.001 && r[2] <= 1.02, "limits: {r:?}");
 }

@@ -233,7 +233,8 @@ fn notice_cycle(n: &Notice) -> u64 {
         | Notice::Stood { cycle, .. }
         | Notice::Finished { cycle, .. }
         | Notice::Line { cycle, .. }
-        | Notice::Paused { cycle, .. } => cycle,
+        | Notice::Paused { cycle, .. }
+        | Notice::Message { cycle, .. } => cycle,
     }
 }
 

@@ -15,6 +15,7 @@
 //! - Bounded: at most [`PLACE_CAP`] messages at one place in the motion and [`QUEUE_CAP`]
 //!   waiting to be taken; beyond that the newest stands for the rest (its `dropped`).
 
+pub(super) use super::params::DEBUG_FLAG_PARAM;
 use super::params::{MAX_NUMBERED, Params};
 use std::collections::VecDeque;
 
@@ -27,8 +28,6 @@ pub(crate) const QUEUE_CAP: usize = 1024;
 /// ones it stands for. They all come out at once when the motion gets there, so this bounds
 /// that burst (a subscriber of the control API holds 1024 events).
 pub const PLACE_CAP: usize = 256;
-/// LinuxCNC's `#5599`: `(DEBUG,…)` comes out while it is above 0.
-pub(super) const DEBUG_FLAG_PARAM: usize = 5599;
 /// What LinuxCNC writes for a parameter it cannot show.
 const NO_VALUE: &str = "######";
 /// LinuxCNC's `VAL_LEN`: a value needs fewer characters than this.

@@ -9,6 +9,8 @@ use std::collections::HashMap;
 
 /// Highest parameter number (LinuxCNC's `RS274NGC_MAX_PARAMETERS` − 1).
 pub(super) const MAX_NUMBERED: usize = 5602;
+/// LinuxCNC's `#5599`: `(DEBUG,…)` comes out while it is above 0 (message.rs).
+pub(super) const DEBUG_FLAG_PARAM: usize = 5599;
 /// Call arguments are `#1` … `#30`, local to each call.
 pub(super) const CALL_ARGS: usize = 30;
 /// Numbers computed from the interpreter's state on every read; assigning them is an error.
@@ -86,7 +88,7 @@ impl Default for Params {
     fn default() -> Self {
         let mut numbered = vec![0.0; MAX_NUMBERED + 1];
         // `(DEBUG,…)` comes out (LinuxCNC starts with #5599 = 1).
-        numbered[super::message::DEBUG_FLAG_PARAM] = 1.0;
+        numbered[DEBUG_FLAG_PARAM] = 1.0;
         Self {
             numbered,
             globals: HashMap::new(),

@@ -28,7 +28,14 @@ pub fn run(program_path: &Path, machine: Option<&Path>) -> Result<(), CliError> 
     // Operator messages on stderr in program order as the check executes their blocks, so the
     // summary on stdout stays one line.
     let name = program_path.display().to_string();
-    let checked = program::check_with_messages(program_path, &settings, &mut |m| eprintln!("{name}:{m}"))?;
+    // Buffered (a loop may write a million), flushed before any error is printed.
+    let mut err = std::io::BufWriter::new(std::io::stderr().lock());
+    let checked = program::check_with_messages(program_path, &settings, &mut |m| {
+        let _ = writeln!(err, "{name}:{m}");
+    });
+    let _ = err.flush();
+    drop(err);
+    let checked = checked?;
     let elapsed = t0.elapsed();
     let s = &checked.summary;
     let kinds: Vec<String> =

@@ -142,7 +142,14 @@ pub fn run(
     // samples it as it goes: memory grows with the look-ahead, not with the program.
     // Operator messages on stderr in program order (stdout carries the figures).
     let name = args.program.display().to_string();
-    let checked = program::check_with_messages(&args.program, &settings, &mut |m| eprintln!("{name}:{m}"))?;
+    // Buffered (a loop may write a million), flushed before any error is printed.
+    let mut err = std::io::BufWriter::new(std::io::stderr().lock());
+    let checked = program::check_with_messages(&args.program, &settings, &mut |m| {
+        let _ = writeln!(err, "{name}:{m}");
+    });
+    let _ = err.flush();
+    drop(err);
+    let checked = checked?;
     if checked.elements == 0 {
         return Err(PlanError::NoMotion(args.program.clone()));
     }

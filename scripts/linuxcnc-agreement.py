@@ -376,6 +376,16 @@ def printed_motion(out):
 LENGTH = re.compile(r"length ([0-9.]+) mm")
 
 
+# An operator message interpd check/plan print on stderr (docs/formats.md, "Messages"), not an
+# error: `FILE:LINE: msg|debug|print: text`.
+MESSAGE_LINE = re.compile(r"^\S.*:\d+: (msg|debug|print): ")
+
+
+def error_lines(stderr):
+    """The lines of interpd's stderr that are not operator messages."""
+    return [l for l in stderr.strip().splitlines() if not MESSAGE_LINE.match(l)]
+
+
 def interpd_check(binary, path, machine):
     """(None, length mm) or (first error message, None)."""
     try:
@@ -387,7 +397,7 @@ def interpd_check(binary, path, machine):
     if p.returncode == 0:
         m = LENGTH.search(p.stdout)
         return None, float(m.group(1)) if m else None
-    first = (p.stderr.strip().splitlines() or [f"exit {p.returncode}"])[0]
+    first = (error_lines(p.stderr) or [f"exit {p.returncode}"])[0]
     return first, None
 
 
@@ -405,7 +415,7 @@ def interpd_final(binary, path, machine, scratch):
     if p.returncode != 0 and "has no motion" in p.stderr:
         return [0.0, 0.0, 0.0]
     if p.returncode != 0:
-        return "plan failed: " + (p.stderr.strip().splitlines() or [""])[0]
+        return "plan failed: " + (error_lines(p.stderr) or [""])[0]
     with open(csv) as f:
         rows = f.read().strip().splitlines()
     head = rows[0].split(",")

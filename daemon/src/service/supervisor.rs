@@ -109,11 +109,13 @@ fn on_notice(shared: &Shared, n: Notice) {
                 manual_done(shared, ctl, cycle);
                 return;
             }
-            // The work offsets a program run to its end leaves are kept (the parameter file).
-            let keep = match (&ctl.kind, &ctl.program) {
-                (RunKind::Program, Some((_, Loaded::Program { offsets_end: Some(o), .. }))) => Some(o.clone()),
-                _ => None,
-            };
+            // The work offsets a program run to its end leaves are kept (the parameter file),
+            // before the state says `finished`: a client that sees it finds the file written.
+            if let (RunKind::Program, Some((_, Loaded::Program { offsets_end: Some(o), .. }))) =
+                (&ctl.kind, &ctl.program)
+            {
+                shared.keep_program_offsets(o);
+            }
             // An MDI from a hold returns to the held program (resume moves back to it).
             if ctl.kind == RunKind::Mdi && ctl.excursion {
                 ctl.state = State::Holding;
@@ -129,9 +131,6 @@ fn on_notice(shared: &Shared, n: Notice) {
             if program_ended {
                 let events = lock(&shared.messages).take_upto(None);
                 events.into_iter().for_each(|e| shared.emit(e));
-            }
-            if let Some(offsets) = keep {
-                shared.keep_program_offsets(&offsets);
             }
             shared.emit(Event::Finished { duration_s });
         }

@@ -38,6 +38,11 @@ fn run(c: &mut Client, program: &str) -> Value {
     st
 }
 
+/// When the parameter file was last written.
+fn modified(dir: &Path) -> std::time::SystemTime {
+    std::fs::metadata(dir.join("machine.var")).unwrap().modified().unwrap()
+}
+
 fn var(dir: &Path) -> String {
     std::fs::read_to_string(dir.join("machine.var")).unwrap_or_default()
 }
@@ -72,9 +77,9 @@ fn a_programs_g10_l2_is_kept_across_a_restart_and_offsets_set_writes_the_file() 
     let at = position(&st);
     assert!((at[0] - 6.0).abs() < 1e-9 && at[1].abs() < 1e-9, "G55 X1 is machine X6: {at:?}");
     // A program that leaves the offsets as they are does not rewrite the file.
-    let before = std::fs::metadata(dir.join("machine.var")).unwrap().modified().unwrap();
+    let before = modified(&dir);
     run(&mut c, "G0 X0\nM2\n");
-    assert_eq!(std::fs::metadata(dir.join("machine.var")).unwrap().modified().unwrap(), before);
+    assert_eq!(modified(&dir), before);
     drop(daemon);
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -178,9 +183,9 @@ fn g28_1_and_g10_l2_r_of_a_program_survive_a_restart() {
     assert_eq!(e["error"]["data"]["param"], "rotations_deg.G60", "{e}");
 
     // A program that leaves everything as it found it does not rewrite the file.
-    let stamp = std::fs::metadata(dir.join("machine.var")).unwrap().modified().unwrap();
+    let stamp = modified(&dir);
     run(&mut c, "G28\nG28.1\nG59.2 G0 X0\nM2\n");
-    assert_eq!(std::fs::metadata(dir.join("machine.var")).unwrap().modified().unwrap(), stamp);
+    assert_eq!(modified(&dir), stamp);
     drop(daemon);
     let _ = std::fs::remove_dir_all(&dir);
 }

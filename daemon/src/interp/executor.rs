@@ -245,13 +245,7 @@ impl Executor {
                     }
                     // The stop is a coarse point at rest: the machine stands at it exactly (its
                     // line is the line the motion goes on with) until the release.
-                    self.rest = CoarsePoint {
-                        v_mm_s: 0.0,
-                        a_mm_s2: 0.0,
-                        vel: [0.0; interpd_motion::path::MAX_AXES],
-                        acc: [0.0; interpd_motion::path::MAX_AXES],
-                        ..at
-                    };
+                    self.rest = CoarsePoint::at_rest(at.t_s, at.s_mm, at.line, at.pos);
                     self.t_s = at.t_s;
                     self.phase = Phase::Paused;
                     self.released_seen = io.releases;
@@ -344,13 +338,7 @@ impl Executor {
 
     /// Comes to rest at `end` and gives the chunk back.
     fn stand(&mut self, io: &Io, end: CoarsePoint) {
-        self.rest = CoarsePoint {
-            v_mm_s: 0.0,
-            a_mm_s2: 0.0,
-            vel: [0.0; interpd_motion::path::MAX_AXES],
-            acc: [0.0; interpd_motion::path::MAX_AXES],
-            ..end
-        };
+        self.rest = CoarsePoint::at_rest(end.t_s, end.s_mm, end.line, end.pos);
         self.phase = Phase::Standing;
         self.t_s = 0.0;
         if let Some(chunk) = self.chunk.take() {

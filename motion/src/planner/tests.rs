@@ -158,7 +158,12 @@ fn plan_online(cfg: &Settings, path: &Path, lookahead_mm: f64) -> (Vec<Segment>,
 fn plan_online_stats(cfg: &Settings, path: &Path, lookahead_mm: f64) -> (Vec<Segment>, usize, PlanStats) {
     let mut cfg = cfg.clone();
     cfg.planner.lookahead_mm = lookahead_mm;
-    let mut planner = Planner::new(&cfg);
+    run_online(Planner::new(&cfg), path)
+}
+
+/// `planner` fed `path` element by element, planning after each, then finished: the segments,
+/// the hand-overs (each checked to leave a state that can still stop) and the counters.
+fn run_online(mut planner: Planner, path: &Path) -> (Vec<Segment>, usize, PlanStats) {
     let mut segs = Vec::new();
     let mut handovers = 0;
     for e in &path.elements {
@@ -352,16 +357,9 @@ fn short_chunks_keep_the_stop_from_the_hand_over_state() {
     cfg.planner.lookahead_mm = 10.0;
     let mut planner = Planner::new(&cfg);
     planner.chunk_nodes = 500;
-    let mut segs = Vec::new();
-    for e in &path.elements {
-        planner.push(e.clone());
-        segs.extend(planner.plan().expect("online plan"));
-    }
-    planner.finish(path.final_dwell_s);
-    segs.extend(planner.plan().expect("final plan"));
-    assert!(planner.done());
+    let (segs, _, stats) = run_online(planner, &path);
     check_covers(&segs, path.length_mm());
-    assert_eq!(planner.stats.forced_stops, 0, "{:?}", planner.stats);
+    assert_eq!(stats.forced_stops, 0, "{stats:?}");
 }
 
 /// A repair lowers v̄ at a node in the middle of a 9 000-node block (a dense spline on the

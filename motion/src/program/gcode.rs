@@ -180,9 +180,8 @@ pub(crate) struct Interpreter {
     pause_for: Option<(Source, Pause)>,
     /// The program stop of the block being executed.
     block_pause: Option<StopCode>,
-    /// Operator messages read and not yet taken (message.rs), and how many were read.
+    /// Operator messages read and not yet taken (message.rs); `summary.messages` numbers them.
     messages: MessageQueue,
-    message_count: u64,
     /// Messages read since the last element (one place in the motion), and the newest beyond
     /// [`message::PLACE_CAP`] of them, held back with the count of those it stands for.
     messages_here: usize,
@@ -342,7 +341,6 @@ impl Interpreter {
             pause_for: None,
             block_pause: None,
             messages: MessageQueue::with_cap(message::QUEUE_CAP),
-            message_count: 0,
             messages_here: 0,
             overflow: None,
             params: settings.home_positions.params(),
@@ -377,9 +375,8 @@ impl Interpreter {
                 }
             }
         };
-        self.message_count += 1;
         self.summary.messages += 1;
-        let id = self.message_count;
+        let id = self.summary.messages as u64;
         let m = Message { id, kind, text, line: line_no, dropped: 0 };
         self.messages_here += 1;
         if self.messages_here > message::PLACE_CAP {

@@ -131,6 +131,13 @@ const TOKENS: &[&str] = &[
     "o2 continue\n",
     "o1 return [7]\n",
     "#1 = [#1 + 1]\n",
+    // Operator messages: parameter substitution, formats, unterminated names.
+    "(MSG, text #1)",
+    "(DEBUG, #1 #<x> #<_y>)",
+    "(PRINT, %d#1 %.3f#<x>)",
+    "(debug,#",
+    "(PRINT, #<x",
+    "#5599 = 0\n",
     "G81",
     "G83",
     "G80",

@@ -16,7 +16,7 @@
 //! differ only in speed.
 
 use super::branch::{Previous, Stuck, build_envelope};
-use super::envelope::Envelope;
+use super::envelope::{END_CURVE, Envelope};
 use super::error::Infeasibility;
 use super::forward::{Failed, Progress, forward_branch};
 use super::interval::Interval;
@@ -55,6 +55,9 @@ const FLAT_SKIP_MARGIN: f64 = 0.02;
 /// A repair up to this many nodes (beyond the last one's span) before the last repair counts
 /// as the branch creeping back from it.
 const CREEP_SLACK_NODES: usize = 2;
+/// A node's v̄ this much (relative) above its flat v̄ is lowered to that first
+/// (`above_flat`).
+const FLAT_REPAIR_MARGIN: f64 = 1e-3;
 /// Factors applied to the stuck node's velocity, in order, when repairing there again.
 const REPAIR_FACTORS: [f64; 5] = [0.9, 0.7, 0.4, 0.1, 0.0];
 
@@ -100,7 +103,7 @@ pub(super) fn plan_block(
         nd.vbar_mm_s = r;
     }
     if let Ok(c) = &chosen {
-        for &(i, v) in &c.repairs {
+        for &(i, v) in c.repairs.iter().filter(|(i, _)| *i < c.end_repair_from) {
             nodes[i].vbar_mm_s = nodes[i].vbar_mm_s.min(v);
         }
     }
@@ -169,6 +172,9 @@ struct Planned {
     time_s: f64,
     /// Nodes whose v̄ repairs lowered, and to what.
     repairs: Vec<(usize, f64)>,
+    /// The first node a repair forced by the block's end lowered (`forced_by_end`): the plan
+    /// is final only before it, and the next plan does not keep that repair or those after.
+    end_repair_from: usize,
 }
 
 fn plan_under(
@@ -187,12 +193,13 @@ fn plan_under(
     for nd in nodes.iter_mut() {
         nd.reach_bound = false;
     }
-    let (intervals, final_before) = result?;
+    let (intervals, final_before, end_repair_from) = result?;
     let repairs = (0..nodes.len()).filter(|&i| nodes[i].vbar_mm_s < ceiling.v[i]);
     Ok(Planned {
         time_s: intervals.iter().map(|iv| iv.t_s).sum(),
         intervals,
-        final_before,
+        final_before: final_before.min(end_repair_from),
+        end_repair_from,
         repairs: repairs.map(|i| (i, nodes[i].vbar_mm_s)).collect(),
     })
 }
@@ -265,19 +272,22 @@ fn plan_repaired(
     lim: &Limits,
     work: &mut Work,
     budget: &Budget,
-) -> Result<(Vec<Interval>, usize), Stuck> {
+) -> Result<(Vec<Interval>, usize, usize), Stuck> {
     let mut repairs_at: Vec<(usize, usize)> = Vec::new();
     // The last repair's node and how many nodes before it it lowered.
     let mut last: Option<(usize, usize)> = None;
     // The last envelope, how far the forward branch got on it, and the first node lowered since.
     let mut before: Option<(Envelope, Progress, usize)> = None;
     let mut stuck_last = nodes.len() - 1;
+    // The first node a repair forced by the block's end lowered: what lies beyond depends on
+    // that end.
+    let mut end_repair_from = usize::MAX;
     for _ in 0..=MAX_REPAIRS {
         let previous = before.as_ref().map(|(env, _, from)| Previous { env, from: *from });
         let env = build_envelope(nodes, previous, lim, work, budget).map_err(|s| out_of_work(s, work, budget))?;
         let resume = before.as_ref().map(|(old, progress, from)| (progress, env.first_difference(old).min(*from)));
         let (stuck, progress) = match forward_branch(nodes, &env, start, resume, lim, work, budget) {
-            Ok(f) => return Ok((f.intervals, f.final_before)),
+            Ok(f) => return Ok((f.intervals, f.final_before, end_repair_from)),
             Err(Failed { stuck, progress }) => (stuck, progress),
         };
         work.repairs += 1;
@@ -310,19 +320,37 @@ fn plan_repaired(
                 1
             }
         };
-        let Some(&factor) = REPAIR_FACTORS.get(count - 1) else {
-            return Err(stuck);
-        };
-        tracing::debug!(
-            node = k,
-            s_mm = nodes[k].s_mm,
-            factor,
-            reason = stuck.reason.as_str(),
-            "planner repair: lowering v̄"
-        );
         let span = repair_span(last, k);
+        let lowered = if count == 1 && above_flat(&nodes[k.saturating_sub(span).max(1)..=k]) {
+            // Under the relaxed ceiling a node above its flat v̄ may have no state that keeps
+            // the limits with a ≈ 0 (the jerk term A‴v³ alone is at the limit there), and a
+            // branch flattening there is stuck. The first repair lowers such nodes to their
+            // flat v̄, a state every limit allows, before the factors below.
+            repairs_at.iter_mut().find(|(n, _)| *n == k).expect("counted above").1 = 0;
+            tracing::debug!(
+                node = k,
+                s_mm = nodes[k].s_mm,
+                reason = stuck.reason.as_str(),
+                "planner repair: v̄ to the flat v̄"
+            );
+            lower_to_flat(nodes, k, span)
+        } else {
+            let Some(&factor) = REPAIR_FACTORS.get(count - 1) else {
+                return Err(stuck);
+            };
+            tracing::debug!(
+                node = k,
+                s_mm = nodes[k].s_mm,
+                factor,
+                reason = stuck.reason.as_str(),
+                "planner repair: lowering v̄"
+            );
+            lower_before(nodes, k, span, factor)
+        };
         last = Some((k, span));
-        let lowered = lower_before(nodes, k, span, factor);
+        if forced_by_end(&env, stuck.node) {
+            end_repair_from = end_repair_from.min(lowered);
+        }
         before = Some((env, progress, lowered));
     }
     Err(Stuck { node: stuck_last, reason: Infeasibility::TooManyRepairs })
@@ -398,6 +426,29 @@ pub(super) fn lower_before(nodes: &mut [Node], k: usize, span: usize, factor: f6
         nd.vbar_mm_s = nd.vbar_mm_s.min(factor * base);
     }
     from.max(1)
+}
+
+/// Whether any of `nodes` lies above its flat v̄ (Kopp et al. 2019, eq. 6) by more than
+/// `FLAT_REPAIR_MARGIN`: only under the relaxed ceiling.
+fn above_flat(nodes: &[Node]) -> bool {
+    nodes.iter().any(|nd| nd.vbar_mm_s > nd.vbar_flat_mm_s * (1.0 + FLAT_REPAIR_MARGIN))
+}
+
+/// Lowers v̄ at nodes `k − span ..= k` (never node 0) to their flat v̄. Returns the first node
+/// it may have lowered.
+fn lower_to_flat(nodes: &mut [Node], k: usize, span: usize) -> usize {
+    let from = k.saturating_sub(span).max(1);
+    for nd in &mut nodes[from..=k] {
+        nd.vbar_mm_s = nd.vbar_mm_s.min(nd.vbar_flat_mm_s);
+    }
+    from
+}
+
+/// Whether the forward branch stuck at node `stuck` got stuck on the branch from the block's
+/// end: the first branch after it is that one. A repair there is forced by where the block
+/// ends, which for a chunk or a horizon is not a real stop.
+fn forced_by_end(env: &Envelope, stuck: usize) -> bool {
+    (stuck + 1..env.len()).map(|i| env.curve[i]).find(|&c| c != 0) == Some(END_CURVE)
 }
 
 /// Relative tolerance for "the same direction" along a straight block (as for a smooth joint,

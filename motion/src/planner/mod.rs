@@ -114,14 +114,27 @@ const STOP_CLEARANCE_NODES: usize = 3;
 /// wander program, the 500 mm look-ahead of `3D_Chips.ngc`); a chunk's search needs only its
 /// own repairs, within the budget of 1 000 units per node (`block::LONG_BLOCK_NODES`).
 ///
-/// Measured on `3D_Chips.ngc` at a 500 mm look-ahead (motion s / forced stops): chunks of 500
-/// nodes 59.79 / 0, 700 60.16 / 0, 1 000 60.37 / 1, 2 000 60.66 / 0, 3 000 61.74 / 7; at 60 mm
-/// 59.87 / 0. A short chunk more often keeps its plan under the relaxed ceiling
-/// (`block::plan_both`: 51 of 119 kept at 500 nodes, 7 of 36 at 2 000), but 500 hands over
-/// states a short look-ahead cannot continue from (test
-/// `a_short_look_ahead_does_not_search_caps_that_cannot_help` found no backward branch) and
-/// changes the repairs of three other tests; 1 000 left a forced stop.
+/// Measured on `3D_Chips.ngc` at a 500 mm look-ahead (motion s / forced stops), fixed chunk
+/// lengths: 500 nodes 59.79 / 0, 700 60.16 / 0, 1 000 60.37 / 1, 2 000 60.66 / 0, 3 000
+/// 61.74 / 7. Short chunks suit the tight curves of CAM data, long ones clean dense data (a
+/// 10 000-point G06 spline at a 60 mm look-ahead: chunks of 400 gave 3.975 s against 3.879 s
+/// and 2.7 × the work), so the length follows the work (`CHUNK_WORK_UNITS`); this is the
+/// longest.
 const CHUNK_NODES: usize = 2_000;
+/// Work a chunk's search should take (`Work::units`, some 5 per µs): the next chunk has as
+/// many nodes as the last chunk's work per node allows for this, at least `CHUNK_NODES_MIN`.
+/// The cusp trochoid of 300 000 moves (about 1 000 units per node): longest call 258 ms
+/// against 7.6 s with whole 2 000-node chunks in one call, motion 55.47 s against 55.60 s;
+/// `3D_Chips.ngc` at 60 / 500 mm: 59.74 / 59.75 s against 59.87 / 60.66 s.
+const CHUNK_WORK_UNITS: u64 = 200_000;
+/// The shortest chunk the work allows: below it a chunk hands over less than a stopping
+/// distance on CAM data, and its repairs cost more than they save.
+const CHUNK_NODES_MIN: usize = 400;
+/// The shortest chunk a retry from the hand-over state plans (each failed try halves it).
+const RETRY_CHUNK_NODES_MIN: usize = 250;
+/// A planning call returns at the first hand-over (a chunk's, a stop's, a brake along the kept
+/// stop) at which the work it did reaches this (some 20 ms); the next call goes on from there.
+const CALL_WORK_UNITS: u64 = 100_000;
 
 /// Interval lengths of a retained stop against the node spacing
 /// ([`Planner::can_stop_within_horizon`]).
@@ -134,8 +147,12 @@ pub struct Planner {
     params: SamplingParams,
     lookahead_mm: f64,
     lookahead_samples: usize,
-    /// Nodes of a chunk (`CHUNK_NODES`; shorter in tests).
+    /// Nodes of a chunk at most (`CHUNK_NODES`; shorter in tests).
     chunk_nodes: usize,
+    /// Nodes of the next chunk: at most `chunk_nodes`, fewer where the last chunk's search took
+    /// much work per node (`CHUNK_WORK_UNITS`) or a retry from the hand-over state found no
+    /// continuation (`RETRY_CHUNK_NODES_MIN`).
+    chunk_next: usize,
     /// Elements received but not yet sampled (the newest waits for its successor).
     pending: VecDeque<Element>,
     /// The last sampled element and its end (for the joint with the next one).
@@ -177,6 +194,7 @@ impl Planner {
             lookahead_mm: p.lookahead_mm,
             lookahead_samples: p.lookahead_samples.unwrap_or(usize::MAX),
             chunk_nodes: CHUNK_NODES,
+            chunk_next: CHUNK_NODES,
             pending: VecDeque::new(),
             prev: None,
             since_stop_mm: 0.0,
@@ -215,7 +233,9 @@ impl Planner {
         self.input_done && self.end_sampled && self.nodes.len() <= 1 && self.pending.is_empty()
     }
 
-    /// Plans as far as the look-ahead allows and returns the segments that are final.
+    /// Plans as far as the look-ahead allows, or up to the first hand-over after
+    /// `CALL_WORK_UNITS` of work, and returns the segments that are final. Call it again until
+    /// [`Planner::done`]: a call that stopped early goes on at the next one.
     pub fn plan(&mut self) -> Result<Vec<Segment>, PlanError> {
         self.sample_pending();
         if self.nodes.len() < 2 {
@@ -232,6 +252,18 @@ impl Planner {
             self.plan_horizon(complete)?;
         }
         Ok(std::mem::take(&mut self.out))
+    }
+
+    /// After [`Planner::finish`]: plans the rest of the path, call after call, and returns all
+    /// its segments.
+    pub(crate) fn plan_to_end(&mut self) -> Result<Vec<Segment>, PlanError> {
+        let mut segments = Vec::new();
+        loop {
+            segments.extend(self.plan()?);
+            if self.done() {
+                return Ok(segments);
+            }
+        }
     }
 
     /// Plans the horizon now, however short, when elements came since the last plan: for a
@@ -290,7 +322,7 @@ impl Planner {
             planner.push(e.clone());
         }
         planner.finish(path.final_dwell_s);
-        let segments = planner.plan()?;
+        let segments = planner.plan_to_end()?;
         Ok((segments, planner.stats))
     }
 
@@ -434,13 +466,19 @@ impl Planner {
         let mut stop_from = 0;
         // Off for the rest of the horizon once a chunk handed over nothing (see below).
         let mut chunking = true;
+        // Work of the chunks planned in this call, and whether the call ended after one.
+        let mut call_units = 0u64;
+        let mut bounded = false;
         while idx < n {
             let is_end = idx == n - 1;
             // A chunk reaches past the stop kept from the hand-over state, so that a chunk
             // with no continuation can still brake along that stop.
             let past_stop = block_start != stop_from || idx > stop_from + self.retained_stop.len();
-            let chunk_cut =
-                chunking && !is_end && !self.nodes[idx].stop && idx - block_start >= self.chunk_nodes && past_stop;
+            let chunk_cut = chunking
+                && !is_end
+                && !self.nodes[idx].stop
+                && idx - block_start >= self.chunk_next.min(self.chunk_nodes)
+                && past_stop;
             if !(self.nodes[idx].stop || is_end || chunk_cut) {
                 idx += 1;
                 continue;
@@ -470,6 +508,14 @@ impl Planner {
                     // dead end the branches do not find their way out of).
                     let (from, brake_state) = self.brake_along_stop(stop_from, stuck.reason.as_str());
                     (stop_from, handed, block_start, idx, state) = (from, from, from, from + 1, brake_state);
+                    // The dead end lies near the hand-over state: the next try plans a shorter
+                    // chunk, which costs less and needs fewer repairs.
+                    self.chunk_next = (self.chunk_next.min(self.chunk_nodes) / 2).max(RETRY_CHUNK_NODES_MIN);
+                    call_units += work.units();
+                    if call_units >= CALL_WORK_UNITS {
+                        bounded = true;
+                        break;
+                    }
                     continue;
                 }
                 Err(stuck) => {
@@ -528,6 +574,17 @@ impl Planner {
                 state = (iv.v0, iv.a0);
                 self.retained_stop = plan.intervals[final_count..].to_vec();
                 if chunk_cut {
+                    let per_node = work.units() / (idx - block_start) as u64;
+                    let fits = (CHUNK_WORK_UNITS / per_node.max(1)) as usize;
+                    self.chunk_next = fits.clamp(CHUNK_NODES_MIN.min(self.chunk_nodes), self.chunk_nodes);
+                    call_units += work.units();
+                    if call_units >= CALL_WORK_UNITS {
+                        // Enough for one call: the next call goes on from the hand-over state,
+                        // exactly as this one would (the chunk after this one does not depend
+                        // on the nodes beyond it).
+                        bounded = true;
+                        break;
+                    }
                     // On from the hand-over state, with the rest of the chunk's plan as the
                     // stop kept, exactly as the next horizon would go on.
                     (stop_from, block_start, idx) = (handed, handed, handed + 1);
@@ -538,12 +595,19 @@ impl Planner {
             state = (0.0, 0.0);
             block_start = idx;
             idx += 1;
+            call_units += work.units();
+            if call_units >= CALL_WORK_UNITS && idx < n {
+                // Handed over to a stop: the next call goes on from there.
+                bounded = true;
+                break;
+            }
         }
         if handed > 0 {
             self.nodes.drain(..handed);
         }
         self.start = state;
-        self.planned_len = self.nodes.len();
+        // A call that stopped after a chunk goes on at the next call, whatever came since.
+        self.planned_len = if bounded { 0 } else { self.nodes.len() };
         if complete && self.nodes.len() == 1 {
             let end = &self.nodes[0];
             if end.dwell_s > 0.0 {

@@ -102,7 +102,7 @@ mod tests {
             planner.push(e.clone());
         }
         planner.finish(0.0);
-        let cont = planner.plan().unwrap();
+        let cont = planner.plan_to_end().unwrap();
         assert!((cont[0].v0 - st.v).abs() < 1e-9 && (cont[0].a0 - st.a).abs() < 1e-9);
         let t = 0.3 + profile::duration_s(&cont);
         assert!((t - total).abs() < 0.01 * total, "continued {t} s vs whole {total} s");

@@ -180,7 +180,7 @@ fn run_online(mut planner: Planner, path: &Path) -> (Vec<Segment>, usize, PlanSt
         segs.extend(got);
     }
     planner.finish(path.final_dwell_s);
-    segs.extend(planner.plan().expect("final plan"));
+    segs.extend(planner.plan_to_end().expect("final plan"));
     assert!(planner.done());
     (segs, handovers, planner.stats)
 }
@@ -691,4 +691,39 @@ fn a_long_block_of_dense_nodes_is_planned_in_chunks_without_forced_stops() {
     assert!(stats.nodes > 3_000, "the case needs a block longer than a chunk: {stats:?}");
     // Every chunk's search within the budget of a block of its length.
     assert!(stats.block_work_max < block::work_bound_units(CHUNK_NODES), "{stats:?}");
+}
+
+/// The wander snippet's block of 3 775 nodes, given whole before the first call: one call used
+/// to plan all its chunks. A call now returns after the chunk with which its work reaches
+/// `CALL_WORK_UNITS`, so no call takes more than that and one chunk's search; the calls
+/// together plan the whole path, every limit kept.
+#[test]
+fn a_planning_call_returns_after_a_chunk_and_the_next_goes_on() {
+    let mut cfg = repo_machine("benches/cam/family_machine.toml");
+    cfg.prep.max_solve_ms = 1e5;
+    let prog = program::parse(include_str!("testdata/wander_snippet.ngc"), "t.ngc", &cfg).unwrap();
+    let path = crate::prep::prepare_path(&cfg, &prog.path).unwrap().path;
+    let mut planner = Planner::new(&cfg);
+    for e in &path.elements {
+        planner.push(e.clone());
+    }
+    planner.finish(path.final_dwell_s);
+    let (mut segs, mut calls, mut call_max) = (Vec::new(), 0, 0);
+    while !planner.done() {
+        let before = planner.stats.work.units();
+        segs.extend(planner.plan().expect("plan"));
+        calls += 1;
+        call_max = call_max.max(planner.stats.work.units() - before);
+        assert!(calls < 1_000, "no progress");
+    }
+    check_covers(&segs, path.length_mm());
+    assert!(calls >= 2, "the path fits one call: {:?}", planner.stats);
+    assert!(call_max <= CALL_WORK_UNITS + block::work_bound_units(CHUNK_NODES), "a call took {call_max} units");
+    check_continuity(&segs);
+    let [v, a, j] = profile::limit_ratios(&path, &segs, &cfg, 2.5e-4);
+    assert!(v <= 1.001 && a <= 1.001 && j <= 1.02, "vel {v} acc {a} jerk {j}");
+    // Element by element, the calls end elsewhere; the motion is about the same.
+    let (online, _, _) = plan_online_stats(&cfg, &path, cfg.planner.lookahead_mm);
+    let (t_calls, t_online) = (profile::duration_s(&segs), profile::duration_s(&online));
+    assert!((t_calls - t_online).abs() <= 0.005 * t_online, "{t_calls} s in calls, {t_online} s online");
 }

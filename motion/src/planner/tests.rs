@@ -638,10 +638,7 @@ fn a_slow_arc_cruises_on_few_nodes_and_starts_from_rest() {
 /// of a limit on a third of the nodes.
 #[test]
 fn a_tight_smoothed_trochoid_gets_nodes_for_its_geometry_not_for_the_interpolation() {
-    let mut cfg = repo_machine("benches/cam/family_machine.toml");
-    cfg.prep.max_solve_ms = 1e5;
-    let prog = program::parse(include_str!("testdata/cusp_snippet.ngc"), "t.ngc", &cfg).unwrap();
-    let path = crate::prep::prepare_path(&cfg, &prog.path).unwrap().path;
+    let (cfg, path) = family_snippet(include_str!("testdata/cusp_snippet.ngc"));
     let (segs, _, stats) = plan_online_stats(&cfg, &path, cfg.planner.lookahead_mm);
     check_covers(&segs, path.length_mm());
     let [v, a, j] = profile::limit_ratios(&path, &segs, &cfg, 2.5e-4);
@@ -679,10 +676,7 @@ fn a_horizon_ending_inside_a_slow_arc_plans_its_stop() {
 /// in chunks of `CHUNK_NODES`, each chunk's search needs only its own repairs.
 #[test]
 fn a_long_block_of_dense_nodes_is_planned_in_chunks_without_forced_stops() {
-    let mut cfg = repo_machine("benches/cam/family_machine.toml");
-    cfg.prep.max_solve_ms = 1e5;
-    let prog = program::parse(include_str!("testdata/wander_snippet.ngc"), "t.ngc", &cfg).unwrap();
-    let path = crate::prep::prepare_path(&cfg, &prog.path).unwrap().path;
+    let (cfg, path) = family_snippet(include_str!("testdata/wander_snippet.ngc"));
     let (segs, _, stats) = plan_online_stats(&cfg, &path, cfg.planner.lookahead_mm);
     check_covers(&segs, path.length_mm());
     let [v, a, j] = profile::limit_ratios(&path, &segs, &cfg, 2.5e-4);
@@ -699,10 +693,7 @@ fn a_long_block_of_dense_nodes_is_planned_in_chunks_without_forced_stops() {
 /// together plan the whole path, every limit kept.
 #[test]
 fn a_planning_call_returns_after_a_chunk_and_the_next_goes_on() {
-    let mut cfg = repo_machine("benches/cam/family_machine.toml");
-    cfg.prep.max_solve_ms = 1e5;
-    let prog = program::parse(include_str!("testdata/wander_snippet.ngc"), "t.ngc", &cfg).unwrap();
-    let path = crate::prep::prepare_path(&cfg, &prog.path).unwrap().path;
+    let (cfg, path) = family_snippet(include_str!("testdata/wander_snippet.ngc"));
     let mut planner = Planner::new(&cfg);
     for e in &path.elements {
         planner.push(e.clone());
@@ -726,4 +717,14 @@ fn a_planning_call_returns_after_a_chunk_and_the_next_goes_on() {
     let (online, _, _) = plan_online_stats(&cfg, &path, cfg.planner.lookahead_mm);
     let (t_calls, t_online) = (profile::duration_s(&segs), profile::duration_s(&online));
     assert!((t_calls - t_online).abs() <= 0.005 * t_online, "{t_calls} s in calls, {t_online} s online");
+}
+
+/// The CAM family's machine, without a wall-time limit on a window's solve, and `text`
+/// smoothed on it.
+fn family_snippet(text: &str) -> (Settings, Path) {
+    let mut cfg = repo_machine("benches/cam/family_machine.toml");
+    cfg.prep.max_solve_ms = 1e5;
+    let prog = program::parse(text, "t.ngc", &cfg).unwrap();
+    let path = crate::prep::prepare_path(&cfg, &prog.path).unwrap().path;
+    (cfg, path)
 }

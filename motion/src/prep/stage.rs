@@ -81,6 +81,8 @@ pub(crate) struct Prep {
     last_out: Option<Element>,
     run: Option<Run>,
     cond: Conditioner,
+    /// The B-spline basis values of the last window's points, which the next window shares.
+    spline_basis: bspline::BasisCache,
     pub(crate) stats: PrepStats,
 }
 
@@ -94,6 +96,7 @@ impl Prep {
             last_out: None,
             run: None,
             cond: Conditioner::new(settings.axes.len()),
+            spline_basis: bspline::BasisCache::default(),
             stats: PrepStats { max_excess_mm: f64::NEG_INFINITY, ..PrepStats::default() },
         }
     }
@@ -399,7 +402,8 @@ impl Prep {
                         refined < REFINE_RETRIES
                             && b.s_mm - a.s_mm >= REFINE_MIN_PER_TOL * a.prog_tol_mm.min(b.prog_tol_mm)
                     };
-                    check_spline(run, &self.st, &mut self.stats, &sol, *commit, right, can_refine)
+                    let cache = &mut self.spline_basis;
+                    check_spline(run, &self.st, &mut self.stats, cache, &sol, *commit, right, can_refine)
                 }
             };
             let j = match checked {
@@ -648,11 +652,14 @@ fn window_method(run: &Run, default: PrepMethod) -> PrepMethod {
 /// point (with the levels the next window keeps), or the index of the first piece outside the
 /// tolerance. Where the spline cannot be fitted, or a span leaves the band and may not be
 /// refined (`can_refine`), the window's Hermite pieces are taken instead if they keep the band
-/// (`stats.bspline_to_hermite`).
+/// (`stats.bspline_to_hermite`). `cache` holds the B-spline basis values of the last window's
+/// points.
+#[allow(clippy::too_many_arguments)]
 fn check_spline(
     run: &Run,
     st: &StageSettings,
     stats: &mut PrepStats,
+    cache: &mut bspline::BasisCache,
     sol: &Solution,
     commit: usize,
     right: RightEnd,
@@ -661,17 +668,19 @@ fn check_spline(
     let p = &run.points;
     let n = sol.states.len();
     let u: Vec<f64> = p[..n].iter().map(|q| (q.s_mm - p[0].s_mm) / st.spacing_mm).collect();
+    let s_mm: Vec<f64> = p[..n].iter().map(|q| q.s_mm).collect();
     // The spline's pieces at `weights` if every one keeps the band; else the first outside it.
     let window = bspline::SplineWindow {
         u: &u,
+        s_mm: &s_mm,
         states: &sol.states,
         left: &run.state,
         left_levels: run.spline_levels,
         right,
         commit,
     };
-    let fit = |weights: [f64; 5], stats: &mut PrepStats| -> Result<bspline::SplinePieces, Option<usize>> {
-        let sp = bspline::window_pieces(st, &window, weights).map_err(|f| {
+    let mut fit = |weights: [f64; 5], stats: &mut PrepStats| -> Result<bspline::SplinePieces, Option<usize>> {
+        let sp = bspline::window_pieces(st, &window, weights, cache).map_err(|f| {
             tracing::debug!(?f, s_mm = p[0].s_mm, "no B-spline for the window");
             None
         })?;

@@ -37,6 +37,16 @@ impl BandedSpd {
         self.rows[i][i - j] += v;
     }
 
+    /// Adds the symmetric block `block` (lower triangle: `block[a][b]`, b ≤ a) at rows and
+    /// columns `first ..= first + BAND`, which must lie in the matrix.
+    pub(crate) fn add_block(&mut self, first: usize, block: &[[f64; BAND + 1]; BAND + 1]) {
+        for (a, row) in self.rows[first..=first + BAND].iter_mut().enumerate() {
+            for b in 0..=a {
+                row[a - b] += block[a][b];
+            }
+        }
+    }
+
     /// Factorises in place into L with L Lᵀ = the matrix (L in the same band). A pivot below
     /// `rel_tol` times the largest diagonal entry counts as not positive definite.
     pub(crate) fn cholesky(&mut self, rel_tol: f64) -> Result<(), NotPositiveDefinite> {

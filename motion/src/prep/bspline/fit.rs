@@ -9,6 +9,8 @@ use super::basis::{DEGREE, Knots, MAX_DERIV, ORDER};
 
 /// Values per point: position and derivatives up to x⁗.
 pub(crate) const LEVELS: usize = MAX_DERIV + 1;
+/// Levels the emitted pieces take at each point: x, x′, x″ (quintic Hermite ends).
+pub(crate) const PIECE_LEVELS: usize = 3;
 
 /// Why a window has no B-spline.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -37,9 +39,47 @@ pub(crate) struct Fit {
     fixed_left: usize,
     fixed_right: usize,
     /// Basis derivatives at each point (from the interval starting there; the last point from
-    /// the last interval) and their span.
-    at_points: Vec<(usize, [[f64; ORDER]; LEVELS])>,
+    /// the last interval) and their span; the next fit's cache.
+    at_points: Vec<CachedBasis>,
     normal: BandedSpd,
+}
+
+/// The basis values and derivatives at the points of the last fit, for the next one: they
+/// depend only on the knots around a point relative to it (`Knots::offsets`), so a point
+/// whose neighbours are still the same has the same values in the next window, which starts
+/// where this one commits. An entry is taken over only when its offsets agree, so a point
+/// inserted or a window that starts elsewhere costs evaluations, never wrong values.
+#[derive(Debug, Default)]
+pub(crate) struct BasisCache {
+    entries: Vec<CachedBasis>,
+    /// The list before last, kept for its allocation.
+    spare: Vec<CachedBasis>,
+}
+
+/// The points of a fit named for the cache: `keys[j]` is point j's s on the path (mm,
+/// increasing, as the breakpoints).
+pub(crate) struct CachedPoints<'a> {
+    pub keys: &'a [f64],
+    pub cache: &'a mut BasisCache,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct CachedBasis {
+    /// The point's s (mm).
+    key: f64,
+    offsets: [f64; 2 * DEGREE],
+    /// Derivatives held: 0 ..= n_deriv.
+    n_deriv: usize,
+    /// Knot span of the point in its fit (the interval starting there; the last point's:
+    /// the interval ending there).
+    span: usize,
+    d: [[f64; ORDER]; LEVELS],
+}
+
+/// The basis derivatives at one breakpoint, all levels (see [`Fit::state_basis`]).
+pub(crate) struct StateBasis {
+    first: usize,
+    d: [[f64; ORDER]; LEVELS],
 }
 
 /// A fitted spline for one axis: its control points.
@@ -62,9 +102,11 @@ fn same_offsets(a: &[f64; 2 * DEGREE], b: &[f64; 2 * DEGREE]) -> bool {
 impl Fit {
     /// The fit over breakpoints `u` (one per QP point, strictly increasing), inner knots of
     /// `multiplicity`, data `levels` (x … x^(levels − 1)) per point weighted by `weights`,
-    /// `fixed_left` / `fixed_right` leading derivatives fixed at the ends.
+    /// `fixed_left` / `fixed_right` leading derivatives fixed at the ends; `cached` holds the
+    /// basis values of the previous fit's points and takes this fit's.
     pub(crate) fn new(
         u: &[f64],
+        cached: CachedPoints,
         multiplicity: usize,
         levels: usize,
         weights: [f64; LEVELS],
@@ -79,31 +121,60 @@ impl Fit {
             return Err(FitError::TooFewControlPoints);
         }
         let n = u.len();
-        let mut at_points: Vec<(usize, [[f64; ORDER]; LEVELS])> = Vec::with_capacity(n);
-        // The basis values at a point depend only on the knots around it relative to the
-        // point; on equidistant points (most of a window) they repeat from point to point, and
-        // are taken over instead of evaluated again.
-        let mut last_offsets = [f64::NAN; 2 * DEGREE];
+        let CachedPoints { keys, cache } = cached;
+        debug_assert_eq!(keys.len(), n);
+        // Derivative orders each point needs: the data's levels and the pieces' x, x′, x″; the
+        // first point all of them (the fixed left end can hold up to x⁗), the committed
+        // point's full state is evaluated again when asked for (`state_basis`).
+        let n_deriv = levels.clamp(PIECE_LEVELS, LEVELS) - 1;
+        let mut at_points = std::mem::take(&mut cache.spare);
+        at_points.clear();
+        // The previous fit's entry at or after the point (both lists run along s).
+        let mut c = cache.entries.partition_point(|e| e.key < keys[0]);
         for j in 0..n {
             let span = knots.span(j.min(n - 2));
             let offsets = knots.offsets(span, u[j]);
-            let d = match at_points.last() {
-                Some(&(_, d)) if same_offsets(&offsets, &last_offsets) => d,
-                _ => {
+            let need = if j == 0 { MAX_DERIV } else { n_deriv };
+            while c < cache.entries.len() && cache.entries[c].key < keys[j] {
+                c += 1;
+            }
+            let fits = |e: &&CachedBasis| e.n_deriv >= need && same_offsets(&e.offsets, &offsets);
+            // On equidistant points (most of a window) the values repeat from point to point;
+            // the points the previous window also had (about two thirds of it, since a window
+            // commits about a third) have them from there; only the rest is evaluated.
+            let held = at_points.last().filter(fits).or(cache.entries.get(c).filter(|e| e.key == keys[j]).filter(fits));
+            let point = match held {
+                Some(e) => CachedBasis { key: keys[j], offsets, span, ..*e },
+                None => {
                     let mut d = [[0.0; ORDER]; LEVELS];
-                    knots.derivs(span, u[j], &mut d);
-                    d
+                    knots.derivs_upto(span, u[j], need, &mut d);
+                    CachedBasis { key: keys[j], offsets, n_deriv: need, span, d }
                 }
             };
-            last_offsets = offsets;
-            at_points.push((span, d));
+            at_points.push(point);
         }
         let free = fixed_left..n_ctrl - fixed_right;
         let mut normal = BandedSpd::zeros(free.len());
-        for (span, d) in &at_points {
+        let mut block = [[0.0; ORDER]; ORDER];
+        for CachedBasis { span, d, .. } in &at_points {
             let first = span - DEGREE;
             // The point's block of KᵀWK (lower triangle), summed over the levels before it is
             // added to the band: one addition per entry instead of one per entry and level.
+            let wd: [[f64; ORDER]; LEVELS] = std::array::from_fn(|l| d[l].map(|v| weights[l] * v));
+            if first >= free.start && first + DEGREE < free.end {
+                // Away from the fixed ends every entry of the block is free.
+                for a in 0..ORDER {
+                    for b in 0..=a {
+                        let mut v = wd[0][a] * d[0][b];
+                        for l in 1..levels {
+                            v += wd[l][a] * d[l][b];
+                        }
+                        block[a][b] = v;
+                    }
+                }
+                normal.add_block(first - free.start, &block);
+                continue;
+            }
             for a in 0..ORDER {
                 let ia = first + a;
                 if !free.contains(&ia) {
@@ -112,7 +183,10 @@ impl Fit {
                 for b in 0..=a {
                     let ib = first + b;
                     if free.contains(&ib) {
-                        let v: f64 = (0..levels).map(|l| weights[l] * d[l][a] * d[l][b]).sum();
+                        let mut v = wd[0][a] * d[0][b];
+                        for l in 1..levels {
+                            v += wd[l][a] * d[l][b];
+                        }
                         normal.add(ia - free.start, ib - free.start, v);
                     }
                 }
@@ -131,35 +205,42 @@ impl Fit {
         let n = self.u.len();
         let mut ctrl = vec![0.0; n_ctrl];
         // Left end: derivative k at u₀ is Σ_{i ≤ k} N_i^(k)(u₀) P_i, triangular.
-        let d0 = &self.at_points[0].1;
+        let d0 = &self.at_points[0].d;
         for k in 0..self.fixed_left {
             let s: f64 = (0..k).map(|i| d0[k][i] * ctrl[i]).sum();
             ctrl[k] = (left[k] - s) / d0[k][k];
         }
         // Right end: derivative k at u_{n−1} involves the last k + 1 control points.
-        let d1 = &self.at_points[n - 1].1;
+        let d1 = &self.at_points[n - 1].d;
         for k in 0..self.fixed_right {
             let s: f64 = (0..k).map(|i| d1[k][ORDER - 1 - i] * ctrl[n_ctrl - 1 - i]).sum();
             ctrl[n_ctrl - 1 - k] = (right[k] - s) / d1[k][ORDER - 1 - k];
         }
         let free = self.fixed_left..n_ctrl - self.fixed_right;
         let mut rhs = vec![0.0; free.len()];
-        for (j, (span, d)) in self.at_points.iter().enumerate() {
+        for (j, CachedBasis { span, d, .. }) in self.at_points.iter().enumerate() {
             let first = span - DEGREE;
-            // Only the points near the ends see fixed control points.
-            let inner = free.contains(&first) && free.contains(&(first + DEGREE));
+            if first >= free.start && first + DEGREE < free.end {
+                // Only the points near the ends see fixed control points.
+                let r: [f64; LEVELS] = std::array::from_fn(|l| self.weights[l] * data[j][l]);
+                for (a, out) in rhs[first - free.start..=first + DEGREE - free.start].iter_mut().enumerate() {
+                    let mut v = d[0][a] * r[0];
+                    for l in 1..self.levels {
+                        v += d[l][a] * r[l];
+                    }
+                    *out += v;
+                }
+                continue;
+            }
             let mut r = [0.0; LEVELS];
             for l in 0..self.levels {
                 // Residual of the data against the fixed control points' share.
-                let fixed: f64 = if inner {
-                    0.0
-                } else {
-                    (0..ORDER).filter(|a| !free.contains(&(first + a))).map(|a| d[l][a] * ctrl[first + a]).sum()
-                };
+                let fixed: f64 =
+                    (0..ORDER).filter(|a| !free.contains(&(first + a))).map(|a| d[l][a] * ctrl[first + a]).sum();
                 r[l] = self.weights[l] * (data[j][l] - fixed);
             }
             for a in 0..ORDER {
-                if inner || free.contains(&(first + a)) {
+                if free.contains(&(first + a)) {
                     rhs[first + a - free.start] += (0..self.levels).map(|l| d[l][a] * r[l]).sum::<f64>();
                 }
             }
@@ -171,15 +252,38 @@ impl Fit {
         Curve { ctrl }
     }
 
-    /// Value and derivatives 0..LEVELS of `curve` at breakpoint `j`, from the basis values the
-    /// fit already holds there (those of the interval starting at `j`; at the last breakpoint,
-    /// of the interval ending there). The derivatives up to the spline's continuity are the same
-    /// from either side of a breakpoint, so this is also the end state of interval `j − 1` in
-    /// them; the levels above the continuity are those of the interval starting at `j`.
-    pub(crate) fn eval_at_point(&self, curve: &Curve, j: usize) -> [f64; LEVELS] {
-        let (span, d) = &self.at_points[j];
+    /// Value and the first two derivatives of `curve` at breakpoint `j` (the ends of the pieces
+    /// there), from the basis values the fit already holds there (those of the interval
+    /// starting at `j`; at the last breakpoint, of the interval ending there). The spline's
+    /// x, x′, x″ are the same from either side of a breakpoint (m ≤ 3).
+    pub(crate) fn piece_end(&self, curve: &Curve, j: usize) -> [f64; PIECE_LEVELS] {
+        let CachedBasis { span, d, .. } = &self.at_points[j];
         let first = span - DEGREE;
         std::array::from_fn(|l| (0..ORDER).map(|a| d[l][a] * curve.ctrl[first + a]).sum())
+    }
+
+    /// The basis values and derivatives 0..LEVELS at breakpoint `j` (of the interval starting
+    /// there; at the last breakpoint, of the interval ending there), for [`Self::state`]: the
+    /// fit holds only the levels its data and the pieces need.
+    pub(crate) fn state_basis(&self, j: usize) -> StateBasis {
+        let span = self.knots.span(j.min(self.u.len() - 2));
+        let mut d = [[0.0; ORDER]; LEVELS];
+        self.knots.derivs(span, self.u[j], &mut d);
+        StateBasis { first: span - DEGREE, d }
+    }
+
+    /// Value and derivatives 0..LEVELS of `curve` where `basis` was taken. The derivatives up
+    /// to the spline's continuity are the same from either side of the breakpoint, so this is
+    /// also the end state of interval `j − 1` in them; the levels above the continuity are
+    /// those of the interval starting at `j`.
+    pub(crate) fn state(&self, curve: &Curve, basis: &StateBasis) -> [f64; LEVELS] {
+        let StateBasis { first, d } = basis;
+        std::array::from_fn(|l| (0..ORDER).map(|a| d[l][a] * curve.ctrl[first + a]).sum())
+    }
+
+    /// Hands the basis values of this fit's points to `cache` for the next fit.
+    pub(crate) fn into_cache(self, cache: &mut BasisCache) {
+        cache.spare = std::mem::replace(&mut cache.entries, self.at_points);
     }
 
     /// Value and derivatives 0..LEVELS of `curve` at `x` on breakpoint interval `j` (the tests'
@@ -199,6 +303,19 @@ mod tests {
     use super::*;
     use nalgebra::{DMatrix, DVector};
 
+    /// A fit with the points named by their breakpoints and nothing cached.
+    fn fit_new(
+        u: &[f64],
+        m: usize,
+        levels: usize,
+        w: [f64; LEVELS],
+        fixed_left: usize,
+        fixed_right: usize,
+    ) -> Result<Fit, FitError> {
+        let cached = CachedPoints { keys: u, cache: &mut BasisCache::default() };
+        Fit::new(u, cached, m, levels, w, fixed_left, fixed_right)
+    }
+
     fn sample(x: f64) -> [f64; LEVELS] {
         // sin(x) and its derivatives.
         [x.sin(), x.cos(), -x.sin(), -x.cos(), x.sin()]
@@ -209,7 +326,7 @@ mod tests {
         let u = [0.0, 0.4, 1.0, 1.3, 2.2, 2.5, 3.0, 3.9];
         let w = [1000.0, 100.0, 10.0, 1.0, 0.1];
         for (m, levels) in [(1, 5), (1, 3), (2, 4), (3, 3)] {
-            let fit = Fit::new(&u, m, levels, w, 0, 0).unwrap();
+            let fit = fit_new(&u, m, levels, w, 0, 0).unwrap();
             // Noisy data so that the fit does not reproduce it exactly.
             let data: Vec<[f64; LEVELS]> =
                 u.iter().enumerate().map(|(j, &x)| sample(x).map(|v| v + 0.01 * ((j * 7 % 5) as f64 - 2.0))).collect();
@@ -218,7 +335,7 @@ mod tests {
             let nb = fit.knots.n_basis();
             let mut k = DMatrix::zeros(u.len() * levels, nb);
             let mut y = DVector::zeros(u.len() * levels);
-            for (j, (span, d)) in fit.at_points.iter().enumerate() {
+            for (j, CachedBasis { span, d, .. }) in fit.at_points.iter().enumerate() {
                 for l in 0..levels {
                     for a in 0..ORDER {
                         k[(j * levels + l, span - DEGREE + a)] = w[l].sqrt() * d[l][a];
@@ -246,7 +363,7 @@ mod tests {
             ]
         };
         let data: Vec<[f64; LEVELS]> = u.iter().map(|&x| q(x)).collect();
-        let fit = Fit::new(&u, 1, 5, [1000.0, 100.0, 10.0, 1.0, 0.1], 5, 3).unwrap();
+        let fit = fit_new(&u, 1, 5, [1000.0, 100.0, 10.0, 1.0, 0.1], 5, 3).unwrap();
         let c = fit.solve(&data, &q(0.0), &q(4.0));
         for j in 0..u.len() - 1 {
             for i in 0..=4 {
@@ -264,10 +381,14 @@ mod tests {
         let u = [0.0, 0.4, 1.0, 1.3, 2.2, 2.5, 3.0, 3.9];
         let data: Vec<[f64; LEVELS]> = u.iter().map(|&x| sample(x)).collect();
         for m in 1..=3 {
-            let fit = Fit::new(&u, m, 3, [1000.0, 100.0, 10.0, 1.0, 0.1], 0, 0).unwrap();
+            let fit = fit_new(&u, m, 3, [1000.0, 100.0, 10.0, 1.0, 0.1], 0, 0).unwrap();
             let c = fit.solve(&data, &[0.0; LEVELS], &[0.0; LEVELS]);
             for j in 0..u.len() {
-                let at = fit.eval_at_point(&c, j);
+                let at = fit.state(&c, &fit.state_basis(j));
+                let end = fit.piece_end(&c, j);
+                for l in 0..PIECE_LEVELS {
+                    assert!((end[l] - at[l]).abs() < 1e-9 * (1.0 + at[l].abs()), "m {m} j {j} l {l}");
+                }
                 let mut sides = vec![];
                 if j > 0 {
                     sides.push(fit.eval(&c, j - 1, u[j]));
@@ -290,11 +411,13 @@ mod tests {
         let u: Vec<f64> = (0..40).map(|j| if j < 20 { j as f64 * 0.8 } else { 16.0 + (j - 20) as f64 * 1.3 }).collect();
         let u: Vec<f64> = u.iter().enumerate().map(|(j, &x)| if j == 30 { x + 0.2 } else { x }).collect();
         for m in 1..=3 {
-            let fit = Fit::new(&u, m, 4, [1000.0, 100.0, 10.0, 1.0, 0.1], 0, 0).unwrap();
-            for (j, (span, d)) in fit.at_points.iter().enumerate() {
+            let fit = fit_new(&u, m, 4, [1000.0, 100.0, 10.0, 1.0, 0.1], 0, 0).unwrap();
+            for (j, CachedBasis { span, d, .. }) in fit.at_points.iter().enumerate() {
                 let mut want = [[0.0; ORDER]; LEVELS];
                 fit.knots.derivs(*span, u[j], &mut want);
-                for l in 0..LEVELS {
+                // The fit holds the levels its data and the pieces need; the first point all.
+                let held = if j == 0 { LEVELS } else { 4 };
+                for l in 0..held {
                     for a in 0..ORDER {
                         let tol = 1e-10 * want[l].iter().fold(1.0, |m: f64, v| m.max(v.abs()));
                         assert!((d[l][a] - want[l][a]).abs() <= tol, "m {m} j {j} l {l} a {a}");
@@ -304,9 +427,46 @@ mod tests {
         }
     }
 
+    /// Every point's basis values in `fit` agree with those evaluated afresh.
+    fn assert_basis_as_evaluated(fit: &Fit, u: &[f64], what: &str) {
+        for (j, CachedBasis { span, d, n_deriv, .. }) in fit.at_points.iter().enumerate() {
+            let mut want = [[0.0; ORDER]; LEVELS];
+            fit.knots.derivs(*span, u[j], &mut want);
+            for l in 0..=*n_deriv {
+                for a in 0..ORDER {
+                    let tol = 1e-10 * want[l].iter().fold(1.0, |m: f64, v| m.max(v.abs()));
+                    assert!((d[l][a] - want[l][a]).abs() <= tol, "{what}: j {j} l {l} a {a}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn basis_values_taken_over_from_the_previous_window_are_those_evaluated() {
+        // Uneven points along s; the next window starts at point 13 of the first (its commit),
+        // runs on past its end, and has a point inserted between 20 and 21 (a refinement).
+        let s: Vec<f64> = (0..60).map(|j| j as f64 * 0.9 + 0.15 * ((j * 7 % 5) as f64)).collect();
+        let w = [1000.0, 100.0, 10.0, 1.0, 0.1];
+        for m in 1..=3 {
+            let mut cache = BasisCache::default();
+            let first = &s[..40];
+            let u: Vec<f64> = first.iter().map(|x| (x - first[0]) / 0.9).collect();
+            let a = Fit::new(&u, CachedPoints { keys: first, cache: &mut cache }, m, 4, w, 0, 0).unwrap();
+            assert_basis_as_evaluated(&a, &u, "first window");
+            a.into_cache(&mut cache);
+            let mut next: Vec<f64> = s[13..55].to_vec();
+            next.insert(8, 0.5 * (s[20] + s[21]));
+            let u: Vec<f64> = next.iter().map(|x| (x - next[0]) / 0.9).collect();
+            let b = Fit::new(&u, CachedPoints { keys: &next, cache: &mut cache }, m, 4, w, 3, 1).unwrap();
+            assert_basis_as_evaluated(&b, &u, "next window");
+            // The first point's full levels are there for the fixed left end.
+            assert_eq!(b.at_points[0].n_deriv, MAX_DERIV);
+        }
+    }
+
     #[test]
     fn too_many_fixed_levels_are_refused() {
-        assert_eq!(Fit::new(&[0.0, 1.0], 1, 3, [1.0; LEVELS], 5, 3).err(), Some(FitError::TooFewControlPoints));
-        assert_eq!(Fit::new(&[0.0, 1.0, 1.0], 1, 3, [1.0; LEVELS], 1, 1).err(), Some(FitError::Knots));
+        assert_eq!(fit_new(&[0.0, 1.0], 1, 3, [1.0; LEVELS], 5, 3).err(), Some(FitError::TooFewControlPoints));
+        assert_eq!(fit_new(&[0.0, 1.0, 1.0], 1, 3, [1.0; LEVELS], 1, 1).err(), Some(FitError::Knots));
     }
 }

@@ -34,7 +34,8 @@ pub(super) const TIGHTEN_GAINS: [f64; 2] = [1e2, 1e4];
 use super::settings::StageSettings;
 use super::window::{RightEnd, State};
 use crate::path::{HermiteEnd, MAX_AXES, QuinticSpan};
-use fit::{Curve, Fit, FitError, LEVELS};
+pub(super) use fit::BasisCache;
+use fit::{CachedPoints, Curve, Fit, FitError, LEVELS, PIECE_LEVELS};
 
 /// Why a window has no B-spline pieces.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -57,6 +58,8 @@ pub(super) struct SplinePieces {
 /// point `commit`.
 pub(super) struct SplineWindow<'a> {
     pub u: &'a [f64],
+    /// The points' s (mm): their names for the basis cache.
+    pub s_mm: &'a [f64],
     pub states: &'a [State],
     pub left: &'a State,
     pub left_levels: usize,
@@ -64,13 +67,15 @@ pub(super) struct SplineWindow<'a> {
     pub commit: usize,
 }
 
-/// The window's spline, fitted with `weights` per level, and its committed pieces.
+/// The window's spline, fitted with `weights` per level, and its committed pieces; `cache`
+/// holds the basis values of the last fit's points (see [`BasisCache`]).
 pub(super) fn window_pieces(
     st: &StageSettings,
     w: &SplineWindow,
     weights: [f64; LEVELS],
+    cache: &mut BasisCache,
 ) -> Result<SplinePieces, SplineFailure> {
-    let SplineWindow { u, states, left, left_levels, right, commit } = *w;
+    let SplineWindow { u, s_mm, states, left, left_levels, right, commit } = *w;
     let n = u.len();
     let m = st.bspline_multiplicity;
     let keep = (basis::DEGREE + 1 - m).min(LEVELS);
@@ -80,7 +85,8 @@ pub(super) fn window_pieces(
         RightEnd::Band => 0,
         RightEnd::Join(_) => 3,
     };
-    let fit = Fit::new(u, m, st.levels, weights, fixed_left, fixed_right).map_err(SplineFailure::Fit)?;
+    let cached = CachedPoints { keys: s_mm, cache };
+    let fit = Fit::new(u, cached, m, st.levels, weights, fixed_left, fixed_right).map_err(SplineFailure::Fit)?;
     let mut curves: Vec<Option<Curve>> = Vec::with_capacity(MAX_AXES);
     let mut data = vec![[0.0; LEVELS]; n];
     for k in 0..MAX_AXES {
@@ -102,25 +108,37 @@ pub(super) fn window_pieces(
         };
         curves.push(Some(fit.solve(&data, &left[k], &right_k)));
     }
-    // The spline's state at each point up to the committed one, from the basis values the fit
-    // holds there: the pieces need x, x′, x″ at their ends, which the spline has continuous at
-    // every breakpoint (m ≤ 3), and the next window keeps the levels up to the continuity.
-    let at: Vec<State> = (0..=commit)
+    // The spline's x, x′, x″ at each point up to the committed one, from the basis values the
+    // fit holds there: the pieces' ends, which the spline has continuous at every breakpoint
+    // (m ≤ 3).
+    let at: Vec<[[f64; PIECE_LEVELS]; MAX_AXES]> = (0..=commit)
         .map(|j| {
             std::array::from_fn(|k| match &curves[k] {
-                Some(c) => fit.eval_at_point(c, j),
-                None => {
-                    let mut v = [0.0; LEVELS];
-                    v[0] = states[0][k][0];
-                    v
-                }
+                Some(c) => fit.piece_end(c, j),
+                None => [states[0][k][0], 0.0, 0.0],
             })
         })
         .collect();
+    // The state at the committed point, all levels (the next window keeps those up to the
+    // continuity, which are the same from either side).
+    let end = if commit == 0 {
+        *left
+    } else {
+        let basis = fit.state_basis(commit);
+        std::array::from_fn(|k| match &curves[k] {
+            Some(c) => fit.state(c, &basis),
+            None => {
+                let mut v = [0.0; LEVELS];
+                v[0] = states[0][k][0];
+                v
+            }
+        })
+    };
+    fit.into_cache(cache);
     let mut pieces = Vec::with_capacity(commit);
     for j in 0..commit {
         let d = u[j + 1] - u[j];
-        let end = |s: &State| {
+        let end = |s: &[[f64; PIECE_LEVELS]; MAX_AXES]| {
             let mut e = HermiteEnd::default();
             for k in 0..MAX_AXES {
                 e.pos[k] = s[k][0];
@@ -133,7 +151,5 @@ pub(super) fn window_pieces(
             QuinticSpan::hermite(&end(&at[j]), &end(&at[j + 1]), &st.linear).map_err(|_| SplineFailure::Span(j))?,
         );
     }
-    // The state at the committed point (the levels the next window keeps are continuous there).
-    let end = if commit == 0 { *left } else { at[commit] };
     Ok(SplinePieces { pieces, end, levels: keep })
 }

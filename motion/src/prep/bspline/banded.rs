@@ -53,23 +53,28 @@ impl BandedSpd {
         let n = self.rows.len();
         let max_diag = self.rows.iter().map(|r| r[0]).fold(0.0, f64::max);
         for i in 0..n {
-            let j0 = i.saturating_sub(BAND);
-            for j in j0..=i {
-                // s = A(i, j) − Σ_k L(i, k) L(j, k), k from max(i, j) − BAND to j − 1.
-                let mut s = self.rows[i][i - j];
-                for k in j0.max(j.saturating_sub(BAND))..j {
-                    s -= self.rows[i][i - k] * self.rows[j][j - k];
+            // Row i holds columns i − w ..= i; column j = i − w + c is entry ri[w − c].
+            let w = i.min(BAND);
+            let mut ri = self.rows[i];
+            for c in 0..w {
+                let rj = &self.rows[i - w + c];
+                // s = A(i, j) − Σ_k L(i, k) L(j, k), k from i − w to j − 1 (ascending).
+                let mut s = ri[w - c];
+                for q in 0..c {
+                    s -= ri[w - q] * rj[c - q];
                 }
-                if i == j {
-                    // NaN fails too.
-                    if s.is_nan() || s <= rel_tol * max_diag {
-                        return Err(NotPositiveDefinite);
-                    }
-                    self.rows[i][0] = s.sqrt();
-                } else {
-                    self.rows[i][i - j] = s / self.rows[j][0];
-                }
+                ri[w - c] = s / rj[0];
             }
+            let mut s = ri[0];
+            for q in 0..w {
+                s -= ri[w - q] * ri[w - q];
+            }
+            // NaN fails too.
+            if s.is_nan() || s <= rel_tol * max_diag {
+                return Err(NotPositiveDefinite);
+            }
+            ri[0] = s.sqrt();
+            self.rows[i] = ri;
         }
         Ok(())
     }
@@ -78,16 +83,21 @@ impl BandedSpd {
     pub(crate) fn solve(&self, b: &mut [f64]) {
         let n = self.rows.len();
         for i in 0..n {
+            let w = i.min(BAND);
+            let r = &self.rows[i];
             let mut s = b[i];
-            for k in i.saturating_sub(BAND)..i {
-                s -= self.rows[i][i - k] * b[k];
+            // k = i − w … i − 1, ascending: L(i, k) = r[i − k].
+            for (l, x) in r[1..=w].iter().rev().zip(&b[i - w..i]) {
+                s -= l * x;
             }
-            b[i] = s / self.rows[i][0];
+            b[i] = s / r[0];
         }
         for i in (0..n).rev() {
+            let w = (n - 1 - i).min(BAND);
             let mut s = b[i];
-            for k in i + 1..(i + BAND + 1).min(n) {
-                s -= self.rows[k][k - i] * b[k];
+            // k = i + 1 … i + w, ascending: L(k, i) = rows[k][k − i].
+            for (q, (row, x)) in self.rows[i + 1..=i + w].iter().zip(&b[i + 1..=i + w]).enumerate() {
+                s -= row[q + 1] * x;
             }
             b[i] = s / self.rows[i][0];
         }

@@ -44,6 +44,35 @@ pub(crate) struct Fit {
     normal: BandedSpd,
 }
 
+/// One point's block of KᵀWK (lower triangle) over its `L` levels: `wd` are the basis
+/// derivatives `d` times the level's weight. The levels are a constant, so the sums unroll.
+fn point_block<const L: usize>(
+    wd: &[[f64; ORDER]; LEVELS],
+    d: &[[f64; ORDER]; LEVELS],
+    block: &mut [[f64; ORDER]; ORDER],
+) {
+    for a in 0..ORDER {
+        for b in 0..=a {
+            let mut v = wd[0][a] * d[0][b];
+            for l in 1..L {
+                v += wd[l][a] * d[l][b];
+            }
+            block[a][b] = v;
+        }
+    }
+}
+
+/// One point's share of KᵀW y over its `L` levels (`r` the weighted data), added to `out`.
+fn point_rhs<const L: usize>(d: &[[f64; ORDER]; LEVELS], r: &[f64; LEVELS], out: &mut [f64; ORDER]) {
+    for (a, o) in out.iter_mut().enumerate() {
+        let mut v = d[0][a] * r[0];
+        for l in 1..L {
+            v += d[l][a] * r[l];
+        }
+        *o += v;
+    }
+}
+
 /// The basis values and derivatives at the points of the last fit, for the next one: they
 /// depend only on the knots around a point relative to it (`Knots::offsets`), so a point
 /// whose neighbours are still the same has the same values in the next window, which starts
@@ -163,14 +192,10 @@ impl Fit {
             let wd: [[f64; ORDER]; LEVELS] = std::array::from_fn(|l| d[l].map(|v| weights[l] * v));
             if first >= free.start && first + DEGREE < free.end {
                 // Away from the fixed ends every entry of the block is free.
-                for a in 0..ORDER {
-                    for b in 0..=a {
-                        let mut v = wd[0][a] * d[0][b];
-                        for l in 1..levels {
-                            v += wd[l][a] * d[l][b];
-                        }
-                        block[a][b] = v;
-                    }
+                match levels {
+                    3 => point_block::<3>(&wd, d, &mut block),
+                    4 => point_block::<4>(&wd, d, &mut block),
+                    _ => point_block::<LEVELS>(&wd, d, &mut block),
                 }
                 normal.add_block(first - free.start, &block);
                 continue;
@@ -223,12 +248,12 @@ impl Fit {
             if first >= free.start && first + DEGREE < free.end {
                 // Only the points near the ends see fixed control points.
                 let r: [f64; LEVELS] = std::array::from_fn(|l| self.weights[l] * data[j][l]);
-                for (a, out) in rhs[first - free.start..=first + DEGREE - free.start].iter_mut().enumerate() {
-                    let mut v = d[0][a] * r[0];
-                    for l in 1..self.levels {
-                        v += d[l][a] * r[l];
-                    }
-                    *out += v;
+                let out: &mut [f64; ORDER] =
+                    (&mut rhs[first - free.start..][..ORDER]).try_into().expect("ORDER entries");
+                match self.levels {
+                    3 => point_rhs::<3>(d, &r, out),
+                    4 => point_rhs::<4>(d, &r, out),
+                    _ => point_rhs::<LEVELS>(d, &r, out),
                 }
                 continue;
             }

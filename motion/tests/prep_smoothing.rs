@@ -323,6 +323,30 @@ fn bspline_method_keeps_the_band_and_joins_at_every_degree() {
 }
 
 #[test]
+fn bspline_windows_at_plunge_reversals_need_no_exact_stop() {
+    // Plunge-and-retract reversals along a slanted line (the CAM family's plunge): refinements
+    // that only chase the spline's failures leave both the spline and the Hermite pieces
+    // outside the band and the window stops exactly; with the second half of them guided by
+    // where the Hermite pieces fail, the window keeps the band.
+    let machine = repo_file("benches/cam/family_machine.toml");
+    let config = Settings::from_toml_str(&format!("{machine}\n[prep]\nmethod = \"bspline\"\n"), "family.toml")
+        .expect("machine file");
+    let text = repo_file("motion/tests/programs/plunge_reversals.ngc");
+    let programmed = parse(&text, &config);
+    let prepared = prepare_path(&config, &programmed).unwrap();
+    let st = prepared.stats;
+    let dev = max_deviation(&programmed, &prepared.path, 2e-3);
+    eprintln!(
+        "plunge reversals: max deviation {dev:.6} mm; spline windows {}, Hermite instead {}, refined {}, exact \
+         stops {}",
+        st.bspline_windows, st.bspline_to_hermite, st.refined, st.fallback_exact
+    );
+    assert!(st.bspline_windows > 0, "{st:?}");
+    assert_eq!(st.fallback_exact, 0, "{st:?}");
+    assert!(dev <= 0.01 + SLACK_MM, "{dev} mm off the programmed path");
+}
+
+#[test]
 fn cumulative_point_distribution_keeps_the_band_with_both_methods() {
     // Haas 2012, eq. 3.13: the points crowd towards the block ends; the check still holds the
     // band, for the Hermite pieces and the B-spline alike.

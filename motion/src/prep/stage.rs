@@ -403,7 +403,8 @@ impl Prep {
                             && b.s_mm - a.s_mm >= REFINE_MIN_PER_TOL * a.prog_tol_mm.min(b.prog_tol_mm)
                     };
                     let cache = &mut self.spline_basis;
-                    check_spline(run, &self.st, &mut self.stats, cache, &sol, *commit, right, can_refine)
+                    let refine = SplineRefine { can: can_refine, hermite_guides: 2 * refined >= REFINE_RETRIES };
+                    check_spline(run, &self.st, &mut self.stats, cache, &sol, *commit, right, refine)
                 }
             };
             let j = match checked {
@@ -663,8 +664,9 @@ fn check_spline(
     sol: &Solution,
     commit: usize,
     right: RightEnd,
-    can_refine: impl Fn(usize) -> bool,
+    refine: SplineRefine<impl Fn(usize) -> bool>,
 ) -> Result<(Vec<QuinticSpan>, SplineEnd), usize> {
+    let SplineRefine { can: can_refine, hermite_guides } = refine;
     let p = &run.points;
     let n = sol.states.len();
     let u: Vec<f64> = p[..n].iter().map(|q| (q.s_mm - p[0].s_mm) / st.spacing_mm).collect();
@@ -715,6 +717,17 @@ fn check_spline(
                 }
             }
             if can_refine(j) {
+                if hermite_guides {
+                    // Half the refinements went to the spline: the next ones go where the
+                    // Hermite pieces leave the band, so that the fallback to them keeps it
+                    // when the refinements run out (the spline is still tried first).
+                    let mut scratch = PrepStats::default();
+                    if let Err(k) = check_pieces(run, st, &mut scratch, sol, commit) {
+                        if can_refine(k) {
+                            return Err(k);
+                        }
+                    }
+                }
                 return Err(j);
             }
             Some(j)
@@ -731,6 +744,13 @@ fn check_spline(
         (Err(j), Some(k)) => Err(j.min(k)),
         (Err(j), None) => Err(j),
     }
+}
+
+/// Where a B-spline window that leaves the band may insert a point: `can(j)` for piece j,
+/// and whether the Hermite pieces' failures guide the refinement (half the refinements used).
+struct SplineRefine<F> {
+    can: F,
+    hermite_guides: bool,
 }
 
 /// State in τ at the start of a programmed element.

@@ -310,23 +310,14 @@ fn plan_repaired(
             return Err(stuck);
         }
         let k = stuck.node.clamp(1, nodes.len() - 2);
-        let count = match repairs_at.iter_mut().find(|(n, _)| *n == k) {
-            Some((_, c)) => {
-                *c += 1;
-                *c
-            }
-            None => {
-                repairs_at.push((k, 1));
-                1
-            }
-        };
         let span = repair_span(last, k);
-        let lowered = if count == 1 && above_flat(&nodes[k.saturating_sub(span).max(1)..=k]) {
+        let first_at_k = !repairs_at.iter().any(|(n, _)| *n == k);
+        let lowered = if first_at_k && above_flat(&nodes[k.saturating_sub(span).max(1)..=k]) {
             // Under the relaxed ceiling a node above its flat v̄ may have no state that keeps
             // the limits with a ≈ 0 (the jerk term A‴v³ alone is at the limit there), and a
             // branch flattening there is stuck. The first repair lowers such nodes to their
-            // flat v̄, a state every limit allows, before the factors below.
-            repairs_at.iter_mut().find(|(n, _)| *n == k).expect("counted above").1 = 0;
+            // flat v̄, a state every limit allows, before the factors below (which it does not
+            // count).
             tracing::debug!(
                 node = k,
                 s_mm = nodes[k].s_mm,
@@ -335,6 +326,16 @@ fn plan_repaired(
             );
             lower_to_flat(nodes, k, span)
         } else {
+            let count = match repairs_at.iter_mut().find(|(n, _)| *n == k) {
+                Some((_, c)) => {
+                    *c += 1;
+                    *c
+                }
+                None => {
+                    repairs_at.push((k, 1));
+                    1
+                }
+            };
             let Some(&factor) = REPAIR_FACTORS.get(count - 1) else {
                 return Err(stuck);
             };

@@ -136,6 +136,13 @@ const RETRY_CHUNK_NODES_MIN: usize = 250;
 /// stop) at which the work it did reaches this (some 20 ms); the next call goes on from there.
 const CALL_WORK_UNITS: u64 = 100_000;
 
+/// Adds a plan's `work` to the call's and tells whether the call has done enough
+/// (`CALL_WORK_UNITS`).
+fn call_is_full(call_units: &mut u64, work: &Work) -> bool {
+    *call_units += work.units();
+    *call_units >= CALL_WORK_UNITS
+}
+
 /// Interval lengths of a retained stop against the node spacing
 /// ([`Planner::can_stop_within_horizon`]).
 #[cfg(test)]
@@ -511,8 +518,7 @@ impl Planner {
                     // The dead end lies near the hand-over state: the next try plans a shorter
                     // chunk, which costs less and needs fewer repairs.
                     self.chunk_next = (self.chunk_next.min(self.chunk_nodes) / 2).max(RETRY_CHUNK_NODES_MIN);
-                    call_units += work.units();
-                    if call_units >= CALL_WORK_UNITS {
+                    if call_is_full(&mut call_units, &work) {
                         bounded = true;
                         break;
                     }
@@ -577,8 +583,7 @@ impl Planner {
                     let per_node = work.units() / (idx - block_start) as u64;
                     let fits = (CHUNK_WORK_UNITS / per_node.max(1)) as usize;
                     self.chunk_next = fits.clamp(CHUNK_NODES_MIN.min(self.chunk_nodes), self.chunk_nodes);
-                    call_units += work.units();
-                    if call_units >= CALL_WORK_UNITS {
+                    if call_is_full(&mut call_units, &work) {
                         // Enough for one call: the next call goes on from the hand-over state,
                         // exactly as this one would (the chunk after this one does not depend
                         // on the nodes beyond it).
@@ -595,8 +600,7 @@ impl Planner {
             state = (0.0, 0.0);
             block_start = idx;
             idx += 1;
-            call_units += work.units();
-            if call_units >= CALL_WORK_UNITS && idx < n {
+            if call_is_full(&mut call_units, &work) && idx < n {
                 // Handed over to a stop: the next call goes on from there.
                 bounded = true;
                 break;

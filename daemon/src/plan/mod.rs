@@ -313,6 +313,7 @@ fn report(
                 "seed_skipped": stats.work.flat_skipped,
                 "units": stats.work.units(),
                 "block_max_units": stats.block_work_max,
+                "search_pauses": stats.search_pauses,
             },
             "lookahead_mm": config.planner.lookahead_mm,
             "prep": { "wall_ms": feed_stats.prep_s * 1e3, "stats": prep_stats },

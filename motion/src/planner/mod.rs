@@ -36,6 +36,7 @@ mod node;
 pub mod profile;
 mod ramp;
 mod reach;
+mod repair;
 mod resume;
 mod sampling;
 mod scurve;
@@ -71,9 +72,11 @@ pub struct PlanStats {
     /// Nodes where no profile keeping the limits passed (the branches and the repairs of the
     /// block found none), so the motion stops there (`Planner::force_stop`).
     pub forced_stops: u64,
-    /// The most work (`Work::units`) one block plan took, a failed one included: what bounds
-    /// the time of one planning call, as a count that does not depend on the host's load.
+    /// The most work (`Work::units`) one block plan took, a failed one included, over all the
+    /// calls it took.
     pub block_work_max: u64,
+    /// Block searches a call paused, to go on at the next call (`CALL_WORK_UNITS`).
+    pub search_pauses: u64,
 }
 
 impl PlanStats {
@@ -86,6 +89,7 @@ impl PlanStats {
         self.horizon_brakes += other.horizon_brakes;
         self.forced_stops += other.forced_stops;
         self.block_work_max = self.block_work_max.max(other.block_work_max);
+        self.search_pauses += other.search_pauses;
     }
 }
 
@@ -133,15 +137,10 @@ const CHUNK_NODES_MIN: usize = 400;
 /// The shortest chunk a retry from the hand-over state plans (each failed try halves it).
 const RETRY_CHUNK_NODES_MIN: usize = 250;
 /// A planning call returns at the first hand-over (a chunk's, a stop's, a brake along the kept
-/// stop) at which the work it did reaches this (some 20 ms); the next call goes on from there.
+/// stop) at which the work it did reaches this (some 20 ms), or pauses a block's search at the
+/// first end of a round (an envelope and a forward branch) past it; the next call goes on from
+/// there, and the profile is the same as without the pause.
 const CALL_WORK_UNITS: u64 = 100_000;
-
-/// Adds a plan's `work` to the call's and tells whether the call has done enough
-/// (`CALL_WORK_UNITS`).
-fn call_is_full(call_units: &mut u64, work: &Work) -> bool {
-    *call_units += work.units();
-    *call_units >= CALL_WORK_UNITS
-}
 
 /// Interval lengths of a retained stop against the node spacing
 /// ([`Planner::can_stop_within_horizon`]).
@@ -156,6 +155,8 @@ pub struct Planner {
     lookahead_samples: usize,
     /// Nodes of a chunk at most (`CHUNK_NODES`; shorter in tests).
     chunk_nodes: usize,
+    /// Work after which a call returns (`CALL_WORK_UNITS`; other amounts in tests).
+    call_units: u64,
     /// Nodes of the next chunk: at most `chunk_nodes`, fewer where the last chunk's search took
     /// much work per node (`CHUNK_WORK_UNITS`) or a retry from the hand-over state found no
     /// continuation (`RETRY_CHUNK_NODES_MIN`).
@@ -184,8 +185,25 @@ pub struct Planner {
     /// next horizon to fall back on; a stop from any state of a planned motion is
     /// [`brake::brake_along`].
     retained_stop: Vec<interval::Interval>,
+    /// The block search the last call paused (`CALL_WORK_UNITS`), which the next call resumes
+    /// before it takes new elements.
+    paused: Option<Paused>,
     out: Vec<Segment>,
     pub stats: PlanStats,
+}
+
+/// A block search a planning call paused, and where the horizon's loop stood: the block runs
+/// from node 0 (what was final before it was handed on, so the block starts at the hand-over
+/// state `Planner::start`) to node `end`.
+struct Paused {
+    search: block::BlockSearch,
+    end: usize,
+    /// The block ends at a chunk's end (`Planner::plan_horizon`).
+    chunk_cut: bool,
+    /// The block's end is planned as a stop, though it is none; its own v̄.
+    virtual_end: Option<f64>,
+    /// Whether the horizon is still planned in chunks.
+    chunking: bool,
 }
 
 impl Planner {
@@ -201,6 +219,7 @@ impl Planner {
             lookahead_mm: p.lookahead_mm,
             lookahead_samples: p.lookahead_samples.unwrap_or(usize::MAX),
             chunk_nodes: CHUNK_NODES,
+            call_units: CALL_WORK_UNITS,
             chunk_next: CHUNK_NODES,
             pending: VecDeque::new(),
             prev: None,
@@ -215,6 +234,7 @@ impl Planner {
             planned_len: 0,
             vbar_floor: Vec::new(),
             retained_stop: Vec::new(),
+            paused: None,
             out: Vec::new(),
             stats: PlanStats::default(),
         }
@@ -244,6 +264,11 @@ impl Planner {
     /// `CALL_WORK_UNITS` of work, and returns the segments that are final. Call it again until
     /// [`Planner::done`]: a call that stopped early goes on at the next one.
     pub fn plan(&mut self) -> Result<Vec<Segment>, PlanError> {
+        if self.paused.is_some() {
+            // The paused search goes on over the same nodes: new elements wait until it ends.
+            self.plan_horizon(self.end_sampled)?;
+            return Ok(std::mem::take(&mut self.out));
+        }
         self.sample_pending();
         if self.nodes.len() < 2 {
             return Ok(std::mem::take(&mut self.out));
@@ -277,6 +302,9 @@ impl Planner {
     /// path that is not known further yet (a program still arriving). What it hands on does
     /// not depend on the stop assumed at the horizon's end, as always.
     pub(crate) fn plan_now(&mut self) -> Result<Vec<Segment>, PlanError> {
+        if self.paused.is_some() {
+            return self.plan();
+        }
         self.sample_pending();
         if self.nodes.len() >= 2 && (self.end_sampled || self.nodes.len() > self.planned_len) {
             self.plan_horizon(self.end_sampled)?;
@@ -459,9 +487,13 @@ impl Planner {
         Some(k)
     }
 
-    /// Plans the current horizon and hands on what is final.
+    /// Plans the current horizon and hands on what is final, or goes on with the block search
+    /// the last call paused.
     fn plan_horizon(&mut self, complete: bool) -> Result<(), PlanError> {
-        self.validate_bounds()?;
+        let mut resumed = self.paused.take();
+        if resumed.is_none() {
+            self.validate_bounds()?;
+        }
         let n = self.nodes.len();
         let last_is_real_end = complete;
         // Blocks end at stops; the horizon end counts as one.
@@ -469,40 +501,67 @@ impl Planner {
         let mut handed = 0; // nodes[..=handed] are final
         let mut state = self.start;
         let mut idx = 1;
-        // Node where `retained_stop` (what is left of it) starts.
+        // Node where `retained_stop` (what is left of it) starts. A paused block started at
+        // node 0 after its hand-over; where it did not start where the stop kept begins, no
+        // stop is kept (a block planned from there replaced it), and node 0 serves as well.
         let mut stop_from = 0;
         // Off for the rest of the horizon once a chunk handed over nothing (see below).
-        let mut chunking = true;
-        // Work of the chunks planned in this call, and whether the call ended after one.
+        let mut chunking = resumed.as_ref().is_none_or(|p| p.chunking);
+        // Work done in this call, and whether the call ended before the horizon's end.
         let mut call_units = 0u64;
         let mut bounded = false;
         while idx < n {
-            let is_end = idx == n - 1;
-            // A chunk reaches past the stop kept from the hand-over state, so that a chunk
-            // with no continuation can still brake along that stop.
-            let past_stop = block_start != stop_from || idx > stop_from + self.retained_stop.len();
-            let chunk_cut = chunking
-                && !is_end
-                && !self.nodes[idx].stop
-                && idx - block_start >= self.chunk_next.min(self.chunk_nodes)
-                && past_stop;
-            if !(self.nodes[idx].stop || is_end || chunk_cut) {
-                idx += 1;
-                continue;
-            }
-            // A chunk's end is planned as a stop, as the horizon's end is.
-            let virtual_end = (is_end && !last_is_real_end && !self.nodes[idx].stop) || chunk_cut;
-            let saved_vbar = self.nodes[idx].vbar_mm_s;
-            if virtual_end {
-                self.nodes[idx].vbar_mm_s = 0.0;
-            }
-            let mut work = Work::default();
-            let result =
-                block::plan_block(&mut self.nodes[block_start..=idx], state, !virtual_end, &self.lim, &mut work);
-            self.stats.work.add(&work);
+            // The search, and its work before this call.
+            let (mut search, before, chunk_cut, virtual_end) = match resumed.take() {
+                Some(p) => {
+                    idx = p.end;
+                    let before = p.search.work;
+                    (p.search, before, p.chunk_cut, p.virtual_end)
+                }
+                None => {
+                    let is_end = idx == n - 1;
+                    // A chunk reaches past the stop kept from the hand-over state, so that a
+                    // chunk with no continuation can still brake along that stop.
+                    let past_stop = block_start != stop_from || idx > stop_from + self.retained_stop.len();
+                    let chunk_cut = chunking
+                        && !is_end
+                        && !self.nodes[idx].stop
+                        && idx - block_start >= self.chunk_next.min(self.chunk_nodes)
+                        && past_stop;
+                    if !(self.nodes[idx].stop || is_end || chunk_cut) {
+                        idx += 1;
+                        continue;
+                    }
+                    // A chunk's end is planned as a stop, as the horizon's end is.
+                    let virtual_end = ((is_end && !last_is_real_end && !self.nodes[idx].stop) || chunk_cut)
+                        .then(|| std::mem::replace(&mut self.nodes[idx].vbar_mm_s, 0.0));
+                    let search = block::BlockSearch::new(
+                        &mut self.nodes[block_start..=idx],
+                        state,
+                        virtual_end.is_none(),
+                        &self.lim,
+                    );
+                    (search, Work::default(), chunk_cut, virtual_end)
+                }
+            };
+            let run =
+                search.run(&mut self.nodes[block_start..=idx], &self.lim, self.call_units.saturating_sub(call_units));
+            let this_call = search.work.since(&before);
+            call_units += this_call.units();
+            self.stats.work.add(&this_call);
+            let Some(result) = run else {
+                // Enough for one call, in the middle of a block's search: the next call goes on
+                // with it, from the hand-over state at its first node.
+                debug_assert_eq!(block_start, handed);
+                self.stats.search_pauses += 1;
+                self.paused = Some(Paused { search, end: idx - handed, chunk_cut, virtual_end, chunking });
+                bounded = true;
+                break;
+            };
+            let work = search.work;
             self.stats.block_work_max = self.stats.block_work_max.max(work.units());
-            if virtual_end {
-                self.nodes[idx].vbar_mm_s = saved_vbar;
+            if let Some(vbar) = virtual_end {
+                self.nodes[idx].vbar_mm_s = vbar;
             }
             let plan = match result {
                 Ok(plan) => plan,
@@ -518,7 +577,7 @@ impl Planner {
                     // The dead end lies near the hand-over state: the next try plans a shorter
                     // chunk, which costs less and needs fewer repairs.
                     self.chunk_next = (self.chunk_next.min(self.chunk_nodes) / 2).max(RETRY_CHUNK_NODES_MIN);
-                    if call_is_full(&mut call_units, &work) {
+                    if call_units >= self.call_units {
                         bounded = true;
                         break;
                     }
@@ -559,7 +618,7 @@ impl Planner {
                 idx += 1;
                 continue;
             }
-            let final_count = if virtual_end { plan.final_before } else { plan.intervals.len() };
+            let final_count = if virtual_end.is_some() { plan.final_before } else { plan.intervals.len() };
             if chunk_cut && final_count == 0 {
                 // Nothing of the chunk is final (its whole profile depends on the stop at its
                 // end): the block is planned whole from here, as without chunks.
@@ -583,7 +642,7 @@ impl Planner {
                     let per_node = work.units() / (idx - block_start) as u64;
                     let fits = (CHUNK_WORK_UNITS / per_node.max(1)) as usize;
                     self.chunk_next = fits.clamp(CHUNK_NODES_MIN.min(self.chunk_nodes), self.chunk_nodes);
-                    if call_is_full(&mut call_units, &work) {
+                    if call_units >= self.call_units {
                         // Enough for one call: the next call goes on from the hand-over state,
                         // exactly as this one would (the chunk after this one does not depend
                         // on the nodes beyond it).
@@ -600,7 +659,7 @@ impl Planner {
             state = (0.0, 0.0);
             block_start = idx;
             idx += 1;
-            if call_is_full(&mut call_units, &work) && idx < n {
+            if call_units >= self.call_units && idx < n {
                 // Handed over to a stop: the next call goes on from there.
                 bounded = true;
                 break;

@@ -79,6 +79,25 @@ impl Work {
         self.relaxed_kept += o.relaxed_kept;
         self.flat_skipped += o.flat_skipped;
     }
+
+    /// The work done since `earlier`, a copy of this count taken before.
+    pub(crate) fn since(&self, earlier: &Work) -> Work {
+        Work {
+            evals: self.evals - earlier.evals,
+            steps: self.steps - earlier.steps,
+            term_evals: self.term_evals - earlier.term_evals,
+            ramps: self.ramps - earlier.ramps,
+            joins: self.joins - earlier.joins,
+            repairs: self.repairs - earlier.repairs,
+            ramp_nodes: self.ramp_nodes - earlier.ramp_nodes,
+            bisections: self.bisections - earlier.bisections,
+            cap_tries: self.cap_tries - earlier.cap_tries,
+            end_caps: self.end_caps - earlier.end_caps,
+            relaxed_tried: self.relaxed_tried - earlier.relaxed_tried,
+            relaxed_kept: self.relaxed_kept - earlier.relaxed_kept,
+            flat_skipped: self.flat_skipped - earlier.flat_skipped,
+        }
+    }
 }
 
 /// The work a search may still take: the units (`Work::units`) at which it stops and reports

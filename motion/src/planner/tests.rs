@@ -232,7 +232,7 @@ fn online_planning_matches_whole_program() {
     let table =
         std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/five_axis_table.csv")).unwrap();
     // On the loose test machine the repairs creep back from the table's swings
-    // (`block::repair_span`), and repairs carry over into the next horizon.
+    // (`repair::repair_span`), and repairs carry over into the next horizon.
     let loose = Settings::from_toml_str(
         &std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/machines/xyzab_loose.toml")).unwrap(),
         "xyzab_loose.toml",
@@ -386,7 +386,7 @@ fn a_repair_rebuilds_only_from_the_lowered_node_on() {
     };
     let k = failed.stuck.node;
     assert!(k > block.len() / 4, "stuck at node {k} of {}: too early to show the saving", block.len());
-    let from = block::lower_before(&mut block, k, 1, 0.9);
+    let from = repair::lower_before(&mut block, k, 1, 0.9);
 
     let (mut anew_work, mut kept_work) = (Work::default(), Work::default());
     let anew = branch::build_envelope(&block, None, &lim, &mut anew_work, &Budget::unlimited()).unwrap();
@@ -591,9 +591,9 @@ fn a_block_whose_repairs_do_not_converge_stops_at_the_bad_node() {
     let path = crate::prep::prepare_path(&cfg, &prog.path).unwrap().path;
     let (_, _, unlimited) = plan_online_stats(&cfg, &path, cfg.planner.lookahead_mm);
     assert!(unlimited.work.repairs > 1 && unlimited.forced_stops == 0, "{unlimited:?}");
-    block::TEST_GIVE_UPS.with(|c| c.set(1));
+    repair::TEST_GIVE_UPS.with(|c| c.set(1));
     let (segs, _, stats) = plan_online_stats(&cfg, &path, cfg.planner.lookahead_mm);
-    block::TEST_GIVE_UPS.with(|c| c.set(1));
+    repair::TEST_GIVE_UPS.with(|c| c.set(1));
     let (whole, whole_stats) = Planner::plan_path(&cfg, &path).expect("plan");
     assert!(stats.forced_stops >= 1 && whole_stats.forced_stops >= 1, "{stats:?} {whole_stats:?}");
     for s in [&segs, &whole] {
@@ -689,8 +689,9 @@ fn a_long_block_of_dense_nodes_is_planned_in_chunks_without_forced_stops() {
 
 /// The wander snippet's block of 3 775 nodes, given whole before the first call: one call used
 /// to plan all its chunks. A call now returns after the chunk with which its work reaches
-/// `CALL_WORK_UNITS`, so no call takes more than that and one chunk's search; the calls
-/// together plan the whole path, every limit kept.
+/// `CALL_WORK_UNITS`, or pauses the search at the end of a round past it, so no call takes
+/// more than that and one round of a chunk's search; the calls together plan the whole path,
+/// every limit kept.
 #[test]
 fn a_planning_call_returns_after_a_chunk_and_the_next_goes_on() {
     let (cfg, path) = family_snippet(include_str!("testdata/wander_snippet.ngc"));
@@ -709,7 +710,7 @@ fn a_planning_call_returns_after_a_chunk_and_the_next_goes_on() {
     }
     check_covers(&segs, path.length_mm());
     assert!(calls >= 2, "the path fits one call: {:?}", planner.stats);
-    assert!(call_max <= CALL_WORK_UNITS + block::work_bound_units(CHUNK_NODES), "a call took {call_max} units");
+    assert!(call_max <= CALL_WORK_UNITS + block::round_bound_units(CHUNK_NODES), "a call took {call_max} units");
     check_continuity(&segs);
     let [v, a, j] = profile::limit_ratios(&path, &segs, &cfg, 2.5e-4);
     assert!(v <= 1.001 && a <= 1.001 && j <= 1.02, "vel {v} acc {a} jerk {j}");
@@ -717,6 +718,30 @@ fn a_planning_call_returns_after_a_chunk_and_the_next_goes_on() {
     let (online, _, _) = plan_online_stats(&cfg, &path, cfg.planner.lookahead_mm);
     let (t_calls, t_online) = (profile::duration_s(&segs), profile::duration_s(&online));
     assert!((t_calls - t_online).abs() <= 0.005 * t_online, "{t_calls} s in calls, {t_online} s online");
+}
+
+/// A search paused at the end of a round goes on at the next call exactly where it stood: the
+/// wander snippet planned in calls of 2 000 units (searches paused again and again) gets the
+/// profile, to the bit, and the work of one call without a bound.
+#[test]
+fn a_paused_search_plans_what_an_unpaused_one_does() {
+    let (cfg, path) = family_snippet(include_str!("testdata/wander_snippet.ngc"));
+    let plan = |call_units: u64| {
+        let mut planner = Planner::new(&cfg);
+        planner.call_units = call_units;
+        for e in &path.elements {
+            planner.push(e.clone());
+        }
+        planner.finish(path.final_dwell_s);
+        let segs = planner.plan_to_end().expect("plan");
+        (segs, planner.stats)
+    };
+    let (whole, unbounded) = plan(u64::MAX);
+    let (paused, bounded) = plan(2_000);
+    assert_eq!(unbounded.search_pauses, 0);
+    assert!(bounded.search_pauses >= 10, "{bounded:?}");
+    assert_eq!(bounded.work, unbounded.work);
+    assert!(whole == paused, "the profiles differ");
 }
 
 /// The CAM family's machine, without a wall-time limit on a window's solve, and `text`

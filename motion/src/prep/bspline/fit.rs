@@ -128,6 +128,14 @@ fn same_offsets(a: &[f64; 2 * DEGREE], b: &[f64; 2 * DEGREE]) -> bool {
     a.iter().zip(b).all(|(x, y)| (x - y).abs() <= SAME_OFFSET_TOL * x.abs().max(1.0))
 }
 
+impl BasisCache {
+    /// Points held (those of the last fit).
+    #[cfg(test)]
+    pub(crate) fn len(&self) -> usize {
+        self.entries.len()
+    }
+}
+
 impl Fit {
     /// The fit over breakpoints `u` (one per QP point, strictly increasing), inner knots of
     /// `multiplicity`, data `levels` (x … x^(levels − 1)) per point weighted by `weights`,
@@ -493,5 +501,49 @@ mod tests {
     fn too_many_fixed_levels_are_refused() {
         assert_eq!(fit_new(&[0.0, 1.0], 1, 3, [1.0; LEVELS], 5, 3).err(), Some(FitError::TooFewControlPoints));
         assert_eq!(fit_new(&[0.0, 1.0, 1.0], 1, 3, [1.0; LEVELS], 1, 1).err(), Some(FitError::Knots));
+    }
+
+    #[test]
+    fn committed_spans_do_not_see_the_data_beyond_the_margin() {
+        // A window of 200 points, denser in a stretch (a corner), noisy data about a smooth
+        // curve; the spans up to point `commit` of the fit over `commit + 1 + margin` points
+        // (right end free) against those of the fit over all of them (right end fixed).
+        let margin = super::super::FIT_MARGIN_POINTS;
+        let commit = 42;
+        let mut seed = 11u64;
+        let mut rnd = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((seed >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+        };
+        let n = 200;
+        let mut u = vec![0.0];
+        for j in 1..n {
+            let step = if (60..90).contains(&j) { 0.3 + 0.2 * rnd() } else { 1.0 - 0.05 * rnd().abs() };
+            u.push(u[j - 1] + step);
+        }
+        // Misfit 0.01 on data of amplitude 1.
+        let data: Vec<[f64; LEVELS]> = u
+            .iter()
+            .map(|&x| {
+                [(0.1 * x).sin(), 0.1 * (0.1 * x).cos(), -0.01 * (0.1 * x).sin(), 0.0, 0.0].map(|v| v + 0.01 * rnd())
+            })
+            .collect();
+        let haas = [1000.0, 100.0, 10.0, 1.0, 0.1];
+        let tightened = [1e7, 100.0, 10.0, 1.0, 0.1];
+        for (levels, m, w) in [(4, 1, haas), (3, 1, haas), (5, 1, haas), (4, 1, tightened), (4, 2, haas), (3, 3, haas)]
+        {
+            let ends = |nt: usize, fixed_right: usize| {
+                let f = fit_new(&u[..nt], m, levels, w, DEGREE + 1 - m, fixed_right).unwrap();
+                let c = f.solve(&data[..nt], &data[0], &data[nt - 1]);
+                (0..=commit).map(|j| f.piece_end(&c, j)).collect::<Vec<_>>()
+            };
+            let (whole, cut) = (ends(n, 1), ends(commit + 1 + margin, 0));
+            for j in 0..=commit {
+                for l in 0..PIECE_LEVELS {
+                    let d = (whole[j][l] - cut[j][l]).abs();
+                    assert!(d < 1e-9, "levels {levels} m {m} w0 {}: point {j} level {l} differs by {d:e}", w[0]);
+                }
+            }
+        }
     }
 }

@@ -31,6 +31,17 @@ pub(crate) mod fit;
 /// points, which keep the band, before the window falls back to Hermite pieces.
 pub(super) const TIGHTEN_GAINS: [f64; 2] = [1e2, 1e4];
 
+/// Points past the committed one that a window's fit takes; the rest of the window is left
+/// out. A weighted least-squares spline's value at a knot depends on the data k knots away by
+/// a factor that falls geometrically with k (on average 10× every 5 knots at Haas's weights
+/// and C⁴, faster with more multiple knots or the positions weighted more), so the spans up
+/// to the committed point of a fit over this many points more differ from those of the fit
+/// over the whole window by about 1e-10 of the data's misfit (`fit.rs`, test
+/// `committed_spans_do_not_see_the_data_beyond_the_margin`), far below what the band check
+/// resolves, and the fit's cost is that of the committed part, not of the whole window
+/// (a third of it). The next window fits the points past the margin.
+pub(super) const FIT_MARGIN_POINTS: usize = 40;
+
 use super::settings::StageSettings;
 use super::window::{RightEnd, State};
 use crate::path::{HermiteEnd, MAX_AXES, QuinticSpan};
@@ -76,11 +87,16 @@ pub(super) fn window_pieces(
     cache: &mut BasisCache,
 ) -> Result<SplinePieces, SplineFailure> {
     let SplineWindow { u, s_mm, states, left, left_levels, right, commit } = *w;
-    let n = u.len();
+    // The points the fit takes: up to the margin past the committed one; a window cut there
+    // has a free right end (its own end conditions act on points the fit leaves out).
+    let n = u.len().min(commit + 1 + FIT_MARGIN_POINTS);
+    let (u, s_mm, states) = (&u[..n], &s_mm[..n], &states[..n]);
+    let cut = n < w.u.len();
     let m = st.bspline_multiplicity;
     let keep = (basis::DEGREE + 1 - m).min(LEVELS);
     let fixed_left = left_levels.min(keep);
     let fixed_right = match right {
+        _ if cut => 0,
         RightEnd::Position => 1,
         RightEnd::Band => 0,
         RightEnd::Join(_) => 3,
@@ -103,7 +119,7 @@ pub(super) fn window_pieces(
             *d = s[k];
         }
         let right_k = match right {
-            RightEnd::Join(s) => s[k],
+            RightEnd::Join(s) if !cut => s[k],
             _ => states[n - 1][k],
         };
         curves.push(Some(fit.solve(&data, &left[k], &right_k)));
@@ -152,4 +168,66 @@ pub(super) fn window_pieces(
         );
     }
     Ok(SplinePieces { pieces, end, levels: keep })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Settings;
+
+    /// A window of `n` points 1 apart in τ (`h` mm) on a circle of radius 40 h in X–Y, with
+    /// x … x⁗ in τ of the circle at each point.
+    fn circle_states(n: usize, h: f64) -> (Vec<f64>, Vec<State>) {
+        let u: Vec<f64> = (0..n).map(|j| j as f64).collect();
+        let r = 40.0 * h;
+        let states = u
+            .iter()
+            .map(|&t| {
+                let (sin, cos) = (t * h / r).sin_cos();
+                let (h2, h3, h4) = (h * h / r, h.powi(3) / (r * r), h.powi(4) / r.powi(3));
+                let mut s = [[0.0; LEVELS]; MAX_AXES];
+                s[0] = [r * cos, -h * sin, -h2 * cos, h3 * sin, h4 * cos];
+                s[1] = [r * sin, h * cos, -h2 * sin, -h3 * cos, h4 * sin];
+                s
+            })
+            .collect();
+        (u, states)
+    }
+
+    #[test]
+    fn a_window_is_fitted_up_to_the_margin_past_its_committed_point() {
+        let machine = include_str!("../../../../config/machines/xyz.toml");
+        let settings = Settings::from_toml_str(&format!("{machine}\n[prep]\nmethod = \"bspline\"\n"), "xyz.toml")
+            .expect("machine file");
+        let st = StageSettings::new(&settings);
+        let (n, commit) = (200, 42);
+        let (u, states) = circle_states(n, st.spacing_mm);
+        let s_mm: Vec<f64> = u.iter().map(|t| t * st.spacing_mm).collect();
+        let window = SplineWindow {
+            u: &u,
+            s_mm: &s_mm,
+            states: &states,
+            left: &states[0],
+            left_levels: LEVELS,
+            right: RightEnd::Position,
+            commit,
+        };
+        let mut cache = BasisCache::default();
+        let sp = window_pieces(&st, &window, st.bspline_weights, &mut cache).expect("a spline");
+        assert_eq!(sp.pieces.len(), commit);
+        // The cache holds the fit's points: the committed ones and the margin, not the window.
+        assert_eq!(cache.len(), commit + 1 + FIT_MARGIN_POINTS);
+        // The circle is a smooth curve, so the spline reproduces it closely at every point.
+        for (j, p) in sp.pieces.iter().enumerate() {
+            let len = p.length_mm();
+            let want = (u[j + 1] - u[j]) * st.spacing_mm;
+            assert!((len - want).abs() < 1e-4 * want, "piece {j}: {len} mm against {want} mm");
+        }
+        // The window's end conditions act only where the fit reaches them: a whole-window
+        // fit (commit at the end) still takes all points.
+        let whole = SplineWindow { commit: n - 1, ..window };
+        let mut cache = BasisCache::default();
+        window_pieces(&st, &whole, st.bspline_weights, &mut cache).expect("a spline");
+        assert_eq!(cache.len(), n);
+    }
 }

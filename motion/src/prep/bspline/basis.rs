@@ -69,16 +69,30 @@ impl Knots {
     /// point saves about 40 % of it by not computing x⁗ there. The levels computed are the
     /// same, bit for bit, as those of a call with a higher `n_deriv`.
     pub(crate) fn derivs_upto(&self, span: usize, x: f64, n_deriv: usize, out: &mut [[f64; ORDER]; MAX_DERIV + 1]) {
-        let n_deriv = n_deriv.min(MAX_DERIV);
-        let u = &self.knots;
+        // One instance per derivative count: the loops' bounds are constants, so they unroll
+        // and the indices need no range checks.
+        match n_deriv {
+            0 => self.derivs_n::<0>(span, x, out),
+            1 => self.derivs_n::<1>(span, x, out),
+            2 => self.derivs_n::<2>(span, x, out),
+            3 => self.derivs_n::<3>(span, x, out),
+            _ => self.derivs_n::<MAX_DERIV>(span, x, out),
+        }
+    }
+
+    /// [`Self::derivs_upto`] with `N` derivatives.
+    fn derivs_n<const N: usize>(&self, span: usize, x: f64, out: &mut [[f64; ORDER]; MAX_DERIV + 1]) {
         let p = DEGREE;
+        // The knots span − p + 1 ..= span + p, the only ones the basis on `span` reads:
+        // knots[span + 1 − j] is u[p − j], knots[span + j] is u[p − 1 + j].
+        let u: &[f64; 2 * DEGREE] = self.knots[span + 1 - p..=span + p].try_into().expect("2p knots around a span");
         // ndu: basis functions (upper triangle incl. diagonal) and knot differences (lower).
         let mut ndu = [[0.0; ORDER]; ORDER];
         let (mut left, mut right) = ([0.0; ORDER], [0.0; ORDER]);
         ndu[0][0] = 1.0;
         for j in 1..=p {
-            left[j] = x - u[span + 1 - j];
-            right[j] = u[span + j] - x;
+            left[j] = x - u[p - j];
+            right[j] = u[p - 1 + j] - x;
             let mut saved = 0.0;
             for r in 0..j {
                 ndu[j][r] = right[r + 1] + left[j - r];
@@ -91,36 +105,37 @@ impl Knots {
         for j in 0..=p {
             out[0][j] = ndu[j][p];
         }
-        let mut a = [[0.0; ORDER]; 2];
         for r in 0..=p {
-            let (mut s1, mut s2) = (0usize, 1usize);
-            a[0][0] = 1.0;
-            for k in 1..=n_deriv {
+            // The coefficients of the previous and the current derivative (A2.3's a[s1], a[s2]).
+            let (mut prev, mut cur) = ([0.0; ORDER], [0.0; ORDER]);
+            prev[0] = 1.0;
+            for k in 1..=N {
                 let mut d = 0.0;
-                let rk = r as isize - k as isize;
                 let pk = p - k;
                 if r >= k {
-                    a[s2][0] = a[s1][0] / ndu[pk + 1][rk as usize];
-                    d = a[s2][0] * ndu[rk as usize][pk];
+                    cur[0] = prev[0] / ndu[pk + 1][r - k];
+                    d = cur[0] * ndu[r - k][pk];
                 }
-                let j1 = if rk >= -1 { 1 } else { (-rk) as usize };
-                let j2 = if r as isize - 1 <= pk as isize { k - 1 } else { p - r };
+                // j from max(1, k − r) to (k − 1 if r ≤ pk + 1, else p − r); the knot index
+                // r − k + j is then 0 or more.
+                let j1 = if r + 1 >= k { 1 } else { k - r };
+                let j2 = if r <= pk + 1 { k - 1 } else { p - r };
                 for j in j1..=j2 {
-                    let idx = (rk + j as isize) as usize;
-                    a[s2][j] = (a[s1][j] - a[s1][j - 1]) / ndu[pk + 1][idx];
-                    d += a[s2][j] * ndu[idx][pk];
+                    let idx = r + j - k;
+                    cur[j] = (prev[j] - prev[j - 1]) / ndu[pk + 1][idx];
+                    d += cur[j] * ndu[idx][pk];
                 }
                 if r <= pk {
-                    a[s2][k] = -a[s1][k - 1] / ndu[pk + 1][r];
-                    d += a[s2][k] * ndu[r][pk];
+                    cur[k] = -prev[k - 1] / ndu[pk + 1][r];
+                    d += cur[k] * ndu[r][pk];
                 }
                 out[k][r] = d;
-                std::mem::swap(&mut s1, &mut s2);
+                std::mem::swap(&mut prev, &mut cur);
             }
         }
         let mut f = p as f64;
-        for k in 1..=n_deriv {
-            for v in out[k].iter_mut() {
+        for (k, row) in out.iter_mut().enumerate().take(N + 1).skip(1) {
+            for v in row.iter_mut() {
                 *v *= f;
             }
             f *= (p - k) as f64;

@@ -193,21 +193,28 @@ impl Fit {
         let free = fixed_left..n_ctrl - fixed_right;
         let mut normal = BandedSpd::zeros(free.len());
         let mut block = [[0.0; ORDER]; ORDER];
+        // The basis values `block` was summed from, if it holds a point's block.
+        let mut block_of: Option<&[[f64; ORDER]; LEVELS]> = None;
         for CachedBasis { span, d, .. } in &at_points {
             let first = span - DEGREE;
-            // The point's block of KᵀWK (lower triangle), summed over the levels before it is
-            // added to the band: one addition per entry instead of one per entry and level.
-            let wd: [[f64; ORDER]; LEVELS] = std::array::from_fn(|l| d[l].map(|v| weights[l] * v));
             if first >= free.start && first + DEGREE < free.end {
-                // Away from the fixed ends every entry of the block is free.
-                match levels {
-                    3 => point_block::<3>(&wd, d, &mut block),
-                    4 => point_block::<4>(&wd, d, &mut block),
-                    _ => point_block::<LEVELS>(&wd, d, &mut block),
+                // Away from the fixed ends every entry of the block is free. The point's block
+                // of KᵀWK (lower triangle) is summed over the levels before it is added to the
+                // band: one addition per entry instead of one per entry and level; on
+                // equidistant points it is the previous point's.
+                if block_of != Some(d) {
+                    let wd: [[f64; ORDER]; LEVELS] = std::array::from_fn(|l| d[l].map(|v| weights[l] * v));
+                    match levels {
+                        3 => point_block::<3>(&wd, d, &mut block),
+                        4 => point_block::<4>(&wd, d, &mut block),
+                        _ => point_block::<LEVELS>(&wd, d, &mut block),
+                    }
+                    block_of = Some(d);
                 }
                 normal.add_block(first - free.start, &block);
                 continue;
             }
+            let wd: [[f64; ORDER]; LEVELS] = std::array::from_fn(|l| d[l].map(|v| weights[l] * v));
             for a in 0..ORDER {
                 let ia = first + a;
                 if !free.contains(&ia) {

@@ -106,12 +106,8 @@ pub(super) struct Failed {
     pub progress: Progress,
 }
 
-/// The forward branch over a block from `start` = (v, a) at node 0 to rest at the last node;
-/// with `resume` = (progress, node), it keeps the earlier run up to its last section end before
-/// `node` (where the block and its envelope are as they were) and runs on from there. The kept
-/// run is valid as it stands: every interval was checked, and it ends on a branch's section
-/// end. A run built anew could differ only where the kept one's viability ramps looked past
-/// that section end, which they seldom do (they flatten under the branch it joined).
+/// [`forward_pausable`] without a pause.
+#[cfg(test)]
 pub(super) fn forward_branch(
     nodes: &[Node],
     env: &Envelope,
@@ -121,6 +117,58 @@ pub(super) fn forward_branch(
     work: &mut Work,
     budget: &Budget,
 ) -> Result<ForwardPlan, Failed> {
+    match forward_pausable(nodes, env, start, resume, lim, work, budget, &Budget::unlimited()) {
+        Ok(plan) => Ok(plan),
+        Err(Halted::Stuck(failed)) => Err(failed),
+        Err(Halted::Paused(_)) => unreachable!("an unlimited pause budget never pauses"),
+    }
+}
+
+/// A forward branch that stopped before the block end.
+pub(super) enum Halted {
+    Stuck(Failed),
+    /// Paused at a section end it joined, once `work` reached the pause budget: go on with
+    /// [`forward_on`].
+    Paused(Box<PausedRun>),
+}
+
+/// A forward branch paused at a section end: the run so far and the state its search carries
+/// from step to step, so that it goes on as if it had not paused.
+pub(super) struct PausedRun {
+    run: Run,
+    anchors: Vec<Anchor>,
+    carry: Carry,
+}
+
+/// What the forward run carries from step to step besides its intervals: the viability ramps,
+/// and where it last got stuck and how deep its back-off went.
+#[derive(Default)]
+struct Carry {
+    ramps: Ramps,
+    stuck_at: Option<usize>,
+    depth: usize,
+}
+
+/// The forward branch over a block from `start` = (v, a) at node 0 to rest at the last node;
+/// with `resume` = (progress, node), it keeps the earlier run up to its last section end before
+/// `node` (where the block and its envelope are as they were) and runs on from there. The kept
+/// run is valid as it stands: every interval was checked, and it ends on a branch's section
+/// end. A run built anew could differ only where the kept one's viability ramps looked past
+/// that section end, which they seldom do (they flatten under the branch it joined).
+///
+/// It pauses at the first section end it joins once `work` has reached `pause`
+/// ([`Halted::Paused`], go on with [`forward_on`]).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn forward_pausable(
+    nodes: &[Node],
+    env: &Envelope,
+    start: (f64, f64),
+    resume: Option<(&Progress, usize)>,
+    lim: &Limits,
+    work: &mut Work,
+    budget: &Budget,
+    pause: &Budget,
+) -> Result<ForwardPlan, Halted> {
     let mut run = Run::new(0, start);
     let mut anchors = vec![Anchor { node: 0, final_before: nodes.len() - 1, backoffs: 0 }];
     if let Some((p, before)) = resume {
@@ -130,22 +178,41 @@ pub(super) fn forward_branch(
             run.push(*iv);
         }
     }
-    match run_forward(nodes, env, &mut run, &mut anchors, lim, work, budget) {
-        Ok(final_before) => Ok(ForwardPlan { intervals: run.intervals, final_before }),
-        Err(stuck) => Err(Failed { stuck, progress: Progress { intervals: run.intervals, anchors } }),
+    forward_on(nodes, env, Box::new(PausedRun { run, anchors, carry: Carry::default() }), lim, work, budget, pause)
+}
+
+/// Goes on with a paused forward branch over the same nodes and envelope.
+pub(super) fn forward_on(
+    nodes: &[Node],
+    env: &Envelope,
+    paused: Box<PausedRun>,
+    lim: &Limits,
+    work: &mut Work,
+    budget: &Budget,
+    pause: &Budget,
+) -> Result<ForwardPlan, Halted> {
+    let PausedRun { mut run, mut anchors, mut carry } = *paused;
+    match run_forward(nodes, env, &mut run, &mut anchors, &mut carry, lim, work, budget, pause) {
+        Ok(Some(final_before)) => Ok(ForwardPlan { intervals: run.intervals, final_before }),
+        Ok(None) => Err(Halted::Paused(Box::new(PausedRun { run, anchors, carry }))),
+        Err(stuck) => Err(Halted::Stuck(Failed { stuck, progress: Progress { intervals: run.intervals, anchors } })),
     }
 }
 
-/// Runs the forward branch on from the last of `anchors` to the block end: `final_before`.
+/// Runs the forward branch on from the last of `anchors` to the block end: `final_before`, or
+/// `None` where it paused at a section end it joined (`pause`).
+#[allow(clippy::too_many_arguments)]
 fn run_forward(
     nodes: &[Node],
     env: &Envelope,
     run: &mut Run,
     anchors: &mut Vec<Anchor>,
+    carry: &mut Carry,
     lim: &Limits,
     work: &mut Work,
     budget: &Budget,
-) -> Result<usize, Stuck> {
+    pause: &Budget,
+) -> Result<Option<usize>, Stuck> {
     let n = nodes.len();
     let view = View::forward(nodes);
     let free = FlattenUnder { view, cap: f64::INFINITY, lim };
@@ -154,13 +221,12 @@ fn run_forward(
     // Where a capped section starts: the anchor, or a section end passed below its branch
     // since.
     let mut section_start = anchor;
-    let mut ramps = Ramps::default();
     // Where the branch last got stuck and how deep its back-off went (as `backward_branch`).
-    let (mut stuck_at, mut depth): (Option<usize>, usize) = (None, 0);
+    let Carry { ramps, stuck_at, depth } = carry;
     while run.last() + 1 < n {
         let t = run.last();
         let (v, a) = run.state(t);
-        let step = greedy_step(&view, t, v, a, nodes[t + 1].vbar_mm_s, &free, lim, work, &mut ramps);
+        let step = greedy_step(&view, t, v, a, nodes[t + 1].vbar_mm_s, &free, lim, work, ramps);
         // Stuck with no branch right ahead: brake earlier (a branch right ahead is joined).
         if step.is_none()
             && !(t + 1..(t + 4).min(n)).any(|i| env.on_curve(i))
@@ -169,10 +235,10 @@ fn run_forward(
         {
             backoffs += 1;
             // Stuck again where the last back-off led: the same ramp would lead there again.
-            depth = if stuck_at == Some(t) { depth + 1 } else { 0 };
-            stuck_at = Some(t);
+            *depth = if *stuck_at == Some(t) { *depth + 1 } else { 0 };
+            *stuck_at = Some(t);
             let states = &run.states[anchor - run.first..];
-            if let Some((base, ramp)) = super::branch::back_off(&view, &free, lim, work, states, anchor, depth) {
+            if let Some((base, ramp)) = super::branch::back_off(&view, &free, lim, work, states, anchor, *depth) {
                 if base < section_start {
                     // Backed off before a section end it had passed: it passes it anew.
                     section_start = anchor;
@@ -257,12 +323,15 @@ fn run_forward(
         anchor = run.last();
         section_start = anchor;
         anchors.push(Anchor { node: anchor, final_before, backoffs });
+        if pause.exhausted(work) && run.last() + 1 < n {
+            return Ok(None);
+        }
     }
     let (v, a) = run.state(n - 1);
     if v.abs() > REST_V_TOL_MM_S || a.abs() > REST_A_TOL_MM_S2 {
         return Err(Stuck { node: n - 1, reason: Infeasibility::NotAtRest });
     }
-    Ok(final_before)
+    Ok(Some(final_before))
 }
 
 /// Exact joins onto branch `c` near node t: from the forward state at `from` onto the

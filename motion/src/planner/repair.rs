@@ -7,7 +7,7 @@
 use super::branch::{Previous, Stuck, build_envelope};
 use super::envelope::{END_CURVE, Envelope};
 use super::error::Infeasibility;
-use super::forward::{Failed, Progress, forward_branch};
+use super::forward::{Failed, Halted, PausedRun, Progress, forward_on, forward_pausable};
 use super::interval::Interval;
 use super::limits::Limits;
 use super::node::Node;
@@ -50,12 +50,26 @@ pub(super) struct Repairs {
     stuck_last: Option<usize>,
     /// See [`Found::end_repair_from`].
     end_repair_from: Option<usize>,
+    /// The round's envelope and its forward branch, paused at a section end.
+    paused: Option<(Envelope, Box<PausedRun>)>,
+}
+
+/// How a round ended.
+enum Round {
+    /// The search ended: the profile, or stuck.
+    Ended(Result<Found, Stuck>),
+    /// Its forward branch paused (`Repairs::paused`).
+    Paused,
+    /// It repaired where the forward branch got stuck: the next round goes on.
+    Repaired,
 }
 
 impl Repairs {
     /// Runs rounds until the search ends (`Some`: the profile, or stuck where the forward
-    /// branch last got stuck, after `MAX_REPAIRS` or once `work` has reached `budget`) or,
-    /// after at least one round, `work` has reached `pause` (`None`: call again to go on).
+    /// branch last got stuck, after `MAX_REPAIRS` or once `work` has reached `budget`) or
+    /// `work` has reached `pause` (`None`: call again to go on): at the end of a round after
+    /// the first, or where the forward branch joins a section end (it joins at least one per
+    /// run, so every run gets on).
     ///
     /// After a repair the envelope takes over its branches before the lowered nodes, and the
     /// forward branch resumes from its last section end before the first node where the block
@@ -70,22 +84,28 @@ impl Repairs {
         pause: &Budget,
     ) -> Option<Result<Found, Stuck>> {
         let mut ran = false;
-        while self.rounds <= MAX_REPAIRS {
-            if ran && pause.exhausted(work) {
-                return None;
+        loop {
+            if self.paused.is_none() {
+                if self.rounds > MAX_REPAIRS {
+                    let node = self.stuck_last.unwrap_or(nodes.len() - 1);
+                    return Some(Err(Stuck { node, reason: Infeasibility::TooManyRepairs }));
+                }
+                if ran && pause.exhausted(work) {
+                    return None;
+                }
+                self.rounds += 1;
             }
             ran = true;
-            self.rounds += 1;
-            if let Some(end) = self.round(nodes, start, lim, work, budget) {
-                return Some(end);
+            match self.round(nodes, start, lim, work, budget, pause) {
+                Round::Ended(end) => return Some(end),
+                Round::Paused => return None,
+                Round::Repaired => {}
             }
         }
-        let node = self.stuck_last.unwrap_or(nodes.len() - 1);
-        Some(Err(Stuck { node, reason: Infeasibility::TooManyRepairs }))
     }
 
-    /// One round: the envelope, the forward branch, and where it gets stuck, a repair
-    /// (`None`: go on with the next round).
+    /// One round, or the rest of a paused one: the envelope, the forward branch, and where it
+    /// gets stuck, a repair.
     fn round(
         &mut self,
         nodes: &mut [Node],
@@ -93,24 +113,44 @@ impl Repairs {
         lim: &Limits,
         work: &mut Work,
         budget: &Budget,
-    ) -> Option<Result<Found, Stuck>> {
-        let previous = self.before.as_ref().map(|(env, _, from)| Previous { env, from: *from });
-        let env = match build_envelope(nodes, previous, lim, work, budget) {
-            Ok(env) => env,
-            Err(s) => return Some(Err(out_of_work(s, work, budget))),
+        pause: &Budget,
+    ) -> Round {
+        let (env, forward) = match self.paused.take() {
+            Some((env, paused)) => {
+                let forward = forward_on(nodes, &env, paused, lim, work, budget, pause);
+                (env, forward)
+            }
+            None => {
+                let previous = self.before.as_ref().map(|(env, _, from)| Previous { env, from: *from });
+                let env = match build_envelope(nodes, previous, lim, work, budget) {
+                    Ok(env) => env,
+                    Err(s) => return Round::Ended(Err(out_of_work(s, work, budget))),
+                };
+                let resume =
+                    self.before.as_ref().map(|(old, progress, from)| (progress, env.first_difference(old).min(*from)));
+                let forward = forward_pausable(nodes, &env, start, resume, lim, work, budget, pause);
+                (env, forward)
+            }
         };
-        let resume = self.before.as_ref().map(|(old, progress, from)| (progress, env.first_difference(old).min(*from)));
-        let (stuck, progress) = match forward_branch(nodes, &env, start, resume, lim, work, budget) {
+        let (stuck, progress) = match forward {
             Ok(f) => {
                 let end_repair_from = self.end_repair_from.unwrap_or(usize::MAX);
-                return Some(Ok(Found { intervals: f.intervals, final_before: f.final_before, end_repair_from }));
+                return Round::Ended(Ok(Found {
+                    intervals: f.intervals,
+                    final_before: f.final_before,
+                    end_repair_from,
+                }));
             }
-            Err(Failed { stuck, progress }) => (stuck, progress),
+            Err(Halted::Paused(paused)) => {
+                self.paused = Some((env, paused));
+                return Round::Paused;
+            }
+            Err(Halted::Stuck(Failed { stuck, progress })) => (stuck, progress),
         };
         work.repairs += 1;
         self.stuck_last = Some(stuck.node);
         if gives_up_for_test() {
-            return Some(Err(Stuck { node: stuck.node, reason: Infeasibility::TooManyRepairs }));
+            return Round::Ended(Err(Stuck { node: stuck.node, reason: Infeasibility::TooManyRepairs }));
         }
         if budget.exhausted(work) {
             tracing::debug!(
@@ -119,12 +159,12 @@ impl Repairs {
                 units = work.units(),
                 "planner: block out of work"
             );
-            return Some(Err(out_of_work(stuck, work, budget)));
+            return Round::Ended(Err(out_of_work(stuck, work, budget)));
         }
         // Never the block end itself (a stop): lowering there changes nothing, and its zero
         // would spread to the node before it.
         if nodes.len() < 3 {
-            return Some(Err(stuck));
+            return Round::Ended(Err(stuck));
         }
         let k = stuck.node.clamp(1, nodes.len() - 2);
         let span = repair_span(self.last, k);
@@ -154,7 +194,7 @@ impl Repairs {
                 }
             };
             let Some(&factor) = REPAIR_FACTORS.get(count - 1) else {
-                return Some(Err(stuck));
+                return Round::Ended(Err(stuck));
             };
             tracing::debug!(
                 node = k,
@@ -170,7 +210,7 @@ impl Repairs {
             self.end_repair_from = Some(self.end_repair_from.map_or(lowered, |f| f.min(lowered)));
         }
         self.before = Some((env, progress, lowered));
-        None
+        Round::Repaired
     }
 }
 

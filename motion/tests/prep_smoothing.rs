@@ -347,6 +347,28 @@ fn bspline_windows_at_plunge_reversals_need_no_exact_stop() {
 }
 
 #[test]
+fn windows_between_outlier_spikes_need_no_exact_stop() {
+    // Single points 20–200 µm off a sine (the CAM family's outlier): the runs between the
+    // spikes start and end at rest beside a corner approached at 2 tol spacing. The QP's
+    // points ring after the corner and several pieces leave the band at once, and the short
+    // runs' QPs stall in the solver; the window must still keep the band without stopping
+    // along the programmed path.
+    let machine = repo_file("benches/cam/family_machine.toml");
+    let config = Settings::from_toml_str(&machine, "family.toml").expect("machine file");
+    let text = repo_file("motion/tests/programs/outlier_spikes.ngc");
+    let programmed = parse(&text, &config);
+    let prepared = prepare_path(&config, &programmed).unwrap();
+    let st = prepared.stats;
+    let dev = max_deviation(&programmed, &prepared.path, 2e-3);
+    eprintln!(
+        "outlier spikes: max deviation {dev:.6} mm; refined {}, narrowed {}, exact stops {}",
+        st.refined, st.verify_retries, st.fallback_exact
+    );
+    assert_eq!(st.fallback_exact, 0, "{st:?}");
+    assert!(dev <= 0.01 + SLACK_MM, "{dev} mm off the programmed path");
+}
+
+#[test]
 fn cumulative_point_distribution_keeps_the_band_with_both_methods() {
     // Haas 2012, eq. 3.13: the points crowd towards the block ends; the check still holds the
     // band, for the Hermite pieces and the B-spline alike.

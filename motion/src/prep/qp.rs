@@ -90,6 +90,10 @@ pub(super) struct WindowQp {
     cones: Vec<SupportedConeT<f64>>,
     time_limit_s: f64,
     solver: Option<DefaultSolver<f64>>,
+    /// The last re-solve with refined steps (kept for its solution).
+    solver_robust: Option<DefaultSolver<f64>>,
+    /// Solves re-done with refined steps, since the solver was made.
+    pub retried: u64,
     /// The banded interior-point method, tried first where `prep.qp_solver` is "banded".
     banded: Option<BandedQp>,
     pub solution: Vec<f64>,
@@ -114,6 +118,8 @@ impl WindowQp {
             ],
             time_limit_s,
             solver: None,
+            solver_robust: None,
+            retried: 0,
             banded: banded.then(|| BandedQp::new(shape)),
             shape,
             solution: vec![0.0; n],
@@ -158,27 +164,65 @@ impl WindowQp {
             }
         }
         if self.solver.is_none() {
-            let p = self.p_pattern.matrix(&self.p_gen);
-            let a = self.a_pattern.matrix(&self.a_gen);
-            let solver = DefaultSolver::new(&p, q, &a, b, &self.cones, settings(self.time_limit_s))
-                .map_err(|_| QpFailure::Numerical)?;
-            self.solver = Some(solver);
+            self.solver = Some(self.new_solver(q, b, settings(self.time_limit_s))?);
         }
         let solver = self.solver.as_mut().expect("created above");
         solver.update_q(&q.to_vec()).map_err(|_| QpFailure::Numerical)?;
         solver.update_b(&b.to_vec()).map_err(|_| QpFailure::Numerical)?;
         solver.solve();
         self.iterations = solver.info.iterations;
-        match solver.solution.status {
+        let status = solver.solution.status;
+        if !matches!(
+            status,
+            SolverStatus::InsufficientProgress | SolverStatus::NumericalError | SolverStatus::MaxIterations
+        ) {
+            return self.take(status, false);
+        }
+        // The fast settings lost their way: on windows whose points crowd into a corner (spacing
+        // 2 tol against a largest of a millimetre) the KKT systems are too ill-conditioned for
+        // unrefined steps. The same problem once more with iterative refinement.
+        tracing::debug!(?status, iterations = self.iterations, "window QP re-solved with refined steps");
+        let mut robust = self.new_solver(q, b, robust_settings(self.time_limit_s))?;
+        robust.solve();
+        self.iterations += robust.info.iterations;
+        let status = robust.solution.status;
+        self.retried += 1;
+        self.solver_robust = Some(robust);
+        self.take(status, true)
+    }
+
+    fn new_solver(
+        &self,
+        q: &[f64],
+        b: &[f64],
+        settings: DefaultSettings<f64>,
+    ) -> Result<DefaultSolver<f64>, QpFailure> {
+        let p = self.p_pattern.matrix(&self.p_gen);
+        let a = self.a_pattern.matrix(&self.a_gen);
+        DefaultSolver::new(&p, q, &a, b, &self.cones, settings).map_err(|_| QpFailure::Numerical)
+    }
+
+    /// The outcome of the last solve (of the robust solver if `robust`).
+    fn take(&mut self, status: SolverStatus, robust: bool) -> Result<(), QpFailure> {
+        let solver = if robust { self.solver_robust.as_ref() } else { self.solver.as_ref() }.expect("solved");
+        match status {
             SolverStatus::Solved | SolverStatus::AlmostSolved => {
                 self.solution.copy_from_slice(&solver.solution.x);
                 if self.solution.iter().all(|v| v.is_finite()) { Ok(()) } else { Err(QpFailure::Numerical) }
             }
             SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => Err(QpFailure::Infeasible),
             SolverStatus::MaxTime => Err(QpFailure::Slow),
-            _ => Err(QpFailure::Numerical),
+            s => {
+                tracing::debug!(status = ?s, iterations = solver.info.iterations, "window QP not solved");
+                Err(QpFailure::Numerical)
+            }
         }
     }
+}
+
+/// The settings of the re-solve after the fast settings made no progress.
+fn robust_settings(time_limit_s: f64) -> DefaultSettings<f64> {
+    DefaultSettings { iterative_refinement_enable: true, ..settings(time_limit_s) }
 }
 
 fn settings(time_limit_s: f64) -> DefaultSettings<f64> {

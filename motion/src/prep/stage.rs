@@ -30,7 +30,7 @@ use std::time::Instant;
 
 /// Re-solves with a narrower band when the check finds a piece outside the tolerance.
 const VERIFY_RETRIES: usize = 3;
-/// Re-solves with one more point inside a piece that left the band, per window attempt: the
+/// Re-solves with one more point inside every piece that left the band, per window attempt: the
 /// QP's points pinned to alternate band edges (ringing on a short leg, a reversal) leave the
 /// pieces between them room to bulge out, which a point in between takes away.
 const REFINE_RETRIES: usize = 8;
@@ -382,6 +382,8 @@ impl Prep {
             self.stats.solve_s_total += dt;
             self.stats.solve_s_max = self.stats.solve_s_max.max(dt);
             self.stats.qp_declined = self.solvers.declined;
+            self.stats.qp_refined_steps = self.solvers.refined_steps;
+            self.stats.qp_rescaled = self.solvers.rescaled;
             let sol = match result {
                 Ok(s) => s,
                 Err(f) => {
@@ -395,7 +397,9 @@ impl Prep {
             };
             self.stats.iterations += u64::from(sol.iterations);
             let checked = match window_method(run, self.st.method) {
-                PrepMethod::Hermite => check_pieces(run, &self.st, &mut self.stats, &sol, *commit).map(|p| (p, None)),
+                PrepMethod::Hermite => {
+                    check_all_pieces(run, &self.st, &mut self.stats, &sol, *commit, true).map(|p| (p, None))
+                }
                 PrepMethod::Bspline => {
                     let can_refine = |j: usize| {
                         let (a, b) = (&run.points[j], &run.points[j + 1]);
@@ -405,24 +409,41 @@ impl Prep {
                     let cache = &mut self.spline_basis;
                     let refine = SplineRefine { can: can_refine, hermite_guides: 2 * refined >= REFINE_RETRIES };
                     check_spline(run, &self.st, &mut self.stats, cache, &sol, *commit, right, refine)
+                        .map_err(|j| vec![j])
                 }
             };
-            let j = match checked {
+            let failed = match checked {
                 Ok((pieces, spline_end)) => return Ok((pieces, sol, spline_end)),
-                Err(j) => j,
+                Err(failed) => failed,
             };
             let run = self.run.as_mut().expect("open run");
-            let (a, b) = (run.points[j], run.points[j + 1]);
-            tracing::debug!(piece = j, s_mm = a.s_mm, to_mm = b.s_mm, "piece outside the band");
-            tracing::trace!(a = ?&a.pos[..3], b = ?&b.pos[..3], ta = ?&a.tangent[..3], tol = a.tol_mm, za = ?[sol.states[j][0], sol.states[j][1], sol.states[j][2]], zb = ?[sol.states[j+1][0], sol.states[j+1][1], sol.states[j+1][2]], vertex = a.vertex, "failing piece");
-            if refined < REFINE_RETRIES && b.s_mm - a.s_mm >= REFINE_MIN_PER_TOL * a.prog_tol_mm.min(b.prog_tol_mm) {
+            // Every piece outside the band that is long enough gets a point halfway along it,
+            // in one re-solve: the ringing that pushes one piece out pushes its neighbours out
+            // too, and refining them one per solve runs out of re-solves before it runs out of
+            // pieces.
+            let splittable = |j: usize| {
+                let (a, b) = (&run.points[j], &run.points[j + 1]);
+                b.s_mm - a.s_mm >= REFINE_MIN_PER_TOL * a.prog_tol_mm.min(b.prog_tol_mm)
+            };
+            let split: Vec<usize> = failed.iter().copied().filter(|&j| splittable(j)).collect();
+            if refined < REFINE_RETRIES && !split.is_empty() {
                 refined += 1;
                 self.stats.refined += 1;
-                run.points.insert(j + 1, Placer::midpoint(&run.elems, &self.st, &a, &b));
-                shrink.insert(j + 1, shrink[j].min(shrink[j + 1]));
-                *last += 1;
-                *commit += 1;
-                inserted.push(j + 1);
+                // From the back, so the indices still to come stay valid.
+                for &j in split.iter().rev() {
+                    let (a, b) = (run.points[j], run.points[j + 1]);
+                    tracing::debug!(
+                        piece = j,
+                        s_mm = a.s_mm,
+                        to_mm = b.s_mm,
+                        "point inserted into a piece outside the band"
+                    );
+                    run.points.insert(j + 1, Placer::midpoint(&run.elems, &self.st, &a, &b));
+                    shrink.insert(j + 1, shrink[j].min(shrink[j + 1]));
+                    *last += 1;
+                    *commit += 1;
+                    inserted.push(j + 1);
+                }
                 continue;
             }
             if narrowed == VERIFY_RETRIES {
@@ -430,7 +451,12 @@ impl Prep {
             }
             narrowed += 1;
             self.stats.verify_retries += 1;
-            for s in &mut shrink[j.saturating_sub(1)..(j + 3).min(*last + 1)] {
+            // The band narrows once on each point near a failed piece, however many failed.
+            let mut near = vec![false; *last + 1];
+            for &j in &failed {
+                near[j.saturating_sub(1)..(j + 3).min(*last + 1)].iter_mut().for_each(|n| *n = true);
+            }
+            for (s, _) in shrink.iter_mut().zip(&near).filter(|(_, n)| **n) {
                 *s *= VERIFY_SHRINK;
             }
         }
@@ -623,21 +649,49 @@ fn check_pieces(
     sol: &Solution,
     commit: usize,
 ) -> Result<Vec<QuinticSpan>, usize> {
+    check_all_pieces(run, st, stats, sol, commit, false).map_err(|failed| failed[0])
+}
+
+/// The pieces of `points[..=commit]`, or the indices of those outside the tolerance (only the
+/// first unless `all`).
+fn check_all_pieces(
+    run: &Run,
+    st: &StageSettings,
+    stats: &mut PrepStats,
+    sol: &Solution,
+    commit: usize,
+    all: bool,
+) -> Result<Vec<QuinticSpan>, Vec<usize>> {
     let p = &run.points;
     let mut out = Vec::with_capacity(commit);
+    let mut failed = Vec::new();
     for j in 0..commit {
         let delta = (p[j + 1].s_mm - p[j].s_mm) / st.spacing_mm;
-        let piece = pieces::smoothed_levels(&sol.states[j], &sol.states[j + 1], delta, st.hermite_levels, &st.linear)
-            .map_err(|_| j)?;
+        let Ok(piece) =
+            pieces::smoothed_levels(&sol.states[j], &sol.states[j + 1], delta, st.hermite_levels, &st.linear)
+        else {
+            failed.push(j);
+            if all {
+                continue;
+            }
+            break;
+        };
         let (dev, excess) = verify::piece_excess(&piece, &p[j], &p[j + 1], &run.elems, &run.programmed, st.spacing_mm);
         stats.max_deviation_mm = stats.max_deviation_mm.max(dev);
         if excess > 0.0 {
-            return Err(j);
+            tracing::debug!(piece = j, excess_um = excess * 1e3, "piece outside the band");
+            failed.push(j);
+            if all {
+                continue;
+            }
+            break;
         }
-        stats.max_excess_mm = stats.max_excess_mm.max(excess);
-        out.push(piece);
+        if failed.is_empty() {
+            stats.max_excess_mm = stats.max_excess_mm.max(excess);
+            out.push(piece);
+        }
     }
-    Ok(out)
+    if failed.is_empty() { Ok(out) } else { Err(failed) }
 }
 
 /// The method of the window starting at the run's committed point: that of the element there

@@ -46,6 +46,12 @@ pub struct PrepStats {
     pub numerical: u64,
     /// Axis solves the banded QP method declined and Clarabel took (`prep.qp_solver`).
     pub qp_declined: u64,
+    /// Axis solves Clarabel made no progress on with its fast settings and solved again with
+    /// iterative refinement.
+    pub qp_refined_steps: u64,
+    /// Window solves that failed numerically and were solved again in a parameter scaled to
+    /// the window's own point spacing.
+    pub qp_rescaled: u64,
     /// B-spline method: windows committed as spline spans.
     pub bspline_windows: u64,
     /// B-spline method: windows whose spline could not be fitted or left the band after the

@@ -44,6 +44,9 @@ pub(super) struct WindowInput<'a> {
 /// Positions may slide this many window lengths along an unconstrained axis (a finite stand-in
 /// for "no bound", which the solver needs).
 const FREE_BAND_WINDOWS: f64 = 1.0;
+/// A window that fails numerically is solved again in its own scale where its mean spacing is
+/// below this share of `point_spacing_mm` (above, the scale changes too little to matter).
+const RESCALE_BELOW: f64 = 0.5;
 /// An axis whose points differ by less than this over a window does not move there, mm.
 const STILL_AXIS_MM: f64 = 1e-12;
 
@@ -57,6 +60,10 @@ pub(super) struct Solvers {
     deltas: Vec<f64>,
     /// Axis solves the banded method declined and Clarabel took, in all.
     pub declined: u64,
+    /// Axis solves re-done with iterative refinement, in all.
+    pub refined_steps: u64,
+    /// Windows re-solved in a rescaled parameter after the solver failed, in all.
+    pub rescaled: u64,
 }
 
 /// The window's solution per point.
@@ -68,7 +75,31 @@ pub(super) struct Solution {
 }
 
 impl Solvers {
+    /// Solves the window in τ = s / point_spacing_mm; where the solver fails on a window whose
+    /// points crowd (a corner approached at 2 tol spacing), once more in a parameter scaled to
+    /// the window's own spacing.
     pub(super) fn solve(&mut self, st: &StageSettings, w: &WindowInput<'_>) -> Result<Solution, QpFailure> {
+        match self.solve_scaled(st, w, 1.0) {
+            Err(QpFailure::Numerical) => {
+                let n = w.points.len();
+                // Geometric mean of the spacings in τ: the scale that centres the coupling's
+                // entries Δ and Δ² around 1.
+                let log_sum: f64 = w.points.windows(2).map(|p| ((p[1].s_mm - p[0].s_mm) / st.spacing_mm).ln()).sum();
+                let c = (log_sum / (n - 1).max(1) as f64).exp();
+                if c >= RESCALE_BELOW {
+                    return Err(QpFailure::Numerical);
+                }
+                self.rescaled += 1;
+                tracing::debug!(scale = c, points = n, "window QP re-solved in a rescaled parameter");
+                self.solve_scaled(st, w, c)
+            }
+            r => r,
+        }
+    }
+
+    /// The window solved in τ' = τ / `c`: derivatives of order l scale by cˡ, the weights by
+    /// c⁻²ˡ (renormalised); the solution comes back in τ.
+    fn solve_scaled(&mut self, st: &StageSettings, w: &WindowInput<'_>, c: f64) -> Result<Solution, QpFailure> {
         let pts = w.points;
         let n = pts.len();
         let right_fixed = match w.right {
@@ -81,8 +112,13 @@ impl Solvers {
         let banded = st.qp_solver == interpd_config::QpSolver::Banded;
         let qp = self.by_shape.entry(shape).or_insert_with(|| WindowQp::new(shape, time_limit, banded));
         self.deltas.clear();
-        self.deltas.extend(pts.windows(2).map(|p| (p[1].s_mm - p[0].s_mm) / st.spacing_mm));
-        qp.load(&self.deltas, &st.weights_tau);
+        self.deltas.extend(pts.windows(2).map(|p| (p[1].s_mm - p[0].s_mm) / (st.spacing_mm * c)));
+        let weights: Vec<f64> = st.weights_tau.iter().enumerate().map(|(l, w)| w * c.powi(-2 * l as i32)).collect();
+        let top = weights.iter().copied().fold(0.0, f64::max);
+        let weights: Vec<f64> = weights.iter().map(|w| w / top).collect();
+        // Level l of a state in τ' is cˡ times that in τ.
+        let to_scaled = |l: usize| c.powi(l as i32);
+        qp.load(&self.deltas, &weights);
 
         let active = active_axes(st, w);
         let origin = pts[0].pos;
@@ -118,11 +154,14 @@ impl Solvers {
                 }
                 continue;
             }
-            let left: Vec<f64> = (0..st.levels).map(|l| w.left[k][l] - if l == 0 { origin[k] } else { 0.0 }).collect();
+            let left: Vec<f64> =
+                (0..st.levels).map(|l| (w.left[k][l] - if l == 0 { origin[k] } else { 0.0 }) * to_scaled(l)).collect();
             let right: Vec<f64> = match &w.right {
                 RightEnd::Position => vec![pts[n - 1].pos[k] - origin[k]],
                 RightEnd::Band => Vec::new(),
-                RightEnd::Join(s) => (0..right_fixed).map(|l| s[k][l] - if l == 0 { origin[k] } else { 0.0 }).collect(),
+                RightEnd::Join(s) => {
+                    (0..right_fixed).map(|l| (s[k][l] - if l == 0 { origin[k] } else { 0.0 }) * to_scaled(l)).collect()
+                }
             };
             self.bands.clear();
             for (i, j) in shape.bounded().enumerate() {
@@ -132,23 +171,24 @@ impl Solvers {
             shape.rhs(&Rhs { left: &left, right: &right, bands: &self.bands }, &mut self.b);
             self.q.clear();
             self.q.resize(shape.n_vars(), 0.0);
-            if st.weights_tau[0] > 0.0 {
+            if weights[0] > 0.0 {
                 // Position weight: ½w₀q_j(z − x_j)² pulls towards the programmed point.
                 for j in 0..n {
                     let qj = 0.5
                         * (self.deltas.get(j.wrapping_sub(1)).copied().unwrap_or(0.0)
                             + self.deltas.get(j).copied().unwrap_or(0.0));
-                    self.q[j * st.levels] = -st.weights_tau[0] * qj * (pts[j].pos[k] - origin[k]);
+                    self.q[j * st.levels] = -weights[0] * qj * (pts[j].pos[k] - origin[k]);
                 }
             }
-            let declined = qp.declined;
+            let (declined, retried) = (qp.declined, qp.retried);
             let solved = qp.solve(&self.q, &self.b);
             self.declined += qp.declined - declined;
+            self.refined_steps += qp.retried - retried;
             solved?;
             sol.iterations += qp.iterations;
             for (j, s) in sol.states.iter_mut().enumerate() {
                 for l in 0..st.levels {
-                    s[k][l] = qp.solution[j * st.levels + l] + if l == 0 { origin[k] } else { 0.0 };
+                    s[k][l] = qp.solution[j * st.levels + l] / to_scaled(l) + if l == 0 { origin[k] } else { 0.0 };
                 }
             }
         }

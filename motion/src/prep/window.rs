@@ -4,7 +4,7 @@
 use super::band;
 use super::points::Point;
 use super::qp::{QpFailure, WindowQp};
-use super::qp_shape::{Rhs, Shape};
+use super::qp_shape::{Rhs, SOLVER_TOL, Shape};
 use super::settings::StageSettings;
 use crate::path::MAX_AXES;
 use std::collections::HashMap;
@@ -44,8 +44,8 @@ pub(super) struct WindowInput<'a> {
 /// Positions may slide this many window lengths along an unconstrained axis (a finite stand-in
 /// for "no bound", which the solver needs).
 const FREE_BAND_WINDOWS: f64 = 1.0;
-/// A window that fails numerically is solved again in its own scale where its mean spacing is
-/// below this share of `point_spacing_mm` (above, the scale changes too little to matter).
+/// A window is solved in its own scale where its mean spacing is below this share of
+/// `point_spacing_mm` (above, the scale changes too little to matter).
 const RESCALE_BELOW: f64 = 0.5;
 /// An axis whose points differ by less than this over a window does not move there, mm.
 const STILL_AXIS_MM: f64 = 1e-12;
@@ -62,7 +62,7 @@ pub(super) struct Solvers {
     pub declined: u64,
     /// Axis solves re-done with iterative refinement, in all.
     pub refined_steps: u64,
-    /// Windows re-solved in a rescaled parameter after the solver failed, in all.
+    /// Windows solved in a parameter scaled to their own spacing, in all.
     pub rescaled: u64,
 }
 
@@ -75,23 +75,28 @@ pub(super) struct Solution {
 }
 
 impl Solvers {
-    /// Solves the window in τ = s / point_spacing_mm; where the solver fails on a window whose
-    /// points crowd (a corner approached at 2 tol spacing), once more in a parameter scaled to
-    /// the window's own spacing.
+    /// Solves the window in τ = s / point_spacing_mm, or, where its points crowd (corners and
+    /// U-turns approached at 2 tol spacing), in a parameter scaled to its own spacing: in τ
+    /// such a window's entries spread over many orders (Δ² / 12 against 1) and Clarabel needs
+    /// ~130 iterations per axis on the CAM family's raster U-turns instead of ~15. Where the
+    /// solve fails numerically in one parameter, it is tried in the other.
     pub(super) fn solve(&mut self, st: &StageSettings, w: &WindowInput<'_>) -> Result<Solution, QpFailure> {
-        match self.solve_scaled(st, w, 1.0) {
+        let n = w.points.len();
+        // Geometric mean of the spacings in τ: the scale that centres the coupling's entries Δ
+        // and Δ² around 1.
+        let log_sum: f64 = w.points.windows(2).map(|p| ((p[1].s_mm - p[0].s_mm) / st.spacing_mm).ln()).sum();
+        let c = (log_sum / (n - 1).max(1) as f64).exp();
+        // Scaled, the weights of the low derivatives shrink by c²ˡ against the highest; below
+        // the solver's tolerance they would no longer shape the solution (on loops below the
+        // tolerance, c ≈ 0.02, the motion took up to 47 % longer), so such windows start in τ.
+        let own = c < RESCALE_BELOW && scaled_weights(&st.weights_tau, c).iter().all(|&w| w == 0.0 || w >= SOLVER_TOL);
+        if own {
+            self.rescaled += 1;
+        }
+        match self.solve_scaled(st, w, if own { c } else { 1.0 }) {
             Err(QpFailure::Numerical) => {
-                let n = w.points.len();
-                // Geometric mean of the spacings in τ: the scale that centres the coupling's
-                // entries Δ and Δ² around 1.
-                let log_sum: f64 = w.points.windows(2).map(|p| ((p[1].s_mm - p[0].s_mm) / st.spacing_mm).ln()).sum();
-                let c = (log_sum / (n - 1).max(1) as f64).exp();
-                if c >= RESCALE_BELOW {
-                    return Err(QpFailure::Numerical);
-                }
-                self.rescaled += 1;
-                tracing::debug!(scale = c, points = n, "window QP re-solved in a rescaled parameter");
-                self.solve_scaled(st, w, c)
+                tracing::debug!(scale = c, points = n, own, "window QP re-solved in the other parameter");
+                self.solve_scaled(st, w, if own { 1.0 } else { c })
             }
             r => r,
         }
@@ -113,9 +118,7 @@ impl Solvers {
         let qp = self.by_shape.entry(shape).or_insert_with(|| WindowQp::new(shape, time_limit, banded));
         self.deltas.clear();
         self.deltas.extend(pts.windows(2).map(|p| (p[1].s_mm - p[0].s_mm) / (st.spacing_mm * c)));
-        let weights: Vec<f64> = st.weights_tau.iter().enumerate().map(|(l, w)| w * c.powi(-2 * l as i32)).collect();
-        let top = weights.iter().copied().fold(0.0, f64::max);
-        let weights: Vec<f64> = weights.iter().map(|w| w / top).collect();
+        let weights = scaled_weights(&st.weights_tau, c);
         // Level l of a state in τ' is cˡ times that in τ.
         let to_scaled = |l: usize| c.powi(l as i32);
         qp.load(&self.deltas, &weights);
@@ -209,6 +212,13 @@ impl Solvers {
         }
         Ok(sol)
     }
+}
+
+/// The weights per level in τ / `c`, normalised to a largest weight of 1.
+fn scaled_weights(weights_tau: &[f64], c: f64) -> Vec<f64> {
+    let w: Vec<f64> = weights_tau.iter().enumerate().map(|(l, w)| w * c.powi(-2 * l as i32)).collect();
+    let top = w.iter().copied().fold(0.0, f64::max);
+    w.iter().map(|x| x / top).collect()
 }
 
 /// Linear axes that move in the window (or whose fixed end derivatives are not zero).

@@ -322,20 +322,23 @@ fn bspline_method_keeps_the_band_and_joins_at_every_degree() {
     }
 }
 
+/// A program of `motion/tests/programs/` through the stage on the CAM family's machine (with
+/// `extra` TOML appended): its stats and the largest distance from the programmed path, mm.
+fn family_program(extra: &str, program: &str) -> (interpd_motion::prep::PrepStats, f64) {
+    let machine = repo_file("benches/cam/family_machine.toml");
+    let config = Settings::from_toml_str(&format!("{machine}\n{extra}"), "family.toml").expect("machine file");
+    let programmed = parse(&repo_file(&format!("motion/tests/programs/{program}")), &config);
+    let prepared = prepare_path(&config, &programmed).unwrap();
+    (prepared.stats, max_deviation(&programmed, &prepared.path, 2e-3))
+}
+
 #[test]
 fn bspline_windows_at_plunge_reversals_need_no_exact_stop() {
     // Plunge-and-retract reversals along a slanted line (the CAM family's plunge): refinements
     // that only chase the spline's failures leave both the spline and the Hermite pieces
     // outside the band and the window stops exactly; with the second half of them guided by
     // where the Hermite pieces fail, the window keeps the band.
-    let machine = repo_file("benches/cam/family_machine.toml");
-    let config = Settings::from_toml_str(&format!("{machine}\n[prep]\nmethod = \"bspline\"\n"), "family.toml")
-        .expect("machine file");
-    let text = repo_file("motion/tests/programs/plunge_reversals.ngc");
-    let programmed = parse(&text, &config);
-    let prepared = prepare_path(&config, &programmed).unwrap();
-    let st = prepared.stats;
-    let dev = max_deviation(&programmed, &prepared.path, 2e-3);
+    let (st, dev) = family_program("[prep]\nmethod = \"bspline\"\n", "plunge_reversals.ngc");
     eprintln!(
         "plunge reversals: max deviation {dev:.6} mm; spline windows {}, Hermite instead {}, refined {}, exact \
          stops {}",
@@ -353,13 +356,7 @@ fn windows_between_outlier_spikes_need_no_exact_stop() {
     // points ring after the corner and several pieces leave the band at once, and the short
     // runs' QPs stall in the solver; the window must still keep the band without stopping
     // along the programmed path.
-    let machine = repo_file("benches/cam/family_machine.toml");
-    let config = Settings::from_toml_str(&machine, "family.toml").expect("machine file");
-    let text = repo_file("motion/tests/programs/outlier_spikes.ngc");
-    let programmed = parse(&text, &config);
-    let prepared = prepare_path(&config, &programmed).unwrap();
-    let st = prepared.stats;
-    let dev = max_deviation(&programmed, &prepared.path, 2e-3);
+    let (st, dev) = family_program("", "outlier_spikes.ngc");
     eprintln!(
         "outlier spikes: max deviation {dev:.6} mm; refined {}, narrowed {}, exact stops {}",
         st.refined, st.verify_retries, st.fallback_exact

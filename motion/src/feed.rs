@@ -295,7 +295,8 @@ impl Feed {
         let mut have = self.buffered_s();
         while have < need_s && !self.planner.done() {
             let step = Instant::now();
-            if !self.take_read(rest_at_text_end)? {
+            // A paused search goes on first: what a read would give it waits until it ends.
+            if !self.planner.search_paused() && !self.take_read(rest_at_text_end)? {
                 return Ok(());
             }
             let call = Instant::now();

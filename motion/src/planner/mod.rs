@@ -255,6 +255,12 @@ impl Planner {
         self.final_dwell_s = final_dwell_s;
     }
 
+    /// A call paused a block's search (`CALL_WORK_UNITS`): the next call goes on with it and
+    /// takes no new elements before it ends.
+    pub(crate) fn search_paused(&self) -> bool {
+        self.paused.is_some()
+    }
+
     /// Everything received has been planned and handed on.
     pub fn done(&self) -> bool {
         self.input_done && self.end_sampled && self.nodes.len() <= 1 && self.pending.is_empty()

@@ -7,7 +7,7 @@
 //! viable one. No step ever goes back, so the work per node is bounded.
 
 use super::check::violates;
-use super::envelope::{CurveStart, END_CURVE, Envelope};
+use super::envelope::{BranchNode, CurveStart, END_CURVE, Envelope};
 use super::error::Infeasibility;
 use super::falsi::Illinois;
 use super::interval::Interval;
@@ -15,7 +15,8 @@ use super::limits::Limits;
 use super::node::{IntervalGeom, Node};
 use super::ramp::{CEILING_REL_TOL, Check, FlattenUnder, RampTrace, Wanted, ramp_interval, ramp_margin};
 use super::step::{Budget, Work, feasible, max_feasible};
-use super::view::View;
+use super::view::{Reads, View};
+use std::sync::Arc;
 
 /// Bisection steps when the greedy choice is not viable.
 const VIABLE_SEARCH_ITERS: usize = 40;
@@ -278,17 +279,15 @@ pub(super) fn back_off(
     None
 }
 
-/// One node of a backward branch: the node index, its state (forward acceleration) and the
-/// forward interval from it to the next node.
-pub(super) type BranchNode = (usize, f64, f64, Interval);
-
-/// A backward branch from node `m` with state (`v_start`, forward acceleration `a_start`),
-/// running under v̄ capped at `cap`, leftwards until it has flattened, reaches node `stop`
-/// (exclusive), or meets a node where `lower(i, v)` says another branch already lies lower.
-/// `None` if it gets stuck.
+/// A backward branch on `view` (a backward view of the block's nodes) from node `m` with state
+/// (`v_start`, forward acceleration `a_start`), running under v̄ capped at `cap`, leftwards
+/// until it has flattened, reaches node `stop` (exclusive), or meets a node where
+/// `lower(i, v)` says another branch already lies lower. `None` if it gets stuck. It reads
+/// the nodes through `view` only, so a tracking view (`View::tracking`) sees every node it
+/// depends on.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn backward_branch(
-    nodes: &[Node],
+    view: View,
     m: usize,
     v_start: f64,
     a_start: f64,
@@ -298,7 +297,6 @@ pub(super) fn backward_branch(
     lim: &Limits,
     work: &mut Work,
 ) -> Option<Vec<BranchNode>> {
-    let view = View::backward(nodes);
     let ceiling = FlattenUnder { view, cap, lim };
     let mut lim_b = lim.clone();
     for j in lim_b.jerk.iter_mut() {
@@ -317,10 +315,10 @@ pub(super) fn backward_branch(
     let mut ramps = Ramps::default();
     while view.index(t) > stop + 1 {
         let i_next = view.index(t + 1);
-        let v_max = nodes[i_next].vbar_mm_s.min(cap);
+        let v_max = view.node(t + 1).vbar_mm_s.min(cap);
         let iv = match greedy_step(&view, t, v, a, v_max, &ceiling, &lim_b, work, &mut ramps) {
             Some(iv) => iv,
-            None if (v > v_max || v_max < nodes[view.index(t)].vbar_mm_s) && i_next > stop && cap.is_infinite() => {
+            None if (v > v_max || v_max < view.node(t).vbar_mm_s) && i_next > stop && cap.is_infinite() => {
                 // The ceiling ahead falls faster than the branch can follow (it is above the
                 // next bound, or the curvature rising into the next interval takes more
                 // acceleration than its jerk can give up): a minimum of v̄ lies further on,
@@ -369,9 +367,9 @@ pub(super) fn backward_branch(
         // While it rides a v̄ that keeps falling towards the section end it goes on: the
         // forward branch cannot follow a falling v̄ without it.
         if a1 <= ceiling.flat_acc(t, v1) {
-            let here = nodes[i_next].vbar_mm_s.min(cap);
-            let further = if i_next > 0 { nodes[i_next - 1].vbar_mm_s.min(cap) } else { here };
-            let clearly_below = v1 < (1.0 - FLAT_BELOW_CEILING) * here && !nodes[i_next].reach_bound;
+            let here = view.node(t).vbar_mm_s.min(cap);
+            let further = if i_next > 0 { view.node(t + 1).vbar_mm_s.min(cap) } else { here };
+            let clearly_below = v1 < (1.0 - FLAT_BELOW_CEILING) * here && !view.node(t).reach_bound;
             if clearly_below || further <= here {
                 break;
             }
@@ -380,11 +378,12 @@ pub(super) fn backward_branch(
     Some(out)
 }
 
-/// The envelope before a repair lowered v̄ at nodes from `from` on, to rebuild from (see
+/// The envelope before a repair lowered v̄ at nodes `from ..= to`, to rebuild from (see
 /// [`build_envelope`]).
 pub(super) struct Previous<'a> {
     pub env: &'a Envelope,
     pub from: usize,
+    pub to: usize,
 }
 
 /// The backward branch from the block end at rest (node `n − 1`) under the first cap of
@@ -396,21 +395,22 @@ pub(super) struct Previous<'a> {
 /// block end, online or not: a block planned under the relaxed ceiling whose end branch needs
 /// a cap competes with the plan under the flat ceiling.
 fn capped_from_block_end(
-    nodes: &[Node],
+    view: View,
     lower: impl Fn(usize, f64) -> bool + Copy,
     lim: &Limits,
     work: &mut Work,
 ) -> Option<Vec<BranchNode>> {
-    let end = nodes.len() - 1;
-    let top_vbar_mm_s = nodes.iter().map(|nd| nd.vbar_mm_s).fold(0.0, f64::max);
+    let end = view.len() - 1;
+    // Read through the view: the cap depends on every node.
+    let top_vbar_mm_s = (0..view.len()).map(|t| view.node(t).vbar_mm_s).fold(0.0, f64::max);
     if !top_vbar_mm_s.is_finite() {
         return None;
     }
     BLOCK_END_CAP_FRACTIONS.iter().find_map(|&f| {
         let cap = f * top_vbar_mm_s;
         work.end_caps += 1;
-        let b = backward_branch(nodes, end, 0.0, 0.0, cap, 0, lower, lim, work)?;
-        tracing::debug!(s_end_mm = nodes[end].s_mm, cap, "backward branch from the block end capped");
+        let b = backward_branch(view, end, 0.0, 0.0, cap, 0, lower, lim, work)?;
+        tracing::debug!(s_end_mm = view.node(0).s_mm, cap, "backward branch from the block end capped");
         Some(b)
     })
 }
@@ -421,10 +421,10 @@ fn capped_from_block_end(
 /// jerk's sign (a dip of the acceleration-only ceiling), a flat state at the dip can have no
 /// continuation forwards, and a forward branch joined onto that branch would be stuck at its
 /// end (the block repairs then creep back from such dips one node at a time).
-fn leaves_forward(nodes: &[Node], m: usize, v_mm_s: f64, lim: &Limits, work: &mut Work) -> bool {
-    let view = View::forward(nodes);
+fn leaves_forward(nodes: &[Node], m: usize, v_mm_s: f64, reads: &Reads, lim: &Limits, work: &mut Work) -> bool {
+    let view = View::forward(nodes).tracking(reads);
     let free = FlattenUnder { view, cap: f64::INFINITY, lim };
-    let v_max = nodes[m + 1].vbar_mm_s;
+    let v_max = view.node(m + 1).vbar_mm_s;
     greedy_step(&view, m, v_mm_s, 0.0, v_max, &free, lim, work, &mut Ramps::default()).is_some()
 }
 
@@ -433,12 +433,18 @@ fn leaves_forward(nodes: &[Node], m: usize, v_mm_s: f64, lim: &Limits, work: &mu
 ///
 /// After a repair (`previous`), the branches from section ends before the lowered stretch are
 /// taken over from the first section end that no branch from a later one reaches past, in the
-/// old envelope or the new. They are then the branches a full build would make: a branch runs
-/// leftwards and sees only v̄ and the envelope left of its section end, both as before. A
+/// old envelope or the new, and from which no old branch read a node of the stretch or after it
+/// (`CurveStart::reads`: the forward step a section end must allow, `leaves_forward`, looks
+/// right). They are then the branches a full build would make: a branch runs leftwards and
+/// sees only the nodes it read and the envelope left of its section end, both as before. A
 /// repair deep inside a long block then costs the branches after it, not the whole block.
-/// Branches after the stretch are built anew even where they lie clear of it: their
-/// viability ramps looked into the stretch, and a branch kept from before the repair would
-/// differ from a full build's.
+///
+/// Branches after the stretch are taken over too, from the block end leftwards, as long as
+/// each one's build never read a node of the stretch (`CurveStart::reach`, recorded through a
+/// tracking view): with every branch after it the same, it saw the same envelope and the same
+/// nodes. A branch whose viability ramps looked into the stretch is built anew, and so is every
+/// one before it. A forward branch stuck far before the block end then costs the branches
+/// around the stretch, not every one from there to the block end once per repair.
 pub(super) fn build_envelope(
     nodes: &[Node],
     previous: Option<Previous>,
@@ -457,34 +463,73 @@ pub(super) fn build_envelope(
     // by the old branches from section ends after the current one and by the new ones.
     let mut old_branches = previous.as_ref().map(|p| p.env.extents()).unwrap_or_default().into_iter().peekable();
     let (mut old_reach, mut new_reach) = (n, n);
+    // While every branch so far is the old one, the old branch from the next section end
+    // (old ids run from the block end leftwards, as the build does).
+    let mut same_as_old = previous.as_ref().map(|_| 1usize);
+    // The highest node read by the old branches from each old id on (leftwards).
+    let mut old_read_hi = Vec::new();
+    if let Some(p) = &previous {
+        old_read_hi = vec![0; p.env.starts.len() + 1];
+        for c in (1..p.env.starts.len()).rev() {
+            old_read_hi[c] = old_read_hi[c + 1].max(p.env.starts[c].reads.1);
+        }
+    }
+    let mut old_next = 1usize;
     for &m in starts.iter().rev() {
         if let Some(p) = &previous {
             while let Some((_, first)) = old_branches.next_if(|&(end, _)| end > m) {
                 old_reach = old_reach.min(first);
             }
-            if m + 1 < p.from && m < old_reach && m < new_reach {
+            while old_next < p.env.starts.len() && p.env.starts[old_next].node > m {
+                old_next += 1;
+            }
+            // The old branches from here leftwards never read the lowered stretch (their forward
+            // steps from the section end look right).
+            let clear_of_stretch = old_read_hi[old_next] < p.from;
+            if m + 1 < p.from && m < old_reach && m < new_reach && clear_of_stretch {
                 env.take_over_before(p.env, m + 1);
                 return Ok(env);
+            }
+            if let Some(c) = same_as_old {
+                match p.env.starts.get(c) {
+                    // A section end after the lowered stretch and its neighbour (so a section
+                    // end before as now), and the old branch from it never read the stretch:
+                    // the envelope it saw is the same, so a build would make it again.
+                    Some(st) if st.node == m && m > p.to + 1 && st.reads.0 > p.to => {
+                        let id = env.lay(*st, p.env.built[c].clone());
+                        new_reach = new_reach.min(env.built[id as usize].last().map_or(m, |b| b.0));
+                        same_as_old = Some(c + 1);
+                        continue;
+                    }
+                    // The old envelope has no branch from here (a later one lay lower): nor
+                    // has this one, which is the same so far.
+                    Some(st) if st.node < m && m > p.to + 1 => {}
+                    None if m > p.to + 1 => {}
+                    _ => same_as_old = None,
+                }
             }
         }
         if m != n - 1 && (env.on_curve(m) || env.v[m] < nodes[m].vbar_mm_s) {
             continue; // a branch from further on already lies lower here
         }
+        // A branch built here differs from the old ones, and so may those further left.
+        same_as_old = None;
         let evals_before = work.evals;
-        let id = env.starts.len() as u32;
-        debug_assert!(m != n - 1 || id == END_CURVE);
+        debug_assert!(m != n - 1 || env.starts.len() as u32 == END_CURVE);
         let mut built = None;
         let lower = |i: usize, v: f64| env.on_curve(i) && v >= env.v[i] * (1.0 - 1e-12);
+        let reads = Reads::at(m);
+        let view = View::backward(nodes).tracking(&reads);
         for factor in BACKWARD_START_FACTORS {
             // Each start velocity costs a branch that may run back over the whole block.
             if budget.exhausted(work) {
                 break;
             }
             let v_start = if m == n - 1 { 0.0 } else { factor * nodes[m].vbar_mm_s };
-            if m != n - 1 && !leaves_forward(nodes, m, v_start, lim, work) {
+            if m != n - 1 && !leaves_forward(nodes, m, v_start, &reads, lim, work) {
                 continue;
             }
-            if let Some(b) = backward_branch(nodes, m, v_start, 0.0, f64::INFINITY, 0, lower, lim, work) {
+            if let Some(b) = backward_branch(view, m, v_start, 0.0, f64::INFINITY, 0, lower, lim, work) {
                 built = Some((v_start, b));
                 break;
             }
@@ -493,7 +538,7 @@ pub(super) fn build_envelope(
             }
         }
         if built.is_none() && m == n - 1 && !budget.exhausted(work) {
-            built = capped_from_block_end(nodes, lower, lim, work).map(|b| (0.0, b));
+            built = capped_from_block_end(view, lower, lim, work).map(|b| (0.0, b));
         }
         let Some((v_start, branch)) = built else {
             return Err(Stuck { node: m, reason: Infeasibility::NoBackwardBranch });
@@ -510,16 +555,7 @@ pub(super) fn build_envelope(
             "backward branch of a section"
         );
         new_reach = new_reach.min(branch.last().map_or(m, |b| b.0));
-        env.starts.push(CurveStart { node: m, v: v_start, a: 0.0 });
-        env.v[m] = v_start;
-        env.a[m] = 0.0;
-        env.curve[m] = id;
-        for (i, v, a, iv) in branch {
-            env.v[i] = v;
-            env.a[i] = a;
-            env.curve[i] = id;
-            env.iv[i] = iv;
-        }
+        env.lay(CurveStart { node: m, v: v_start, a: 0.0, reads: reads.span() }, Arc::from(branch));
     }
     Ok(env)
 }

@@ -7,6 +7,11 @@
 //! branch ends where it has flattened under v̄ or meets a lower one.
 
 use super::interval::Interval;
+use std::sync::Arc;
+
+/// One node of a backward branch: the node index, its state (forward acceleration) and the
+/// forward interval from it to the next node.
+pub(super) type BranchNode = (usize, f64, f64, Interval);
 
 /// Where a backward branch starts: its section end and the state there.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -14,6 +19,10 @@ pub(super) struct CurveStart {
     pub node: usize,
     pub v: f64,
     pub a: f64,
+    /// The lowest and the highest node index its build read (every start it tried, and the
+    /// forward steps from its section end): the branch is the same on a block whose nodes
+    /// between them are the same, under the same envelope.
+    pub reads: (usize, usize),
 }
 
 /// Per node of a block: the ceiling and, where a backward branch defines it, that branch's
@@ -30,6 +39,9 @@ pub(super) struct Envelope {
     pub iv: Vec<Interval>,
     /// Start of every branch, indexed by id (entry 0 unused).
     pub starts: Vec<CurveStart>,
+    /// Every branch's nodes as built, indexed by id (entry 0 empty): a branch built later from
+    /// a section end further left may replace part of it in the arrays above.
+    pub built: Vec<Arc<[BranchNode]>>,
 }
 
 /// Id of the branch from the block end: it is built first.
@@ -44,7 +56,8 @@ impl Envelope {
             a: vec![0.0; n],
             curve: vec![0; n],
             iv: vec![Interval::default(); n],
-            starts: vec![CurveStart { node: 0, v: 0.0, a: 0.0 }],
+            starts: vec![CurveStart { node: 0, v: 0.0, a: 0.0, reads: (0, 0) }],
+            built: vec![Arc::from([])],
             v,
         }
     }
@@ -78,6 +91,7 @@ impl Envelope {
             if st.node < edge {
                 ids[c] = self.starts.len() as u32;
                 self.starts.push(*st);
+                self.built.push(old.built[c].clone());
             }
         }
         for i in 0..edge {
@@ -86,6 +100,20 @@ impl Envelope {
                 self.copy_node(old, i, id);
             }
         }
+    }
+
+    /// Lays a branch from section end `start` over the envelope: its section end in the state
+    /// it starts in and its nodes, replacing what lies there. Returns its id.
+    pub(super) fn lay(&mut self, start: CurveStart, branch: Arc<[BranchNode]>) -> u32 {
+        let id = self.starts.len() as u32;
+        let m = start.node;
+        (self.v[m], self.a[m], self.curve[m]) = (start.v, start.a, id);
+        for &(i, v, a, iv) in branch.iter() {
+            (self.v[i], self.a[i], self.curve[i], self.iv[i]) = (v, a, id, iv);
+        }
+        self.starts.push(start);
+        self.built.push(branch);
+        id
     }
 
     fn copy_node(&mut self, old: &Envelope, i: usize, id: u32) {
@@ -115,7 +143,8 @@ mod tests {
         let mut e = Envelope::from_vbar(std::iter::repeat_n(10.0, 10));
         for &(end, first, v) in branches {
             let id = e.starts.len() as u32;
-            e.starts.push(CurveStart { node: end, v, a: 0.0 });
+            e.starts.push(CurveStart { node: end, v, a: 0.0, reads: (first, end) });
+            e.built.push(Arc::from([]));
             for i in first..=end {
                 (e.v[i], e.curve[i]) = (v, id);
             }

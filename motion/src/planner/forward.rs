@@ -605,7 +605,8 @@ fn capped_run(
     lim: &Limits,
     work: &mut Work,
 ) -> Result<Vec<Interval>, CapFail> {
-    let Some(branch) = backward_branch(nodes, end, bwd.0, bwd.1, cap, anchor, |_, _| false, lim, work) else {
+    let Some(branch) = backward_branch(View::backward(nodes), end, bwd.0, bwd.1, cap, anchor, |_, _| false, lim, work)
+    else {
         tracing::trace!(cap, anchor, end, "capped run: backward branch stuck");
         return Err(CapFail::Other);
     };

@@ -43,9 +43,9 @@ pub(super) struct Repairs {
     repairs_at: Vec<(usize, usize)>,
     /// The last repair's node and how many nodes before it it lowered.
     last: Option<(usize, usize)>,
-    /// The last envelope, how far the forward branch got on it, and the first node lowered
-    /// since.
-    before: Option<(Envelope, Progress, usize)>,
+    /// The last envelope, how far the forward branch got on it, and the first and last node
+    /// lowered since.
+    before: Option<(Envelope, Progress, (usize, usize))>,
     /// Where the forward branch last got stuck.
     stuck_last: Option<usize>,
     /// See [`Found::end_repair_from`].
@@ -121,13 +121,19 @@ impl Repairs {
                 (env, forward)
             }
             None => {
-                let previous = self.before.as_ref().map(|(env, _, from)| Previous { env, from: *from });
+                let previous = self.before.as_ref().map(|(env, _, (from, to))| Previous { env, from: *from, to: *to });
                 let env = match build_envelope(nodes, previous, lim, work, budget) {
                     Ok(env) => env,
                     Err(s) => return Round::Ended(Err(out_of_work(s, work, budget))),
                 };
-                let resume =
-                    self.before.as_ref().map(|(old, progress, from)| (progress, env.first_difference(old).min(*from)));
+                #[cfg(test)]
+                if self.before.is_some() {
+                    check_against_a_full_build(nodes, &env, lim, budget);
+                }
+                let resume = self
+                    .before
+                    .as_ref()
+                    .map(|(old, progress, (from, _))| (progress, env.first_difference(old).min(*from)));
                 let forward = forward_pausable(nodes, &env, start, resume, lim, work, budget, pause);
                 (env, forward)
             }
@@ -209,7 +215,7 @@ impl Repairs {
         if forced_by_end(&env, stuck.node) {
             self.end_repair_from = Some(self.end_repair_from.map_or(lowered, |f| f.min(lowered)));
         }
-        self.before = Some((env, progress, lowered));
+        self.before = Some((env, progress, (lowered, k)));
         Round::Repaired
     }
 }
@@ -240,6 +246,21 @@ fn gives_up_for_test() -> bool {
         c.set(left.saturating_sub(1));
         left > 0
     })
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Envelopes rebuilt after a repair so far, each compared with a full build.
+    pub(super) static TEST_REBUILDS_CHECKED: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+/// In tests, every envelope rebuilt after a repair is the one a full build makes.
+#[cfg(test)]
+fn check_against_a_full_build(nodes: &[Node], env: &Envelope, lim: &Limits, budget: &Budget) {
+    let full = build_envelope(nodes, None, lim, &mut Work::default(), budget).expect("a full build");
+    let at = env.first_difference(&full);
+    assert!(at == env.len() && env.starts == full.starts, "rebuilt envelope differs at node {at}");
+    TEST_REBUILDS_CHECKED.with(|c| c.set(c.get() + 1));
 }
 
 /// How many nodes before the stuck node `k` a repair lowers, given the last repair's node and

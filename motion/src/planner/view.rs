@@ -3,20 +3,55 @@
 //! implementation serves both (Kopp et al. 2019, eq. 3: the ± signs flip for the backward branch).
 
 use super::node::{IntervalGeom, Node, NodeGeom};
+use std::cell::Cell;
+
+/// The node indices read through the views that record into it: what a computation on them
+/// depends on (a backward branch whose build never read a node is the same after that node's
+/// v̄ changed, see `branch::build_envelope`).
+#[derive(Debug)]
+pub(super) struct Reads {
+    lo: Cell<usize>,
+    hi: Cell<usize>,
+}
+
+impl Reads {
+    /// Node `i` read.
+    pub(super) fn at(i: usize) -> Self {
+        Self { lo: Cell::new(i), hi: Cell::new(i) }
+    }
+
+    #[inline]
+    fn read(&self, i: usize) {
+        self.lo.set(self.lo.get().min(i));
+        self.hi.set(self.hi.get().max(i));
+    }
+
+    /// The lowest and the highest node index read.
+    pub(super) fn span(&self) -> (usize, usize) {
+        (self.lo.get(), self.hi.get())
+    }
+}
 
 #[derive(Clone, Copy)]
 pub(super) struct View<'a> {
     nodes: &'a [Node],
     reverse: bool,
+    /// Where a caller records the nodes read.
+    reads: Option<&'a Reads>,
 }
 
 impl<'a> View<'a> {
     pub(super) fn forward(nodes: &'a [Node]) -> Self {
-        Self { nodes, reverse: false }
+        Self { nodes, reverse: false, reads: None }
     }
 
     pub(super) fn backward(nodes: &'a [Node]) -> Self {
-        Self { nodes, reverse: true }
+        Self { nodes, reverse: true, reads: None }
+    }
+
+    /// The same view, recording every node it reads in `reads`.
+    pub(super) fn tracking(self, reads: &'a Reads) -> Self {
+        Self { reads: Some(reads), ..self }
     }
 
     pub(super) fn len(&self) -> usize {
@@ -37,7 +72,11 @@ impl<'a> View<'a> {
 
     #[inline]
     pub(super) fn node(&self, t: usize) -> &'a Node {
-        &self.nodes[self.index(t)]
+        let i = self.index(t);
+        if let Some(reads) = self.reads {
+            reads.read(i);
+        }
+        &self.nodes[i]
     }
 
     #[inline]

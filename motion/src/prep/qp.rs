@@ -90,8 +90,6 @@ pub(super) struct WindowQp {
     cones: Vec<SupportedConeT<f64>>,
     time_limit_s: f64,
     solver: Option<DefaultSolver<f64>>,
-    /// The last re-solve with refined steps (kept for its solution).
-    solver_robust: Option<DefaultSolver<f64>>,
     /// Solves re-done with refined steps, since the solver was made.
     pub retried: u64,
     /// The banded interior-point method, tried first where `prep.qp_solver` is "banded".
@@ -118,7 +116,6 @@ impl WindowQp {
             ],
             time_limit_s,
             solver: None,
-            solver_robust: None,
             retried: 0,
             banded: banded.then(|| BandedQp::new(shape)),
             shape,
@@ -176,7 +173,7 @@ impl WindowQp {
             status,
             SolverStatus::InsufficientProgress | SolverStatus::NumericalError | SolverStatus::MaxIterations
         ) {
-            return self.take(status, false);
+            return outcome(solver, &mut self.solution);
         }
         // The fast settings lost their way: on windows whose points crowd into a corner (spacing
         // 2 tol against a largest of a millimetre) the KKT systems are too ill-conditioned for
@@ -185,10 +182,8 @@ impl WindowQp {
         let mut robust = self.new_solver(q, b, robust_settings(self.time_limit_s))?;
         robust.solve();
         self.iterations += robust.info.iterations;
-        let status = robust.solution.status;
         self.retried += 1;
-        self.solver_robust = Some(robust);
-        self.take(status, true)
+        outcome(&robust, &mut self.solution)
     }
 
     fn new_solver(
@@ -201,21 +196,20 @@ impl WindowQp {
         let a = self.a_pattern.matrix(&self.a_gen);
         DefaultSolver::new(&p, q, &a, b, &self.cones, settings).map_err(|_| QpFailure::Numerical)
     }
+}
 
-    /// The outcome of the last solve (of the robust solver if `robust`).
-    fn take(&mut self, status: SolverStatus, robust: bool) -> Result<(), QpFailure> {
-        let solver = if robust { self.solver_robust.as_ref() } else { self.solver.as_ref() }.expect("solved");
-        match status {
-            SolverStatus::Solved | SolverStatus::AlmostSolved => {
-                self.solution.copy_from_slice(&solver.solution.x);
-                if self.solution.iter().all(|v| v.is_finite()) { Ok(()) } else { Err(QpFailure::Numerical) }
-            }
-            SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => Err(QpFailure::Infeasible),
-            SolverStatus::MaxTime => Err(QpFailure::Slow),
-            s => {
-                tracing::debug!(status = ?s, iterations = solver.info.iterations, "window QP not solved");
-                Err(QpFailure::Numerical)
-            }
+/// The outcome of `solver`'s last solve; its solution into `solution` where it solved.
+fn outcome(solver: &DefaultSolver<f64>, solution: &mut [f64]) -> Result<(), QpFailure> {
+    match solver.solution.status {
+        SolverStatus::Solved | SolverStatus::AlmostSolved => {
+            solution.copy_from_slice(&solver.solution.x);
+            if solution.iter().all(|v| v.is_finite()) { Ok(()) } else { Err(QpFailure::Numerical) }
+        }
+        SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => Err(QpFailure::Infeasible),
+        SolverStatus::MaxTime => Err(QpFailure::Slow),
+        s => {
+            tracing::debug!(status = ?s, iterations = solver.info.iterations, "window QP not solved");
+            Err(QpFailure::Numerical)
         }
     }
 }

@@ -79,8 +79,10 @@ impl BandedSpd {
         Ok(())
     }
 
-    /// Solves L Lᵀ x = b in place, after [`Self::cholesky`].
-    pub(crate) fn solve(&self, b: &mut [f64]) {
+    /// Solves L Lᵀ x = b in place for `NA` right-hand sides at once (`b[i][g]` is entry i of
+    /// right-hand side g), after [`Self::cholesky`]: one pass over the band for all of them,
+    /// each with the operations, in the order, of a solve of its own.
+    pub(crate) fn solve<const NA: usize>(&self, b: &mut [[f64; NA]]) {
         let n = self.rows.len();
         for i in 0..n {
             let w = i.min(BAND);
@@ -88,18 +90,22 @@ impl BandedSpd {
             let mut s = b[i];
             // k = i − w … i − 1, ascending: L(i, k) = r[i − k].
             for (l, x) in r[1..=w].iter().rev().zip(&b[i - w..i]) {
-                s -= l * x;
+                for g in 0..NA {
+                    s[g] -= l * x[g];
+                }
             }
-            b[i] = s / r[0];
+            b[i] = s.map(|v| v / r[0]);
         }
         for i in (0..n).rev() {
             let w = (n - 1 - i).min(BAND);
             let mut s = b[i];
             // k = i + 1 … i + w, ascending: L(k, i) = rows[k][k − i].
             for (q, (row, x)) in self.rows[i + 1..=i + w].iter().zip(&b[i + 1..=i + w]).enumerate() {
-                s -= row[q + 1] * x;
+                for g in 0..NA {
+                    s[g] -= row[q + 1] * x[g];
+                }
             }
-            b[i] = s / self.rows[i][0];
+            b[i] = s.map(|v| v / self.rows[i][0]);
         }
     }
 }
@@ -143,10 +149,15 @@ mod tests {
             let rhs: Vec<f64> = (0..n).map(|_| lcg(&mut seed)).collect();
             let x_dense = dense.clone().cholesky().unwrap().solve(&DVector::from_vec(rhs.clone()));
             band.cholesky(1e-14).unwrap();
-            let mut x = rhs.clone();
+            // The right-hand side alone and beside two others: the same solution, bit for bit.
+            let mut x: Vec<[f64; 1]> = rhs.iter().map(|&v| [v]).collect();
             band.solve(&mut x);
+            let mut x3: Vec<[f64; 3]> = rhs.iter().map(|&v| [2.0 * v, v, -v]).collect();
+            band.solve(&mut x3);
             for i in 0..n {
-                assert!((x[i] - x_dense[i]).abs() < 1e-10 * (1.0 + x_dense[i].abs()), "n {n} i {i}");
+                assert!((x[i][0] - x_dense[i]).abs() < 1e-10 * (1.0 + x_dense[i].abs()), "n {n} i {i}");
+                // Scaling by a power of two or the sign is exact in floating point.
+                assert_eq!(x3[i], [2.0 * x[i][0], x[i][0], -x[i][0]], "n {n} i {i}");
             }
         }
     }

@@ -105,34 +105,14 @@ impl Knots {
         for j in 0..=p {
             out[0][j] = ndu[j][p];
         }
-        for r in 0..=p {
-            // The coefficients of the previous and the current derivative (A2.3's a[s1], a[s2]).
-            let (mut prev, mut cur) = ([0.0; ORDER], [0.0; ORDER]);
-            prev[0] = 1.0;
-            for k in 1..=N {
-                let mut d = 0.0;
-                let pk = p - k;
-                if r >= k {
-                    cur[0] = prev[0] / ndu[pk + 1][r - k];
-                    d = cur[0] * ndu[r - k][pk];
-                }
-                // j from max(1, k − r) to (k − 1 if r ≤ pk + 1, else p − r); the knot index
-                // r − k + j is then 0 or more.
-                let j1 = if r + 1 >= k { 1 } else { k - r };
-                let j2 = if r <= pk + 1 { k - 1 } else { p - r };
-                for j in j1..=j2 {
-                    let idx = r + j - k;
-                    cur[j] = (prev[j] - prev[j - 1]) / ndu[pk + 1][idx];
-                    d += cur[j] * ndu[idx][pk];
-                }
-                if r <= pk {
-                    cur[k] = -prev[k - 1] / ndu[pk + 1][r];
-                    d += cur[k] * ndu[r][pk];
-                }
-                out[k][r] = d;
-                std::mem::swap(&mut prev, &mut cur);
-            }
-        }
+        // One instance per basis function: the bounds of the coefficient loops are then
+        // constants too (the same operations in the same order as one loop over r).
+        derivs_of::<N, 0>(&ndu, out);
+        derivs_of::<N, 1>(&ndu, out);
+        derivs_of::<N, 2>(&ndu, out);
+        derivs_of::<N, 3>(&ndu, out);
+        derivs_of::<N, 4>(&ndu, out);
+        derivs_of::<N, 5>(&ndu, out);
         let mut f = p as f64;
         for (k, row) in out.iter_mut().enumerate().take(N + 1).skip(1) {
             for v in row.iter_mut() {
@@ -140,6 +120,39 @@ impl Knots {
             }
             f *= (p - k) as f64;
         }
+    }
+}
+
+/// Derivatives 1 ..= N of basis function `R` (of the p + 1 on the span) from the triangle
+/// `ndu` (A2.3's loop body for r = R), unscaled by p!/(p − k)!.
+#[inline(always)]
+fn derivs_of<const N: usize, const R: usize>(ndu: &[[f64; ORDER]; ORDER], out: &mut [[f64; ORDER]; MAX_DERIV + 1]) {
+    let (p, r) = (DEGREE, R);
+    // The coefficients of the previous and the current derivative (A2.3's a[s1], a[s2]).
+    let (mut prev, mut cur) = ([0.0; ORDER], [0.0; ORDER]);
+    prev[0] = 1.0;
+    for k in 1..=N {
+        let mut d = 0.0;
+        let pk = p - k;
+        if r >= k {
+            cur[0] = prev[0] / ndu[pk + 1][r - k];
+            d = cur[0] * ndu[r - k][pk];
+        }
+        // j from max(1, k − r) to (k − 1 if r ≤ pk + 1, else p − r); the knot index
+        // r − k + j is then 0 or more.
+        let j1 = if r + 1 >= k { 1 } else { k - r };
+        let j2 = if r <= pk + 1 { k - 1 } else { p - r };
+        for j in j1..=j2 {
+            let idx = r + j - k;
+            cur[j] = (prev[j] - prev[j - 1]) / ndu[pk + 1][idx];
+            d += cur[j] * ndu[idx][pk];
+        }
+        if r <= pk {
+            cur[k] = -prev[k - 1] / ndu[pk + 1][r];
+            d += cur[k] * ndu[r][pk];
+        }
+        out[k][r] = d;
+        std::mem::swap(&mut prev, &mut cur);
     }
 }
 

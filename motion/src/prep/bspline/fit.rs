@@ -62,14 +62,21 @@ fn point_block<const L: usize>(
     }
 }
 
-/// One point's share of KᵀW y over its `L` levels (`r` the weighted data), added to `out`.
-fn point_rhs<const L: usize>(d: &[[f64; ORDER]; LEVELS], r: &[f64; LEVELS], out: &mut [f64; ORDER]) {
+/// One point's share of KᵀW y over its `L` levels for `NA` axes (`r[g]` the weighted data of
+/// axis g), added to `out` (`out[a][g]`: control point a, axis g).
+fn point_rhs<const L: usize, const NA: usize>(
+    d: &[[f64; ORDER]; LEVELS],
+    r: &[[f64; LEVELS]; NA],
+    out: &mut [[f64; NA]; ORDER],
+) {
     for (a, o) in out.iter_mut().enumerate() {
-        let mut v = d[0][a] * r[0];
-        for l in 1..L {
-            v += d[l][a] * r[l];
+        for g in 0..NA {
+            let mut v = d[0][a] * r[g][0];
+            for l in 1..L {
+                v += d[l][a] * r[g][l];
+            }
+            o[g] += v;
         }
-        *o += v;
     }
 }
 
@@ -115,6 +122,13 @@ pub(crate) struct StateBasis {
 pub(crate) struct Curve {
     pub ctrl: Vec<f64>,
 }
+
+/// Axes whose right-hand sides one pass over the points and the band takes (more are solved
+/// in groups): the three of a Cartesian machine, the common case.
+pub(crate) const AXES_PER_SOLVE: usize = 3;
+
+/// The data and fixed ends of all axes, as [`Fit::solve`] takes them.
+type AxesData<'a, const A: usize> = (&'a [[[f64; LEVELS]; A]], &'a [[f64; LEVELS]; A], &'a [[f64; LEVELS]; A]);
 
 /// Relative pivot below which the normal equations count as singular.
 const PIVOT_REL_TOL: f64 = 1e-13;
@@ -238,58 +252,91 @@ impl Fit {
         Ok(Self { knots, u: u.to_vec(), levels, weights, fixed_left, fixed_right, at_points, normal })
     }
 
-    /// The control points for one axis: `data[j][l]` is the l-th derivative wanted at point j,
-    /// `left` / `right` the fixed end derivatives (at least `fixed_left` / `fixed_right` of them).
-    pub(crate) fn solve(&self, data: &[[f64; LEVELS]], left: &[f64; LEVELS], right: &[f64; LEVELS]) -> Curve {
+    /// The control points of the axes `axes`, one [`Curve`] each in that order: `data[j][k][l]`
+    /// is the l-th derivative wanted at point j on axis k, `left[k]` / `right[k]` its fixed end
+    /// derivatives (at least `fixed_left` / `fixed_right` of them). Up to [`AXES_PER_SOLVE`]
+    /// axes share one pass over the points and the band.
+    pub(crate) fn solve<const A: usize>(
+        &self,
+        data: &[[[f64; LEVELS]; A]],
+        axes: &[usize],
+        left: &[[f64; LEVELS]; A],
+        right: &[[f64; LEVELS]; A],
+    ) -> Vec<Curve> {
+        let mut curves = Vec::with_capacity(axes.len());
+        let ends = (data, left, right);
+        for group in axes.chunks(AXES_PER_SOLVE) {
+            match *group {
+                [a] => self.solve_group([a], ends, &mut curves),
+                [a, b] => self.solve_group([a, b], ends, &mut curves),
+                [a, b, c] => self.solve_group([a, b, c], ends, &mut curves),
+                _ => unreachable!("groups of at most AXES_PER_SOLVE axes"),
+            }
+        }
+        curves
+    }
+
+    /// [`Self::solve`] for the `NA` axes `axes`, their curves appended to `out`. Each axis gets
+    /// the operations, in the order, of a solve of its own.
+    fn solve_group<const A: usize, const NA: usize>(
+        &self,
+        axes: [usize; NA],
+        (data, left, right): AxesData<A>,
+        out: &mut Vec<Curve>,
+    ) {
         let n_ctrl = self.knots.n_basis();
         let n = self.u.len();
-        let mut ctrl = vec![0.0; n_ctrl];
-        // Left end: derivative k at u₀ is Σ_{i ≤ k} N_i^(k)(u₀) P_i, triangular.
-        let d0 = &self.at_points[0].d;
-        for k in 0..self.fixed_left {
-            let s: f64 = (0..k).map(|i| d0[k][i] * ctrl[i]).sum();
-            ctrl[k] = (left[k] - s) / d0[k][k];
-        }
-        // Right end: derivative k at u_{n−1} involves the last k + 1 control points.
-        let d1 = &self.at_points[n - 1].d;
-        for k in 0..self.fixed_right {
-            let s: f64 = (0..k).map(|i| d1[k][ORDER - 1 - i] * ctrl[n_ctrl - 1 - i]).sum();
-            ctrl[n_ctrl - 1 - k] = (right[k] - s) / d1[k][ORDER - 1 - k];
+        let mut ctrl = vec![[0.0; NA]; n_ctrl];
+        for (g, &k_axis) in axes.iter().enumerate() {
+            // Left end: derivative k at u₀ is Σ_{i ≤ k} N_i^(k)(u₀) P_i, triangular.
+            let d0 = &self.at_points[0].d;
+            for k in 0..self.fixed_left {
+                let s: f64 = (0..k).map(|i| d0[k][i] * ctrl[i][g]).sum();
+                ctrl[k][g] = (left[k_axis][k] - s) / d0[k][k];
+            }
+            // Right end: derivative k at u_{n−1} involves the last k + 1 control points.
+            let d1 = &self.at_points[n - 1].d;
+            for k in 0..self.fixed_right {
+                let s: f64 = (0..k).map(|i| d1[k][ORDER - 1 - i] * ctrl[n_ctrl - 1 - i][g]).sum();
+                ctrl[n_ctrl - 1 - k][g] = (right[k_axis][k] - s) / d1[k][ORDER - 1 - k];
+            }
         }
         let free = self.fixed_left..n_ctrl - self.fixed_right;
-        let mut rhs = vec![0.0; free.len()];
-        for (j, CachedBasis { span, d, .. }) in self.at_points.iter().enumerate() {
+        let mut rhs = vec![[0.0; NA]; free.len()];
+        for (CachedBasis { span, d, .. }, point) in self.at_points.iter().zip(data) {
             let first = span - DEGREE;
             if first >= free.start && first + DEGREE < free.end {
                 // Only the points near the ends see fixed control points.
-                let r: [f64; LEVELS] = std::array::from_fn(|l| self.weights[l] * data[j][l]);
-                let out: &mut [f64; ORDER] =
+                let r: [[f64; LEVELS]; NA] = axes.map(|k| std::array::from_fn(|l| self.weights[l] * point[k][l]));
+                let out: &mut [[f64; NA]; ORDER] =
                     (&mut rhs[first - free.start..][..ORDER]).try_into().expect("ORDER entries");
                 match self.levels {
-                    3 => point_rhs::<3>(d, &r, out),
-                    4 => point_rhs::<4>(d, &r, out),
-                    _ => point_rhs::<LEVELS>(d, &r, out),
+                    3 => point_rhs::<3, NA>(d, &r, out),
+                    4 => point_rhs::<4, NA>(d, &r, out),
+                    _ => point_rhs::<LEVELS, NA>(d, &r, out),
                 }
                 continue;
             }
-            let mut r = [0.0; LEVELS];
-            for l in 0..self.levels {
-                // Residual of the data against the fixed control points' share.
-                let fixed: f64 =
-                    (0..ORDER).filter(|a| !free.contains(&(first + a))).map(|a| d[l][a] * ctrl[first + a]).sum();
-                r[l] = self.weights[l] * (data[j][l] - fixed);
-            }
-            for a in 0..ORDER {
-                if free.contains(&(first + a)) {
-                    rhs[first + a - free.start] += (0..self.levels).map(|l| d[l][a] * r[l]).sum::<f64>();
+            for (g, &k_axis) in axes.iter().enumerate() {
+                let mut r = [0.0; LEVELS];
+                for l in 0..self.levels {
+                    // Residual of the data against the fixed control points' share.
+                    let fixed: f64 =
+                        (0..ORDER).filter(|a| !free.contains(&(first + a))).map(|a| d[l][a] * ctrl[first + a][g]).sum();
+                    r[l] = self.weights[l] * (point[k_axis][l] - fixed);
+                }
+                for a in 0..ORDER {
+                    if free.contains(&(first + a)) {
+                        rhs[first + a - free.start][g] += (0..self.levels).map(|l| d[l][a] * r[l]).sum::<f64>();
+                    }
                 }
             }
         }
         if !rhs.is_empty() {
             self.normal.solve(&mut rhs);
         }
-        ctrl[free.clone()].copy_from_slice(&rhs);
-        Curve { ctrl }
+        ctrl[free].copy_from_slice(&rhs);
+        out.extend((0..NA).map(|g| Curve { ctrl: ctrl.iter().map(|c| c[g]).collect() }));
     }
 
     /// Value and the first two derivatives of `curve` at breakpoint `j` (the ends of the pieces
@@ -356,6 +403,30 @@ mod tests {
         Fit::new(u, cached, m, levels, w, fixed_left, fixed_right)
     }
 
+    /// The curve of one axis with data `data`.
+    fn solve1(fit: &Fit, data: &[[f64; LEVELS]], left: &[f64; LEVELS], right: &[f64; LEVELS]) -> Curve {
+        let data: Vec<[[f64; LEVELS]; 1]> = data.iter().map(|&d| [d]).collect();
+        fit.solve(&data, &[0], &[*left], &[*right]).pop().expect("one axis")
+    }
+
+    #[test]
+    fn axes_solved_together_are_those_solved_alone() {
+        // Five axes (a group of three and one of two) against each alone, bit for bit; fixed
+        // ends on both sides, so the points near them take the per-axis path too.
+        let u = [0.0, 0.4, 1.0, 1.3, 2.2, 2.5, 3.0, 3.9, 4.5, 5.0, 5.8, 6.1];
+        let fit = fit_new(&u, 1, 4, [1000.0, 100.0, 10.0, 1.0, 0.1], 3, 1).unwrap();
+        let data: Vec<[[f64; LEVELS]; 5]> =
+            u.iter().map(|&x| std::array::from_fn(|k| sample(x + k as f64).map(|v| v * (1.0 + k as f64)))).collect();
+        let (left, right) = (data[0], data[u.len() - 1]);
+        let axes = [4, 0, 2, 1, 3];
+        let together = fit.solve(&data, &axes, &left, &right);
+        assert_eq!(together.len(), axes.len());
+        for (c, &k) in together.iter().zip(&axes) {
+            let alone = fit.solve(&data, &[k], &left, &right);
+            assert_eq!(c.ctrl, alone[0].ctrl, "axis {k}");
+        }
+    }
+
     fn sample(x: f64) -> [f64; LEVELS] {
         // sin(x) and its derivatives.
         [x.sin(), x.cos(), -x.sin(), -x.cos(), x.sin()]
@@ -370,7 +441,7 @@ mod tests {
             // Noisy data so that the fit does not reproduce it exactly.
             let data: Vec<[f64; LEVELS]> =
                 u.iter().enumerate().map(|(j, &x)| sample(x).map(|v| v + 0.01 * ((j * 7 % 5) as f64 - 2.0))).collect();
-            let c = fit.solve(&data, &[0.0; LEVELS], &[0.0; LEVELS]);
+            let c = solve1(&fit, &data, &[0.0; LEVELS], &[0.0; LEVELS]);
             // Dense: rows √w_l N^(l)(u_j), solved by SVD.
             let nb = fit.knots.n_basis();
             let mut k = DMatrix::zeros(u.len() * levels, nb);
@@ -404,7 +475,7 @@ mod tests {
         };
         let data: Vec<[f64; LEVELS]> = u.iter().map(|&x| q(x)).collect();
         let fit = fit_new(&u, 1, 5, [1000.0, 100.0, 10.0, 1.0, 0.1], 5, 3).unwrap();
-        let c = fit.solve(&data, &q(0.0), &q(4.0));
+        let c = solve1(&fit, &data, &q(0.0), &q(4.0));
         for j in 0..u.len() - 1 {
             for i in 0..=4 {
                 let x = u[j] + (u[j + 1] - u[j]) * i as f64 / 4.0;
@@ -422,7 +493,7 @@ mod tests {
         let data: Vec<[f64; LEVELS]> = u.iter().map(|&x| sample(x)).collect();
         for m in 1..=3 {
             let fit = fit_new(&u, m, 3, [1000.0, 100.0, 10.0, 1.0, 0.1], 0, 0).unwrap();
-            let c = fit.solve(&data, &[0.0; LEVELS], &[0.0; LEVELS]);
+            let c = solve1(&fit, &data, &[0.0; LEVELS], &[0.0; LEVELS]);
             for j in 0..u.len() {
                 let at = fit.state(&c, &fit.state_basis(j));
                 let end = fit.piece_end(&c, j);
@@ -541,7 +612,7 @@ mod tests {
         {
             let ends = |nt: usize, fixed_right: usize| {
                 let f = fit_new(&u[..nt], m, levels, w, DEGREE + 1 - m, fixed_right).unwrap();
-                let c = f.solve(&data[..nt], &data[0], &data[nt - 1]);
+                let c = solve1(&f, &data[..nt], &data[0], &data[nt - 1]);
                 (0..=commit).map(|j| f.piece_end(&c, j)).collect::<Vec<_>>()
             };
             let (whole, cut) = (ends(n, 1), ends(commit + 1 + margin, 0));

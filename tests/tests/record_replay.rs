@@ -26,9 +26,13 @@ const RUN_TIMEOUT: Duration = Duration::from_secs(30);
 const START_TIMEOUT: Duration = Duration::from_secs(20);
 const SPEED: f64 = 4.0;
 /// Deviation of a replayed setpoint's arrival from its recorded time / SPEED, after removing
-/// the common offset, that 99 % of the setpoints keep. A replay that paces wrongly (bursts,
-/// wrong speed, drift) moves most setpoints, not 1 %.
-const TIMING_P99_TOLERANCE_NS: f64 = 8e6;
+/// the common offset, that 90 % of the setpoints keep. A replay that paces wrongly (bursts,
+/// wrong speed, drift) moves most setpoints. One stall of the shared host delays every setpoint
+/// due while it lasts, one per millisecond at SPEED 4: CI saw 1 % of them 31 ms late, so a
+/// 99th percentile judges the host, not the replay.
+const TIMING_P90_TOLERANCE_NS: f64 = 8e6;
+/// Median |deviation|: a replay paced on its deadlines keeps half its setpoints within this.
+const TIMING_MEDIAN_TOLERANCE_NS: f64 = 2e6;
 /// Largest deviation of any one setpoint. Generous: the test's arrival clock is an ordinary
 /// thread and the replayer shares a busy 2-core host, so either one now and then wakes tens of
 /// milliseconds late; a replay that waited for nothing or stopped would exceed it.
@@ -274,10 +278,18 @@ fn a_recorded_run_replayed_and_recorded_again_gives_identical_payloads_at_the_or
     let mut abs_dev: Vec<f64> = dev.iter().map(|d| d.abs()).collect();
     abs_dev.sort_by(f64::total_cmp);
     let worst = *abs_dev.last().expect("arrivals");
+    let p90 = abs_dev[(abs_dev.len() * 9) / 10];
     let p99 = abs_dev[(abs_dev.len() * 99) / 100];
+    let median_abs = abs_dev[abs_dev.len() / 2];
     assert!(
-        p99 <= TIMING_P99_TOLERANCE_NS,
-        "1 % of the replayed setpoints arrived {:.1} ms or more off their time",
+        median_abs <= TIMING_MEDIAN_TOLERANCE_NS,
+        "half of the replayed setpoints arrived {:.2} ms or more off their time",
+        median_abs * 1e-6
+    );
+    assert!(
+        p90 <= TIMING_P90_TOLERANCE_NS,
+        "10 % of the replayed setpoints arrived {:.1} ms or more off their time (99th percentile {:.1} ms)",
+        p90 * 1e-6,
         p99 * 1e-6
     );
     assert!(worst <= TIMING_WORST_TOLERANCE_NS, "a replayed setpoint arrived {:.1} ms off its time", worst * 1e-6);
@@ -287,11 +299,12 @@ fn a_recorded_run_replayed_and_recorded_again_gives_identical_payloads_at_the_or
     assert!((ratio - 1.0).abs() <= DURATION_TOLERANCE, "replay took {ratio:.3} × the recorded span / {SPEED}");
     eprintln!(
         "B: {} messages identical to A; replay at speed {SPEED}: duration ratio {ratio:.4}, largest arrival \
-         deviation {:.2} ms, 99th percentile {:.2} ms, median |deviation| {:.3} ms; test {:.1} s",
+         deviation {:.2} ms, 99th percentile {:.2} ms, 90th {:.2} ms, median |deviation| {:.3} ms; test {:.1} s",
         mb.len(),
         worst * 1e-6,
         p99 * 1e-6,
-        abs_dev[abs_dev.len() / 2] * 1e-6,
+        p90 * 1e-6,
+        median_abs * 1e-6,
         started.elapsed().as_secs_f64()
     );
     let _ = std::fs::remove_dir_all(&dir);

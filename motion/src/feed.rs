@@ -204,6 +204,9 @@ struct Cursor {
     /// The program waits for appended text and the planner was told to stop at the end of
     /// what is there: the motion ends at rest there, and a restart continues it.
     stopped_for_text: bool,
+    /// The planner was told that the element at this index starts at rest before it was
+    /// read ([`Planner::rest_follows`]).
+    told_rest_before: Option<usize>,
 }
 
 impl Cursor {
@@ -217,6 +220,7 @@ impl Cursor {
             pushed: 0,
             idle_for_text: false,
             stopped_for_text: false,
+            told_rest_before: None,
         }
     }
 }
@@ -267,7 +271,7 @@ impl Feed {
     /// Where the motion starts (the machine position, or the program's start) and the program
     /// line of the first element; reads the program's first element.
     pub fn start(&mut self) -> Result<(AxisVec, u32), FeedError> {
-        let line = self.window.element(0)?.map_or(0, |(e, _)| e.source.line);
+        let line = self.window.element(0, false)?.map_or(0, |(e, _)| e.source.line);
         Ok((self.window.path().start, line))
     }
 
@@ -333,9 +337,10 @@ impl Feed {
             };
             // The planner's path: from `plan_from_s_mm`, with the feeds scaled.
             let c = self.cursor;
+            let until_rest = c.told_rest_before != Some(index);
             let got = self
                 .window
-                .element(index)?
+                .element(index, until_rest)?
                 .map(|(e, after)| (if c.cut_first { e.from(c.plan_from_s_mm) } else { e.clone() }, after));
             match got {
                 Some((mut e, after)) => {
@@ -359,6 +364,12 @@ impl Feed {
                         }
                     }
                 }
+                None if until_rest && self.window.rest_before(index) && !self.cursor.finished_input => {
+                    // Planned to the stop before the element is there; it is read next time.
+                    self.planner.rest_follows();
+                    self.cursor.told_rest_before = Some(index);
+                    return Ok(true);
+                }
                 None if self.window.waiting() && !self.cursor.finished_input => {
                     // What is there is planned now, so the motion goes on as far as it can
                     // still stop within it.
@@ -372,7 +383,7 @@ impl Feed {
                     // The smoothing stage closes its run at the end of what exists, and the
                     // planner brings the motion to rest there.
                     self.window.flush()?;
-                    if self.window.element(index)?.is_some() {
+                    if self.window.element(index, false)?.is_some() {
                         continue;
                     }
                     if self.cursor.pushed == 0 {

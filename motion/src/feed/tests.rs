@@ -98,7 +98,7 @@ fn reading_ahead_stops_at_its_bound_and_keeps_an_error_for_the_planner() {
 fn elements_until_error(feed: &mut Feed) -> (Vec<Element>, FeedError) {
     let mut got = Vec::new();
     loop {
-        match feed.window.element(got.len()) {
+        match feed.window.element(got.len(), false) {
             Ok(Some((e, _))) => got.push(e.clone()),
             Ok(None) => panic!("the error of line 23 was lost after {} elements", got.len()),
             Err(e) => return (got, e),
@@ -207,4 +207,40 @@ fn a_path_held_whole_starts_from_where_the_machine_stands() {
     let segments = plan_all(&mut feed, 1.0, false);
     let length = 5.0 + 10.0;
     assert!((segments.last().expect("moves").s1_mm() - length).abs() < 1e-9);
+}
+
+/// A program that begins with a rapid to the part and then cuts along dense G64 moves: the
+/// rapid ends at rest (the cut starts at a corner), which the smoothing stage knows as soon as
+/// the first cut move is read. The planner plans the rapid to rest then, without waiting for
+/// the first smoothing window of the cut (which reads its whole reach ahead first), so the
+/// first motion does not wait for the smoothing. The motion is the same as without.
+#[test]
+fn a_rapid_into_a_cut_is_planned_before_the_cut_is_smoothed() {
+    let mut text = String::from("G21 G90 G17\nG0 X60 Y0 Z0\nG64 P0.01\nG1 F3000\n");
+    for i in 1..=20_000 {
+        let u = i as f64 * 0.002;
+        text.push_str(&format!("X{:.4} Y{u:.4}\n", 60.0 + 0.5 * (u * 0.8).sin()));
+    }
+    text.push_str("M30\n");
+    let settings = with_lookahead(200.0);
+    let mut feed = Feed::builder(&settings).open_text("rapid.ngc", text.clone());
+    feed.start().expect("starts");
+    feed.plan(1e-9).expect("plans");
+    let first = feed.progress();
+    let mut got = Vec::new();
+    while let Some(s) = feed.pop_segment() {
+        got.push(s);
+    }
+    let to_mm = got.last().map_or(0.0, |s| s.s1_mm());
+    assert!((to_mm - 60.0).abs() < 1e-9, "the first plan hands on up to s = {to_mm} mm, not the rapid");
+    assert!(got.last().is_some_and(|s| s.at(s.dt_s).v.abs() < 1e-9), "the rapid does not end at rest");
+    // The cut's first smoothing window reads some 50 mm of it; the rapid was planned after a
+    // few of its lines.
+    assert!(first.lines_read < 100, "{} lines read before the rapid was planned", first.lines_read);
+    got.extend(plan_all(&mut feed, 1e-9, false));
+    // The same motion as when the program is read a look-ahead ahead first, so the planner
+    // takes the cut's first element before it plans the rapid.
+    let reference = plan_all(&mut Feed::builder(&settings).open_text("rapid.ngc", text), 1e-9, true);
+    let (t, t_ref) = (profile_duration(&got), profile_duration(&reference));
+    assert!((t - t_ref).abs() <= 1e-9 * t_ref, "motion {t} s, planned whole {t_ref} s");
 }

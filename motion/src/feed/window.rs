@@ -46,6 +46,10 @@ pub(super) struct Window {
     waiting: bool,
     /// A read ahead of the planner failed: returned where the planner reaches it.
     deferred: Option<FeedError>,
+    /// Index (in the whole path) of the next element to come when the smoothing stage has
+    /// given out everything before it and knows that it starts at rest
+    /// ([`Window::rest_before`]).
+    rest_before: Option<usize>,
     /// Time spent reading the program and in the smoothing stage.
     pub(super) read_time: Duration,
     pub(super) prep_time: Duration,
@@ -75,6 +79,7 @@ impl Window {
             done: true,
             waiting: false,
             deferred: None,
+            rest_before: None,
             read_time: Duration::ZERO,
             prep_time: Duration::ZERO,
         }
@@ -181,15 +186,25 @@ impl Window {
     }
 
     /// The element at `index` of the whole path and what the planner does after it, reading on
-    /// as needed; `None` after the last.
-    pub(super) fn element(&mut self, index: usize) -> Result<Option<(&Element, After)>, FeedError> {
+    /// as needed; `None` after the last. With `until_rest`, `None` also where the reads learn
+    /// that the element at `index`, not there yet, starts at rest ([`Window::rest_before`]).
+    pub(super) fn element(&mut self, index: usize, until_rest: bool) -> Result<Option<(&Element, After)>, FeedError> {
         debug_assert!(index >= self.first_index, "element {index} was dropped (window from {})", self.first_index);
         self.waiting = false;
-        while !self.done && !self.waiting && index >= self.end_index() {
+        let stop_at_rest = |w: &Window| until_rest && w.rest_before(index);
+        while !self.done && !self.waiting && index >= self.end_index() && !stop_at_rest(self) {
             self.read()?;
         }
         let k = index - self.first_index;
         Ok(self.path.elements.get(k).map(|e| (e, self.after[k])))
+    }
+
+    /// Whether the element at `index` is the next to come, and the smoothing stage has given
+    /// out everything before it and knows that it starts at rest: the planner can plan to that
+    /// stop before the element is read (the first smoothing window of a cut after a rapid reads
+    /// its whole reach ahead first).
+    pub(super) fn rest_before(&self, index: usize) -> bool {
+        index == self.end_index() && self.rest_before == Some(index)
     }
 
     /// Position and derivatives at `s_mm` and the program line there (reading on until the
@@ -291,7 +306,9 @@ impl Window {
             self.path.final_dwell_s = stream.final_dwell_s().unwrap_or(0.0);
         }
         let offset = *s_offset_mm;
+        let rests = !ended && prep.rests_before_next();
         self.take_smoothed(offset, if ended { After::Finish } else { After::Plan });
+        self.rest_before = rests.then(|| self.end_index());
         Ok(())
     }
 

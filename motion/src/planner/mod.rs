@@ -167,6 +167,12 @@ pub struct Planner {
     prev: Option<(Element, sampling::ElementEnd)>,
     since_stop_mm: f64,
     input_done: bool,
+    /// The newest element ends at rest, though its successor is not here yet
+    /// ([`Planner::rest_follows`]).
+    rest_follows: bool,
+    /// `nodes` ends in the stop node [`Planner::rest_follows`] put there ahead of the element
+    /// that starts at it; that element's own start node replaces it.
+    rest_node: bool,
     end_sampled: bool,
     final_dwell_s: f64,
     /// Nodes from the hand-over point on; `nodes[0]` has the state `start`.
@@ -225,6 +231,8 @@ impl Planner {
             prev: None,
             since_stop_mm: 0.0,
             input_done: false,
+            rest_follows: false,
+            rest_node: false,
             end_sampled: false,
             final_dwell_s: 0.0,
             nodes: Vec::new(),
@@ -246,7 +254,18 @@ impl Planner {
 
     /// Adds the next element of the path.
     pub fn push(&mut self, element: Element) {
+        debug_assert!(!self.rest_follows || element.stops_before(), "rest_follows, then an element that starts moving");
+        self.rest_follows = false;
         self.pending.push_back(element);
+    }
+
+    /// The element pushed last ends at rest: the one after it, not pushed yet, starts with a
+    /// stop (the smoothing stage knows this before it can give that element out). The path up
+    /// to the stop is then planned and handed on whole without waiting for what follows: the
+    /// first motion of a program that begins with a rapid to the part does not wait for the
+    /// first smoothing window of the cut after it.
+    pub fn rest_follows(&mut self) {
+        self.rest_follows = !self.pending.is_empty();
     }
 
     /// No more elements follow; `final_dwell_s` is the dwell after the last one.
@@ -277,6 +296,11 @@ impl Planner {
         }
         self.sample_pending();
         if self.nodes.len() < 2 {
+            if self.end_sampled {
+                // The motion was planned to the path's end before the planner learned that it
+                // is the end ([`Planner::rest_follows`]).
+                self.emit_final_dwell();
+            }
             return Ok(std::mem::take(&mut self.out));
         }
         let complete = self.end_sampled;
@@ -286,7 +310,9 @@ impl Planner {
         // Replan when the program is complete, or when the horizon is full and has grown by a
         // quarter since the last plan (so each node is planned a bounded number of times).
         let grown = self.nodes.len() >= self.planned_len + self.planned_len / 4 + 16;
-        if complete || (enough && grown) {
+        // A horizon that ends in a stop plans to rest there and hands on everything up to it.
+        let ends_at_rest = self.nodes.last().is_some_and(|n| n.stop) && self.nodes.len() > self.planned_len;
+        if complete || (enough && grown) || ends_at_rest {
             self.plan_horizon(complete)?;
         }
         Ok(std::mem::take(&mut self.out))
@@ -383,9 +409,18 @@ impl Planner {
         while let Some(e) = self.pending.front() {
             let next_stops = match self.pending.get(1) {
                 Some(next) => next.stops_before(),
-                None if self.input_done => true,
+                None if self.input_done || self.rest_follows => true,
                 None => break,
             };
+            let mut replaced_first = false;
+            if std::mem::take(&mut self.rest_node) {
+                // The element starting at the stop `rest_follows` planned to brings its own
+                // start node (its dwell, line, and the geometry leaving the stop).
+                let held = self.nodes.pop().expect("the stop node of rest_follows");
+                self.stats.nodes -= 1;
+                debug_assert!(held.stop && (held.s_mm - e.s_start_mm).abs() <= 1e-9 * (1.0 + held.s_mm.abs()));
+                replaced_first = self.nodes.is_empty();
+            }
             let count_before = self.nodes.len();
             let end = sampling::sample_element(
                 self.prev.as_ref().map(|(p, end)| (p, end)),
@@ -402,13 +437,25 @@ impl Planner {
             if !self.vbar_floor.is_empty() {
                 resume::raise_to_floor(&mut self.nodes[count_before.saturating_sub(1)..], &self.vbar_floor);
             }
-            if count_before == 0 && self.start_moving {
+            if count_before == 0 && self.start_moving && !replaced_first {
                 resume::admit_start_state(&mut self.nodes[0], self.start);
             }
             self.prev = self.pending.pop_front().map(|e| (e, end));
         }
-        if self.input_done && self.pending.is_empty() && !self.end_sampled {
+        if std::mem::take(&mut self.rest_follows) && !self.input_done {
             if let Some((last, end)) = &self.prev {
+                self.nodes.push(sampling::end_node(last, end, 0.0, &self.params));
+                self.stats.nodes += 1;
+                self.refine_vbar(self.nodes.len().saturating_sub(2));
+                self.rest_node = true;
+            }
+        }
+        if self.input_done && self.pending.is_empty() && !self.end_sampled {
+            if std::mem::take(&mut self.rest_node) {
+                // The stop `rest_follows` planned to is the path's end.
+                let end = self.nodes.last_mut().expect("the stop node of rest_follows");
+                end.dwell_s = self.final_dwell_s;
+            } else if let Some((last, end)) = &self.prev {
                 self.nodes.push(sampling::end_node(last, end, self.final_dwell_s, &self.params));
                 self.stats.nodes += 1;
                 self.refine_vbar(self.nodes.len().saturating_sub(2));
@@ -677,21 +724,26 @@ impl Planner {
         self.start = state;
         // A call that stopped after a chunk goes on at the next call, whatever came since.
         self.planned_len = if bounded { 0 } else { self.nodes.len() };
-        if complete && self.nodes.len() == 1 {
-            let end = &self.nodes[0];
-            if end.dwell_s > 0.0 {
-                self.out.push(Segment {
-                    s0_mm: end.s_mm,
-                    t0_s: self.t_now_s,
-                    dt_s: end.dwell_s,
-                    line: end.line,
-                    ..Segment::default()
-                });
-                self.t_now_s += end.dwell_s;
-                self.nodes[0].dwell_s = 0.0;
-            }
+        if complete {
+            self.emit_final_dwell();
         }
         Ok(())
+    }
+
+    /// Once the motion has reached the path's end (its last node, alone): the dwell there.
+    fn emit_final_dwell(&mut self) {
+        let [end] = self.nodes.as_mut_slice() else { return };
+        if end.dwell_s > 0.0 {
+            self.out.push(Segment {
+                s0_mm: end.s_mm,
+                t0_s: self.t_now_s,
+                dt_s: end.dwell_s,
+                line: end.line,
+                ..Segment::default()
+            });
+            self.t_now_s += end.dwell_s;
+            end.dwell_s = 0.0;
+        }
     }
 
     /// Appends the segments of `intervals`, which start at node `first`.

@@ -767,3 +767,45 @@ fn family_snippet(text: &str) -> (Settings, Path) {
     let path = crate::prep::prepare_path(&cfg, &prog.path).unwrap().path;
     (cfg, path)
 }
+
+/// `rest_follows` after every element whose successor starts at rest (and after the last one,
+/// before `finish`): each plan hands on everything up to that stop before the successor is
+/// pushed, and the motion, dwells included, is the one planned without the notice.
+#[test]
+fn rest_follows_plans_to_the_stop_before_the_next_element_and_changes_nothing() {
+    let cfg = Settings::default_machine();
+    let text = "G21 G90 G17 G64 P0.01\nG0 X40\nG1 X50 Y5 F3000\nG4 P0.25\nG1 X60 Y0\nG1 X60 Y10 Z2\nG2 X70 Y20 I10\nG4 P0.5\nM2\n";
+    let prog = program::parse(text, "t.ngc", &cfg).expect("program parses");
+    let elements = &prog.path.elements;
+    assert!(elements.iter().filter(|e| e.stops_before()).count() >= 3, "the program has too few stops");
+    let (reference, _) = plan_online(&cfg, &prog.path, 500.0);
+    let mut planner = Planner::new(&cfg);
+    let mut segs = Vec::new();
+    for (k, e) in elements.iter().enumerate() {
+        planner.push(e.clone());
+        let last = k + 1 == elements.len();
+        if last || elements[k + 1].stops_before() {
+            planner.rest_follows();
+            segs.extend(planner.plan().expect("plans"));
+            let to_mm = segs.last().map_or(0.0, |s| s.s1_mm());
+            assert!((to_mm - e.s_end_mm()).abs() < 1e-9, "element {k}: handed on to {to_mm} mm, not its end");
+            assert!(planner.can_stop_within_horizon());
+        } else {
+            segs.extend(planner.plan().expect("plans"));
+        }
+    }
+    planner.finish(prog.path.final_dwell_s);
+    segs.extend(planner.plan_to_end().expect("plans"));
+    assert!(planner.done());
+    check_covers(&segs, prog.path.length_mm());
+    let dwell = |s: &[Segment]| s.iter().filter(|g| g.ds_mm == 0.0).map(|g| g.dt_s).sum::<f64>();
+    assert!(
+        (dwell(&segs) - dwell(&reference)).abs() < 1e-12 && dwell(&segs) >= 0.75,
+        "dwells {} s against {} s (final {} s)",
+        dwell(&segs),
+        dwell(&reference),
+        prog.path.final_dwell_s
+    );
+    let (t, t_ref) = (profile::duration_s(&segs), profile::duration_s(&reference));
+    assert!((t - t_ref).abs() <= 1e-9 * t_ref, "motion {t} s against {t_ref} s");
+}

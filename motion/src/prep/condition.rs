@@ -101,6 +101,11 @@ impl Conditioner {
         out
     }
 
+    /// The first move of the open chord.
+    pub(super) fn first(&self) -> Option<&Element> {
+        self.moves.first()
+    }
+
     /// Closes the open chord (the run ends or a move that cannot join follows).
     pub(super) fn flush(&mut self) -> Option<Conditioned> {
         self.close()

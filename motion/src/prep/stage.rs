@@ -175,6 +175,23 @@ impl Prep {
         Ok(())
     }
 
+    /// Whether every element before the next stop has been given out and the next element
+    /// given out starts with that stop: a run that has given out nothing since it started at
+    /// rest (or since an exact stop inside it), or a chord held for a run that will start at
+    /// rest. The planner can then plan to the stop before the element is there.
+    pub(crate) fn rests_before_next(&self) -> bool {
+        if self.last_out.is_none() {
+            return false;
+        }
+        match (&self.run, self.cond.first()) {
+            (Some(run), _) => matches!(run.next_joint, JointKind::Start | JointKind::Corner),
+            (None, Some(first)) => {
+                !matches!(first.joint, JointKind::Smooth | JointKind::CurvatureJump) || first.holds()
+            }
+            (None, None) => false,
+        }
+    }
+
     /// The next smoothed (or passed-through) element, when one is ready.
     pub(crate) fn pop(&mut self) -> Option<Element> {
         self.out.pop_front()

@@ -21,6 +21,7 @@
 //! the last bit in the daemon and in `interpd plan`.
 
 mod approach;
+mod reader;
 mod window;
 
 pub use approach::AT_POSITION_TOL;
@@ -49,6 +50,12 @@ pub enum FeedError {
     Prep(#[from] PrepError),
     #[error("{0}")]
     Plan(#[from] PlanError),
+    /// The thread that reads the program ahead could not be started (the system's message).
+    #[error("cannot start the thread that reads the program: {0}")]
+    ReaderThread(String),
+    /// The thread that reads the program ahead ended without its read: a bug in it.
+    #[error("the thread that reads the program ended unexpectedly")]
+    ReaderThreadEnded,
 }
 
 /// Where a feed's motion stands: what it has read, planned and handed out.
@@ -77,6 +84,8 @@ pub struct FeedStats {
     pub read_s: f64,
     /// The smoothing stage, s.
     pub prep_s: f64,
+    /// Waiting for the thread that reads the program ([`FeedBuilder::read_in_thread`]), s.
+    pub read_wait_s: f64,
     /// The planner, s.
     pub plan_s: f64,
     /// The longest single planner call, s.
@@ -102,9 +111,20 @@ pub struct FeedBuilder<'a> {
     appends: Option<Appends>,
     track_modal: bool,
     feed_override: f64,
+    read_thread: Option<fn()>,
 }
 
 impl FeedBuilder<'_> {
+    /// Reads and smooths the program in a thread of its own, up to a look-ahead length ahead of
+    /// the planner ([`Feed::read_ahead`] then takes what it has read and never waits), so that
+    /// a planning step never waits for the smoothing stage's window solves. `on_start` runs first
+    /// in the thread (to set its scheduling). The motion is the same to the last bit. Not for a
+    /// program continued by appended text, nor a path held whole.
+    pub fn read_in_thread(mut self, on_start: fn()) -> Self {
+        self.read_thread = Some(on_start);
+        self
+    }
+
     /// The machine stands at `here`: a straight rapid move (G0) to the program's start runs
     /// first when that lies elsewhere. Without it the motion starts at the program's start.
     pub fn start_from(mut self, here: AxisVec) -> Self {
@@ -136,11 +156,12 @@ impl FeedBuilder<'_> {
     /// Opens the program file at `path` (named as given in messages).
     pub fn open_file(self, path: &std::path::Path) -> Result<Feed, FeedError> {
         let stream = ProgramStream::open(path, self.settings)?;
-        Ok(self.open_stream(stream))
+        self.open_stream(stream)
     }
 
-    /// Opens program text held in memory (`name` names it in messages).
-    pub fn open_text(self, name: &str, text: impl Into<String>) -> Feed {
+    /// Opens program text held in memory (`name` names it in messages). Fails only where the
+    /// reading thread asked for cannot start.
+    pub fn open_text(self, name: &str, text: impl Into<String>) -> Result<Feed, FeedError> {
         let stream = ProgramStream::from_text(text.into(), name, self.settings);
         self.open_stream(stream)
     }
@@ -155,15 +176,15 @@ impl FeedBuilder<'_> {
         self.build(Window::whole(path))
     }
 
-    fn open_stream(self, stream: ProgramStream) -> Feed {
+    fn open_stream(self, mut stream: ProgramStream) -> Result<Feed, FeedError> {
         let start = stream.start();
         let before = approach::approach(self.settings, &self.here.unwrap_or(start), &start);
         let buffer = self.appends.as_ref().map(Appends::buffer);
-        let mut window = Window::stream(stream, before, self.settings, buffer);
         if self.track_modal {
-            window.track_modal();
+            stream.track_modal();
         }
-        self.build(window)
+        let window = Window::stream(stream, before, self.settings, buffer, self.read_thread)?;
+        Ok(self.build(window))
     }
 
     fn build(self, window: Window) -> Feed {
@@ -254,7 +275,7 @@ impl Feed {
     /// smoothing stage's settings, the tool table and work offsets the program is read with):
     /// `Feed::builder(&settings).start_from(here).open_file(path)`.
     pub fn builder(settings: &Settings) -> FeedBuilder<'_> {
-        FeedBuilder { settings, here: None, appends: None, track_modal: false, feed_override: 1.0 }
+        FeedBuilder { settings, here: None, appends: None, track_modal: false, feed_override: 1.0, read_thread: None }
     }
 
     /// The elements held: from a little behind the machine (what [`Feed::trim_before`] left) to
@@ -325,6 +346,9 @@ impl Feed {
     /// Gives the planner the elements of the next read of the program (or tells it that none
     /// follows); `false` when planning stops here for now (the program waits for text).
     fn take_read(&mut self, rest_at_text_end: bool) -> Result<bool, FeedError> {
+        // A reading thread reads on a look-ahead ahead of the planner while the planner takes
+        // its reads, rather than one read per request.
+        self.window.read_to(self.read_ahead_to_mm());
         loop {
             let index = match self.cursor.next_element {
                 Some(i) => i,
@@ -591,6 +615,7 @@ impl Feed {
         FeedStats {
             read_s: self.window.read_time.as_secs_f64(),
             prep_s: self.window.prep_time.as_secs_f64(),
+            read_wait_s: self.window.read_wait.as_secs_f64(),
             plan_s: self.timing.plan.as_secs_f64(),
             plan_call_max_s: self.timing.plan_call_max.as_secs_f64(),
             step_max_s: self.timing.step_max.as_secs_f64(),

@@ -22,7 +22,7 @@
 //!
 //! let settings = Settings::default_machine();
 //! let square = "G21 G90 G64 P0.01\nG1 X20 F3000\nY20\nX0\nY0\nM30\n";
-//! let mut feed = Feed::builder(&settings).open_text("square.ngc", square);
+//! let mut feed = Feed::builder(&settings).open_text("square.ngc", square)?;
 //! let mut motion_s = 0.0;
 //! while !feed.finished() {
 //!     feed.plan(0.5)?; // at least 0.5 s of motion planned ahead

@@ -204,7 +204,7 @@ fn dense_cam_slice_stays_in_the_band_and_runs_ahead_online() {
     let programmed = parse(&text, &config);
     // Online: the program is read line by line as far as the path is asked for, and smoothed
     // pieces come out long before its end.
-    let mut feed = Feed::builder(&config).open_text("dense.ngc", text.clone());
+    let mut feed = Feed::builder(&config).open_text("dense.ngc", text.clone()).expect("opens");
     let quintic = |p: &Path| p.elements.iter().any(|e| matches!(e.geometry, Geometry::Quintic(_)));
     let mut first_piece_at = None;
     let mut s_mm = 0.0;

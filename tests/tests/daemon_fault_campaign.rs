@@ -479,6 +479,21 @@ fn misbehave(socket: &Path, pid: u32, base: Resources) -> Vec<UnixStream> {
 /// Polls until the daemon's threads and sockets have been back to `base` for half a second
 /// (closed clients may still wait in the listen backlog, to be accepted and ended in a burst);
 /// returns what they are.
+/// Waits until process `pid` has a thread named `name`.
+fn wait_for_thread(pid: u32, name: &str) {
+    let until = Instant::now() + TIMEOUT;
+    loop {
+        let names: Vec<String> = std::fs::read_dir(format!("/proc/{pid}/task"))
+            .map(|d| d.flatten().filter_map(|t| std::fs::read_to_string(t.path().join("comm")).ok()).collect())
+            .unwrap_or_default();
+        if names.iter().any(|n| n.trim() == name) {
+            return;
+        }
+        assert!(Instant::now() < until, "no thread {name} in {names:?}");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
 fn settle(pid: u32, base: Resources) -> Resources {
     let until = Instant::now() + TIMEOUT;
     let mut steady = 0;
@@ -503,6 +518,9 @@ fn clients_that_disconnect_stall_or_flood_leave_the_motion_undisturbed() {
     c.ok("program.load", json!({ "text": zigzag(800, 6000), "name": "zigzag.ngc" }));
     c.ok("motion.start", Value::Null);
     c.wait_state(&["running"], TIMEOUT);
+    // The run's program reading thread is part of the base (it starts as the look-ahead thread
+    // takes the start, which may come after the state turns to running).
+    wait_for_thread(pid, "interpd-read");
     let base = Resources::of(pid);
     eprintln!("base descriptors: {:?}", fd_targets(pid));
     let mut rounds = Vec::new();

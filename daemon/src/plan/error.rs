@@ -35,6 +35,9 @@ pub enum PlanError {
     /// The planner found no motion along the path within the limits.
     #[error(transparent)]
     Planner(interpd_motion::planner::PlanError),
+    /// The thread that reads the program failed (a fault of the system's or of interpd's).
+    #[error(transparent)]
+    Reading(interpd_motion::FeedError),
     #[error("{}: cannot create: {source}", path.display())]
     Create { path: PathBuf, source: std::io::Error },
     /// Writing the CSV or the figures failed.
@@ -63,6 +66,7 @@ impl PlanError {
             PlanError::Smoothing(_)
             | PlanError::Create { .. }
             | PlanError::Write(_)
+            | PlanError::Reading(_)
             | PlanError::ExportNodes { .. }
             | PlanError::NotFinite
             | PlanError::Observer(_) => false,
@@ -76,6 +80,7 @@ impl From<FeedError> for PlanError {
             FeedError::Program(e) => PlanError::Program(e),
             FeedError::Prep(e) => PlanError::Smoothing(e),
             FeedError::Plan(e) => PlanError::Planner(e),
+            e @ (FeedError::ReaderThread(_) | FeedError::ReaderThreadEnded) => PlanError::Reading(e),
         }
     }
 }

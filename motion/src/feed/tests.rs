@@ -55,7 +55,7 @@ fn plan_all(feed: &mut Feed, need_s: f64, ahead: bool) -> Vec<Segment> {
 fn the_motion_does_not_depend_on_how_the_program_is_read_or_asked_for() {
     let text = cam_program(600);
     let settings = with_lookahead(20.0);
-    let open = || Feed::builder(&settings).open_text("cam.ngc", text.clone());
+    let open = || Feed::builder(&settings).open_text("cam.ngc", text.clone()).expect("opens");
     let reference = plan_all(&mut open(), 1e-9, false);
     assert!(reference.len() > 100 && open().summary().is_some());
     for (need_s, ahead) in [(1e-9, true), (0.05, false), (0.05, true), (10.0, true), (1e9, false)] {
@@ -73,7 +73,7 @@ fn reading_ahead_stops_at_its_bound_and_keeps_an_error_for_the_planner() {
         text.push_str(&format!("X{i}\n"));
     }
     text.push_str("G1 X30 Q5\n");
-    let mut feed = Feed::builder(&settings()).open_text("t.ngc", text.clone());
+    let mut feed = Feed::builder(&settings()).open_text("t.ngc", text.clone()).expect("opens");
     let (until, deadline) = (5.0, later());
     assert!(feed.window.can_read_ahead(until));
     assert!(feed.window.read_ahead(until, deadline));
@@ -87,7 +87,8 @@ fn reading_ahead_stops_at_its_bound_and_keeps_an_error_for_the_planner() {
     assert!(!feed.window.can_read_ahead(100.0));
     // The planner gets what it gets without reading ahead: the same elements, then the error.
     let (ahead, error) = elements_until_error(&mut feed);
-    let (plain, plain_error) = elements_until_error(&mut Feed::builder(&settings()).open_text("t.ngc", text));
+    let (plain, plain_error) =
+        elements_until_error(&mut Feed::builder(&settings()).open_text("t.ngc", text).expect("opens"));
     assert!(ahead.len() >= 19 && ahead == plain, "{} elements, without reading ahead {}", ahead.len(), plain.len());
     assert_eq!(error, plain_error);
     // The error keeps its place as data.
@@ -112,7 +113,7 @@ fn a_program_continued_by_appended_text_is_not_read_ahead_and_waits_for_it() {
     let text = "G21 G90 G61\nG1 F600 X1\nX2\n".to_string();
     let (_, appends) = check_open(path, Some(text.clone()), &settings(), 1 << 20).expect("checks");
     let appends = appends.expect("no end: open");
-    let mut feed = Feed::builder(&settings()).appends(&appends).open_text("open.ngc", text);
+    let mut feed = Feed::builder(&settings()).appends(&appends).open_text("open.ngc", text).expect("opens");
     assert!(!feed.wants_to_read_ahead() && !feed.read_ahead(later()));
     // What is there is planned to rest at its end while nothing more comes.
     let mut first = Vec::new();
@@ -135,7 +136,7 @@ fn a_program_continued_by_appended_text_is_not_read_ahead_and_waits_for_it() {
 #[test]
 fn trimming_behind_the_motion_bounds_the_window() {
     let settings = with_lookahead(20.0);
-    let mut feed = Feed::builder(&settings).open_text("cam.ngc", cam_program(20_000));
+    let mut feed = Feed::builder(&settings).open_text("cam.ngc", cam_program(20_000)).expect("opens");
     let (mut held_max, mut segments) = (0, 0);
     while !feed.finished() {
         feed.read_ahead(later());
@@ -160,10 +161,11 @@ fn trimming_behind_the_motion_bounds_the_window() {
 #[test]
 fn a_restart_from_rest_and_a_replan_continue_along_the_same_path() {
     let text = "G21 G90 G61\nG1 X50 F6000\nY50\nX0\nM30\n";
-    let whole: Vec<Segment> = plan_all(&mut Feed::builder(&settings()).open_text("sq.ngc", text), 1.0, false);
+    let whole: Vec<Segment> =
+        plan_all(&mut Feed::builder(&settings()).open_text("sq.ngc", text).expect("opens"), 1.0, false);
     let end_mm = whole.last().expect("moves").s1_mm();
     // Take the first quarter second, then stop along the path and restart from rest there.
-    let mut feed = Feed::builder(&settings()).open_text("sq.ngc", text);
+    let mut feed = Feed::builder(&settings()).open_text("sq.ngc", text).expect("opens");
     feed.plan(0.25).expect("plans");
     let mut first = Vec::new();
     feed.take(0.25, &mut first);
@@ -175,7 +177,7 @@ fn a_restart_from_rest_and_a_replan_continue_along_the_same_path() {
     let rest = plan_all(&mut feed, 1.0, false);
     assert!((rest.last().expect("moves").s1_mm() - end_mm).abs() < 1e-9);
     // A replan at a higher feed from a moving state gets to the same end sooner.
-    let mut feed = Feed::builder(&settings()).open_text("sq.ngc", text);
+    let mut feed = Feed::builder(&settings()).open_text("sq.ngc", text).expect("opens");
     feed.plan(0.25).expect("plans");
     let mut first = Vec::new();
     let t_first = feed.take(0.25, &mut first);
@@ -223,7 +225,7 @@ fn a_rapid_into_a_cut_is_planned_before_the_cut_is_smoothed() {
     }
     text.push_str("M30\n");
     let settings = with_lookahead(200.0);
-    let mut feed = Feed::builder(&settings).open_text("rapid.ngc", text.clone());
+    let mut feed = Feed::builder(&settings).open_text("rapid.ngc", text.clone()).expect("opens");
     feed.start().expect("starts");
     feed.plan(1e-9).expect("plans");
     let first = feed.progress();
@@ -240,7 +242,60 @@ fn a_rapid_into_a_cut_is_planned_before_the_cut_is_smoothed() {
     got.extend(plan_all(&mut feed, 1e-9, false));
     // The same motion as when the program is read a look-ahead ahead first, so the planner
     // takes the cut's first element before it plans the rapid.
-    let reference = plan_all(&mut Feed::builder(&settings).open_text("rapid.ngc", text), 1e-9, true);
+    let reference = plan_all(&mut Feed::builder(&settings).open_text("rapid.ngc", text).expect("opens"), 1e-9, true);
     let (t, t_ref) = (profile_duration(&got), profile_duration(&reference));
     assert!((t - t_ref).abs() <= 1e-9 * t_ref, "motion {t} s, planned whole {t_ref} s");
+}
+
+/// What the reading thread runs first in these tests.
+fn no_scheduling() {}
+
+/// Read by a thread of its own, a program gives the same motion to the last bit as read in the
+/// caller's thread, however it is asked for; modal changes and messages come through in order.
+#[test]
+fn a_program_read_in_a_thread_of_its_own_gives_the_same_motion() {
+    let mut text = cam_program(2_000).replace("M30\n", "");
+    text.push_str("(MSG, half way)\nG0 X0 Y0\nG1 X10 F3000\nM30\n");
+    let settings = with_lookahead(20.0);
+    let reference =
+        plan_all(&mut Feed::builder(&settings).open_text("cam.ngc", text.clone()).expect("opens"), 1e-9, false);
+    for (need_s, ahead) in [(1e-9, false), (1e-9, true), (0.05, true), (1e9, false)] {
+        let mut feed =
+            Feed::builder(&settings).read_in_thread(no_scheduling).open_text("cam.ngc", text.clone()).expect("opens");
+        let got = plan_all(&mut feed, need_s, ahead);
+        assert!(got == reference, "asking for {need_s} s, reading ahead {ahead}: the motion differs");
+        let message = feed.take_message().expect("the message comes through the thread");
+        assert!(message.text.contains("half way"), "{message:?}");
+        assert_eq!(feed.progress().lines_read, feed.summary().expect("summary").lines);
+        assert!(feed.summary().is_some_and(|s| s.program_end && s.messages == 1));
+    }
+}
+
+/// A read error found by the reading thread is returned where the planner reaches it, after
+/// the same elements as read in the caller's thread; dropping a feed whose thread is still
+/// reading does not wait for it.
+#[test]
+fn the_reading_thread_keeps_an_error_for_the_planner_and_is_not_waited_for() {
+    let mut text = String::from("G21 G90 G61\n");
+    for i in 1..=20 {
+        text.push_str(&format!("G1 X{i} F3000\n"));
+    }
+    text.push_str("G1 X30 Q5\n");
+    let (plain, plain_error) =
+        elements_until_error(&mut Feed::builder(&settings()).open_text("t.ngc", text.clone()).expect("opens"));
+    let mut feed = Feed::builder(&settings()).read_in_thread(no_scheduling).open_text("t.ngc", text).expect("opens");
+    feed.read_ahead(later());
+    let (got, error) = elements_until_error(&mut feed);
+    assert_eq!(got.len(), plain.len());
+    assert_eq!(error, plain_error);
+
+    let big = cam_program(19_000);
+    let mut feed =
+        Feed::builder(&with_lookahead(1e6)).read_in_thread(no_scheduling).open_text("big.ngc", big).expect("opens");
+    // Sets the thread's target (the whole program) and takes nothing.
+    feed.read_ahead(Instant::now());
+    std::thread::sleep(Duration::from_millis(20));
+    let dropped = Instant::now();
+    drop(feed);
+    assert!(dropped.elapsed() < Duration::from_millis(50), "the drop waited {:?}", dropped.elapsed());
 }

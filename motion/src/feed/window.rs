@@ -7,15 +7,16 @@
 //! (MDI blocks, motion-law lines) is held in the same window.
 //!
 //! Each read of the program hands the smoothing stage one programmed element and takes what the
-//! stage gives back; the window marks where each read's elements end, so the planner plans after
-//! the same elements whether the program was read just in time or ahead
-//! ([`After`]).
+//! stage gives back ([`Reader`]); the window marks where each read's elements end, so the
+//! planner plans after the same elements whether the program was read just in time, ahead, or
+//! by a thread of its own ([`After`]).
 
 use super::FeedError;
+use super::reader::{Read, Reader, ReaderThread, ThreadRead};
 use crate::Settings;
 use crate::path::{AxisDerivs, Element, Path};
-use crate::prep::{Prep, PrepStats};
-use crate::program::{AppendBuffer, ProgramStream, Summary};
+use crate::prep::PrepStats;
+use crate::program::{ActiveModal, AppendBuffer, Message, ProgramStream, Summary};
 use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -46,25 +47,34 @@ pub(super) struct Window {
     waiting: bool,
     /// A read ahead of the planner failed: returned where the planner reaches it.
     deferred: Option<FeedError>,
-    /// Index (in the whole path) of the next element to come when the smoothing stage has
-    /// given out everything before it and knows that it starts at rest
-    /// ([`Window::rest_before`]).
-    rest_before: Option<usize>,
+    /// Indices (in the whole path, ascending) of elements that a read learned start at rest
+    /// before they were given out ([`Window::rest_before`]), from the planner's on.
+    rests: VecDeque<usize>,
     /// Time spent reading the program and in the smoothing stage.
     pub(super) read_time: Duration,
     pub(super) prep_time: Duration,
+    /// Time spent waiting for the reading thread's next read.
+    pub(super) read_wait: Duration,
 }
 
 enum Input {
-    Stream {
-        stream: Box<ProgramStream>,
-        prep: Box<Prep>,
-        /// Length of the approach move before the program, mm: the program's path positions
-        /// are shifted by it.
-        s_offset_mm: f64,
+    /// Read in the caller's thread.
+    Here {
+        reader: Box<Reader>,
         appends: Option<Arc<AppendBuffer>>,
     },
+    /// Read by a thread of its own ([`ReaderThread`]).
+    Thread(Box<Threaded>),
     Whole,
+}
+
+/// A reading thread and what its reads brought beside the elements.
+struct Threaded {
+    thread: ReaderThread,
+    modal: VecDeque<(u32, ActiveModal)>,
+    messages: VecDeque<Message>,
+    prep_stats: PrepStats,
+    summary: Summary,
 }
 
 impl Window {
@@ -79,30 +89,47 @@ impl Window {
             done: true,
             waiting: false,
             deferred: None,
-            rest_before: None,
+            rests: VecDeque::new(),
             read_time: Duration::ZERO,
             prep_time: Duration::ZERO,
+            read_wait: Duration::ZERO,
         }
     }
 
     /// A window over a program read from `stream`, behind the elements of `before` (the
-    /// approach move, or nothing).
+    /// approach move, or nothing). With `thread`, a thread of its own reads the program ahead
+    /// (not for a program continued by `program.append`, whose reads only the planner's need
+    /// may decide), starting with `thread`'s function (to set its scheduling).
     pub(super) fn stream(
         stream: ProgramStream,
         before: Path,
         settings: &Settings,
         appends: Option<Arc<AppendBuffer>>,
-    ) -> Window {
+        thread: Option<fn()>,
+    ) -> Result<Window, FeedError> {
         let s_offset_mm = before.length_mm();
         let mut window = Window::whole(before);
         window.done = false;
-        let stream = match &appends {
-            Some(buffer) => stream.with_appends(buffer.clone()),
-            None => stream,
+        let reader = Reader::new(stream, settings, s_offset_mm);
+        window.input = match (appends, thread) {
+            (Some(buffer), _) => {
+                Input::Here { reader: Box::new(reader.with_appends(buffer.clone())), appends: Some(buffer) }
+            }
+            (None, None) => Input::Here { reader: Box::new(reader), appends: None },
+            (None, Some(on_start)) => {
+                let summary = reader.summary().clone();
+                let thread =
+                    ReaderThread::spawn(reader, on_start).map_err(|e| FeedError::ReaderThread(e.to_string()))?;
+                Input::Thread(Box::new(Threaded {
+                    thread,
+                    modal: VecDeque::new(),
+                    messages: VecDeque::new(),
+                    prep_stats: PrepStats::default(),
+                    summary,
+                }))
+            }
         };
-        window.input =
-            Input::Stream { stream: Box::new(stream), prep: Box::new(Prep::new(settings)), s_offset_mm, appends };
-        window
+        Ok(window)
     }
 
     /// The elements held (absolute path positions; the first ones may have been dropped).
@@ -123,7 +150,7 @@ impl Window {
     /// More of a waiting program has arrived (a whole line, or its end).
     pub(super) fn has_input(&self) -> bool {
         match &self.input {
-            Input::Stream { appends: Some(b), .. } => b.has_input(),
+            Input::Here { appends: Some(b), .. } => b.has_input(),
             _ => false,
         }
     }
@@ -136,7 +163,8 @@ impl Window {
     /// What the program's lines held so far; `None` for a path held whole.
     pub(super) fn summary(&self) -> Option<&Summary> {
         match &self.input {
-            Input::Stream { stream, .. } => Some(stream.summary()),
+            Input::Here { reader, .. } => Some(reader.summary()),
+            Input::Thread(t) => Some(&t.summary),
             Input::Whole => None,
         }
     }
@@ -144,16 +172,9 @@ impl Window {
     /// The smoothing stage's counters; `None` for a path held whole.
     pub(super) fn prep_stats(&self) -> Option<PrepStats> {
         match &self.input {
-            Input::Stream { prep, .. } => Some(prep.stats),
+            Input::Here { reader, .. } => Some(reader.prep_stats()),
+            Input::Thread(t) => Some(t.prep_stats),
             Input::Whole => None,
-        }
-    }
-
-    /// Records where the program's tool and offset state changes, to be taken with
-    /// [`Window::take_modal_change`].
-    pub(super) fn track_modal(&mut self) {
-        if let Input::Stream { stream, .. } = &mut self.input {
-            stream.track_modal();
         }
     }
 
@@ -161,7 +182,8 @@ impl Window {
     /// [`crate::program::ActiveModal`]).
     pub(super) fn take_modal_change(&mut self) -> Option<(u32, crate::program::ActiveModal)> {
         match &mut self.input {
-            Input::Stream { stream, .. } => stream.take_modal_change(),
+            Input::Here { reader, .. } => reader.take_modal_change(),
+            Input::Thread(t) => t.modal.pop_front(),
             Input::Whole => None,
         }
     }
@@ -169,7 +191,8 @@ impl Window {
     /// The oldest operator message read and not yet taken.
     pub(super) fn take_message(&mut self) -> Option<crate::program::Message> {
         match &mut self.input {
-            Input::Stream { stream, .. } => stream.take_message(),
+            Input::Here { reader, .. } => reader.take_message(),
+            Input::Thread(t) => t.messages.pop_front(),
             Input::Whole => None,
         }
     }
@@ -204,7 +227,7 @@ impl Window {
     /// stop before the element is read (the first smoothing window of a cut after a rapid reads
     /// its whole reach ahead first).
     pub(super) fn rest_before(&self, index: usize) -> bool {
-        index == self.end_index() && self.rest_before == Some(index)
+        self.rests.binary_search(&index).is_ok()
     }
 
     /// Position and derivatives at `s_mm` and the program line there (reading on until the
@@ -230,14 +253,9 @@ impl Window {
     /// run there (ending at rest), so every element read is in the window. Text appended later
     /// continues from rest at that end.
     pub(super) fn flush(&mut self) -> Result<(), FeedError> {
-        let Input::Stream { stream, prep, s_offset_mm, .. } = &mut self.input else { return Ok(()) };
-        stream.flush_waiting();
-        while let Some(e) = stream.next_element()? {
-            prep.push(e)?;
-        }
-        prep.finish()?;
-        let offset = *s_offset_mm;
-        self.take_smoothed(offset, After::Plan);
+        let Input::Here { reader, .. } = &mut self.input else { return Ok(()) };
+        let elements = reader.flush()?;
+        self.append(elements, After::Plan);
         Ok(())
     }
 
@@ -248,14 +266,26 @@ impl Window {
         let dropped = before - self.path.elements.len();
         self.after.drain(..dropped);
         self.first_index += dropped;
+        while self.rests.front().is_some_and(|&i| i < self.first_index) {
+            self.rests.pop_front();
+        }
     }
 
     /// Reads on while the window ends before `until_mm` and `deadline` has not passed; `true`
     /// if it read. A read error is kept and returned where the planner reaches that element.
+    /// With a reading thread: sets its target and takes the reads it has done, waiting for none.
     pub(super) fn read_ahead(&mut self, until_mm: f64, deadline: Instant) -> bool {
         let mut read = false;
+        self.read_to(until_mm);
         while self.can_read_ahead(until_mm) && Instant::now() < deadline {
-            if let Err(e) = self.read() {
+            let got = match &mut self.input {
+                Input::Thread(t) => match t.thread.try_next() {
+                    Some(r) => self.take_thread_read(r),
+                    None => break,
+                },
+                _ => self.read(),
+            };
+            if let Err(e) = got {
                 self.deferred = Some(e);
             }
             read = true;
@@ -263,65 +293,102 @@ impl Window {
         read
     }
 
-    /// [`Window::read_ahead`] has something to do.
+    /// A reading thread reads on to `until_mm` (at least); nothing without one.
+    pub(super) fn read_to(&self, until_mm: f64) {
+        if let Input::Thread(t) = &self.input {
+            t.thread.read_to(until_mm);
+        }
+    }
+
+    /// [`Window::read_ahead`] has something to do: reading, or taking what the reading thread
+    /// has read.
     pub(super) fn can_read_ahead(&self, until_mm: f64) -> bool {
-        self.reads_ahead() && !self.done && self.deferred.is_none() && self.path.length_mm() < until_mm
+        let reading = match &self.input {
+            Input::Thread(t) => t.thread.has_read() || !t.thread.reads_to(until_mm),
+            _ => self.reads_ahead(),
+        };
+        reading && !self.done && self.deferred.is_none() && self.path.length_mm() < until_mm
     }
 
     /// The window may reach beyond what the planner asked for: a program read from its file or
     /// its text. Not one continued by `program.append`: there the reads decide whether the
     /// program waits for text, which only the planner's need may decide. Nor a path held whole.
     pub(super) fn reads_ahead(&self) -> bool {
-        matches!(self.input, Input::Stream { appends: None, .. })
+        matches!(self.input, Input::Here { appends: None, .. } | Input::Thread(_))
     }
 
-    /// One read: the next programmed element through the smoothing stage into the window.
+    /// One read: the next programmed element through the smoothing stage into the window (or
+    /// the reading thread's next read).
     fn read(&mut self) -> Result<(), FeedError> {
         if let Some(e) = self.deferred.take() {
             return Err(e);
         }
-        let Input::Stream { stream, prep, s_offset_mm, .. } = &mut self.input else {
-            self.done = true;
-            return Ok(());
-        };
-        let started = Instant::now();
-        let got = stream.next_element();
-        let read = Instant::now();
-        self.read_time += read - started;
-        let got = got?;
-        if got.is_none() && stream.waiting() {
-            // Nothing more yet; the smoothing stage keeps its open run for what comes.
+        match &mut self.input {
+            Input::Here { reader, .. } => {
+                let read = reader.read();
+                self.take_read(read)
+            }
+            Input::Thread(t) => {
+                let waited = Instant::now();
+                let got = t.thread.next();
+                self.read_wait += waited.elapsed();
+                let Some(r) = got else { return Err(FeedError::ReaderThreadEnded) };
+                self.take_thread_read(r)
+            }
+            Input::Whole => {
+                self.done = true;
+                Ok(())
+            }
+        }
+    }
+
+    /// Takes a read of the reading thread, with its modal changes and messages.
+    fn take_thread_read(&mut self, r: ThreadRead) -> Result<(), FeedError> {
+        let ThreadRead { read, modal, messages, prep_stats, summary } = r;
+        if let Input::Thread(t) = &mut self.input {
+            t.modal.extend(modal);
+            t.messages.extend(messages);
+            t.prep_stats = prep_stats;
+            t.summary.lines = read.lines;
+            if let Some(s) = summary {
+                t.summary = s;
+            }
+        }
+        self.take_read(read)
+    }
+
+    /// Takes one read into the window.
+    fn take_read(&mut self, read: Read) -> Result<(), FeedError> {
+        self.read_time += read.read_time;
+        self.prep_time += read.prep_time;
+        if let Some(e) = read.error {
+            return Err(e);
+        }
+        if read.waiting {
             self.waiting = true;
             return Ok(());
         }
-        let ended = got.is_none();
-        let smoothed = match got {
-            Some(e) => prep.push(e),
-            None => prep.finish(),
-        };
-        self.prep_time += read.elapsed();
-        smoothed?;
-        if ended {
+        if read.ended {
             self.done = true;
-            self.path.final_dwell_s = stream.final_dwell_s().unwrap_or(0.0);
+            self.path.final_dwell_s = read.final_dwell_s;
         }
-        let offset = *s_offset_mm;
-        let rests = !ended && prep.rests_before_next();
-        self.take_smoothed(offset, if ended { After::Finish } else { After::Plan });
-        self.rest_before = rests.then(|| self.end_index());
+        self.append(read.elements, if read.ended { After::Finish } else { After::Plan });
+        let next = self.end_index();
+        if read.rests && self.rests.back() != Some(&next) {
+            self.rests.push_back(next);
+        }
         Ok(())
     }
 
-    /// Moves what the smoothing stage has ready into the window; the last element of them
-    /// gets `last`.
-    fn take_smoothed(&mut self, s_offset_mm: f64, last: After) {
-        let Input::Stream { prep, .. } = &mut self.input else { return };
-        let before = self.path.elements.len();
-        while let Some(e) = prep.pop() {
-            self.path.append_shifted(e, s_offset_mm);
+    /// Appends elements the smoothing stage gave out (on the window's path positions); the
+    /// last of them gets `last`.
+    fn append(&mut self, elements: Vec<Element>, last: After) {
+        let any = !elements.is_empty();
+        for e in elements {
+            self.path.append_shifted(e, 0.0);
             self.after.push_back(After::Take);
         }
-        if self.path.elements.len() > before {
+        if any {
             if let Some(a) = self.after.back_mut() {
                 *a = last;
             }

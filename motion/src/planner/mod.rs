@@ -733,16 +733,15 @@ impl Planner {
     /// Once the motion has reached the path's end (its last node, alone): the dwell there.
     fn emit_final_dwell(&mut self) {
         let [end] = self.nodes.as_mut_slice() else { return };
-        if end.dwell_s > 0.0 {
-            self.out.push(Segment {
-                s0_mm: end.s_mm,
-                t0_s: self.t_now_s,
-                dt_s: end.dwell_s,
-                line: end.line,
-                ..Segment::default()
-            });
-            self.t_now_s += end.dwell_s;
-            end.dwell_s = 0.0;
+        let dwell = (end.s_mm, std::mem::take(&mut end.dwell_s), end.line);
+        self.push_dwell(dwell);
+    }
+
+    /// Appends a dwell `(s_mm, dt_s, line)` (none where `dt_s` is 0).
+    fn push_dwell(&mut self, (s0_mm, dt_s, line): (f64, f64, u32)) {
+        if dt_s > 0.0 {
+            self.out.push(Segment { s0_mm, t0_s: self.t_now_s, dt_s, line, ..Segment::default() });
+            self.t_now_s += dt_s;
         }
     }
 
@@ -750,16 +749,10 @@ impl Planner {
     fn emit(&mut self, first: usize, intervals: &[interval::Interval]) {
         for (k, iv) in intervals.iter().enumerate() {
             let node = &self.nodes[first + k];
-            if node.dwell_s > 0.0 && node.stop {
-                self.out.push(Segment {
-                    s0_mm: node.s_mm,
-                    t0_s: self.t_now_s,
-                    dt_s: node.dwell_s,
-                    line: node.line,
-                    ..Segment::default()
-                });
-                self.t_now_s += node.dwell_s;
+            if node.stop {
+                self.push_dwell((node.s_mm, node.dwell_s, node.line));
             }
+            let node = &self.nodes[first + k];
             self.out.push(Segment {
                 s0_mm: node.s_mm,
                 t0_s: self.t_now_s,
@@ -781,17 +774,10 @@ impl Planner {
     /// Appends a time-domain profile from node `first` to node `last` (not node-aligned).
     fn emit_block(&mut self, first: usize, last: usize, intervals: &[interval::Interval]) {
         let start = &self.nodes[first];
-        if start.dwell_s > 0.0 && start.stop {
-            self.out.push(Segment {
-                s0_mm: start.s_mm,
-                t0_s: self.t_now_s,
-                dt_s: start.dwell_s,
-                line: start.line,
-                ..Segment::default()
-            });
-            self.t_now_s += start.dwell_s;
+        if start.stop {
+            self.push_dwell((start.s_mm, start.dwell_s, start.line));
         }
-        let mut s = start.s_mm;
+        let mut s = self.nodes[first].s_mm;
         let end_s = self.nodes[last].s_mm;
         for (i, iv) in intervals.iter().enumerate() {
             // The last piece ends exactly at the block end, whatever the rounding of the sum.

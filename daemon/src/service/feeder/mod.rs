@@ -58,6 +58,8 @@ pub const QUEUE_CAPACITY: usize = 16;
 const READ_AHEAD_SLICE: Duration = Duration::from_millis(2);
 /// How long the thread waits for a command when it has nothing to do.
 const IDLE_WAIT: Duration = Duration::from_millis(2);
+/// A look-ahead step longer than this is logged (debug) with what it spent its time on.
+const SLOW_STEP: Duration = Duration::from_millis(40);
 /// A program waiting for appended text stops at the end of what is there once no more than
 /// this many chunks are queued (until then, text that arrives continues it without a stop).
 const STARVED_STOP_CHUNKS: usize = 2;
@@ -482,6 +484,9 @@ impl Feeder {
         self.stats.plan_time_s += took.as_secs_f64();
         if steady {
             self.health.step(took);
+            if took > SLOW_STEP {
+                self.log_slow_step(took);
+            }
         }
         let Some(run) = self.run.as_mut() else { return };
         match result {
@@ -526,6 +531,19 @@ impl Feeder {
                 self.failed(&e);
             }
         }
+    }
+
+    /// Logs (debug) what a step longer than `SLOW_STEP` spent its time on.
+    fn log_slow_step(&self, took: Duration) {
+        let Some(Motion::Path(path)) = self.run.as_ref().map(|r| &r.motion) else { return };
+        let st = path.feed.stats();
+        tracing::debug!(
+            took_ms = took.as_secs_f64() * 1e3,
+            s_mm = path.feed.progress().planned_to_mm,
+            plan_call_max_ms = st.plan_call_max_s * 1e3,
+            read_wait_s = st.read_wait_s,
+            "slow look-ahead step"
+        );
     }
 
     /// Fills `chunk` with the next stretch of the run's motion; `Ok(false)` when nothing is

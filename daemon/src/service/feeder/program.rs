@@ -66,6 +66,15 @@ pub(super) enum OpenError {
     Feed(#[from] FeedError),
 }
 
+/// Runs first in the thread that reads a program ahead ([`interpd_motion::FeedBuilder::read_in_thread`]).
+/// It keeps the scheduling it inherits from the look-ahead thread that spawns it (nice
+/// `rt.planner_nice`, off the real-time CPU): reading is on the motion's critical path as much as
+/// planning, and at the default nice value it fell behind the plant and other processes of a
+/// loaded host (the million-line program underran 57 cycles at the end of its first rapid).
+fn reader_thread_start() {
+    tracing::debug!("program reading thread started");
+}
+
 impl Feeder {
     /// The path of `source`: a program's file is opened and checked to be the one loaded.
     pub(super) fn open_path(&self, source: PathSource, feed_override: f64) -> Result<PathRun, OpenError> {
@@ -78,8 +87,11 @@ impl Feeder {
         };
         let settings = tooling.apply(&self.settings);
         let mut builder = Feed::builder(&settings).start_from(here).feed_override(feed_override).track_modal();
-        if let Some(a) = &appends {
-            builder = builder.appends(a);
+        match &appends {
+            Some(a) => builder = builder.appends(a),
+            // The program is read and smoothed ahead in a thread of its own: a look-ahead step
+            // then plans and never waits for a window solve of the smoothing stage.
+            None => builder = builder.read_in_thread(reader_thread_start),
         }
         let feed = match &text {
             ProgramText::File { path, stamp } => {
@@ -91,7 +103,7 @@ impl Feeder {
                 }
                 builder.open_file(path)?
             }
-            ProgramText::Text { name, text } => builder.open_text(name, text.as_str()),
+            ProgramText::Text { name, text } => builder.open_text(name, text.as_str())?,
         };
         Ok(PathRun::new(feed, Some(self.modal.clone())).with_messages(self.messages.clone()))
     }

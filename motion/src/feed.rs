@@ -317,6 +317,13 @@ impl Feed {
     }
 
     fn plan_until(&mut self, need_s: f64, rest_at_text_end: bool) -> Result<(), FeedError> {
+        self.window.planning(true);
+        let planned = self.plan_while_short(need_s, rest_at_text_end);
+        self.window.planning(false);
+        planned
+    }
+
+    fn plan_while_short(&mut self, need_s: f64, rest_at_text_end: bool) -> Result<(), FeedError> {
         let mut have = self.buffered_s();
         while have < need_s && !self.planner.done() {
             let step = Instant::now();

@@ -157,6 +157,17 @@ pub fn set_thread_nice(nice: i32) -> Result<(), SchedError> {
     if rc == 0 { Ok(()) } else { Err(SchedError::Refused { call: Call::SetPriority { nice }, errno: errno() }) }
 }
 
+/// The calling thread's nice value.
+pub fn thread_nice() -> i32 {
+    // SAFETY: gettid has no arguments; getpriority reads this thread's nice value. errno is
+    // cleared first because -1 is a valid nice value.
+    unsafe {
+        *libc::__errno_location() = 0;
+        let tid = libc::syscall(libc::SYS_gettid) as libc::id_t;
+        libc::getpriority(libc::PRIO_PROCESS, tid)
+    }
+}
+
 fn pin(cpu: Option<usize>) -> Result<usize, SchedError> {
     let (cpu, _) = rt_cpu(cpu)?;
     // SAFETY: cpu_set_t is plain data; CPU_SET writes inside it; the call affects this thread.

@@ -163,6 +163,8 @@ struct Shared {
     /// Reads sent.
     sent: AtomicU64,
     stop: AtomicBool,
+    /// The owner plans on the one CPU it shares with the thread: read only what it waits for.
+    owner_planning: AtomicBool,
 }
 
 /// The reading thread checks its target this often while it has nothing to do (a raised target
@@ -170,12 +172,16 @@ struct Shared {
 const IDLE_PARK: Duration = Duration::from_millis(50);
 
 /// A thread that reads ahead of its owner, up to the path position the owner sets and at least
-/// as many reads as the owner waits for; the owner applies the reads in order.
+/// as many reads as the owner waits for; the owner applies the reads in order. Where the two
+/// may run on one CPU only, the thread reads ahead only while the owner does not plan
+/// ([`ReaderThread::owner_planning`]).
 pub(super) struct ReaderThread {
     rx: mpsc::Receiver<ThreadRead>,
     shared: Arc<Shared>,
     thread: std::thread::Thread,
     received: u64,
+    /// The owner and the thread may run on one CPU only.
+    share_cpu: bool,
 }
 
 impl ReaderThread {
@@ -186,7 +192,11 @@ impl ReaderThread {
             requested: AtomicU64::new(0),
             sent: AtomicU64::new(0),
             stop: AtomicBool::new(false),
+            owner_planning: AtomicBool::new(false),
         });
+        // Where the owner may run on one CPU only (the daemon keeps it off the real-time one),
+        // reading ahead while it plans would only slow its planning down.
+        let share_cpu = std::thread::available_parallelism().map_or(true, |n| n.get() <= 1);
         let (tx, rx) = mpsc::channel();
         let sh = shared.clone();
         let handle = std::thread::Builder::new().name("interpd-read".into()).spawn(move || {
@@ -226,7 +236,19 @@ impl ReaderThread {
                 }
             }
         })?;
-        Ok(ReaderThread { rx, shared, thread: handle.thread().clone(), received: 0 })
+        Ok(ReaderThread { rx, shared, thread: handle.thread().clone(), received: 0, share_cpu })
+    }
+
+    /// The owner plans (`true`) or has finished planning. Where the two share one CPU the
+    /// thread then reads only what the owner waits for, between its reads: planning is what the
+    /// motion waits for, reading works a look-ahead ahead.
+    pub(super) fn owner_planning(&self, planning: bool) {
+        if self.share_cpu {
+            self.shared.owner_planning.store(planning, Ordering::Release);
+            if !planning {
+                self.thread.unpark();
+            }
+        }
     }
 
     /// Reads on to `until_mm` (at least).

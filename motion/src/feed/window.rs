@@ -293,6 +293,13 @@ impl Window {
         read
     }
 
+    /// The planner plans (`true`) or has finished ([`ReaderThread::owner_planning`]).
+    pub(super) fn planning(&self, planning: bool) {
+        if let Input::Thread(t) = &self.input {
+            t.thread.owner_planning(planning);
+        }
+    }
+
     /// A reading thread reads on to `until_mm` (at least); nothing without one.
     pub(super) fn read_to(&self, until_mm: f64) {
         if let Input::Thread(t) = &self.input {

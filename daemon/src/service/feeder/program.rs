@@ -66,13 +66,22 @@ pub(super) enum OpenError {
     Feed(#[from] FeedError),
 }
 
+/// How much higher the nice value of the thread that reads a program ahead is than that of the
+/// look-ahead thread that spawns it (`rt.planner_nice`, -10 by default, so -5). Planning is what
+/// the queue waits for; reading works a look-ahead ahead, and where it falls behind the planner
+/// waits for it and leaves it the CPU. At the planner's own value the two shared the CPU evenly
+/// and plan calls on the cusp trochoid took up to 247 ms (4 underruns); at the default nice
+/// value 0 it fell behind the plant and the test harness of a loaded host (the million-line
+/// program underran 57 cycles at the end of its first rapid).
+const READER_NICE_ABOVE_PLANNER: i32 = 5;
+
 /// Runs first in the thread that reads a program ahead ([`interpd_motion::FeedBuilder::read_in_thread`]).
-/// It keeps the scheduling it inherits from the look-ahead thread that spawns it (nice
-/// `rt.planner_nice`, off the real-time CPU): reading is on the motion's critical path as much as
-/// planning, and at the default nice value it fell behind the plant and other processes of a
-/// loaded host (the million-line program underran 57 cycles at the end of its first rapid).
 fn reader_thread_start() {
-    tracing::debug!("program reading thread started");
+    let nice = (crate::rt::sched::thread_nice() + READER_NICE_ABOVE_PLANNER).min(19);
+    match crate::rt::sched::set_thread_nice(nice) {
+        Ok(()) => tracing::debug!(nice, "program reading thread scheduled"),
+        Err(why) => tracing::warn!("program reading thread keeps the planner's nice value: {why}"),
+    }
 }
 
 impl Feeder {

@@ -67,12 +67,7 @@ fn the_motion_does_not_depend_on_how_the_program_is_read_or_asked_for() {
 
 #[test]
 fn reading_ahead_stops_at_its_bound_and_keeps_an_error_for_the_planner() {
-    // 1 mm moves at an exact stop each, then a bad line (23).
-    let mut text = String::from("G21 G90 G61\nG1 F600\n");
-    for i in 1..=20 {
-        text.push_str(&format!("X{i}\n"));
-    }
-    text.push_str("G1 X30 Q5\n");
+    let text = stops_then_a_bad_line();
     let mut feed = Feed::builder(&settings()).open_text("t.ngc", text.clone()).expect("opens");
     let (until, deadline) = (5.0, later());
     assert!(feed.window.can_read_ahead(until));
@@ -94,6 +89,16 @@ fn reading_ahead_stops_at_its_bound_and_keeps_an_error_for_the_planner() {
     // The error keeps its place as data.
     let FeedError::Program(errors) = &error else { panic!("not a program error: {error:?}") };
     assert_eq!((errors.0[0].file.as_str(), errors.0[0].line), ("t.ngc", 23), "{error}");
+}
+
+/// 1 mm moves at an exact stop each, then a bad line (23).
+fn stops_then_a_bad_line() -> String {
+    let mut text = String::from("G21 G90 G61\nG1 F600\n");
+    for i in 1..=20 {
+        text.push_str(&format!("X{i}\n"));
+    }
+    text.push_str("G1 X30 Q5\n");
+    text
 }
 
 fn elements_until_error(feed: &mut Feed) -> (Vec<Element>, FeedError) {
@@ -276,11 +281,7 @@ fn a_program_read_in_a_thread_of_its_own_gives_the_same_motion() {
 /// reading does not wait for it.
 #[test]
 fn the_reading_thread_keeps_an_error_for_the_planner_and_is_not_waited_for() {
-    let mut text = String::from("G21 G90 G61\n");
-    for i in 1..=20 {
-        text.push_str(&format!("G1 X{i} F3000\n"));
-    }
-    text.push_str("G1 X30 Q5\n");
+    let text = stops_then_a_bad_line();
     let (plain, plain_error) =
         elements_until_error(&mut Feed::builder(&settings()).open_text("t.ngc", text.clone()).expect("opens"));
     let mut feed = Feed::builder(&settings()).read_in_thread(no_scheduling).open_text("t.ngc", text).expect("opens");

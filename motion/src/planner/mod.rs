@@ -443,25 +443,28 @@ impl Planner {
             self.prev = self.pending.pop_front().map(|e| (e, end));
         }
         if std::mem::take(&mut self.rest_follows) && !self.input_done {
-            if let Some((last, end)) = &self.prev {
-                self.nodes.push(sampling::end_node(last, end, 0.0, &self.params));
-                self.stats.nodes += 1;
-                self.refine_vbar(self.nodes.len().saturating_sub(2));
-                self.rest_node = true;
-            }
+            self.rest_node = self.push_end_node(0.0);
         }
         if self.input_done && self.pending.is_empty() && !self.end_sampled {
             if std::mem::take(&mut self.rest_node) {
                 // The stop `rest_follows` planned to is the path's end.
                 let end = self.nodes.last_mut().expect("the stop node of rest_follows");
                 end.dwell_s = self.final_dwell_s;
-            } else if let Some((last, end)) = &self.prev {
-                self.nodes.push(sampling::end_node(last, end, self.final_dwell_s, &self.params));
-                self.stats.nodes += 1;
-                self.refine_vbar(self.nodes.len().saturating_sub(2));
+            } else {
+                self.push_end_node(self.final_dwell_s);
             }
             self.end_sampled = true;
         }
+    }
+
+    /// Puts in the stop node at the end of the last sampled element, with `dwell_s` after it;
+    /// `false` if no element was sampled.
+    fn push_end_node(&mut self, dwell_s: f64) -> bool {
+        let Some((last, end)) = &self.prev else { return false };
+        self.nodes.push(sampling::end_node(last, end, dwell_s, &self.params));
+        self.stats.nodes += 1;
+        self.refine_vbar(self.nodes.len().saturating_sub(2));
+        true
     }
 
     /// Lowers the velocity bounds of nodes `from..` by the minimum of v̄ inside each interval
